@@ -1,0 +1,159 @@
+"""Settings, all from the environment with embedded defaults (DESIGN §9).
+
+Environment variables:
+
+* ``SECRET_KEY``        — required when DEBUG is off; a fixed dev key otherwise.
+* ``DEBUG``             — "1"/"true" to enable (default on, for the local demo).
+* ``ALLOWED_HOSTS``     — comma separated (default "localhost,127.0.0.1,[::1],testserver").
+* ``DATABASE_URL``      — any dj-database-url URL; default SQLite at var/db.sqlite3.
+* ``CELERY_BROKER_URL`` — default kombu's "filesystem://" transport under var/broker
+                          (no server needed); e.g. redis://127.0.0.1:6379/0 in production.
+* ``CELERY_RESULT_BACKEND`` — default "django-db" (django_celery_results).
+* ``CSRF_TRUSTED_ORIGINS`` — comma separated, for deployments behind a proxy.
+* ``DATABASE_TEST_NAME`` — name of the database the test runner creates (default test_<name>).
+* ``CONN_MAX_AGE``      — seconds to keep database connections open (default 0: per request).
+"""
+import os
+from pathlib import Path
+
+import dj_database_url
+
+BASE_DIR = Path(__file__).resolve().parent.parent
+VAR_DIR = Path(os.environ.get("VAR_DIR", BASE_DIR / "var"))
+
+
+def _flag(name, default):
+    return os.environ.get(name, default).strip().lower() in ("1", "true", "yes", "on")
+
+
+def _list(name, default):
+    return [item.strip() for item in os.environ.get(name, default).split(",") if item.strip()]
+
+
+DEBUG = _flag("DEBUG", "1")
+SECRET_KEY = os.environ.get("SECRET_KEY", "")
+if not SECRET_KEY:
+    if not DEBUG:
+        raise RuntimeError("SECRET_KEY must be set when DEBUG is off")
+    SECRET_KEY = "dev-only-insecure-key-change-me"
+ALLOWED_HOSTS = _list("ALLOWED_HOSTS", "localhost,127.0.0.1,[::1],testserver")
+CSRF_TRUSTED_ORIGINS = _list("CSRF_TRUSTED_ORIGINS", "")
+
+INSTALLED_APPS = [
+    "django.contrib.admin",
+    "django.contrib.auth",
+    "django.contrib.contenttypes",
+    "django.contrib.sessions",
+    "django.contrib.messages",
+    "django.contrib.staticfiles",
+    "django_celery_results",
+    "studyapp",
+    "precompute",
+]
+
+MIDDLEWARE = [
+    "django.middleware.security.SecurityMiddleware",
+    "whitenoise.middleware.WhiteNoiseMiddleware",
+    "django.contrib.sessions.middleware.SessionMiddleware",
+    "django.middleware.common.CommonMiddleware",
+    "django.middleware.csrf.CsrfViewMiddleware",
+    "django.contrib.auth.middleware.AuthenticationMiddleware",
+    "django.contrib.messages.middleware.MessageMiddleware",
+    "django.middleware.clickjacking.XFrameOptionsMiddleware",
+]
+
+ROOT_URLCONF = "config.urls"
+WSGI_APPLICATION = "config.wsgi.application"
+
+TEMPLATES = [
+    {
+        "BACKEND": "django.template.backends.django.DjangoTemplates",
+        "DIRS": [BASE_DIR / "templates"],
+        "APP_DIRS": True,
+        "OPTIONS": {
+            "context_processors": [
+                "django.template.context_processors.request",
+                "django.contrib.auth.context_processors.auth",
+                "django.contrib.messages.context_processors.messages",
+            ],
+        },
+    },
+]
+
+# --- database ---------------------------------------------------------------
+_default_sqlite = f"sqlite:///{VAR_DIR / 'db.sqlite3'}"
+DATABASES = {"default": dj_database_url.parse(os.environ.get("DATABASE_URL", _default_sqlite),
+                                          conn_max_age=int(os.environ.get("CONN_MAX_AGE", "0")))}
+if os.environ.get("DATABASE_TEST_NAME"):  # the test runner's database (default test_<name>)
+    DATABASES["default"]["TEST"] = {"NAME": os.environ["DATABASE_TEST_NAME"]}
+if DATABASES["default"]["ENGINE"] == "django.db.backends.sqlite3":
+    _name = str(DATABASES["default"]["NAME"])
+    if _name and _name != ":memory:":
+        Path(_name).parent.mkdir(parents=True, exist_ok=True)
+    # BEGIN IMMEDIATE: every transaction takes SQLite's single write lock up
+    # front, so the assignment transaction is serialised (see docs/study.md).
+    DATABASES["default"]["CONN_MAX_AGE"] = 0
+    DATABASES["default"].setdefault("OPTIONS", {}).update({"transaction_mode": "IMMEDIATE", "timeout": 20})
+DEFAULT_AUTO_FIELD = "django.db.models.BigAutoField"
+
+# --- celery -----------------------------------------------------------------
+_broker_dir = VAR_DIR / "broker"
+CELERY_BROKER_URL = os.environ.get("CELERY_BROKER_URL", "filesystem://")
+if CELERY_BROKER_URL.startswith("filesystem://"):
+    for _sub in ("out", "processed"):
+        (_broker_dir / _sub).mkdir(parents=True, exist_ok=True)
+    CELERY_BROKER_TRANSPORT_OPTIONS = {
+        "data_folder_in": str(_broker_dir / "out"),
+        "data_folder_out": str(_broker_dir / "out"),
+        "processed_folder": str(_broker_dir / "processed"),
+        "store_processed": False,
+        # broadcast (control) bindings: under var/broker, not a "control" folder in the cwd
+        "control_folder": str(_broker_dir / "control"),
+    }
+if CELERY_BROKER_URL.startswith(("redis://", "rediss://")):
+    # An unacknowledged (acks_late) message goes back to the queue this long after delivery
+    # when its worker died: longer than the longest task (docs/scaling.md).
+    CELERY_BROKER_TRANSPORT_OPTIONS = {"visibility_timeout": int(os.environ.get("CELERY_VISIBILITY_TIMEOUT", "3600"))}
+CELERY_RESULT_BACKEND = os.environ.get("CELERY_RESULT_BACKEND", "django-db")
+CELERY_RESULT_EXTENDED = True
+CELERY_TASK_TRACK_STARTED = True
+CELERY_TASK_ALWAYS_EAGER = _flag("CELERY_TASK_ALWAYS_EAGER", "0")
+# A worker reserves one message per process at a time: precompute chunks run for seconds to
+# minutes, so prefetching would starve other machines (precompute tasks are also acks_late
+# with reject_on_worker_lost, set on their base class; docs/scaling.md).
+CELERY_WORKER_PREFETCH_MULTIPLIER = 1
+PRECOMPUTE_QUEUE = os.environ.get("PRECOMPUTE_QUEUE", "celery")
+
+# --- auth, i18n, static -------------------------------------------------------
+AUTH_PASSWORD_VALIDATORS = [
+    {"NAME": "django.contrib.auth.password_validation.UserAttributeSimilarityValidator"},
+    {"NAME": "django.contrib.auth.password_validation.MinimumLengthValidator"},
+]
+LOGIN_URL = "admin:login"
+LOGIN_REDIRECT_URL = "dashboard"
+LOGOUT_REDIRECT_URL = "admin:login"
+
+LANGUAGE_CODE = "en-us"
+TIME_ZONE = "UTC"
+USE_I18N = True
+USE_TZ = True
+
+STATIC_URL = "static/"
+STATICFILES_DIRS = [BASE_DIR / "static"]
+STATIC_ROOT = VAR_DIR / "staticfiles"  # `manage.py collectstatic` for production
+STATIC_ROOT.mkdir(parents=True, exist_ok=True)
+WHITENOISE_USE_FINDERS = True  # serve static/ directly too, so the demo needs no collectstatic
+
+SESSION_COOKIE_AGE = 60 * 60 * 24 * 14
+SESSION_COOKIE_HTTPONLY = True
+SECURE_CONTENT_TYPE_NOSNIFF = True
+if not DEBUG:
+    SESSION_COOKIE_SECURE = _flag("SECURE_COOKIES", "1")
+    CSRF_COOKIE_SECURE = _flag("SECURE_COOKIES", "1")
+
+LOGGING = {
+    "version": 1,
+    "disable_existing_loggers": False,
+    "handlers": {"console": {"class": "logging.StreamHandler"}},
+    "loggers": {"studyapp": {"handlers": ["console"], "level": os.environ.get("LOG_LEVEL", "INFO")}},
+}

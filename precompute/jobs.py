@@ -1,0 +1,151 @@
+"""Creating and (re)launching jobs as Celery canvases.
+
+Table: ``chord([table_chunk × n_chunks], publish_table)``.  Study:
+``chord([study_condition × n_conditions], study_finish)`` (the test set must
+avoid every training environment, so it comes after the conditions).
+
+Re-launching a job (retry) sends the whole canvas again: chunks already
+stored are skipped in a few milliseconds each, so only the missing ones are
+computed.
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from celery import Signature, chord
+from kombu.exceptions import OperationalError
+from kombu.utils.url import maybe_sanitize_url
+from django.conf import settings
+from django.utils import timezone
+
+from teaching.build import Preset
+
+from . import work
+from .models import Job, Part
+from .tasks import publish_table, table_chunk
+
+
+class BrokerUnavailable(RuntimeError):
+    """The canvas could not be sent: the broker is down or misconfigured."""
+
+
+def default_queue() -> str:
+    return getattr(settings, "PRECOMPUTE_QUEUE", None) or "celery"
+
+
+def table_canvas(job_id, spec, queue=None, app=None):
+    """chord(one table_chunk per chunk, publish_table).  `app`: send through another Celery
+    app (e.g. one pointed at another broker) than the project's."""
+    queue = queue or default_queue()
+
+    def sig(task, *args):
+        return Signature(task.name, args=args, immutable=True, options={"queue": queue}, app=app or task.app)
+
+    header = [sig(table_chunk, job_id, spec, i, ids) for i, ids in enumerate(work.chunk_ids(spec))]
+    return chord(header, sig(publish_table, job_id, spec), app=app or table_chunk.app)
+
+
+def create_table_job(preset: Preset, out, queue=None, start: bool = True) -> Job:
+    """A job that builds (or finishes building) `preset`'s table in directory `out`."""
+    out = Path(out)
+    work.check_writable(out.resolve())
+    spec = work.table_spec(preset, out)
+    job = Job.objects.create(kind=Job.TABLE, params={"preset": spec["preset"], "out": spec["out"], "queue": queue},
+                             chunks_total=spec["n_chunks"])
+    if start:
+        launch(job)
+    return job
+
+
+def launch(job: Job) -> Job:
+    """(Re)send the job's canvas; units already recorded stay counted."""
+    queue = job.params.get("queue")
+    if job.kind == Job.TABLE:
+        spec = work.table_spec(Preset(**job.params["preset"]), job.params["out"])
+        canvas = table_canvas(job.pk, spec, queue)
+    else:
+        from .study import study_canvas
+
+        canvas = study_canvas(job, queue)
+    # Parts recorded by earlier launches stay counted; a chunk stored without its Part row
+    # (another job built it, or a worker died between storing and recording) is counted
+    # when this launch's task finds it stored.
+    stored = job.parts.count()
+    job.status, job.error, job.error_detail = Job.PENDING, "", ""
+    job.chunks_done = job.chunks_done_at_start = stored
+    job.chunks_computed = job.trajectories_computed = 0
+    job.started_at, job.finished_at = timezone.now(), None
+    job.attempts += 1
+    job.save()
+    try:
+        result = canvas.apply_async()
+    except OperationalError as exc:  # the broker is unreachable: say so on the job and to the caller
+        from .tasks import fail_job
+
+        url = maybe_sanitize_url(canvas.app.conf.broker_url)
+        error = BrokerUnavailable(f"cannot send job {job.pk} to the broker at {url}: {exc}")
+        fail_job(job.pk, error)
+        job.refresh_from_db()
+        raise error from None
+    Job.objects.filter(pk=job.pk).update(canvas_id=result.id or "")
+    job.canvas_id = result.id or ""
+    return job
+
+
+def retry(job: Job) -> Job:
+    """Send the job again.  Safe at any time: stored chunks and frozen conditions are skipped,
+    so relaunching a job that stalled (its worker was killed on the filesystem broker, or a
+    Redis message waits for its visibility timeout) computes only what is missing."""
+    return launch(job)
+
+
+def format_seconds(s: float | None) -> str:
+    if s is None:
+        return "?"
+    s = int(round(s))
+    return f"{s // 3600}:{s % 3600 // 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"
+
+
+def progress_text(job: Job) -> str:
+    parts = []
+    if job.throughput:
+        parts.append(f"{job.throughput:,.0f} traj/s")
+    if job.eta_seconds is not None:
+        parts.append(f"ETA {format_seconds(job.eta_seconds)}")
+    return ", ".join(parts)
+
+
+def wait(job: Job, progress: bool = True, poll: float = 0.5, timeout: float | None = None, stream=None,
+         hint_after: float = 20.0) -> Job:
+    """Block until the job finishes, with a tqdm bar: chunks done / total, trajectories/s, ETA."""
+    from tqdm import tqdm
+
+    start = time.monotonic()
+    job.refresh_from_db()
+    unit = "chunk" if job.kind == Job.TABLE else "part"
+    bar = tqdm(total=job.chunks_total, initial=job.chunks_done, unit=unit, disable=not progress, file=stream,
+               desc=job.label, dynamic_ncols=True,
+               bar_format="{l_bar}{bar}| {n_fmt}/{total_fmt} " + unit + "s [{elapsed}{postfix}]")
+    hinted = False
+    try:
+        while True:
+            job.refresh_from_db()
+            if job.chunks_done > bar.n:
+                bar.update(job.chunks_done - bar.n)
+            bar.set_postfix_str(progress_text(job), refresh=False)
+            bar.refresh()
+            if job.finished:
+                return job
+            waited = time.monotonic() - start
+            if not hinted and job.status == Job.PENDING and waited > hint_after:
+                bar.write("no progress yet: is a worker running?  celery -A config worker -l info")
+                hinted = True
+            if timeout is not None and waited > timeout:
+                raise TimeoutError(f"job {job.pk} still {job.status} after {timeout:.0f} s")
+            time.sleep(poll)
+    finally:
+        bar.close()
+
+
+__all__ = ["create_table_job", "launch", "retry", "wait", "table_canvas", "Part"]

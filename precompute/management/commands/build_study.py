@@ -1,0 +1,78 @@
+"""Build a study's teaching sequences on Celery workers: one task per condition, then the test set.
+
+    python manage.py build_study --preset demo --slug driving-demo --wait
+    python manage.py build_study --table /shared/tables/paper --slug driving-2026 \\
+        --hyper det-euclidean=0.1 --conditions exact,det-euclidean,random --wait
+
+The study is created closed with empty conditions; each condition's task
+freezes its sequence (θ*'s trajectories) on the condition, the last task
+stores the test set and opens the study (--closed keeps it closed).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+from django.conf import settings
+from django.core.management.base import BaseCommand, CommandError
+
+from teaching.selection import CONDITIONS
+from teaching.table import TableError
+
+from ._waiting import wait_for_job
+
+
+class Command(BaseCommand):
+    help = "Build a study's teaching sequences and test set on Celery workers."
+
+    def add_arguments(self, parser):
+        src = parser.add_mutually_exclusive_group(required=True)
+        src.add_argument("--table", help="trajectory table directory")
+        src.add_argument("--preset", help="use the table precompute_table built for this preset "
+                                          "($VAR_DIR/tables/<preset>)")
+        parser.add_argument("--slug", required=True, help="the study's slug (its URL)")
+        parser.add_argument("--name", help="the study's title (default: the slug)")
+        parser.add_argument("--seed", type=int, default=0, help="seed of the random conditions and the test set")
+        parser.add_argument("--approx-star", default="det-euclidean", help="model that coverage-approx* augments")
+        parser.add_argument("--hyper", action="append", default=[], metavar="MODEL=VALUE",
+                            help="fix τ or λ of a model instead of sweeping (repeatable)")
+        parser.add_argument("--conditions", help=f"comma-separated subset of {','.join(CONDITIONS)} (default: all)")
+        parser.add_argument("--target-per-condition", type=int, default=30)
+        parser.add_argument("--closed", action="store_true", help="leave the study closed when done")
+        parser.add_argument("--replace", action="store_true", help="rebuild an existing study without participants")
+        parser.add_argument("--queue", help="Celery queue (default: settings.PRECOMPUTE_QUEUE)")
+        parser.add_argument("--wait", action="store_true", help="block with a progress bar until it finishes")
+        parser.add_argument("--no-progress", action="store_true")
+        parser.add_argument("--timeout", type=float, help="with --wait: give up after this many seconds")
+
+    def handle(self, *args, **opts):
+        from precompute import jobs
+        from precompute.study import StudyJobError, create_study_job
+        from teaching.teach import InputError, parse_hyper
+
+        table = Path(opts["table"]) if opts["table"] else Path(settings.VAR_DIR) / "tables" / opts["preset"]
+        try:
+            hyper = parse_hyper(opts["hyper"])
+        except (InputError, ValueError) as exc:
+            raise CommandError(str(exc)) from None
+        conditions = [c.strip() for c in opts["conditions"].split(",") if c.strip()] if opts["conditions"] else None
+        if opts["target_per_condition"] <= 0:
+            raise CommandError("--target-per-condition must be positive")
+        try:
+            job = create_study_job(table, opts["slug"], opts["name"], opts["seed"], opts["approx_star"], hyper,
+                                   conditions, open_when_done=not opts["closed"], replace=opts["replace"],
+                                   target_per_condition=opts["target_per_condition"], queue=opts["queue"])
+        except TableError as exc:
+            hint = " (build it first: manage.py precompute_table --preset NAME --wait)" if opts["preset"] else ""
+            raise CommandError(f"{exc}{hint}") from None
+        except (StudyJobError, jobs.BrokerUnavailable) as exc:
+            raise CommandError(str(exc)) from None
+        self.stdout.write(f"job {job.pk}: study {opts['slug']!r}, {len(job.params['conditions'])} conditions "
+                          f"+ test set from {job.params['table']}  (page: /precompute/jobs/{job.pk}/)")
+        if not opts["wait"]:
+            return
+        job = wait_for_job(self, job, opts)
+        for name, r in job.result.get("conditions", {}).items():
+            value = f" (τ/λ={r['value']:g})" if r.get("value") is not None else ""
+            self.stdout.write(f"  {name:18s} {len(r['env_ids']):2d} examples{value}: {r['env_ids']}")
+        self.stdout.write(f"  test set: {job.result.get('test_env_ids')}; study "
+                          f"{'open' if job.params['open'] else 'closed'} at /s/{opts['slug']}/")

@@ -1,0 +1,87 @@
+"""Study jobs: one task per condition (selector + hyperparameters), then the test set.
+
+The study and its conditions are created first, closed and empty; each
+condition task freezes its training sequence on its Condition (the
+``training`` JSON the participant pages read) and keeps the selection details
+(P(θ*) curve, τ / λ, whether the hyperparameter rule held) on its job Part;
+the final task picks the test set, disjoint from every training sequence,
+stores it on the Study and opens the study (unless asked not to).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+from celery import Signature, chord
+from django.db import transaction
+
+from teaching.learners import make_model
+from teaching.selection import CONDITIONS
+from teaching.table import TrajectoryTable
+
+from .models import Job
+from .tasks import study_condition, study_finish
+
+
+class StudyJobError(ValueError):
+    """Bad input for a study job: reported in one line by the command."""
+
+
+def study_canvas(job: Job, queue=None):
+    from .jobs import default_queue
+
+    queue = queue or default_queue()
+    params = job.params
+
+    def sig(task, *args):
+        return Signature(task.name, args=args, immutable=True, options={"queue": queue}, app=task.app)
+
+    header = [sig(study_condition, job.pk, params, name, i) for i, name in enumerate(params["conditions"])]
+    return chord(header, sig(study_finish, job.pk, params), app=study_condition.app)
+
+
+def create_study_job(table_path, slug: str, name: str | None = None, seed: int = 0,
+                     approx_star: str = "det-euclidean", hyperparameters: dict | None = None,
+                     conditions=None, open_when_done: bool = True, replace: bool = False,
+                     target_per_condition: int = 30, queue=None, start: bool = True) -> Job:
+    from studyapp.models import Condition, Study
+
+    from .jobs import launch
+
+    table_path = Path(table_path).resolve()
+    table = TrajectoryTable.load(table_path)  # TableError: missing, altered, other world constants
+    conditions = list(conditions or CONDITIONS)
+    unknown = [c for c in conditions if c not in CONDITIONS]
+    if unknown:
+        raise StudyJobError(f"unknown condition(s) {', '.join(unknown)}; choose from {', '.join(CONDITIONS)}")
+    if len(set(conditions)) != len(conditions):
+        raise StudyJobError("a condition is listed twice")
+    hyperparameters = {k: float(v) for k, v in (hyperparameters or {}).items()}
+    try:
+        make_model(approx_star)
+        for model, value in hyperparameters.items():
+            make_model(model, value)
+    except ValueError as exc:
+        raise StudyJobError(str(exc)) from None
+    if not slug:
+        raise StudyJobError("a study needs a slug")
+    with transaction.atomic():
+        existing = Study.objects.filter(slug=slug).first()
+        if existing and not replace:
+            raise StudyJobError(f"study {slug!r} exists; pass --replace to rebuild it")
+        if existing and existing.participants.exists():
+            raise StudyJobError(f"study {slug!r} already has participants; refusing to replace it")
+        if existing:
+            existing.delete()
+        study = Study.objects.create(
+            slug=slug, name=name or slug, is_open=False, target_per_condition=target_per_condition,
+            source={"kind": "table", "table": str(table_path), "content_hash": table.meta.get("content_hash"),
+                    "seed": seed, "approx_star": approx_star, "hyperparameters": hyperparameters})
+        for i, c in enumerate(conditions):
+            Condition.objects.create(study=study, name=c, position=i, training=[])
+        job = Job.objects.create(kind=Job.STUDY, chunks_total=len(conditions) + 1, params={
+            "study_id": study.pk, "slug": slug, "table": str(table_path), "seed": seed,
+            "approx_star": approx_star, "hyperparameters": hyperparameters, "conditions": conditions,
+            "open": open_when_done, "queue": queue})
+    if start:
+        launch(job)
+    return job

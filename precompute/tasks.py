@@ -1,0 +1,220 @@
+"""Celery tasks: table chunks and publishing, study conditions and the test set.
+
+Every task is ``acks_late`` with ``reject_on_worker_lost``: the broker keeps a
+message until the task has finished, so a worker that dies mid-chunk leaves
+its message to be delivered again (Redis: after the visibility timeout; a
+killed pool child: at once), and the content-addressed chunk files make the
+second delivery either skip (stored) or redo (not stored) the chunk.
+
+Worker pool: **prefork** (Celery's default).  The planner's Numba kernels run
+on a threading layer (OpenMP or workqueue) that is not fork-safe once used,
+but the prefork parent never runs a kernel: it only imports them, and each
+child starts its own thread pool after the fork.  Each child uses
+``PRECOMPUTE_THREADS`` Numba threads (default: cores // concurrency, so ``-c 2``
+on 2 cores gives 1 thread per child and ``-c 1`` gives 2); the ``threads`` pool is not safe with Numba's workqueue layer and is
+not supported.  See docs/scaling.md.
+
+``job_id`` may be None: the task then touches no database (used by the
+benchmark and by the real-worker tests, whose worker process has no access
+to the test database); the chunk files and build.log carry the state.
+"""
+from __future__ import annotations
+
+import logging
+import os
+import time
+import traceback
+
+from celery import Task, shared_task
+from celery.signals import worker_init, worker_process_init
+from django.db import transaction
+from django.db.models import F
+from django.utils import timezone
+
+from . import work
+
+log = logging.getLogger(__name__)
+
+
+def numba_threads() -> int:
+    return max(1, int(os.environ.get("PRECOMPUTE_THREADS", "1")))
+
+
+@worker_init.connect
+def _share_cores(sender=None, **_):
+    """In a prefork worker's main process, before the pool forks: unless PRECOMPUTE_THREADS is
+    set, give each of the -c children cores // c Numba threads (so -c 1 still uses every core)."""
+    concurrency = getattr(sender, "concurrency", None)
+    if "PRECOMPUTE_THREADS" in os.environ or not isinstance(concurrency, int) or concurrency < 1:
+        return
+    if "prefork" not in str(getattr(sender, "pool_cls", "")).lower():
+        return
+    os.environ["PRECOMPUTE_THREADS"] = str(max(1, (os.cpu_count() or 1) // concurrency))
+
+
+@worker_process_init.connect
+def _limit_numba_threads(**_):
+    """In each prefork child: start Numba's own thread pool with PRECOMPUTE_THREADS threads."""
+    import numba
+
+    numba.set_num_threads(min(numba_threads(), numba.config.NUMBA_NUM_THREADS))
+    log.info("precompute: worker process %d plans with %d Numba thread(s), threading layer %s",
+             os.getpid(), numba.get_num_threads(), numba.threading_layer())
+
+
+def _job_model():
+    from .models import Job
+
+    return Job
+
+
+def mark_running(job_id):
+    if job_id is None:
+        return
+    _job_model().objects.filter(pk=job_id, status=_job_model().PENDING).update(status=_job_model().RUNNING)
+
+
+def record_part(job_id, key, index, computed, seconds=0.0, items=0, result=None):
+    """Count one finished unit of the job, once per key (re-deliveries do not count twice)."""
+    if job_id is None:
+        return
+    from .models import Job, Part
+
+    with transaction.atomic():
+        if not Job.objects.filter(pk=job_id).exists():
+            return
+        _, created = Part.objects.get_or_create(
+            job_id=job_id, key=key,
+            defaults={"index": index, "computed": computed, "seconds": seconds, "items": items,
+                      "worker": work.host_id(), "result": result or {}})
+        if created:
+            Job.objects.filter(pk=job_id).update(
+                chunks_done=F("chunks_done") + 1,
+                chunks_computed=F("chunks_computed") + int(computed),
+                trajectories_computed=F("trajectories_computed") + int(items))
+
+
+def finish_job(job_id, result=None, result_path=""):
+    if job_id is None:
+        return
+    Job = _job_model()
+    Job.objects.filter(pk=job_id).update(status=Job.SUCCEEDED, finished_at=timezone.now(), error="",
+                                         error_detail="", result=result or {}, result_path=result_path,
+                                         chunks_done=F("chunks_total"))
+
+
+def fail_job(job_id, exc, detail="", where=""):
+    if job_id is None:
+        return
+    Job = _job_model()
+    Job.objects.filter(pk=job_id).update(status=Job.FAILED, finished_at=timezone.now(),
+                                         error=f"{where}{type(exc).__name__}: {exc}", error_detail=detail)
+
+
+def _where(task_name, args) -> str:
+    """Which unit of the job failed, for the error line."""
+    try:
+        if task_name == "precompute.table_chunk":
+            index, env_ids = args[2], args[3]
+            return f"chunk {index} (environments {env_ids[0]}..{env_ids[-1]}): "
+        if task_name == "precompute.study_condition":
+            return f"condition {args[2]}: "
+        if task_name in ("precompute.publish_table", "precompute.study_finish"):
+            return "final step: "
+    except (IndexError, TypeError):
+        pass
+    return ""
+
+
+class JobTask(Task):
+    """Marks the job failed, with the error, when a task of it fails for good."""
+
+    acks_late = True
+    reject_on_worker_lost = True
+
+    def on_failure(self, exc, task_id, args, kwargs, einfo):
+        job_id = kwargs.get("job_id", args[0] if args else None)
+        try:
+            fail_job(job_id, exc, str(einfo) if einfo else traceback.format_exc(), _where(self.name, args))
+        except Exception:  # the failure must still reach the result backend
+            log.exception("could not record the failure of job %s", job_id)
+
+
+# --- trajectory tables ---------------------------------------------------------
+@shared_task(base=JobTask, bind=True, name="precompute.table_chunk")
+def table_chunk(self, job_id, spec, index, env_ids):
+    """One chunk of environments, all thetas (the cross-theta step stays inside the chunk)."""
+    import numba
+
+    numba.set_num_threads(min(numba_threads(), numba.config.NUMBA_NUM_THREADS))
+    mark_running(job_id)
+    res = work.compute_chunk(spec, env_ids)
+    record_part(job_id, res["key"], index, res["computed"], res["seconds"], res["trajectories"])
+    return {"index": index, **res}
+
+
+@shared_task(base=JobTask, bind=True, name="precompute.publish_table")
+def publish_table(self, job_id, spec):
+    """Chord callback: check every chunk is stored, assemble, verify and publish the table."""
+    info = work.publish(spec)
+    finish_job(job_id, info, info["path"])
+    return info
+
+
+# --- study sequences -----------------------------------------------------------------
+def _table(path):
+    from teaching.table import TrajectoryTable
+
+    return TrajectoryTable.load(path)
+
+
+@shared_task(base=JobTask, bind=True, name="precompute.study_condition")
+def study_condition(self, job_id, params, name, index):
+    """One condition: its teaching sequence, frozen on the study's Condition (training JSON)."""
+    from studyapp.models import Condition
+    from studyapp.trajectories import training_from_table
+
+    from .models import Part
+    from .sequences import condition_sequence
+
+    mark_running(job_id)
+    condition = Condition.objects.get(study_id=params["study_id"], name=name)
+    if condition.training and Part.objects.filter(job_id=job_id, key=name).exists():
+        return {"condition": name, "computed": False}  # a re-delivery: already stored
+    t0 = time.perf_counter()
+    table = _table(params["table"])
+    result = condition_sequence(table, name, seed=params["seed"], approx_star=params["approx_star"],
+                                hyperparameters=params["hyperparameters"])
+    condition.training = training_from_table(table, result["env_ids"])
+    condition.save(update_fields=["training"])
+    record_part(job_id, name, index, True, time.perf_counter() - t0, result=result)
+    return {"condition": name, "computed": True, "env_ids": result["env_ids"]}
+
+
+@shared_task(base=JobTask, bind=True, name="precompute.study_finish")
+def study_finish(self, job_id, params):
+    """Chord callback: the test set (disjoint from every condition's training), then open the study."""
+    from studyapp.models import Study
+    from studyapp.trajectories import test_set_from_table
+    from teaching.testset import select_test_set
+
+    from .models import Part
+
+    study = Study.objects.get(pk=params["study_id"])
+    conditions = list(study.conditions.all())
+    empty = [c.name for c in conditions if not c.training]
+    if empty:
+        raise RuntimeError(f"conditions without a training sequence: {', '.join(empty)}; retry the job")
+    t0 = time.perf_counter()
+    table = _table(params["table"])
+    tests = select_test_set(table, [c.env_ids for c in conditions], seed=params["seed"])
+    study.test_set = test_set_from_table(table, tests)
+    study.is_open = params.get("open", True)
+    study.save(update_fields=["test_set", "is_open"])
+    record_part(job_id, "test-set", len(conditions), True, time.perf_counter() - t0,
+                result={"env_ids": [t["env_id"] for t in tests]})
+    summary = {"study_slug": study.slug, "study_id": study.pk, "test_env_ids": [t["env_id"] for t in tests],
+               "conditions": {p.key: {k: p.result.get(k) for k in ("env_ids", "value", "rule_met", "p")}
+                              for p in Part.objects.filter(job_id=job_id).exclude(key="test-set")}}
+    finish_job(job_id, summary)
+    return {"study": study.slug, "tests": summary["test_env_ids"]}

@@ -1,0 +1,73 @@
+"""Job pages for staff: a list, and a job page that refreshes itself with progress,
+throughput, ETA and the error of a failed job, with a retry button (POST, staff only)."""
+from __future__ import annotations
+
+from datetime import timedelta
+
+from django.contrib import messages
+from django.contrib.admin.views.decorators import staff_member_required
+from django.db.models import Max
+from django.http import JsonResponse
+from django.shortcuts import get_object_or_404, redirect, render
+from django.utils import timezone
+from django.views.decorators.http import require_POST
+
+from . import jobs
+from .models import Job
+
+REFRESH_SECONDS = 3
+STALLED_AFTER = timedelta(minutes=5)  # no unit finished for this long: say so, offer Relaunch
+
+
+def stalled_for(job: Job):
+    """How long a pending/running job has gone without finishing a unit (None if it is moving)."""
+    if job.finished or not job.started_at:
+        return None
+    last = job.parts.filter(finished_at__gte=job.started_at).aggregate(m=Max("finished_at"))["m"]
+    quiet = timezone.now() - (last or job.started_at)
+    return quiet if quiet >= STALLED_AFTER else None
+
+
+def job_context(job: Job) -> dict:
+    return {
+        "id": job.pk, "kind": job.kind, "label": job.label, "status": job.status,
+        "chunks_done": job.chunks_done, "chunks_total": job.chunks_total, "percent": job.percent,
+        "chunks_computed": job.chunks_computed, "chunks_done_at_start": job.chunks_done_at_start,
+        "throughput": round(job.throughput, 1) if job.throughput else None,
+        "eta": jobs.format_seconds(job.eta_seconds) if job.eta_seconds is not None else None,
+        "elapsed": jobs.format_seconds(job.elapsed) if job.elapsed is not None else None,
+        "error": job.error, "finished": job.finished, "attempts": job.attempts,
+        "result_path": job.result_path, "result": job.result,
+        "stalled_minutes": int(stalled.total_seconds() // 60) if (stalled := stalled_for(job)) else None,
+    }
+
+
+@staff_member_required
+def job_list(request):
+    return render(request, "precompute/job_list.html", {"jobs": Job.objects.all()[:100]})
+
+
+@staff_member_required
+def job_detail(request, pk):
+    job = get_object_or_404(Job, pk=pk)
+    parts = job.parts.order_by("-finished_at")[:20]
+    return render(request, "precompute/job_detail.html",
+                  {"job": job, "info": job_context(job), "parts": parts, "refresh": REFRESH_SECONDS})
+
+
+@staff_member_required
+def job_status(request, pk):
+    return JsonResponse(job_context(get_object_or_404(Job, pk=pk)))
+
+
+@staff_member_required
+@require_POST
+def job_retry(request, pk):
+    job = get_object_or_404(Job, pk=pk)
+    try:
+        jobs.retry(job)
+    except jobs.BrokerUnavailable as exc:
+        messages.error(request, str(exc))
+    else:
+        messages.success(request, f"Job {job.pk} relaunched: finished work is skipped.")
+    return redirect(job.get_absolute_url())

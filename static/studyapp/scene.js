@@ -1,0 +1,296 @@
+// Drawing and animating one driving scene on a canvas (plain ES module, no build step).
+//
+// World units are feet: x grows to the right, y forward (drawn upwards). Lanes are
+// centred at x = -12, 0, 12 and 12 ft wide. Robot states are [x, y, heading, v, steer]
+// rows every `dt` seconds; the other car's rows are [x, y]. Playback interpolates between
+// rows at the display's frame rate (requestAnimationFrame), so it is smooth at 60 fps.
+
+const LANE_W = 12;
+const ROAD_HALF = 18;
+const VIEW_W_FT = 60;         // feet shown across the canvas
+const CAR_L = 15, CAR_W = 6;
+const COLORS = {
+  grass: "#dfe9d8", road: "#5b6068", line: "#f4f4f4", goal: "rgba(37, 99, 235, 0.22)",
+  goalEdge: "#2563eb", robot: "#f5c518", other: "#a3a8b0", outline: "#1f2328",
+};
+
+function lerp(a, b, f) { return a + (b - a) * f; }
+
+// Position of a trajectory at time t (seconds), linearly interpolated; heading interpolated too.
+export function sample(rows, t, dt) {
+  const last = rows.length - 1;
+  const k = Math.max(0, Math.min(t / dt, last));
+  const i = Math.min(Math.floor(k), last - 1 < 0 ? 0 : last - 1);
+  const f = last === 0 ? 0 : k - i;
+  const a = rows[i], b = rows[Math.min(i + 1, last)];
+  return { x: lerp(a[0], b[0], f), y: lerp(a[1], b[1], f), h: a.length > 2 ? lerp(a[2], b[2], f) : Math.PI / 2 };
+}
+
+export class Scene {
+  constructor(canvas, env, robot) {
+    this.canvas = canvas;
+    this.env = env;          // {goal, other: [[x, y]...], dt, goal_name}
+    this.robot = robot;      // [[x, y, heading, v, steer]...]
+    this.dt = env.dt || 0.25;
+    this.duration = (robot.length - 1) * this.dt;
+    this.mode = "frame";     // "frame" | "trail"
+    this.t = 0;
+    this.resize();
+  }
+
+  resize() {
+    const dpr = window.devicePixelRatio || 1;
+    const w = Math.max(120, Math.round(this.canvas.clientWidth || this.canvas.width));
+    const h = Math.round(w * 4 / 3);
+    if (this.canvas.width !== Math.round(w * dpr) || this.canvas.height !== Math.round(h * dpr)) {
+      this.canvas.width = Math.round(w * dpr);
+      this.canvas.height = Math.round(h * dpr);
+    }
+    this.w = w; this.h = h; this.dpr = dpr;
+  }
+
+  // camera: {cy (world y at the anchor), anchor (fraction of height), xs, ys (px per ft across / along)}
+  // The animation uses xs == ys; the still trail view compresses y (at most 3:1) to fit the whole drive.
+  toScreen(cam, x, y) {
+    return [this.w / 2 + x * cam.xs, this.h * cam.anchor - (y - cam.cy) * cam.ys];
+  }
+
+  drawRoad(cam) {
+    const ctx = this.ctx, s = cam.xs;
+    ctx.fillStyle = COLORS.grass;
+    ctx.fillRect(0, 0, this.w, this.h);
+    const [left] = this.toScreen(cam, -ROAD_HALF, 0);
+    ctx.fillStyle = COLORS.road;
+    ctx.fillRect(left, 0, 2 * ROAD_HALF * s, this.h);
+    // goal: the right lane (merge) or the centre lane straight ahead (forward), in blue
+    ctx.fillStyle = COLORS.goal;
+    if (this.env.goal === 0) {
+      const [gx] = this.toScreen(cam, LANE_W / 2, 0);
+      ctx.fillRect(gx, 0, LANE_W * s, this.h);
+    } else {
+      const [gx, gy] = this.toScreen(cam, -LANE_W / 2, 0);
+      ctx.fillRect(gx, 0, LANE_W * s, Math.max(0, gy));
+      this.arrow(cam);
+    }
+    // lane markings: solid edges, dashed separators scrolling with the world
+    ctx.strokeStyle = COLORS.line;
+    ctx.lineWidth = Math.max(1, 0.5 * s);
+    for (const x of [-ROAD_HALF + 0.5, ROAD_HALF - 0.5]) {
+      const [sx] = this.toScreen(cam, x, 0);
+      ctx.setLineDash([]);
+      ctx.beginPath(); ctx.moveTo(sx, 0); ctx.lineTo(sx, this.h); ctx.stroke();
+    }
+    const dash = 10 * cam.ys, gap = 15 * cam.ys;
+    const [, y0] = this.toScreen(cam, 0, 0);
+    ctx.setLineDash([dash, gap]);
+    ctx.lineDashOffset = -(y0 % (dash + gap));
+    for (const x of [-LANE_W / 2, LANE_W / 2]) {
+      const [sx] = this.toScreen(cam, x, 0);
+      ctx.beginPath(); ctx.moveTo(sx, 0); ctx.lineTo(sx, this.h); ctx.stroke();
+    }
+    ctx.setLineDash([]);
+  }
+
+  arrow(cam) {
+    const ctx = this.ctx, s = cam.xs;
+    const [ax] = this.toScreen(cam, 0, 0);
+    const top = 6, size = 4 * s;
+    ctx.fillStyle = COLORS.goalEdge;
+    ctx.beginPath();
+    ctx.moveTo(ax, top); ctx.lineTo(ax - size, top + size * 1.4); ctx.lineTo(ax + size, top + size * 1.4);
+    ctx.closePath(); ctx.fill();
+  }
+
+  car(cam, x, y, heading, color, alpha = 1) {
+    const ctx = this.ctx;
+    const [sx, sy] = this.toScreen(cam, x, y);
+    let len = CAR_L * cam.ys, wid = CAR_W * cam.xs;
+    if (cam.xs !== cam.ys) { len = Math.max(len, 14); wid = Math.min(wid, 0.45 * len); }
+    if (sy < -len || sy > this.h + len) return false;
+    ctx.save();
+    ctx.globalAlpha = alpha;
+    ctx.translate(sx, sy);
+    ctx.rotate(-Math.atan2(Math.sin(heading) * cam.ys, Math.cos(heading) * cam.xs));
+    ctx.fillStyle = color;
+    ctx.strokeStyle = COLORS.outline;
+    ctx.lineWidth = 1;
+    ctx.beginPath();
+    ctx.rect(-len / 2, -wid / 2, len, wid);
+    ctx.fill(); ctx.stroke();
+    ctx.fillStyle = "rgba(30, 40, 60, 0.55)";  // windscreen marks the front
+    ctx.fillRect(len * 0.12, -wid * 0.38, len * 0.16, wid * 0.76);
+    ctx.restore();
+    return true;
+  }
+
+  // The other car outside the view: a gray arrow at the edge with its distance.
+  offscreen(cam, x, y, ry) {
+    const ctx = this.ctx;
+    const [sx, sy] = this.toScreen(cam, x, y);
+    const above = sy < 0, dir = above ? 1 : -1;
+    const edge = above ? (this.env.goal === 1 ? 30 : 4) : this.h - 4;  // below the goal arrow
+    ctx.fillStyle = COLORS.other;
+    ctx.strokeStyle = COLORS.outline;
+    ctx.beginPath();
+    ctx.moveTo(sx, edge); ctx.lineTo(sx - 7, edge + dir * 12); ctx.lineTo(sx + 7, edge + dir * 12);
+    ctx.closePath(); ctx.fill(); ctx.stroke();
+    ctx.font = "11px system-ui, sans-serif";
+    ctx.fillStyle = "#111";
+    const text = `${Math.round(Math.abs(y - ry))} ft ${above ? "ahead" : "behind"}`;
+    ctx.fillText(text, Math.min(sx + 10, this.w - ctx.measureText(text).width - 4), edge + dir * 12);
+  }
+
+  begin() {
+    this.resize();
+    this.ctx = this.canvas.getContext("2d");
+    this.ctx.setTransform(this.dpr, 0, 0, this.dpr, 0, 0);
+  }
+
+  // One animation frame at time t: the camera follows the robot.
+  drawFrame(t) {
+    this.t = t;
+    this.begin();
+    const r = sample(this.robot, t, this.dt);
+    const o = sample(this.env.other, t, this.dt);
+    const s = this.w / VIEW_W_FT;
+    const cam = { cy: r.y, anchor: 0.68, xs: s, ys: s };
+    this.drawRoad(cam);
+    if (!this.car(cam, o.x, o.y, Math.PI / 2, COLORS.other)) this.offscreen(cam, o.x, o.y, r.y);
+    this.car(cam, r.x, r.y, r.h, COLORS.robot);
+    this.label(`t = ${t.toFixed(1)} s`);
+  }
+
+  // Still view of the whole drive: earlier positions faint, later ones more opaque.
+  drawTrail() {
+    this.begin();
+    const robotY = this.robot.map((s) => s[1]);
+    const lo = Math.min(...robotY) - 20, hi = Math.max(...robotY) + 20;
+    const ys = Math.min(this.w / VIEW_W_FT, (this.h - 16) / (hi - lo));
+    const cam = { cy: (lo + hi) / 2, anchor: 0.5, xs: Math.min(this.w / VIEW_W_FT, 3 * ys), ys };
+    this.drawRoad(cam);
+    const last = this.robot.length - 1;
+    for (let k = 0; k <= last; k += (last % 2 === 0 ? 2 : 1)) {
+      const alpha = 0.12 + 0.88 * (k / last);
+      const o = this.env.other[k], r = this.robot[k];
+      this.car(cam, o[0], o[1], Math.PI / 2, COLORS.other, alpha);
+      this.car(cam, r[0], r[1], r[2], COLORS.robot, alpha);
+    }
+    this.label("trail: whole drive");
+  }
+
+  label(text) {
+    const ctx = this.ctx;
+    ctx.font = "12px system-ui, sans-serif";
+    ctx.fillStyle = "rgba(255,255,255,0.85)";
+    ctx.fillRect(4, this.h - 20, ctx.measureText(text).width + 8, 16);
+    ctx.fillStyle = "#111";
+    ctx.fillText(text, 8, this.h - 8);
+  }
+
+  redraw() {
+    if (this.mode === "trail") this.drawTrail(); else this.drawFrame(this.t);
+  }
+}
+
+// Plays a Scene in real time; calls onPlayed once the animation has reached its end.
+export class Player {
+  constructor(scene, { onPlayed = () => {}, onState = () => {} } = {}) {
+    this.scene = scene;
+    this.onPlayed = onPlayed;
+    this.onState = onState;
+    this.playing = false;
+    this.played = false;
+    this.raf = 0;
+    scene.drawFrame(0);
+    if (typeof ResizeObserver !== "undefined") {
+      new ResizeObserver(() => { if (!this.playing) scene.redraw(); }).observe(scene.canvas);
+    }
+  }
+
+  play() {
+    cancelAnimationFrame(this.raf);
+    this.scene.mode = "frame";
+    this.playing = true;
+    this.onState("playing");
+    let start = null;
+    const tick = (now) => {
+      if (start === null) start = now;
+      const t = Math.min((now - start) / 1000, this.scene.duration);
+      this.scene.drawFrame(t);
+      if (t < this.scene.duration) {
+        this.raf = requestAnimationFrame(tick);
+      } else {
+        this.playing = false;
+        const first = !this.played;
+        this.played = true;
+        this.onState("ended");
+        if (first) this.onPlayed();
+      }
+    };
+    this.raf = requestAnimationFrame(tick);
+  }
+
+  showTrail(on) {
+    cancelAnimationFrame(this.raf);
+    if (this.playing) { this.playing = false; this.onState("stopped"); }
+    this.scene.mode = on ? "trail" : "frame";
+    if (on) this.scene.drawTrail(); else this.scene.drawFrame(this.played ? this.scene.duration : 0);
+  }
+}
+
+// Wire a .scene element's Play / Show trail buttons to a Player.
+export function mountScene(root, env, robot, onPlayed) {
+  const canvas = root.querySelector("canvas");
+  const playBtn = root.querySelector('[data-action="play"]');
+  const trailBtn = root.querySelector('[data-action="trail"]');
+  const baseLabel = playBtn.textContent.trim();
+  const scene = new Scene(canvas, env, robot);
+  const player = new Player(scene, {
+    onPlayed,
+    onState: (state) => {
+      root.dataset.state = state;
+      if (state !== "playing") playBtn.textContent = baseLabel.replace(/^Play/, "Replay");
+    },
+  });
+  playBtn.addEventListener("click", () => {
+    trailBtn.setAttribute("aria-pressed", "false");
+    trailBtn.textContent = "Show trail";
+    player.play();
+  });
+  trailBtn.addEventListener("click", () => {
+    const on = trailBtn.getAttribute("aria-pressed") !== "true";
+    trailBtn.setAttribute("aria-pressed", String(on));
+    trailBtn.textContent = on ? "Hide trail" : "Show trail";
+    player.showTrail(on);
+  });
+  return player;
+}
+
+export function readJSON(id) {
+  return JSON.parse(document.getElementById(id).textContent);
+}
+
+// Guard against double submission (the server is idempotent anyway).
+export function lockOnSubmit(form) {
+  form.addEventListener("submit", () => {
+    for (const b of form.querySelectorAll('button[type="submit"]')) b.disabled = true;
+  });
+}
+
+// Within-step progress kept in localStorage (keyed by the form's answer URL, which names the
+// participant and the step), so a reload or a second tab shows the step exactly as it was left.
+export function stepMemory(form) {
+  const key = `studyapp:${new URL(form.action, location.href).pathname}`;
+  const read = () => {
+    try { return JSON.parse(localStorage.getItem(key)) || {}; } catch (err) { return {}; }
+  };
+  return {
+    load: read,
+    save(patch) {
+      try { localStorage.setItem(key, JSON.stringify({ ...read(), ...patch })); } catch (err) { /* private mode */ }
+    },
+    clear() {
+      try { localStorage.removeItem(key); } catch (err) { /* ignore */ }
+    },
+  };
+}

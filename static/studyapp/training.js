@@ -1,0 +1,29 @@
+// Training step: one animated example; "continue" unlocks once it was played to the end.
+import { lockOnSubmit, mountScene, readJSON, stepMemory } from "./scene.js";
+
+const root = document.querySelector(".scene[data-scene]");
+const env = readJSON(root.dataset.scene);
+const form = document.querySelector("form[data-require-played]");
+const submit = form.querySelector('button[type="submit"]');
+const hint = form.querySelector(".hint");
+const memory = stepMemory(form);
+
+function unlock() {
+  form.querySelector('input[name="played"]').value = "1";
+  submit.disabled = false;
+  hint.textContent = "You can replay the example or continue.";
+}
+
+const player = mountScene(root, env, env.robot, () => {
+  memory.save({ played: true });
+  unlock();
+});
+lockOnSubmit(form);
+form.addEventListener("submit", () => memory.clear());
+if (memory.load().played) {
+  player.played = true;
+  unlock();
+} else if (root.dataset.autoplay) {
+  player.play();
+}
+document.body.dataset.ready = "1";

@@ -1,0 +1,127 @@
+"""Two-way ANOVAs (type II and type III) of the approximate-inference and coverage experiments.
+
+Why the distance x determinism design is analysed twice, and the SS types used: see the
+"Choices" in :mod:`studyapp.analysis.stats`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from .conditions import APPROX_STAR_DEFAULT, COVERAGE_APPROX, COVERAGE_RANDOM, MIN_PER_GROUP
+from .tables import included
+
+
+@dataclass
+class AnovaResult:
+    name: str
+    factors: tuple[str, ...]
+    ok: bool
+    message: str = ""
+    type2: pd.DataFrame | None = None
+    type3: pd.DataFrame | None = None
+    cells: pd.DataFrame | None = None
+    n: int = 0
+    interaction: bool = True
+    note: str = ""
+
+
+def _anova_table(raw: pd.DataFrame, names: dict) -> pd.DataFrame:
+    raw = raw.drop(index=[i for i in raw.index if i == "Intercept"])
+    ss_res = float(raw.loc["Residual", "sum_sq"])
+    rows = []
+    for idx, r in raw.iterrows():
+        eff = names.get(idx, idx)
+        is_res = idx == "Residual"
+        rows.append({
+            "effect": "Residual" if is_res else eff,
+            "SS": float(r["sum_sq"]), "df": float(r["df"]),
+            "F": np.nan if is_res else float(r["F"]),
+            "p": np.nan if is_res else float(r["PR(>F)"]),
+            "partial_eta2": np.nan if is_res else float(r["sum_sq"]) / (float(r["sum_sq"]) + ss_res),
+        })
+    return pd.DataFrame(rows).set_index("effect")
+
+
+def factorial_anova(data: pd.DataFrame, factors: tuple[str, str], dv: str = "mean_score",
+                    interaction: bool = True, name: str = "", min_per_cell: int = MIN_PER_GROUP,
+                    expect_cells=None) -> AnovaResult:
+    """Two-way ANOVA of ``dv`` on two categorical factors; type II and type III (sum coding).
+
+    ``expect_cells``: the (level_a, level_b) cells the design should have; a missing or
+    too-small cell yields ``ok=False`` with a message instead of numbers.
+    """
+    import statsmodels.formula.api as smf
+    from statsmodels.stats.anova import anova_lm
+
+    a, b = factors
+    d = data[[a, b, dv]].dropna().copy()
+    d[a] = d[a].astype(str)
+    d[b] = d[b].astype(str)
+    cells = d.groupby([a, b])[dv].agg(n="size", mean="mean", sd="std").reset_index()
+    res = AnovaResult(name=name, factors=factors, ok=False, cells=cells, n=len(d), interaction=interaction)
+    if expect_cells is not None:
+        have = {(r[a], r[b]): int(r["n"]) for _, r in cells.iterrows()}
+        missing = [f"({x}, {y}): {have.get((x, y), 0)}" for x, y in expect_cells if have.get((x, y), 0) < min_per_cell]
+        if missing:
+            res.message = (f"{name or 'ANOVA'} not computed: too few participants after exclusions in "
+                           f"cell(s) {'; '.join(missing)} (need at least {min_per_cell} in every cell).")
+            return res
+    elif (cells["n"] < min_per_cell).any() or d[a].nunique() < 2 or d[b].nunique() < 2:
+        res.message = f"{name or 'ANOVA'} not computed: need two levels of each factor and {min_per_cell}+ participants per cell."
+        return res
+    n_par = len(cells) if interaction else d[a].nunique() + d[b].nunique() - 1
+    if len(d) - n_par < 1:
+        res.message = f"{name or 'ANOVA'} not computed: no residual degrees of freedom ({len(d)} participants)."
+        return res
+    op = "*" if interaction else "+"
+    names2 = {f"C({a})": a, f"C({b})": b, f"C({a}):C({b})": f"{a} x {b}"}
+    names3 = {f"C({a}, Sum)": a, f"C({b}, Sum)": b, f"C({a}, Sum):C({b}, Sum)": f"{a} x {b}"}
+    m2 = smf.ols(f"{dv} ~ C({a}) {op} C({b})", data=d).fit()
+    m3 = smf.ols(f"{dv} ~ C({a}, Sum) {op} C({b}, Sum)", data=d).fit()
+    res.type2 = _anova_table(anova_lm(m2, typ=2), names2)
+    res.type3 = _anova_table(anova_lm(m3, typ=3), names3)
+    res.ok = True
+    return res
+
+
+def distance_determinism_anovas(table: pd.DataFrame) -> list[AnovaResult]:
+    """The approximate-inference experiment (paper Sec. "Analysis"), honest about the missing cell."""
+    inc = included(table)
+    approx = inc[(inc["model"] == "approximate") & ~inc["coverage"]]
+    additive_cells = [(x, y) for x, y in [("reward", "deterministic"), ("euclidean", "deterministic"),
+                                         ("strategy", "deterministic"), ("reward", "probabilistic"),
+                                         ("euclidean", "probabilistic")]]
+    r1 = factorial_anova(approx, ("distance", "determinism"), interaction=False,
+                         name="distance + determinism (five approximate models, additive)",
+                         expect_cells=additive_cells)
+    r1.note = ("All five approximate models; strategy appears only as deterministic (prob-strategy == "
+               "det-strategy), so the interaction is not estimable here and the model is additive. "
+               "Without an interaction term type II and type III coincide.")
+    sub = approx[approx["distance"].isin(["reward", "euclidean"])]
+    r2 = factorial_anova(sub, ("distance", "determinism"), interaction=True,
+                         name="distance x determinism (complete 2x2: reward/euclidean x det/prob)",
+                         expect_cells=[c for c in additive_cells if c[0] != "strategy"])
+    r2.note = "The complete part of the design, with interaction; type II and III differ when cells are unbalanced."
+    return [r1, r2]
+
+
+def coverage_model_frame(table: pd.DataFrame, approx_star: str = APPROX_STAR_DEFAULT) -> pd.DataFrame:
+    inc = included(table)
+    keep = inc["condition"].isin(["random", COVERAGE_RANDOM, approx_star, COVERAGE_APPROX])
+    d = inc[keep].copy()
+    d["model"] = np.where(d["condition"].isin(["random", COVERAGE_RANDOM]), "random", "approx*")
+    d["coverage"] = np.where(d["coverage"], "with", "without")
+    return d
+
+
+def coverage_model_anova(table: pd.DataFrame, approx_star: str = APPROX_STAR_DEFAULT) -> AnovaResult:
+    d = coverage_model_frame(table, approx_star)
+    r = factorial_anova(d, ("coverage", "model"), interaction=True,
+                        name="coverage x model ({random, approx*} x {without, with coverage})",
+                        expect_cells=[(c, m) for c in ("without", "with") for m in ("random", "approx*")])
+    r.note = f"approx* = {approx_star}; its no-coverage cell is the {approx_star} condition."
+    return r
+

@@ -1,0 +1,67 @@
+"""Planned pairwise comparisons: Welch's t-tests with Cohen's d, Holm-adjusted across the family."""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from .conditions import APPROX_STAR_DEFAULT, COVERAGE_APPROX, COVERAGE_RANDOM, MIN_PER_GROUP, canonical, label
+from .tables import included
+
+
+def default_comparisons(approx_star: str = APPROX_STAR_DEFAULT) -> list[tuple[str, str]]:
+    """The planned comparisons (a, b): effect is mean(a) - mean(b)."""
+    return [(approx_star, "exact"), (approx_star, "random"), (COVERAGE_APPROX, "random"),
+            (COVERAGE_RANDOM, "random")]
+
+
+def welch(x, y) -> dict:
+    """Welch's t-test of x vs y: t, df, p, 95 % CI of mean(x) - mean(y), Cohen's d (pooled SD)."""
+    from scipy import stats
+    import pingouin as pg
+
+    x = np.asarray(x, float)
+    y = np.asarray(y, float)
+    r = stats.ttest_ind(x, y, equal_var=False)
+    ci = r.confidence_interval(0.95)
+    return {"n_a": len(x), "n_b": len(y), "mean_a": x.mean(), "mean_b": y.mean(),
+            "diff": x.mean() - y.mean(), "t": float(r.statistic), "df": float(r.df), "p": float(r.pvalue),
+            "cohen_d": float(pg.compute_effsize(x, y, paired=False, eftype="cohen")),
+            "ci_low": float(ci.low), "ci_high": float(ci.high)}
+
+
+def welch_tests(table: pd.DataFrame, comparisons=None, approx_star: str = APPROX_STAR_DEFAULT,
+                dv: str = "mean_score") -> tuple[pd.DataFrame, list[str]]:
+    """Welch's t-tests for the planned comparisons, Holm-adjusted across those that could be run.
+
+    Returns the table (one row per comparison; untestable ones carry a ``note`` and no numbers)
+    and a list of messages.
+    """
+    from statsmodels.stats.multitest import multipletests
+
+    comparisons = list(comparisons) if comparisons is not None else default_comparisons(approx_star)
+    comparisons = [(canonical(a), canonical(b)) for a, b in comparisons]
+    inc = included(table)
+    rows, messages = [], []
+    for a, b in comparisons:
+        x = inc.loc[inc["condition"] == a, dv].dropna().to_numpy(float)
+        y = inc.loc[inc["condition"] == b, dv].dropna().to_numpy(float)
+        row = {"a": a, "b": b, "comparison": f"{label(a, approx_star)} vs {label(b, approx_star)}",
+               "n_a": len(x), "n_b": len(y), "note": ""}
+        if len(x) < MIN_PER_GROUP or len(y) < MIN_PER_GROUP:
+            row["note"] = (f"not tested: {a} has {len(x)} and {b} has {len(y)} included participant(s); "
+                           f"Welch's t needs at least {MIN_PER_GROUP} per group")
+            messages.append(f"{row['comparison']}: {row['note']}.")
+        elif np.var(x, ddof=1) + np.var(y, ddof=1) == 0:
+            row["note"] = "not tested: every score in both groups is identical (zero variance)"
+            messages.append(f"{row['comparison']}: {row['note']}.")
+        else:
+            row.update(welch(x, y))
+        rows.append(row)
+    cols = ["comparison", "a", "b", "n_a", "n_b", "mean_a", "mean_b", "diff", "t", "df", "p", "p_holm",
+            "cohen_d", "ci_low", "ci_high", "note"]
+    out = pd.DataFrame(rows).reindex(columns=cols)
+    tested = out["t"].notna()
+    if tested.any():
+        out.loc[tested, "p_holm"] = multipletests(out.loc[tested, "p"].to_numpy(float), method="holm")[1]
+    return out, messages
+

@@ -1,0 +1,81 @@
+"""Conditions of the user study and their factors (model, distance, determinism, coverage).
+
+Names, aliases and constants shared by the rest of the analysis; see the input-table schema and
+the analysis choices in :mod:`studyapp.analysis.stats`.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from teaching.selection import CONDITIONS
+from teaching.strategies import CLUSTER_NAMES, N_CLUSTERS
+
+APPROX_STAR_DEFAULT = "det-euclidean"
+COVERAGE_APPROX = "coverage-approx*"
+COVERAGE_RANDOM = "coverage-random"
+PAPER_CONDITIONS = CONDITIONS  # the teaching selectors' names, in the paper's order
+APPROX_CONDITIONS = ("det-reward", "det-euclidean", "det-strategy", "prob-reward", "prob-euclidean")
+DETERMINISM = {"det": "deterministic", "prob": "probabilistic"}
+DISTANCES = ("reward", "euclidean", "strategy")
+
+MIN_PER_GROUP = 2      # Welch's t and every ANOVA cell need a variance
+MIN_PEARSON = 4        # Fisher-z CI needs n > 3
+
+
+def n_clusters() -> int:
+    return N_CLUSTERS
+
+
+def cluster_names() -> tuple[str, ...]:
+    return tuple(CLUSTER_NAMES)
+
+
+def partner_cluster(c: int) -> int:
+    """The other strategy cluster of the same environment class (clusters come in pairs 2k, 2k+1)."""
+    return int(c) ^ 1
+
+
+ALIASES = {
+    "det-euclid": "det-euclidean", "prob-euclid": "prob-euclidean", "strategy": "det-strategy",
+    "prob-strategy": "det-strategy", "coverage-approx": COVERAGE_APPROX, "coverage-approx-star": COVERAGE_APPROX,
+}
+
+
+def canonical(condition) -> str:
+    """The analysis' name of a condition, as the teaching selectors spell it; short spellings a
+    researcher may type ("det-euclid", "prob-euclid", "strategy") and "_" for "-" are accepted."""
+    name = str(condition).strip().lower().replace("_", "-")
+    return ALIASES.get(name, name) if name in ALIASES or name in PAPER_CONDITIONS else str(condition)
+
+
+def canonicalize(df: pd.DataFrame) -> pd.DataFrame:
+    if "condition" in df.columns and len(df):
+        df = df.copy()
+        df["condition"] = df["condition"].map(canonical)
+    return df
+
+
+def condition_factors(condition: str, approx_star: str = APPROX_STAR_DEFAULT) -> dict:
+    """Factors of a condition from its name (the paper's nine names; anything else is "other")."""
+    out = {"model": "other", "distance": np.nan, "determinism": np.nan, "coverage": False}
+    name = condition
+    if condition.startswith("coverage-"):
+        out["coverage"] = True
+        name = condition[len("coverage-"):]
+        if name == "approx*":
+            name = approx_star
+    if name == "exact":
+        out["model"] = "exact"
+    elif name == "random":
+        out["model"] = "random"
+    else:
+        det, _, dist = name.partition("-")
+        if det in DETERMINISM and dist in DISTANCES:
+            out.update(model="approximate", distance=dist, determinism=DETERMINISM[det])
+    return out
+
+
+def label(condition: str, approx_star: str = APPROX_STAR_DEFAULT) -> str:
+    return f"approx* ({condition})" if condition == approx_star else condition
+

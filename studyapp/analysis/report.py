@@ -1,0 +1,208 @@
+"""HTML report and CSV export of an :class:`~studyapp.analysis.stats.Analysis`.
+
+The report is an HTML *fragment* (``templates/studyapp/analysis/report.html``) so the
+dashboard can embed it; :func:`write_report` wraps it in a standalone page for
+``manage.py analyze``.  Figures are embedded as PNG data URIs (the fragment is
+self-contained) and also written as files by :func:`write_report`.
+
+Uses Django's template engine (settings must be configured) but no models.
+"""
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from . import figures as FIG
+from . import stats as S
+
+
+def _num(v, digits=2):
+    if v is None or (isinstance(v, (float, np.floating)) and math.isnan(v)):
+        return ""
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    if isinstance(v, (float, np.floating)) and float(v).is_integer() and abs(v) < 1e6:
+        return str(int(v))
+    return f"{v:.{digits}f}"
+
+
+def _p(v):
+    return S.fmt_p(float(v)) if v is not None and not pd.isna(v) else ""
+
+
+def _anova_rows(table: pd.DataFrame) -> list[dict]:
+    rows = []
+    resid_df = table.loc["Residual", "df"]
+    for eff, r in table.iterrows():
+        rows.append({"effect": eff, "ss": _num(r["SS"], 3), "df": _num(r["df"]),
+                     "f": _num(r["F"], 2), "p": _p(r["p"]), "eta": _num(r["partial_eta2"], 3),
+                     "apa": "" if eff == "Residual" else
+                     f"F({_num(r['df'])}, {_num(resid_df)}) = {r['F']:.2f}, p {_p_apa(r['p'])}",
+                     "sig": (not pd.isna(r["p"])) and r["p"] < 0.05})
+    return rows
+
+
+def _p_apa(p):
+    return "< .001" if p < 0.001 else f"= {S.fmt_p(p)}"
+
+
+def context(analysis: S.Analysis, title: str = "Study analysis", figures: dict | None = None) -> dict:
+    """Everything the template needs, already formatted."""
+    if figures is None:
+        figures = {k: FIG.data_uri(FIG.to_bytes(f)) for k, f in FIG.all_figures(analysis).items()}
+    summ = analysis.summary
+    summary_rows = [{"condition": S.label(c, analysis.approx_star), "recruited": int(r["n_recruited"]),
+                     "excluded": int(r["n_excluded"]), "n": int(r["n"]), "mean": _num(r["mean"]),
+                     "sd": _num(r["sd"]), "se": _num(r["se"]),
+                     "n_examples": int(analysis.examples_per_cluster.loc[c].sum())
+                     if c in analysis.examples_per_cluster.index else ""}
+                    for c, r in summ.iterrows()]
+    anovas = []
+    for a in analysis.anovas:
+        item = {"name": a.name, "ok": a.ok, "message": a.message, "note": a.note, "n": a.n,
+                "cells": [{"a": r[a.factors[0]], "b": r[a.factors[1]], "n": int(r["n"]), "mean": _num(r["mean"]),
+                           "sd": _num(r["sd"])} for _, r in a.cells.iterrows()] if a.cells is not None else [],
+                "factors": a.factors}
+        if a.ok:
+            item["type2"] = _anova_rows(a.type2)
+            item["type3"] = _anova_rows(a.type3)
+            item["apa"] = [(typ, "; ".join(f"{r['effect']}: {r['apa']}, partial η² = {r['eta']}" for r in rows if r["apa"]))
+                           for typ, rows in (("type II", item["type2"]), ("type III", item["type3"]))]
+        anovas.append(item)
+    welch = []
+    for _, w in analysis.welch.iterrows():
+        tested = not pd.isna(w["t"])
+        welch.append({"comparison": w["comparison"], "n": f"{int(w['n_a'])} / {int(w['n_b'])}",
+                      "means": f"{_num(w['mean_a'])} / {_num(w['mean_b'])}" if tested else "",
+                      "diff": _num(w["diff"]), "t": _num(w["t"]), "df": _num(w["df"], 1), "p": _p(w["p"]),
+                      "p_holm": _p(w["p_holm"]), "d": _num(w["cohen_d"]),
+                      "ci": f"[{_num(w['ci_low'])}, {_num(w['ci_high'])}]" if tested else "",
+                      "tested": tested, "note": w["note"],
+                      "sig": tested and w["p_holm"] < 0.05, "stars": FIG.stars(w["p_holm"]) if tested else ""})
+    cors = [{"name": c.name, "level": c.level, "n": c.n, "r": _num(c.r), "p": _p(c.p),
+             "ci": f"[{_num(c.ci_low)}, {_num(c.ci_high)}]" if c.ok else "", "ok": c.ok, "message": c.message}
+            for c in analysis.correlations]
+    epc = analysis.examples_per_cluster
+    names = S.cluster_names()
+    p = analysis.participants
+    score_cols = sorted([c for c in p.columns if re.fullmatch(r"score_\d+", c)], key=lambda c: int(c[6:]))
+    cols = ["participant_id", "condition", "model", "distance", "determinism", "coverage", "n_examples",
+            *score_cols, "mean_score", "attention_ok", "excluded"]
+    part_rows = [[_cell(r[c]) for c in cols] + [bool(r["excluded"])] for _, r in p[cols].iterrows()]
+    return {
+        "title": title, "approx_star": analysis.approx_star,
+        "n_participants": len(p), "n_included": analysis.n_included, "n_excluded": analysis.n_excluded,
+        "messages": analysis.messages, "summary": summary_rows, "anovas": anovas, "welch": welch,
+        "correlations": cors, "figures": figures,
+        "clusters": [names[c] if c < len(names) else str(c) for c in epc.columns],
+        "examples": [{"condition": S.label(c, analysis.approx_star), "counts": [int(v) for v in epc.loc[c]],
+                      "total": int(epc.loc[c].sum())} for c in epc.index],
+        "participant_columns": cols, "participant_rows": part_rows,
+        "headline": headline(analysis),
+    }
+
+
+def _cell(v):
+    if isinstance(v, (bool, np.bool_)):
+        return "yes" if v else "no"
+    if v is None or (not isinstance(v, str) and pd.isna(v)):
+        return ""
+    if isinstance(v, (float, np.floating)):
+        return _num(v)
+    return str(v)
+
+
+def headline(analysis: S.Analysis) -> list[str]:
+    """A few lines of plain-text summary (printed by ``manage.py analyze``)."""
+    lines = [f"{len(analysis.participants)} participants, {analysis.n_excluded} excluded, "
+             f"{analysis.n_included} analysed; approx* = {analysis.approx_star}"]
+    for a in analysis.anovas:
+        if not a.ok:
+            lines.append(a.message)
+            continue
+        parts = [f"{eff}: F({r['df']:.0f}, {a.type3.loc['Residual', 'df']:.0f}) = {r['F']:.2f}, p {_p_apa(r['p'])}"
+                 for eff, r in a.type3.iterrows() if eff != "Residual"]
+        lines.append(f"ANOVA {a.name} [type III]: " + "; ".join(parts))
+    for _, w in analysis.welch.iterrows():
+        if pd.isna(w["t"]):
+            lines.append(f"Welch {w['comparison']}: {w['note']}")
+        else:
+            lines.append(f"Welch {w['comparison']}: diff = {w['diff']:.2f} [{w['ci_low']:.2f}, {w['ci_high']:.2f}], "
+                         f"t({w['df']:.1f}) = {w['t']:.2f}, p {_p_apa(w['p'])}, Holm p {_p_apa(w['p_holm'])}, "
+                         f"d = {w['cohen_d']:.2f}")
+    for c in analysis.correlations:
+        if c.ok:
+            lines.append(f"Pearson {c.name} ({c.level}): r = {c.r:.2f} [{c.ci_low:.2f}, {c.ci_high:.2f}], "
+                         f"p {_p_apa(c.p)}, n = {c.n}")
+        else:
+            lines.append(f"Pearson {c.name} ({c.level}): {c.message}")
+    return lines
+
+
+def render_fragment(analysis: S.Analysis, title: str = "Study analysis", figures: dict | None = None) -> str:
+    from django.template.loader import render_to_string
+    return render_to_string("studyapp/analysis/report.html", context(analysis, title, figures))
+
+
+def render_page(analysis: S.Analysis, title: str = "Study analysis", figures: dict | None = None) -> str:
+    from django.template.loader import render_to_string
+    ctx = context(analysis, title, figures)
+    ctx["fragment"] = render_to_string("studyapp/analysis/report.html", ctx)
+    return render_to_string("studyapp/analysis/report_page.html", ctx)
+
+
+def write_csvs(analysis: S.Analysis, out: Path) -> list[Path]:
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+
+    def w(df, name, index=False):
+        path = out / name
+        df.to_csv(path, index=index)
+        written.append(path)
+
+    w(analysis.participants, "participants.csv")
+    w(analysis.per_test, "answers.csv")
+    w(analysis.summary, "conditions.csv", index=True)
+    w(analysis.welch, "welch.csv")
+    w(analysis.correlation_table(), "correlations.csv")
+    w(analysis.examples_per_cluster, "examples_per_cluster.csv", index=True)
+    anova_rows = []
+    for a in analysis.anovas:
+        if a.ok:
+            for typ, t in (("II", a.type2), ("III", a.type3)):
+                d = t.reset_index()
+                d.insert(0, "type", typ)
+                d.insert(0, "anova", a.name)
+                anova_rows.append(d)
+        else:
+            anova_rows.append(pd.DataFrame([{"anova": a.name, "type": "", "effect": "", "note": a.message}]))
+        if a.cells is not None:
+            cells = a.cells.copy()
+            cells.insert(0, "anova", a.name)
+            anova_rows.append(cells.rename(columns={a.factors[0]: "level_a", a.factors[1]: "level_b"})
+                              .assign(type="cell counts"))
+    w(pd.concat(anova_rows, ignore_index=True) if anova_rows else pd.DataFrame(), "anova.csv")
+    return written
+
+
+def write_report(analysis: S.Analysis, out, title: str = "Study analysis") -> dict:
+    """Write index.html (self-contained), figure PNG/SVG files and the CSVs to ``out``."""
+    out = Path(out)
+    (out / "figures").mkdir(parents=True, exist_ok=True)
+    uris, files = {}, []
+    for name, fig in FIG.all_figures(analysis).items():
+        svg = out / "figures" / f"{name}.svg"
+        fig.savefig(svg, format="svg", bbox_inches="tight")
+        png = FIG.to_bytes(fig)  # closes the figure
+        (out / "figures" / f"{name}.png").write_bytes(png)
+        uris[name] = FIG.data_uri(png)
+        files += [svg, out / "figures" / f"{name}.png"]
+    html = render_page(analysis, title, uris)
+    (out / "index.html").write_text(html, encoding="utf-8")
+    csvs = write_csvs(analysis, out)
+    return {"html": out / "index.html", "figures": files, "csv": csvs}

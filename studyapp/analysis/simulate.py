@@ -1,0 +1,74 @@
+"""Simulated participants for a study, through the real assignment and flow (for tests and demos).
+
+Each simulated participant arrives through :func:`studyapp.assignment.assign` and answers every
+step with :func:`studyapp.flow.record`, so scores, exclusions and completion are exactly the app's.
+In a test, a participant picks theta*'s option with probability ``p_correct[condition]``
+(default ``base``) and gives the chosen option a rating of 5-7 (others 1-3).  Participants who
+fail the attention check answer the opposite way (probability ``1 - p``), so an analysis that
+forgot the exclusions would see the effect shrink.
+"""
+from __future__ import annotations
+
+import numpy as np
+from django.http import QueryDict
+
+from .. import assignment, flow, studies
+
+EFFECT = {"coverage-approx*": 0.95, "det-euclid": 0.95, "det-euclidean": 0.95}
+BASE = 0.35
+
+
+def make_study(slug: str = "synth", sequences: dict | None = None, name: str = "Synthetic study"):
+    """A study with the paper's conditions on the placeholder trajectories (or the given sequences)."""
+    sequences = sequences or studies.placeholder_sequences(0)
+    spec = {"slug": slug, "name": name, "seed": 0, "target_per_condition": 100,
+            "conditions": [{"name": n, "env_ids": ids} for n, ids in sequences.items()]}
+    return studies.build_study(spec)
+
+
+def post(**fields) -> QueryDict:
+    q = QueryDict(mutable=True)
+    for k, v in fields.items():
+        q.setlist(k, [str(x) for x in v] if isinstance(v, list) else [str(v)])
+    return q
+
+
+def run_participant(study, rng, attentive: bool = True, effect: dict | None = None, base: float = BASE):
+    """One simulated participant from arrival to completion; returns it."""
+    p = assignment.assign(study)
+    p_star = (EFFECT if effect is None else effect).get(p.condition.name, base)
+    if not attentive:
+        p_star = 1 - p_star
+    for step in flow.steps_for(p):
+        if step.kind == "consent":
+            data = post(consent="yes")
+        elif step.kind == "instructions":
+            data = post(ack="1")
+        elif step.kind == "training":
+            data = post(played="1")
+        elif step.kind == "test":
+            options = study.test_set[step.item]["options"]
+            star = [k for k, o in enumerate(options) if o["is_theta_star"]][0]
+            others = [k for k in range(len(options)) if k != star]
+            choice = star if rng.random() < p_star else int(rng.choice(others))
+            ratings = {f"rating_{k}": int(rng.integers(1, 4)) for k in range(len(options))}
+            ratings[f"rating_{choice}"] = int(rng.integers(5, 8))
+            data = post(choice=choice, played=[str(k) for k in range(len(options))], **ratings)
+        elif step.kind == "attention":
+            data = post(goals=["merge", "forward"] if attentive else ["park", "merge"])
+        elif step.kind == "demographics":
+            data = post(age=int(rng.integers(20, 60)), gender="female")
+        else:
+            break
+        p = flow.record(p, step.index, data)
+    return p
+
+
+def simulate(study, n_per_condition: int = 9, seed: int = 1, fail_every: int = 7, effect: dict | None = None):
+    """n_per_condition x (number of conditions) participants; every ``fail_every``-th fails the
+    attention check.  Returns the random generator (to simulate more later)."""
+    rng = np.random.default_rng(seed)
+    n_cond = study.conditions.count()
+    for i in range(n_per_condition * n_cond):
+        run_participant(study, rng, attentive=(i % fail_every != 3), effect=effect)
+    return rng

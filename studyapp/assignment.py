@@ -1,0 +1,102 @@
+"""Balanced assignment of arriving participants to conditions (DESIGN §7).
+
+Inside one transaction, with the study's row locked (``SELECT ... FOR
+UPDATE`` on PostgreSQL; on SQLite the settings open every transaction with
+``BEGIN IMMEDIATE``, which takes the database's single write lock), count per
+condition the completed, non-excluded participants plus the unfinished ones
+seen within the study's timeout, and put the newcomer in the least-filled
+condition (relative to its target), ties broken at random.  A returning
+platform id gets its own participant back and never a second condition.
+"""
+from __future__ import annotations
+
+import random
+import secrets
+
+from django.db import IntegrityError, transaction
+from django.db.models import Count, Q
+from django.utils import timezone
+
+from .models import Condition, Participant, Study
+
+_rng = random.SystemRandom()
+
+
+class StudyClosed(Exception):
+    pass
+
+
+def counted_filter(study: Study, now=None) -> Q:
+    """Participants that hold a place in their condition."""
+    now = now or timezone.now()
+    prefix = "participants__"
+    done = Q(**{prefix + "completed_at__isnull": False, prefix + "excluded": False})
+    active = Q(**{prefix + "completed_at__isnull": True, prefix + "last_seen_at__gte": now - study.active_timeout})
+    return (done | active) & ~Q(**{prefix + "platform": Participant.PREVIEW})
+
+
+def counted_conditions(study: Study):
+    """The study's conditions, each annotated with n = the participants holding a place in it."""
+    return Condition.objects.filter(study=study).annotate(n=Count("participants", filter=counted_filter(study)))
+
+
+def condition_counts(study: Study) -> dict[int, int]:
+    return {c.pk: c.n for c in counted_conditions(study)}
+
+
+def pick_condition(study: Study) -> Condition:
+    conditions = list(counted_conditions(study))
+    if not conditions:
+        raise ValueError(f"study {study.slug} has no conditions")
+    fill = {c.pk: c.n / max(c.target_count, 1) for c in conditions}
+    least = min(fill.values())
+    return _rng.choice([c for c in conditions if fill[c.pk] == least])
+
+
+def option_orders(study: Study) -> list[list[int]]:
+    """A fresh random display order of the options of every test."""
+    rng = random.Random(secrets.randbits(64))
+    orders = []
+    for test in study.test_set:
+        order = list(range(len(test["options"])))
+        rng.shuffle(order)
+        orders.append(order)
+    return orders
+
+
+def find_returning(study: Study, platform: str, pid: str) -> Participant | None:
+    if not pid:
+        return None
+    return Participant.objects.filter(study=study, platform=platform, platform_pid=pid).first()
+
+
+def assign(study: Study, platform: str = Participant.ANONYMOUS, pid: str = "", **ids) -> Participant:
+    """The participant for this arrival: the returning one, or a new one in the least-filled condition.
+
+    Raises StudyClosed for a new arrival at a closed study.
+    """
+    try:
+        with transaction.atomic():
+            locked = Study.objects.select_for_update().get(pk=study.pk)
+            existing = find_returning(locked, platform, pid)
+            if existing:
+                return existing
+            if not locked.is_open:
+                raise StudyClosed(locked.slug)
+            condition = pick_condition(locked)
+            return Participant.objects.create(
+                study=locked, condition=condition, platform=platform, platform_pid=pid,
+                option_orders=option_orders(locked), **ids)
+    except IntegrityError:
+        # Another arrival with the same platform id won the race: return theirs.
+        existing = find_returning(study, platform, pid)
+        if existing is None:
+            raise
+        return existing
+
+
+def preview_participant(condition: Condition) -> Participant:
+    """A staff preview of one condition: a participant that is never counted or exported."""
+    return Participant.objects.create(
+        study=condition.study, condition=condition, platform=Participant.PREVIEW,
+        option_orders=option_orders(condition.study))

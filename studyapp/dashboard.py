@@ -1,0 +1,99 @@
+"""Researcher views: study list, per-study dashboard with live progress, open/close, preview, exports."""
+from __future__ import annotations
+
+from django.contrib.admin.views.decorators import staff_member_required
+from django.db.models import Count, Q
+from django.http import HttpResponse
+from django.shortcuts import get_object_or_404, redirect, render
+from django.utils import timezone
+from django.views.decorators.http import require_POST
+
+from . import exports
+from .assignment import counted_filter, preview_participant
+from .models import Answer, Condition, Participant, Study
+
+REFRESH_SECONDS = 5
+
+
+def condition_stats(study: Study) -> list[dict]:
+    now = timezone.now()
+    cutoff = now - study.active_timeout
+    real = ~Q(participants__platform=Participant.PREVIEW)
+    done = Q(participants__completed_at__isnull=False)
+    rows = Condition.objects.filter(study=study).annotate(
+        started=Count("participants", filter=real),
+        completed=Count("participants", filter=real & done),
+        excluded=Count("participants", filter=real & Q(participants__excluded=True)),
+        active=Count("participants", filter=real & ~done & Q(participants__last_seen_at__gte=cutoff)),
+        abandoned=Count("participants", filter=real & ~done & Q(participants__last_seen_at__lt=cutoff)),
+        counted=Count("participants", filter=counted_filter(study, now)),
+    )
+    return [{"condition": c, "target": c.target_count, "started": c.started, "completed": c.completed,
+             "excluded": c.excluded, "active": c.active, "abandoned": c.abandoned, "counted": c.counted,
+             "valid": c.completed - c.excluded,
+             "percent": min(100, round(100 * (c.completed - c.excluded) / max(c.target_count, 1)))}
+            for c in rows]
+
+
+@staff_member_required
+def index(request):
+    studies = Study.objects.annotate(
+        n_participants=Count("participants", filter=~Q(participants__platform=Participant.PREVIEW)))
+    return render(request, "studyapp/dashboard/index.html", {"studies": studies})
+
+
+def _progress_context(request, study):
+    recent = (Answer.objects.filter(participant__study=study).exclude(participant__platform=Participant.PREVIEW)
+              .select_related("participant", "participant__condition").order_by("-created_at")[:15])
+    stats = condition_stats(study)
+    totals = {k: sum(r[k] for r in stats) for k in ("target", "started", "completed", "excluded", "active",
+                                                    "abandoned")}
+    return {"study": study, "stats": stats, "totals": totals, "recent": recent, "now": timezone.now(),
+            "refresh_seconds": REFRESH_SECONDS}
+
+
+@staff_member_required
+def detail(request, slug):
+    study = get_object_or_404(Study, slug=slug)
+    ctx = _progress_context(request, study)
+    link = request.build_absolute_uri(study.get_absolute_url())
+    ctx.update(link=link, prolific_link=link + "?PROLIFIC_PID={{%PROLIFIC_PID%}}&STUDY_ID={{%STUDY_ID%}}"
+               "&SESSION_ID={{%SESSION_ID%}}")
+    return render(request, "studyapp/dashboard/detail.html", ctx)
+
+
+@staff_member_required
+def progress(request, slug):
+    """The auto-refreshed part of the dashboard (HTML fragment)."""
+    study = get_object_or_404(Study, slug=slug)
+    return render(request, "studyapp/dashboard/_progress.html", _progress_context(request, study))
+
+
+@staff_member_required
+@require_POST
+def toggle(request, slug):
+    study = get_object_or_404(Study, slug=slug)
+    study.is_open = request.POST.get("open") == "1"
+    study.save(update_fields=["is_open"])
+    return redirect("dashboard_study", slug=slug)
+
+
+@staff_member_required
+@require_POST
+def preview(request, slug, condition_id):
+    condition = get_object_or_404(Condition, pk=condition_id, study__slug=slug)
+    return redirect(preview_participant(condition))
+
+
+@staff_member_required
+def export(request, slug, kind):
+    study = get_object_or_404(Study, slug=slug)
+    if kind == "long":
+        body, name = exports.long_csv(study), f"{slug}-long.csv"
+    elif kind == "wide":
+        body, name = exports.wide_csv(study), f"{slug}-wide.csv"
+    else:
+        body, name = exports.dictionary_csv(), f"{slug}-data-dictionary.csv"
+    response = HttpResponse(body, content_type="text/csv; charset=utf-8")
+    response["Content-Disposition"] = f'attachment; filename="{name}"'
+    return response

@@ -1,0 +1,143 @@
+"""Study, condition, participant, answer (DESIGN §7).
+
+A condition is frozen: its training environments (with the trajectories
+needed to draw them) are stored as JSON, and the study holds the test set
+shared by all of its conditions, so serving a study never needs the
+trajectory table.
+"""
+from __future__ import annotations
+
+import secrets
+from datetime import timedelta
+
+from django.db import models
+from django.urls import reverse
+from django.utils import timezone
+
+PROLIFIC_COMPLETION_URL = "https://app.prolific.com/submissions/complete?cc={code}"
+MTURK_SUBMIT_URL = "https://www.mturk.com/mturk/externalSubmit"
+
+
+def new_token() -> str:
+    return secrets.token_urlsafe(18)
+
+
+def new_code() -> str:
+    return secrets.token_hex(4).upper()
+
+
+class Study(models.Model):
+    slug = models.SlugField(unique=True)
+    name = models.CharField(max_length=200)
+    is_open = models.BooleanField(default=True, help_text="Closed studies accept no new participants.")
+    target_per_condition = models.PositiveIntegerField(default=30)
+    active_timeout_minutes = models.PositiveIntegerField(
+        default=30, help_text="An unfinished participant seen within this many minutes still holds a place.")
+    completion_code = models.CharField(
+        max_length=64, blank=True,
+        help_text="Prolific's study completion code; blank gives each participant their own code.")
+    prolific_completion_url = models.CharField(
+        max_length=300, default=PROLIFIC_COMPLETION_URL, help_text="{code} is replaced by the completion code.")
+    mturk_submit_url = models.CharField(max_length=300, default=MTURK_SUBMIT_URL)
+    test_set = models.JSONField(default=list, help_text="Shared test environments with their 4 options each.")
+    source = models.JSONField(default=dict, blank=True, help_text="Where the trajectories came from (table, seed).")
+    created_at = models.DateTimeField(auto_now_add=True)
+
+    class Meta:
+        verbose_name_plural = "studies"
+        ordering = ["-created_at"]
+
+    def __str__(self):
+        return self.name
+
+    def get_absolute_url(self):
+        return reverse("entry", args=[self.slug])
+
+    @property
+    def active_timeout(self) -> timedelta:
+        return timedelta(minutes=self.active_timeout_minutes)
+
+
+class Condition(models.Model):
+    study = models.ForeignKey(Study, models.CASCADE, related_name="conditions")
+    name = models.CharField(max_length=100)
+    position = models.PositiveIntegerField(default=0)
+    target = models.PositiveIntegerField(null=True, blank=True, help_text="Blank: the study's target.")
+    training = models.JSONField(default=list, help_text="Frozen training environments, in order.")
+
+    class Meta:
+        ordering = ["study", "position", "pk"]
+        constraints = [models.UniqueConstraint(fields=["study", "name"], name="unique_condition_name")]
+
+    def __str__(self):
+        return f"{self.study.slug}/{self.name}"
+
+    @property
+    def target_count(self) -> int:
+        return self.target if self.target is not None else self.study.target_per_condition
+
+    @property
+    def env_ids(self) -> list[int]:
+        return [env["env_id"] for env in self.training]
+
+
+class Participant(models.Model):
+    PROLIFIC, MTURK, ANONYMOUS, PREVIEW = "prolific", "mturk", "anonymous", "preview"
+    PLATFORMS = [(PROLIFIC, "Prolific"), (MTURK, "Mechanical Turk"), (ANONYMOUS, "anonymous"), (PREVIEW, "staff preview")]
+
+    study = models.ForeignKey(Study, models.CASCADE, related_name="participants")
+    condition = models.ForeignKey(Condition, models.PROTECT, related_name="participants")
+    token = models.CharField(max_length=40, unique=True, default=new_token)
+    platform = models.CharField(max_length=12, choices=PLATFORMS, default=ANONYMOUS)
+    platform_pid = models.CharField(max_length=100, blank=True, help_text="PROLIFIC_PID or workerId.")
+    platform_study_id = models.CharField(max_length=100, blank=True, help_text="STUDY_ID or hitId.")
+    platform_session_id = models.CharField(max_length=100, blank=True, help_text="SESSION_ID or assignmentId.")
+    turk_submit_to = models.CharField(max_length=300, blank=True)
+    position = models.PositiveIntegerField(default=0, help_text="Index of the current step of the flow.")
+    option_orders = models.JSONField(default=list, help_text="Display order of the options, per test.")
+    started_at = models.DateTimeField(default=timezone.now)
+    last_seen_at = models.DateTimeField(default=timezone.now)
+    completed_at = models.DateTimeField(null=True, blank=True)
+    excluded = models.BooleanField(default=False, help_text="Failed the attention check: kept, not analysed.")
+    completion_code = models.CharField(max_length=64, blank=True)
+
+    class Meta:
+        ordering = ["-started_at"]
+        constraints = [
+            models.UniqueConstraint(
+                fields=["study", "platform", "platform_pid"], condition=~models.Q(platform_pid=""),
+                name="one_participant_per_platform_id"),
+        ]
+        indexes = [models.Index(fields=["study", "condition", "completed_at", "last_seen_at"])]
+
+    def __str__(self):
+        return f"{self.platform}:{self.platform_pid or self.token[:8]}"
+
+    @property
+    def is_preview(self) -> bool:
+        return self.platform == self.PREVIEW
+
+    def get_absolute_url(self):
+        return reverse("step", args=[self.study.slug, self.token])
+
+
+class Answer(models.Model):
+    """One row per answered step; the unique constraint makes answers write-once."""
+
+    participant = models.ForeignKey(Participant, models.CASCADE, related_name="answers")
+    step = models.PositiveIntegerField(help_text="Index of the step in the participant's flow.")
+    kind = models.CharField(max_length=20)  # consent, instructions, training, test, attention, demographics
+    item = models.IntegerField(null=True, blank=True, help_text="Training or test index within its kind.")
+    data = models.JSONField(default=dict)
+    # Tests: derived exactly from data + the study's test set, stored for convenience.
+    chosen_option = models.IntegerField(null=True, blank=True)
+    correct = models.BooleanField(null=True, blank=True)
+    confidence_score = models.IntegerField(null=True, blank=True)
+    created_at = models.DateTimeField(default=timezone.now)
+
+    class Meta:
+        ordering = ["participant", "step"]
+        constraints = [models.UniqueConstraint(fields=["participant", "step"], name="one_answer_per_step")]
+
+    def __str__(self):
+        return f"{self.participant} step {self.step} ({self.kind})"

@@ -1,0 +1,176 @@
+"""Creating studies from a JSON spec, and the demo study.
+
+Spec (a JSON file for ``manage.py create_study``)::
+
+    {
+      "slug": "driving-2026", "name": "Driving styles",
+      "target_per_condition": 30,                  # optional
+      "completion_code": "C1ABCDEF",               # optional (Prolific's code)
+      "table": "data/tables/demo",                 # optional: a teaching TrajectoryTable
+      "conditions": [{"name": "exact", "env_ids": [12, 4031, ...]}, ...],
+      "test_set": [{"env_id": 77, "options": [{"theta_index": 0, "is_theta_star": true}, ...]}, ...]
+    }
+
+With ``table`` the trajectories are read from the table (``test_set`` is
+then required, as produced by ``teaching.testset.select_test_set``).
+Without it the PLACEHOLDER synthesiser of ``studyapp.trajectories`` draws
+them (and builds its own test set when ``test_set`` is absent).
+"""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+from django.db import transaction
+
+from teaching.selection import CONDITIONS
+
+from . import trajectories
+from .models import Condition, Study
+
+# The paper's nine conditions (Secs. "User Study" and "User Study on Coverage"), spelled as the
+# teaching selectors name them so a study built from either source reads the same.
+PAPER_CONDITIONS = list(CONDITIONS)
+DEMO_SLUG = "demo"
+DEMO_TABLE_ENV = "DEMO_TABLE"
+DEMO_TABLE_DEFAULT = "var/tables/demo"  # where `python -m teaching build --preset demo` writes
+
+
+class SpecError(ValueError):
+    pass
+
+
+def _payloads(spec: dict):
+    conditions = spec.get("conditions") or []
+    if not conditions:
+        raise SpecError("spec needs a non-empty 'conditions' list")
+    names = [c.get("name") for c in conditions]
+    if any(not n for n in names) or len(set(names)) != len(names):
+        raise SpecError("every condition needs a unique, non-empty 'name'")
+    for c in conditions:
+        if not c.get("env_ids"):
+            raise SpecError(f"condition {c['name']!r} needs a non-empty 'env_ids' list")
+    if spec.get("table"):
+        from teaching.table import TrajectoryTable
+
+        if not spec.get("test_set"):
+            raise SpecError("a spec with a 'table' needs its 'test_set'")
+        table = TrajectoryTable.load(spec["table"])
+        training = {c["name"]: trajectories.training_from_table(table, c["env_ids"]) for c in conditions}
+        tests = trajectories.test_set_from_table(table, spec["test_set"])
+        source = {"kind": "table", "table": str(spec["table"]), "content_hash": table.meta.get("content_hash")}
+    else:
+        training = {c["name"]: trajectories.placeholder_training(c["env_ids"]) for c in conditions}
+        used = {e for c in conditions for e in c["env_ids"]}
+        if spec.get("test_set"):
+            tests = spec["test_set"]
+            trajectories.check_test_set(tests)
+        else:
+            tests = trajectories.placeholder_test_set(exclude=used, seed=spec.get("seed", 0))
+        source = {"kind": "placeholder", "note": "synthesised trajectories, not the optimal ones (docs/study.md)"}
+    return conditions, training, tests, source
+
+
+def build_study(spec: dict, replace: bool = False) -> Study:
+    """Create the study described by `spec` (see module docstring).
+
+    An existing study with the same slug is kept as is unless `replace`,
+    which is refused once it has participants.
+    """
+    slug = spec.get("slug")
+    if not slug:
+        raise SpecError("spec needs a 'slug'")
+    existing = Study.objects.filter(slug=slug).first()
+    if existing and not replace:
+        return existing
+    if existing and existing.participants.exists():
+        raise SpecError(f"study {slug!r} already has participants; refusing to replace it")
+    conditions, training, tests, source = _payloads(spec)
+    with transaction.atomic():
+        if existing:
+            existing.delete()
+        study = Study.objects.create(
+            slug=slug, name=spec.get("name", slug), test_set=tests, source=source,
+            target_per_condition=spec.get("target_per_condition", 30),
+            completion_code=spec.get("completion_code", ""),
+            is_open=spec.get("is_open", True))
+        for i, c in enumerate(conditions):
+            Condition.objects.create(study=study, name=c["name"], position=i, training=training[c["name"]],
+                                     target=c.get("target"))
+    return study
+
+
+# --- demo ------------------------------------------------------------------
+def placeholder_sequences(seed: int = 0) -> dict[str, list[int]]:
+    """PLACEHOLDER sequences for the paper's conditions (seeded random picks, not teaching output).
+
+    coverage-random follows the paper's recipe (one environment per cluster)
+    using the placeholder trajectories' clusters; the others are random
+    stratified draws of the lengths the paper's algorithms typically select.
+    """
+    from teaching.environments import stratified_sample
+
+    rng = np.random.default_rng(seed)
+    pool = stratified_sample(400, seed=seed)
+    clusters = {int(e): trajectories.placeholder_training([int(e)])[0]["cluster"] for e in pool}
+    lengths = {"exact": 3, "det-reward": 5, "det-euclidean": 6, "det-strategy": 4, "prob-reward": 5,
+               "prob-euclidean": 6, "random": 8, "coverage-approx*": 8}
+    out = {name: [int(e) for e in rng.choice(pool, size=n, replace=False)] for name, n in lengths.items()}
+    cover = []
+    for cluster in range(8):
+        members = [e for e, c in clusters.items() if c == cluster]
+        if members:
+            cover.append(int(rng.choice(members)))
+    out["coverage-random"] = cover
+    return {name: out[name] for name in PAPER_CONDITIONS}
+
+
+def demo_table_path(table_path=None) -> Path:
+    return Path(table_path or os.environ.get(DEMO_TABLE_ENV, DEMO_TABLE_DEFAULT))
+
+
+def demo_is_stale(study: Study, table_path=None) -> bool:
+    """Was `study` built from something other than the demo table now on disk?
+
+    True when the table was rebuilt (another content hash) or appeared since a
+    placeholder study was built.  A missing table never makes a study stale.
+    """
+    meta = demo_table_path(table_path) / "meta.json"
+    try:
+        current = json.loads(meta.read_text()).get("content_hash")
+    except (OSError, ValueError):
+        return False
+    return (study.source or {}).get("content_hash") != current
+
+
+def demo_spec(table_path=None, log=lambda msg: None) -> dict:
+    """The demo study: all of the paper's conditions on the demo table.
+
+    Uses the real pipeline (``teaching.selection.build_sequences`` and
+    ``teaching.testset.select_test_set`` on the table at `table_path`,
+    $DEMO_TABLE or var/tables/demo) when that table exists and loads;
+    otherwise the PLACEHOLDER trajectories (and says why through `log`).
+    """
+    spec = {"slug": DEMO_SLUG, "name": "Demo: how does the autonomous car drive?", "target_per_condition": 20}
+    table_path = demo_table_path(table_path)
+    if (table_path / "meta.json").exists():
+        try:
+            from teaching.selection import build_sequences
+            from teaching.table import TrajectoryTable
+            from teaching.testset import select_test_set
+
+            table = TrajectoryTable.load(table_path)
+            sequences = build_sequences(table, 0)
+            spec.update(table=str(table_path), conditions=[{"name": n, "env_ids": [int(e) for e in ids]}
+                                                          for n, ids in sequences.items()],
+                        test_set=select_test_set(table, list(sequences.values()), 0))
+            return spec
+        except (ImportError, ValueError) as exc:  # TableError and TestSetError are ValueErrors
+            log(f"cannot use the table at {table_path} ({exc}); using PLACEHOLDER trajectories")
+    else:
+        log(f"no trajectory table at {table_path}; using PLACEHOLDER trajectories "
+            "(build one with `python -m teaching build --preset demo --out var/tables/demo`)")
+    spec["conditions"] = [{"name": n, "env_ids": ids} for n, ids in placeholder_sequences().items()]
+    return spec

@@ -1,0 +1,19 @@
+from django.urls import path, re_path
+
+from . import dashboard, views
+from .analysis import views as analysis_views
+
+urlpatterns = [
+    path("", views.home, name="home"),
+    path("s/<slug:slug>/", views.entry, name="entry"),
+    path("s/<slug:slug>/p/<str:token>/", views.step, name="step"),
+    path("s/<slug:slug>/p/<str:token>/<int:step_index>/", views.answer, name="answer"),
+    path("dashboard/", dashboard.index, name="dashboard"),
+    path("dashboard/<slug:slug>/", dashboard.detail, name="dashboard_study"),
+    path("dashboard/<slug:slug>/progress/", dashboard.progress, name="dashboard_progress"),
+    path("dashboard/<slug:slug>/toggle/", dashboard.toggle, name="dashboard_toggle"),
+    path("dashboard/<slug:slug>/preview/<int:condition_id>/", dashboard.preview, name="dashboard_preview"),
+    path("dashboard/<slug:slug>/analysis/", analysis_views.report, name="dashboard_analysis"),
+    re_path(r"^dashboard/(?P<slug>[-\w]+)/export/(?P<kind>long|wide|dictionary)\.csv$", dashboard.export,
+            name="dashboard_export"),
+]

@@ -1,0 +1,178 @@
+"""Participant views: entry link, the current step, answers, completion."""
+from __future__ import annotations
+
+from urllib.parse import urlparse
+
+from django.http import Http404, JsonResponse
+from django.shortcuts import get_object_or_404, redirect, render
+from django.utils import timezone
+from django.views.decorators.cache import never_cache
+from django.views.decorators.clickjacking import xframe_options_exempt
+from django.views.decorators.csrf import csrf_exempt
+from django.views.decorators.http import require_GET, require_POST
+
+from . import flow
+from .assignment import StudyClosed, assign
+from .models import Participant, Study
+
+MTURK_PREVIEW = "ASSIGNMENT_ID_NOT_AVAILABLE"
+MTURK_HOSTS = {"www.mturk.com", "workersandbox.mturk.com"}
+ID_MAX = 100
+
+
+FRAME_ANCESTORS = "frame-ancestors 'self' https://www.mturk.com https://workersandbox.mturk.com"
+
+
+def participant_page(view):
+    """Participant pages may be framed by Mechanical Turk (ExternalQuestion HITs show them in an
+    iframe) but by nobody else: no X-Frame-Options, a CSP frame-ancestors list instead."""
+    def wrapped(request, *args, **kwargs):
+        response = view(request, *args, **kwargs)
+        response["Content-Security-Policy"] = FRAME_ANCESTORS
+        return response
+
+    wrapped.__name__, wrapped.__doc__ = view.__name__, view.__doc__
+    return xframe_options_exempt(never_cache(wrapped))
+
+
+def _session_key(study: Study) -> str:
+    return f"participant:{study.slug}"
+
+
+def _platform_ids(request):
+    """(platform, pid, extra fields) from the entry link's query string; raises ValueError."""
+    q = request.GET
+    values = {k: q.get(k, "").strip() for k in
+              ("PROLIFIC_PID", "STUDY_ID", "SESSION_ID", "workerId", "assignmentId", "hitId", "turkSubmitTo")}
+    if any(len(v) > ID_MAX for k, v in values.items() if k != "turkSubmitTo"):
+        raise ValueError(f"platform ids are at most {ID_MAX} characters")
+    if values["PROLIFIC_PID"]:
+        return Participant.PROLIFIC, values["PROLIFIC_PID"], {
+            "platform_study_id": values["STUDY_ID"], "platform_session_id": values["SESSION_ID"]}
+    if values["workerId"]:
+        submit_to = values["turkSubmitTo"]
+        if submit_to and urlparse(submit_to).hostname not in MTURK_HOSTS:
+            raise ValueError("turkSubmitTo must be an mturk.com address")
+        return Participant.MTURK, values["workerId"], {
+            "platform_study_id": values["hitId"], "platform_session_id": values["assignmentId"],
+            "turk_submit_to": submit_to}
+    return Participant.ANONYMOUS, "", {}
+
+
+@participant_page
+@require_GET
+def entry(request, slug):
+    study = get_object_or_404(Study, slug=slug)
+    if request.GET.get("assignmentId") == MTURK_PREVIEW:
+        return render(request, "studyapp/mturk_preview.html", {"study": study})
+    try:
+        platform, pid, ids = _platform_ids(request)
+    except ValueError as exc:
+        return render(request, "studyapp/error.html", {"study": study, "message": str(exc)}, status=400)
+    if platform == Participant.ANONYMOUS:
+        token = request.session.get(_session_key(study))
+        known = Participant.objects.filter(study=study, token=token).first() if token else None
+        if known:
+            return redirect(known)
+    try:
+        participant = assign(study, platform, pid, **ids)
+    except StudyClosed:
+        return render(request, "studyapp/closed.html", {"study": study}, status=403)
+    request.session[_session_key(study)] = participant.token
+    return redirect(participant)
+
+
+def _participant(slug: str, token: str) -> Participant:
+    participant = (Participant.objects.select_related("study", "condition")
+                   .filter(token=token).first())
+    if participant is None or participant.study.slug != slug:
+        raise Http404("This participant link does not belong to this study.")
+    return participant
+
+
+@participant_page
+@require_GET
+def step(request, slug, token):
+    participant = _participant(slug, token)
+    Participant.objects.filter(pk=participant.pk).update(last_seen_at=timezone.now())
+    current = flow.current_step(participant)
+    return render(request, f"studyapp/step_{current.kind}.html", step_context(participant, current))
+
+
+def step_context(participant: Participant, current: flow.Step) -> dict:
+    steps = flow.steps_for(participant)
+    ctx = {
+        "study": participant.study, "participant": participant, "step": current,
+        "progress": round(100 * current.index / (len(steps) - 1)),
+        "total_training": len(participant.condition.training),
+        "total_tests": len(participant.study.test_set),
+    }
+    if current.kind == "training":
+        ctx["env"] = participant.condition.training[current.item]
+        ctx["number"] = current.item + 1
+    elif current.kind == "test":
+        test = participant.study.test_set[current.item]
+        order = participant.option_orders[current.item]
+        ctx["number"] = current.item + 1
+        ctx["scene"] = {k: v for k, v in test.items() if k != "options"}
+        ctx["options"] = [{"id": k, "label": "ABCDEFGH"[pos]} for pos, k in enumerate(order)]
+        ctx["option_robots"] = {"ABCDEFGH"[pos]: test["options"][k]["robot"] for pos, k in enumerate(order)}
+        ctx["ratings"] = range(flow.RATING_MIN, flow.RATING_MAX + 1)
+    elif current.kind == "attention":
+        ctx["choices"] = flow.ATTENTION_CHOICES
+    elif current.kind == "demographics":
+        ctx["genders"] = flow.GENDER_CHOICES
+        ctx["age_min"], ctx["age_max"] = flow.AGE_MIN, flow.AGE_MAX
+    elif current.kind == "done":
+        ctx.update(completion_target(participant))
+    return ctx
+
+
+def completion_target(participant: Participant) -> dict:
+    """Where a finished participant is sent back to (only once every answer is stored)."""
+    study, code = participant.study, participant.completion_code
+    if participant.completed_at is None:
+        return {}
+    if participant.platform == Participant.PROLIFIC:
+        return {"redirect_url": study.prolific_completion_url.format(code=code)}
+    if participant.platform == Participant.MTURK and participant.platform_session_id:
+        base = participant.turk_submit_to.rstrip("/") + "/mturk/externalSubmit" if participant.turk_submit_to \
+            else study.mturk_submit_url
+        return {"mturk_form": {"action": base, "assignmentId": participant.platform_session_id,
+                               "completion_code": code}}
+    return {}
+
+
+def _wants_json(request) -> bool:
+    return "application/json" in request.headers.get("Accept", "")
+
+
+# No CSRF cookie check: the participant's unguessable token in the URL is the secret a forged
+# request would need, and inside MTurk's cross-site iframe the (SameSite=Lax) CSRF cookie is
+# never sent, so the check would refuse every answer there.
+@csrf_exempt
+@participant_page
+@require_POST
+def answer(request, slug, token, step_index):
+    participant = _participant(slug, token)
+    steps = flow.steps_for(participant)
+    if (0 <= step_index < len(steps) and steps[step_index].kind == "consent"
+            and request.POST.get("consent") == "no" and participant.position == step_index):
+        return render(request, "studyapp/declined.html", {"study": participant.study})
+    try:
+        participant = flow.record(participant, step_index, request.POST)
+    except flow.AnswerError as exc:
+        if _wants_json(request):
+            return JsonResponse({"ok": False, "error": exc.message}, status=exc.status)
+        return render(request, "studyapp/error.html", {
+            "study": participant.study, "participant": participant, "message": exc.message}, status=exc.status)
+    if _wants_json(request):
+        return JsonResponse({"ok": True, "position": participant.position, "next": participant.get_absolute_url()})
+    return redirect(participant.get_absolute_url(), permanent=False)
+
+
+def home(request):
+    if request.user.is_staff:
+        return redirect("dashboard")
+    return render(request, "studyapp/home.html", {"studies": Study.objects.filter(is_open=True)})
+

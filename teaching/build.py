@@ -1,0 +1,171 @@
+"""Building a trajectory table: presets, chunks, resume, assembly (DESIGN §4).
+
+A build is split into chunks of environments (the unit of work of a Celery
+task later).  Each chunk's result is written atomically to
+``<out>/chunks/<key>.npz`` where the key hashes the table identity and the
+chunk's environment ids, so a re-run skips finished chunks and yields the same
+bytes.  Assembly writes the final arrays through memory maps, so peak memory
+is a few chunks, not the table.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import secrets
+import socket
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .candidates import sample_thetas
+from .environments import N_ENVIRONMENTS, stratified_sample
+from .features import default_normalisers
+from .planner import PlannerSettings, plan_chunk, planner_identity
+from .table import TableError, TrajectoryTable
+from .world import WORLD, world_fingerprint
+
+
+@dataclass(frozen=True)
+class Preset:
+    name: str
+    n_envs: int  # N_ENVIRONMENTS = the whole grid, else a stratified sample
+    n_thetas: int
+    sampler: str = "log-uniform"
+    seed: int = 0
+    chunk_size: int = 32
+
+    def env_ids(self) -> np.ndarray:
+        if self.n_envs >= N_ENVIRONMENTS:
+            return np.arange(N_ENVIRONMENTS)
+        return stratified_sample(self.n_envs, seed=self.seed)
+
+
+PRESETS = {
+    "tiny": Preset("tiny", n_envs=48, n_thetas=24, chunk_size=16),
+    "demo": Preset("demo", n_envs=1200, n_thetas=200),
+    "paper": Preset("paper", n_envs=N_ENVIRONMENTS, n_thetas=1000),
+}
+
+
+def get_preset(name: str) -> Preset:
+    try:
+        return PRESETS[name]
+    except KeyError:
+        raise ValueError(f"unknown preset {name!r}; choose one of {', '.join(PRESETS)}") from None
+
+
+def chunk_key(identity: dict, env_ids: np.ndarray) -> str:
+    h = hashlib.sha256(json.dumps(identity, sort_keys=True).encode())
+    h.update(np.ascontiguousarray(env_ids, dtype=np.int64).tobytes())
+    return h.hexdigest()[:24]
+
+
+def table_identity(preset: Preset, thetas: np.ndarray, normalisers: np.ndarray) -> dict:
+    return {
+        "preset": preset.name, "sampler": preset.sampler, "seed": preset.seed,
+        "world": world_fingerprint(), "normalisers": [float(v) for v in normalisers],
+        "thetas_sha": hashlib.sha256(np.ascontiguousarray(thetas).tobytes()).hexdigest()[:16],
+        "planner": planner_identity(),
+    }
+
+
+def chunks_of(env_ids: np.ndarray, size: int) -> list[np.ndarray]:
+    return [env_ids[i:i + size] for i in range(0, len(env_ids), size)]
+
+
+def chunk_path(out, key: str) -> Path:
+    return Path(out) / "chunks" / f"{key}.npz"
+
+
+def build_chunk(out: Path, identity: dict, env_ids, thetas, normalisers, settings=PlannerSettings()) -> tuple[str, bool]:
+    """Compute one chunk unless it is already stored.  Returns (key, computed)."""
+    key = chunk_key(identity, env_ids)
+    path = chunk_path(out, key)
+    if path.exists():
+        return key, False
+    result = plan_chunk(env_ids, thetas, normalisers, settings)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    # unique across machines sharing the chunk directory, not just across processes
+    tmp = path.with_name(f".{key}.{socket.gethostname()}.{os.getpid()}.{secrets.token_hex(4)}.tmp.npz")
+    np.savez(tmp, env_ids=np.asarray(env_ids), **result)
+    os.replace(tmp, path)  # atomic: a killed worker leaves no half chunk behind
+    return key, True
+
+
+def check_writable(out: Path) -> None:
+    """Create `out`/chunks and prove a file can be written there, or raise TableError.
+
+    The probe's name is unique so machines sharing the directory never race on it."""
+    try:
+        (out / "chunks").mkdir(parents=True, exist_ok=True)
+        probe = out / f".write-probe.{socket.gethostname()}.{os.getpid()}.{secrets.token_hex(4)}"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as exc:
+        raise TableError(f"cannot write to {out}: {exc.strerror or exc}") from None
+
+
+def build_table(preset: Preset, out, progress=None) -> TrajectoryTable:
+    """Build (or resume building) the preset's table in directory `out`.
+
+    progress: optional callable(done_envs, total_envs) after each chunk.
+    """
+    out = Path(out)
+    check_writable(out)
+    thetas = sample_thetas(preset.n_thetas, preset.sampler, preset.seed)
+    normalisers = default_normalisers()
+    identity = table_identity(preset, thetas, normalisers)
+    env_ids = preset.env_ids()
+    done = 0
+    for chunk in chunks_of(env_ids, preset.chunk_size):
+        build_chunk(out, identity, chunk, thetas, normalisers)
+        done += len(chunk)
+        if progress:
+            progress(done, len(env_ids))
+    return assemble(out, preset, identity, env_ids, thetas, normalisers)
+
+
+def assemble(out: Path, preset: Preset, identity: dict, env_ids, thetas, normalisers) -> TrajectoryTable:
+    """Concatenate the stored chunks into the table's memory-mapped arrays and publish it."""
+    M, N, K = len(env_ids), len(thetas), WORLD.n_knots
+    shapes = {"controls": ((M, N, K, 2), np.float32), "features": ((M, N, 5), np.float64),
+              "strategy": ((M, N), np.int8), "d_euclid": ((M, N), np.float32)}
+    # Create each .npy with its header, then write chunk rows with plain file
+    # writes: the data goes through the page cache, not this process's memory.
+    files, offsets = {}, {}
+    for name, (shape, dt) in shapes.items():
+        arr = np.lib.format.open_memmap(out / f".{name}.build.npy", mode="w+", dtype=dt, shape=shape)
+        offsets[name] = arr.offset
+        del arr
+        files[name] = open(out / f".{name}.build.npy", "r+b")
+    row = 0
+    try:
+        for chunk in chunks_of(env_ids, preset.chunk_size):
+            with np.load(chunk_path(out, chunk_key(identity, chunk))) as data:
+                if not np.array_equal(data["env_ids"], chunk):
+                    raise TableError(f"chunk for environments {chunk[0]}..{chunk[-1]} does not match its key")
+                for name, (shape, dt) in shapes.items():
+                    block = np.ascontiguousarray(data[name], dtype=dt)
+                    if block.shape != (len(chunk),) + shape[1:]:
+                        raise TableError(f"chunk {name} has shape {block.shape}, expected {(len(chunk),) + shape[1:]}")
+                    f = files[name]
+                    f.seek(offsets[name] + row * block[0].nbytes)
+                    f.write(block.tobytes())
+            row += len(chunk)
+    finally:
+        for f in files.values():
+            f.close()
+    for name in shapes:
+        os.replace(out / f".{name}.build.npy", out / f"{name}.npy")
+    table = TrajectoryTable(
+        thetas=thetas, env_ids=np.asarray(env_ids, np.int64), normalisers=normalisers,
+        meta={"preset": preset.name, "sampler": preset.sampler, "seed": preset.seed,
+              "theta_star": [float(v) for v in thetas[0]], "planner": identity["planner"],
+              "built_at": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())},
+        **{name: np.load(out / f"{name}.npy", mmap_mode="r") for name in shapes},
+    )
+    table.save(out, arrays=("thetas", "env_ids"))
+    return TrajectoryTable.load(out)

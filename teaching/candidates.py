@@ -1,0 +1,32 @@
+"""The candidate objectives Theta (DESIGN §4): theta* first, then N-1 seeded samples.
+
+The sampler and seed are part of a table's identity.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .world import THETA_STAR
+
+SAMPLERS = ("log-uniform", "sphere")
+
+
+def sample_thetas(n: int, sampler: str = "log-uniform", seed: int = 0, theta_star=THETA_STAR) -> np.ndarray:
+    """(n, 5) candidate thetas, row 0 = theta_star.
+
+    log-uniform: each component negative, |theta_i| = |theta*_i| * 10^U(-1, 1)
+    (within one decade either side).  sphere: uniform on the negative orthant
+    of the unit sphere (|N(0, I)| normalised, negated).
+    """
+    if n < 2:
+        raise ValueError(f"need at least 2 candidate thetas (theta* and one other), got {n}")
+    if sampler not in SAMPLERS:
+        raise ValueError(f"unknown sampler {sampler!r}; choose one of {', '.join(SAMPLERS)}")
+    rng = np.random.default_rng(seed)
+    star = np.asarray(theta_star, dtype=float)
+    if sampler == "log-uniform":
+        rest = -np.abs(star) * 10.0 ** rng.uniform(-1.0, 1.0, size=(n - 1, len(star)))
+    else:
+        g = np.abs(rng.standard_normal((n - 1, len(star))))
+        rest = -g / np.linalg.norm(g, axis=1, keepdims=True)
+    return np.vstack([star, rest])

@@ -1,0 +1,50 @@
+"""Ideal-user evaluation (paper, "Analysis of Approximate Inference Models with Ideal Users").
+
+* the matrix P_M(θ* | sequence chosen for model M') for every sequence M'
+  (rows: the 7 models' greedy sequences + random, as in the paper's figure)
+  and every ideal user M (columns: the 7 models);
+* the number of examples of each strategy cluster in each sequence, laid out
+  as the paper's 2 × 4 grid (column = environment class, row = its first /
+  second strategy).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .learners import MODEL_NAMES, Distances, LearnerModel, p_theta_star
+from .strategies import N_CLUSTERS
+
+# The paper's 8 sequences: one per model (prob-strategy's equals det-strategy's) and random.
+SEQUENCE_NAMES = MODEL_NAMES + ("random",)
+USER_NAMES = MODEL_NAMES
+
+
+def ideal_user_matrix(models: dict[str, LearnerModel], sequences: dict[str, list[int]], dist: Distances,
+                      sequence_names=SEQUENCE_NAMES, user_names=USER_NAMES) -> np.ndarray:
+    """(S, U) float64: entry [s, u] = P_{user u}(θ* | ξ^{θ*} in sequence s's environments).
+
+    sequences: name -> environment indices (table rows).
+    """
+    out = np.zeros((len(sequence_names), len(user_names)))
+    for i, s in enumerate(sequence_names):
+        for j, u in enumerate(user_names):
+            out[i, j] = p_theta_star(models[u], dist, sequences[s])
+    return out
+
+
+def cluster_counts(clusters: np.ndarray, envs) -> np.ndarray:
+    """(8,) int: how many of ``envs`` (table rows) show θ* in each strategy cluster.
+
+    clusters: (M,) θ*'s cluster per environment.  Repeated examples count each time.
+    """
+    return np.bincount(clusters[np.asarray(envs, dtype=np.int64)], minlength=N_CLUSTERS)[:N_CLUSTERS]
+
+
+def cluster_grid(counts: np.ndarray) -> np.ndarray:
+    """(8,) -> (2, 4): column = class (merging, braking, tailgating, other), row = strategy 1 / 2."""
+    return np.asarray(counts).reshape(4, 2).T.copy()
+
+
+def examples_per_cluster(clusters: np.ndarray, sequences: dict[str, list[int]], names=SEQUENCE_NAMES) -> np.ndarray:
+    """(S, 2, 4) int grids for the sequences ``names``."""
+    return np.stack([cluster_grid(cluster_counts(clusters, sequences[n])) for n in names])

@@ -1,0 +1,399 @@
+"""Compiled (Numba) kernels: rollout, features, and the objective with its
+exact gradient and Hessian, for one trajectory at a time.
+
+Decision variables z (K, 2) lie in [-1, 1]; the controls are
+u_k = z_k * [steer_rate_max, accel_max], held for `steps_per_knot` steps.
+
+The minimised objective is F(z) = sum_i w_i phi_i(z) + road(z) with
+w = -theta / |theta| / normalisers (so F is in normalised reward units, sign
+flipped), and road(z) = sum_t road_penalty(x_t) the stiff C2 penalty that keeps
+the car on the road (a constraint of the world, not a feature).
+
+Exact derivatives, with s_t the state after t steps and J_t = ds_t/dz:
+  grad F = sum_t J_t^T grad l_t  (+ the acceleration term, quadratic in z)
+  hess F = sum_t J_t^T M_t J_t,  M_t = hess l_t + sum_k lam_{t+1,k} hess f_k(s_t)
+where l_t is the stage cost at s_t, f the Euler step and lam the costate
+(lam_T = grad l_T, lam_t = grad l_t + A_t^T lam_{t+1}).  Controls enter the
+step linearly, so these are all the second-order terms.  The steering clip
+(never active at an optimum) is treated as constant where it binds.
+"""
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+from numba import njit, prange
+from numba.core import config as numba_config
+
+from .world import WORLD, world_fingerprint
+
+# The kernels freeze the world's constants when they compile, but Numba's disk
+# cache is keyed on this file alone: a changed constant in world.py would load a
+# stale kernel.  So the cache lives in a directory named by the world's
+# fingerprint (the locator is fixed when each function below is decorated).
+_user_cache_dir = numba_config.CACHE_DIR
+numba_config.CACHE_DIR = os.path.join(_user_cache_dir or os.path.join(os.path.dirname(__file__), "__pycache__"),
+                                      f"numba-world-{world_fingerprint()}")
+
+DT = WORLD.dt
+WB = WORLD.wheelbase
+T = WORLD.horizon
+K = WORLD.n_knots
+SPK = WORLD.steps_per_knot
+NV = 2 * K
+W_MAX = WORLD.steer_rate_max
+A_MAX = WORLD.accel_max
+S_MAX = WORLD.steer_max
+V0 = WORLD.v_init
+H0 = math.pi / 2
+LW = WORLD.lane_width
+SIG_LAT2 = WORLD.sigma_lat**2
+SIG_LONG2 = WORLD.sigma_long**2
+EPS = WORLD.turn_smoothing
+Y_MAX = WORLD.y_reachable_max
+X_ROAD = WORLD.road_half_width - WORLD.car_width / 2  # the car's centre keeps its body on the road
+W_ROAD = WORLD.road_penalty
+ROAD_DELTA = 0.01  # ft: width of the penalty's cubic ramp
+ACTIVE_EPS = 1e-3  # widest band next to a bound in which a variable may be held fixed
+
+
+@njit(cache=True)
+def road_penalty(x):
+    """Penalty for the car's centre at lateral position x, with its first and
+    second derivatives.  Zero on the road; past the edge a cubic ramp over
+    ROAD_DELTA joins a quadratic, so the function is C2 (Newton needs a
+    continuous Hessian: a plain quadratic's jump made it oscillate) and its
+    curvature is the full 2 W_ROAD a hundredth of a foot past the edge (a plain
+    cubic's vanishing curvature there slowed Newton down)."""
+    o = abs(x) - X_ROAD
+    if o <= 0.0:
+        return 0.0, 0.0, 0.0
+    sgn = 1.0 if x > 0.0 else -1.0
+    if o < ROAD_DELTA:
+        return W_ROAD * o**3 / (3.0 * ROAD_DELTA), sgn * W_ROAD * o * o / ROAD_DELTA, 2.0 * W_ROAD * o / ROAD_DELTA
+    return W_ROAD * (o * o - ROAD_DELTA * o + ROAD_DELTA**2 / 3.0), sgn * W_ROAD * (2.0 * o - ROAD_DELTA), 2.0 * W_ROAD
+
+
+@njit(cache=True)
+def rollout_one(z, out):
+    """z (K, 2) in [-1, 1] -> out (T+1, 5) states."""
+    x, y, h, v, st = 0.0, 0.0, H0, V0, 0.0
+    out[0, 0], out[0, 1], out[0, 2], out[0, 3], out[0, 4] = x, y, h, v, st
+    for t in range(T):
+        k = t // SPK
+        xn = x + DT * v * math.cos(h)
+        yn = y + DT * v * math.sin(h)
+        hn = h + DT / WB * v * math.tan(st)
+        v = v + DT * A_MAX * z[k, 1]
+        st = min(max(st + DT * W_MAX * z[k, 0], -S_MAX), S_MAX)
+        x, y, h = xn, yn, hn
+        out[t + 1, 0], out[t + 1, 1], out[t + 1, 2], out[t + 1, 3], out[t + 1, 4] = x, y, h, v, st
+
+
+@njit(cache=True)
+def features_one(z, ox, oy, goal, smooth, out):
+    """Raw features (5,) of one trajectory; ox, oy (T+1,) other car positions."""
+    s = np.empty((T + 1, 5))
+    rollout_one(z, s)
+    clo = 0.0
+    dev = 0.0
+    turn = 0.0
+    merge = 0.0
+    for t in range(1, T + 1):
+        dx = s[t, 0] - ox[t]
+        dy = s[t, 1] - oy[t]
+        clo += math.exp(-0.5 * (dx * dx / SIG_LAT2 + dy * dy / SIG_LONG2))
+        dev += (s[t, 3] - V0) ** 2
+        d = s[t, 2] - H0
+        turn += math.sqrt(d * d + EPS * EPS) - EPS if smooth else abs(d)
+        m = max(0.0, LW - s[t, 0])
+        merge += m * m
+    acc = 0.0
+    for t in range(T):
+        acc += (s[t + 1, 3] - s[t, 3]) ** 2
+    out[0] = clo
+    out[1] = acc
+    out[2] = dev
+    out[3] = turn
+    out[4] = merge if goal == 0 else Y_MAX - s[T, 1]
+
+
+@njit(cache=True)
+def objective(z, ox, oy, goal, w):
+    """F(z) (smooth turning surrogate), value only: used in line searches."""
+    f = np.empty(5)
+    features_one(z, ox, oy, goal, True, f)
+    s = np.empty((T + 1, 5))
+    rollout_one(z, s)
+    road = 0.0
+    for t in range(1, T + 1):
+        road += road_penalty(s[t, 0])[0]
+    return w[0] * f[0] + w[1] * f[1] + w[2] * f[2] + w[3] * f[3] + w[4] * f[4] + road
+
+
+@njit(cache=True)
+def objective_grad_hess(z, ox, oy, goal, w, g, H, want_hess):
+    """F(z); fills g (NV,) and, if want_hess, H (NV, NV) with exact derivatives."""
+    S = np.empty((T + 1, 5))
+    Jall = np.zeros((T + 1, 5, NV))
+    dl = np.zeros((T + 1, 5))  # grad of the stage cost at each state
+    g[:] = 0.0
+    x, y, h, v, st = 0.0, 0.0, H0, V0, 0.0
+    S[0, 0], S[0, 1], S[0, 2], S[0, 3], S[0, 4] = x, y, h, v, st
+    clipped = np.zeros(T, np.bool_)
+    F = 0.0
+    for t in range(T):
+        k = t // SPK
+        ch, sh, tn = math.cos(h), math.sin(h), math.tan(st)
+        sec2 = 1.0 + tn * tn
+        J, Jn = Jall[t], Jall[t + 1]
+        for j in range(NV):
+            Jn[0, j] = J[0, j] - DT * v * sh * J[2, j] + DT * ch * J[3, j]
+            Jn[1, j] = J[1, j] + DT * v * ch * J[2, j] + DT * sh * J[3, j]
+            Jn[2, j] = J[2, j] + DT / WB * tn * J[3, j] + DT / WB * v * sec2 * J[4, j]
+            Jn[3, j] = J[3, j]
+            Jn[4, j] = J[4, j]
+        Jn[3, 2 * k + 1] += DT * A_MAX
+        st_new = st + DT * W_MAX * z[k, 0]
+        if abs(st_new) > S_MAX:
+            clipped[t] = True
+            st_new = S_MAX if st_new > 0 else -S_MAX
+            for j in range(NV):
+                Jn[4, j] = 0.0
+        else:
+            Jn[4, 2 * k] += DT * W_MAX
+        x, y, h, v, st = x + DT * v * ch, y + DT * v * sh, h + DT / WB * v * tn, v + DT * A_MAX * z[k, 1], st_new
+        S[t + 1, 0], S[t + 1, 1], S[t + 1, 2], S[t + 1, 3], S[t + 1, 4] = x, y, h, v, st
+        # stage cost at s_{t+1}
+        dx, dy = x - ox[t + 1], y - oy[t + 1]
+        gk = math.exp(-0.5 * (dx * dx / SIG_LAT2 + dy * dy / SIG_LONG2))
+        d = h - H0
+        rt = math.sqrt(d * d + EPS * EPS)
+        F += w[0] * gk + w[2] * (v - V0) ** 2 + w[3] * (rt - EPS)
+        dl[t + 1, 0] = -w[0] * gk * dx / SIG_LAT2
+        dl[t + 1, 1] = -w[0] * gk * dy / SIG_LONG2
+        dl[t + 1, 2] = w[3] * d / rt
+        dl[t + 1, 3] = 2.0 * w[2] * (v - V0)
+        p_road, dp_road, _ = road_penalty(x)  # the road's edge: a constraint of the world, not a feature
+        F += p_road
+        dl[t + 1, 0] += dp_road
+        if goal == 0:
+            m = max(0.0, LW - x)
+            F += w[4] * m * m
+            dl[t + 1, 0] += -2.0 * w[4] * m
+        elif t + 1 == T:
+            F += w[4] * (Y_MAX - y)
+            dl[t + 1, 1] += -w[4]
+        for i in range(5):
+            if dl[t + 1, i] != 0.0:
+                for j in range(NV):
+                    g[j] += Jn[i, j] * dl[t + 1, i]
+    ca = 2.0 * w[1] * SPK * (DT * A_MAX) ** 2  # acceleration: spk * sum_k (dt a_k)^2
+    for kk in range(K):
+        F += 0.5 * ca * z[kk, 1] ** 2
+        g[2 * kk + 1] += ca * z[kk, 1]
+    if not want_hess:
+        return F
+    H[:, :] = 0.0
+    lam = dl[T].copy()
+    M = np.zeros((5, 5))
+    N = np.empty((5, NV))
+    for t in range(T, 0, -1):
+        x, y, h, v, st = S[t, 0], S[t, 1], S[t, 2], S[t, 3], S[t, 4]
+        M[:, :] = 0.0
+        dx, dy = x - ox[t], y - oy[t]
+        gk = w[0] * math.exp(-0.5 * (dx * dx / SIG_LAT2 + dy * dy / SIG_LONG2))
+        M[0, 0] = gk * (dx * dx / SIG_LAT2**2 - 1.0 / SIG_LAT2)
+        M[0, 1] = M[1, 0] = gk * dx * dy / (SIG_LAT2 * SIG_LONG2)
+        M[1, 1] = gk * (dy * dy / SIG_LONG2**2 - 1.0 / SIG_LONG2)
+        d = h - H0
+        M[2, 2] = w[3] * EPS * EPS / (d * d + EPS * EPS) ** 1.5
+        M[3, 3] = 2.0 * w[2]
+        if goal == 0 and LW - x > 0.0:
+            M[0, 0] += 2.0 * w[4]
+        M[0, 0] += road_penalty(x)[2]
+        if t < T:  # second derivatives of the step s_t -> s_{t+1}, weighted by lam_{t+1}
+            ch, sh, tn = math.cos(h), math.sin(h), math.tan(st)
+            sec2 = 1.0 + tn * tn
+            M[2, 2] += -lam[0] * DT * v * ch - lam[1] * DT * v * sh
+            M[2, 3] += -lam[0] * DT * sh + lam[1] * DT * ch
+            M[3, 2] = M[2, 3]
+            M[3, 4] += lam[2] * DT / WB * sec2
+            M[4, 3] = M[3, 4]
+            M[4, 4] += lam[2] * DT / WB * v * 2.0 * sec2 * tn
+            # costate: lam_t = grad l_t + A_t^T lam_{t+1}
+            l0, l1, l2, l3, l4 = lam[0], lam[1], lam[2], lam[3], lam[4]
+            lam[0] = dl[t, 0] + l0
+            lam[1] = dl[t, 1] + l1
+            lam[2] = dl[t, 2] + l2 - l0 * DT * v * sh + l1 * DT * v * ch
+            lam[3] = dl[t, 3] + l3 + l0 * DT * ch + l1 * DT * sh + l2 * DT / WB * tn
+            lam[4] = dl[t, 4] + (0.0 if clipped[t] else l4) + l2 * DT / WB * v * sec2
+        J = Jall[t]
+        nz = 2 * ((t - 1) // SPK + 1)  # J_t depends only on knots before step t
+        for i in range(5):
+            for j in range(nz):
+                acc = 0.0
+                for r in range(5):
+                    acc += M[i, r] * J[r, j]
+                N[i, j] = acc
+        for a in range(nz):
+            for b in range(a, nz):
+                acc = 0.0
+                for i in range(5):
+                    acc += J[i, a] * N[i, b]
+                H[a, b] += acc
+    for a in range(NV):
+        for b in range(a):
+            H[a, b] = H[b, a]
+    for kk in range(K):
+        H[2 * kk + 1, 2 * kk + 1] += ca
+    return F
+
+
+@njit(cache=True)
+def _cholesky_solve(A, b, x):
+    """Solve A x = b for SPD A in place of a copy; False if A is not PD."""
+    n = A.shape[0]
+    L = np.zeros((n, n))
+    for i in range(n):
+        for j in range(i + 1):
+            s = A[i, j]
+            for k in range(j):
+                s -= L[i, k] * L[j, k]
+            if i == j:
+                if s <= 0.0:
+                    return False
+                L[i, i] = math.sqrt(s)
+            else:
+                L[i, j] = s / L[j, j]
+    for i in range(n):
+        s = b[i]
+        for k in range(i):
+            s -= L[i, k] * x[k]
+        x[i] = s / L[i, i]
+    for i in range(n - 1, -1, -1):
+        s = x[i]
+        for k in range(i + 1, n):
+            s -= L[k, i] * x[k]
+        x[i] = s / L[i, i]
+    return True
+
+
+@njit(cache=True)
+def newton_one(z, ox, oy, goal, w, maxiter, tol):
+    """Projected Newton on the box [-1, 1]^NV from z (modified in place).
+
+    Newton directions on the free variables with a Levenberg shift that makes
+    the reduced Hessian positive definite and adapts to how far the last step
+    could go, Armijo backtracking along the projection arc.  Returns (F, iterations).
+    """
+    g = np.empty(NV)
+    H = np.empty((NV, NV))
+    Hf = np.empty((NV, NV))
+    rhs = np.empty(NV)
+    p = np.empty(NV)
+    zf = z.reshape(NV)
+    zn = np.empty(NV)
+    F = objective_grad_hess(z, ox, oy, goal, w, g, H, True)
+    damping = 0.0
+    it = 0
+    for it in range(maxiter):
+        # epsilon-active set (Bertsekas): a variable within eps of a bound whose
+        # gradient points outward is fixed, else a Newton step for it would be
+        # clipped at the bound and could go uphill.  eps shrinks with the
+        # projected-gradient residual, so near a solution this is the exact active set.
+        pg = 0.0
+        resid = 0.0
+        for i in range(NV):
+            zi = min(1.0, max(-1.0, zf[i] - g[i]))
+            resid += (zf[i] - zi) ** 2
+            if not ((zf[i] <= -1.0 and g[i] > 0.0) or (zf[i] >= 1.0 and g[i] < 0.0)):
+                pg = max(pg, abs(g[i]))
+        if pg < tol:
+            break
+        eps_act = min(ACTIVE_EPS, math.sqrt(resid))
+        free = np.empty(NV, np.bool_)
+        for i in range(NV):
+            free[i] = not ((zf[i] <= -1.0 + eps_act and g[i] > 0.0) or (zf[i] >= 1.0 - eps_act and g[i] < 0.0))
+        scale = 0.0
+        for i in range(NV):
+            scale = max(scale, abs(H[i, i]))
+        mu = damping
+        for attempt in range(30):
+            for i in range(NV):
+                for j in range(NV):
+                    Hf[i, j] = H[i, j] if (free[i] and free[j]) else 0.0
+                Hf[i, i] = (H[i, i] if free[i] else 1.0) + mu
+                rhs[i] = -g[i] if free[i] else 0.0
+            if _cholesky_solve(Hf, rhs, p):
+                break
+            mu = max(1e-10 * (scale + 1.0), 10.0 * mu)
+        for i in range(NV):
+            if not free[i]:  # scaled gradient step: projection puts it on its bound
+                p[i] = -g[i] / max(abs(H[i, i]), 1e-12)
+        alpha = 1.0
+        accepted = False
+        Fn = F
+        for ls in range(30):
+            dec = 0.0
+            for i in range(NV):
+                zn[i] = min(1.0, max(-1.0, zf[i] + alpha * p[i]))
+                dec += g[i] * (zn[i] - zf[i])
+            Fn = objective(zn.reshape(K, 2), ox, oy, goal, w)
+            if Fn <= F + 1e-4 * dec:
+                accepted = True
+                break
+            alpha *= 0.5
+        if not accepted:
+            break
+        # Levenberg-Marquardt gain ratio: actual over predicted decrease.  Where
+        # the quadratic model was trusted too far (a short step, or a poor ratio,
+        # typically along a nearly flat direction next to the turning feature's
+        # sharp curvature) damp the next step; where it predicted well, decay
+        # back towards pure Newton.  Changing the damping on the step length
+        # alone made it oscillate on exactly those problems.
+        pred = 0.0
+        for i in range(NV):
+            si = zn[i] - zf[i]
+            hs = 0.0
+            for j in range(NV):
+                hs += H[i, j] * (zn[j] - zf[j])
+            pred -= si * (g[i] + 0.5 * hs)
+        rho = (F - Fn) / pred if pred > 0.0 else 0.0
+        if rho > 0.75 and alpha == 1.0:
+            damping = mu / 3.0 if mu / 3.0 > 1e-12 * (scale + 1.0) else 0.0
+        elif rho < 0.25 or alpha < 1.0:
+            damping = max(2.0 * mu, 1e-9 * (scale + 1.0))
+        else:
+            damping = mu
+        zf[:] = zn
+        improvement = F - Fn
+        F = objective_grad_hess(z, ox, oy, goal, w, g, H, True)
+        if improvement < 1e-13:
+            break
+    return F, it
+
+
+@njit(parallel=True, cache=True)
+def solve_batch(z, ox, oy, goal, w, maxiter, tol, F_out, it_out):
+    """Run newton_one on every problem (in parallel). z (B, K, 2) updated in place."""
+    for b in prange(z.shape[0]):
+        F, it = newton_one(z[b], ox[b], oy[b], goal[b], w[b], maxiter, tol)
+        F_out[b] = F
+        it_out[b] = it
+
+
+@njit(parallel=True, cache=True)
+def rollout_batch(z, out):
+    for b in prange(z.shape[0]):
+        rollout_one(z[b], out[b])
+
+
+@njit(parallel=True, cache=True)
+def features_batch(z, ox, oy, goal, smooth, out):
+    for b in prange(z.shape[0]):
+        features_one(z[b], ox[b], oy[b], goal[b], smooth, out[b])
+
+
+numba_config.CACHE_DIR = _user_cache_dir  # only these kernels' cache is keyed by the world

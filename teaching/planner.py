@@ -1,0 +1,219 @@
+"""Optimal trajectories xi_E^theta for many (environment, theta) at once (DESIGN §4).
+
+The objective theta . phi is non-convex (ahead of vs behind the other car), so
+a local optimiser alone is wrong.  For one chunk of environments:
+
+1. **anchors**: a few thetas spread over Theta (farthest-point order in
+   log|theta|, theta* first) are solved from every strategy seed (all of them
+   when Theta is small);
+2. **warm starts**: every theta starts from the best, under that theta, of the
+   anchor solutions in its environment, and is solved by projected Newton;
+3. **cross-theta**: every theta takes the best, under theta, of all
+   trajectories found for any theta' in that environment;
+4. **refine**: a theta that took another theta's trajectory is solved again
+   from it (it lies in a better basin), then step 3 is repeated.
+
+After step 3 every theta's stored trajectory is at least as good under theta as
+theta*'s, so d_reward >= 0 holds exactly on the stored (float32) trajectories.
+Newton uses exact Hessians (:mod:`teaching.kernels`); it is parallel over
+problems with Numba threads and holds no state between calls, so it is safe in
+a forked worker as long as the parent process has not run it (docs/decisions.md).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import kernels
+from .dynamics import rollout_np
+from .environments import get_environments, other_car_states
+from .features import raw_features, reward
+from .strategies import strategy_labels
+from .world import WORLD
+
+PLANNER_VERSION = 4  # bump whenever a change alters the trajectories it returns
+NEWTON_TOL = 1e-9  # max |projected gradient|, normalised reward units per unit of z
+REFINE_GAIN = 1e-5  # normalised reward units: 100x below the 1e-3 quality bar
+
+
+@dataclass(frozen=True)
+class PlannerSettings:
+    n_anchors: int = 8
+    all_anchors_below: int = 32  # with so few thetas the cross-theta step has little to share: multi-start all
+    anchor_iters: int = 150
+    warm_iters: int = 12
+    refine_rounds: int = 1
+
+
+def planner_identity(settings: "PlannerSettings" = None) -> dict:
+    """Everything about the planner that a stored chunk's content depends on."""
+    from dataclasses import asdict
+
+    return {"version": PLANNER_VERSION, "newton_tol": NEWTON_TOL, "refine_gain": REFINE_GAIN,
+            **asdict(settings or PlannerSettings())}
+
+
+def strategy_seeds() -> np.ndarray:
+    """The 8 strategy seeds (8, K, 2) in [-1, 1]: straight at constant / higher /
+    lower speed, lane change right (early at constant and higher speed; late
+    while braking: merge behind), lane change left (early, constant / higher speed).
+    """
+    K = WORLD.n_knots
+    lane = np.zeros(K)
+    lane[:4] = [-0.45, 0.45, 0.45, -0.45]  # one lane to the right (-steer turns towards +x) in ~2 s
+    late = np.roll(lane, 4)
+
+    def seed(steer, accel):
+        return np.stack([steer, np.full(K, accel)], axis=-1)
+
+    zero = np.zeros(K)
+    return np.array([
+        seed(zero, 0.0), seed(zero, 0.5), seed(zero, -0.5),
+        seed(lane, 0.0), seed(lane, 0.5), seed(late, -0.5),
+        seed(-lane, 0.0), seed(-lane, 0.5),
+    ])
+
+
+def objective_weights(thetas: np.ndarray, normalisers: np.ndarray) -> np.ndarray:
+    """(N, 5) weights w of the minimised F = w . phi_raw, in normalised reward units."""
+    thetas = np.atleast_2d(thetas)
+    return -thetas / np.linalg.norm(thetas, axis=1, keepdims=True) / normalisers
+
+
+def anchor_order(thetas: np.ndarray) -> np.ndarray:
+    """Farthest-point order of the thetas in log10|theta| space, starting with index 0."""
+    pts = np.log10(np.abs(thetas))
+    order = [0]
+    dist = np.linalg.norm(pts - pts[0], axis=1)
+    for _ in range(len(pts) - 1):
+        nxt = int(np.argmax(dist))
+        order.append(nxt)
+        dist = np.minimum(dist, np.linalg.norm(pts - pts[nxt], axis=1))
+    return np.array(order)
+
+
+def solve(z0, other_xy, goal, weights, maxiter):
+    """Projected Newton from z0 (B, K, 2); returns (z, F, iterations)."""
+    z = np.ascontiguousarray(z0, dtype=np.float64).copy()
+    n = len(z)
+    F = np.empty(n)
+    its = np.empty(n, np.int64)
+    if n:
+        kernels.solve_batch(z, np.ascontiguousarray(other_xy[..., 0]), np.ascontiguousarray(other_xy[..., 1]),
+                            np.asarray(goal, np.int64), np.ascontiguousarray(weights), maxiter, NEWTON_TOL, F, its)
+    return z, F, its
+
+
+def _as_stored(z):
+    """Round to the stored precision so features describe the stored trajectory exactly."""
+    return np.clip(z, -1.0, 1.0).astype(np.float32).astype(np.float64)
+
+
+def _cross_theta(pool_phi, thetas, own):
+    """Per environment, every theta takes the best pool trajectory under theta.
+
+    pool_phi (M, P, 5) normalised features, thetas (N, 5), own (M, N) index
+    into the pool of each theta's own solution.  Returns the chosen pool index
+    (M, N) (a theta keeps its own unless another is strictly better) and the
+    gain in normalised reward units (M, N).
+    """
+    rewards = np.einsum("mpf,nf->mnp", pool_phi, thetas)  # (M, N, P)
+    best = rewards.argmax(axis=2)
+    own_r = np.take_along_axis(rewards, own[..., None], 2)[..., 0]
+    best_r = np.take_along_axis(rewards, best[..., None], 2)[..., 0]
+    gain = (best_r - own_r) / np.linalg.norm(thetas, axis=1)
+    return np.where(best_r > own_r, best, own), gain
+
+
+def plan_chunk(env_ids, thetas, normalisers, settings: PlannerSettings = PlannerSettings(), stats=None):
+    """Optimal trajectories for every (environment, theta) of one chunk.
+
+    env_ids (M,), thetas (N, 5) with thetas[0] = theta*.  Returns a dict of
+    controls (M, N, K, 2) float32, features (M, N, 5) float64 (normalised),
+    strategy (M, N) int8, d_euclid (M, N) float32.  `stats`, if a dict, gets
+    solve counts and Newton iterations.
+    """
+    envs = get_environments(env_ids)
+    M, N, K = len(envs), len(thetas), WORLD.n_knots
+    oxy = other_car_states(envs)  # (M, T+1, 2)
+    weights = objective_weights(thetas, normalisers)
+    seeds = strategy_seeds()
+    S = len(seeds)
+    anchors = anchor_order(thetas)[: N if N <= settings.all_anchors_below else settings.n_anchors]
+    A = len(anchors)
+
+    def batch(env_idx, theta_idx, z0, iters):
+        z, _, its = solve(z0, oxy[env_idx], envs.goal[env_idx], weights[theta_idx], iters)
+        if stats is not None:
+            stats["solves"] = stats.get("solves", 0) + len(z)
+            stats["iterations"] = stats.get("iterations", 0) + int(its.sum())
+        return _as_stored(z)
+
+    def phi(z, env_idx):
+        return raw_features(z, oxy[env_idx], envs.goal[env_idx]) / normalisers
+
+    # 1. anchors from every seed: (M, A*S)
+    e1 = np.repeat(np.arange(M), A * S)
+    a1 = np.tile(np.repeat(anchors, S), M)
+    z_anchor = batch(e1, a1, np.tile(seeds, (M * A, 1, 1)), settings.anchor_iters).reshape(M, A * S, K, 2)
+    phi_anchor = phi(z_anchor.reshape(-1, K, 2), e1).reshape(M, A * S, 5)
+
+    # 2. each theta from its best anchor solution
+    start = np.einsum("mpf,nf->mnp", phi_anchor, thetas).argmax(axis=2)  # (M, N)
+    z0 = np.take_along_axis(z_anchor, start[..., None, None], 1)
+    e2 = np.repeat(np.arange(M), N)
+    t2 = np.tile(np.arange(N), M)
+    z = batch(e2, t2, z0.reshape(-1, K, 2), settings.warm_iters).reshape(M, N, K, 2)
+    feats = phi(z.reshape(-1, K, 2), e2).reshape(M, N, 5)
+
+    # 3-4. cross-theta, then refine the thetas that moved to another basin
+    pool_z = np.concatenate([z, z_anchor], axis=1)
+    pool_phi = np.concatenate([feats, phi_anchor], axis=1)
+    own = np.broadcast_to(np.arange(N), (M, N))
+    for _ in range(settings.refine_rounds + 1):
+        pick, gain = _cross_theta(pool_phi, thetas, own)
+        # Only a real gain says the theta was in a worse basin; re-solving after a
+        # rounding-level gain would cost a solve and change nothing.
+        moved = np.argwhere(gain > REFINE_GAIN)
+        z = np.take_along_axis(pool_z, pick[..., None, None], 1)
+        feats = np.take_along_axis(pool_phi, pick[..., None], 1)
+        if stats is not None:
+            stats["moved"] = stats.get("moved", 0) + int((pick != own).sum())
+            stats["refined"] = stats.get("refined", 0) + len(moved)
+        if not len(moved) or _ == settings.refine_rounds:
+            break
+        em, tm = moved[:, 0], moved[:, 1]
+        z_ref = batch(em, tm, z[em, tm], settings.warm_iters)
+        phi_ref = phi(z_ref, em)
+        # the refined solutions join the pool as extra candidates
+        extra = np.full((M, N, K, 2), np.nan)
+        extra_phi = np.full((M, N, 5), np.nan)
+        extra[em, tm], extra_phi[em, tm] = z_ref, phi_ref
+        # a theta with no refined solution offers a copy of its current one (no new information)
+        extra = np.where(np.isnan(extra), z, extra)
+        extra_phi = np.where(np.isnan(extra_phi), feats, extra_phi)
+        pool_z = np.concatenate([z, extra], axis=1)
+        pool_phi = np.concatenate([feats, extra_phi], axis=1)
+        own = np.broadcast_to(np.arange(N), (M, N))
+
+    # Guard in the table's own arithmetic: never worse under theta than theta*'s trajectory.
+    worse = reward(feats, thetas) < reward(feats[:, :1], thetas)
+    z = np.where(worse[..., None, None], z[:, :1], z)
+    feats = np.where(worse[..., None], feats[:, :1], feats)
+    if stats is not None:
+        stats["guarded"] = stats.get("guarded", 0) + int(worse.sum())
+
+    states = rollout_np(z)  # (M, N, T+1, 5)
+    return {
+        "controls": z.astype(np.float32),
+        "features": feats,
+        "strategy": strategy_labels(states, envs, oxy),
+        "d_euclid": euclidean_distance(states, states[:, :1]).astype(np.float32),
+    }
+
+
+def euclidean_distance(states_a, states_b) -> np.ndarray:
+    """d_euclid = (1/T) sum_{t=1..T} |(s_a,t - s_b,t) / scale|_2 (DESIGN §5), broadcast over leading axes."""
+    diff = (states_a[..., 1:, :] - states_b[..., 1:, :]) / np.asarray(WORLD.state_scale)
+    return np.linalg.norm(diff, axis=-1).mean(axis=-1)

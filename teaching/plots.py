@@ -1,0 +1,66 @@
+"""Figures in the style of the paper's: grayscale heatmaps, white = 0, black = 1 (or the max)."""
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")  # figures are written to files; no display on servers
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from .environments import CLASS_NAMES  # noqa: E402
+from .strategies import CLUSTER_NAMES  # noqa: E402
+
+
+def _ink(value: float, vmax: float) -> str:
+    return "white" if value > 0.5 * vmax else "black"
+
+
+def plot_ideal_users(matrix: np.ndarray, sequence_names, user_names, path, title: str | None = None) -> None:
+    """The paper's Fig. "sim_users": rows = sequence chosen for model, columns = ideal user."""
+    s, u = matrix.shape
+    fig, ax = plt.subplots(figsize=(1.0 + 0.9 * u, 1.0 + 0.6 * s))
+    ax.imshow(matrix, cmap="Greys", vmin=0, vmax=1, aspect="auto")
+    for i in range(s):
+        for j in range(u):
+            ax.text(j, i, f"{matrix[i, j]:.2f}", ha="center", va="center", fontsize=8,
+                    color=_ink(matrix[i, j], 1.0))
+    ax.set_xticks(range(u), user_names, rotation=45, ha="right")
+    ax.set_yticks(range(s), sequence_names)
+    ax.set_xlabel("ideal user (true learner model)")
+    ax.set_ylabel("sequence chosen for model")
+    ax.set_title(title or "P(θ* | examples)   white = 0, black = 1", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def plot_examples_shown(grids: np.ndarray, names, path, vmax: float | None = None) -> None:
+    """The paper's Fig. "examples_shown": one 2 × 4 grid per sequence (S, 2, 4).
+
+    White = 0 examples, black = vmax (4 as in the paper, or more if a sequence shows more).
+    """
+    vmax = float(max(4, grids.max()) if vmax is None else vmax)
+    n = len(names)
+    cols = min(4, n)
+    rows = int(np.ceil(n / cols))
+    fig, axes = plt.subplots(rows, cols, figsize=(2.6 * cols, 1.6 * rows + 0.6), squeeze=False)
+    for k, ax in enumerate(axes.flat):
+        if k >= n:
+            ax.axis("off")
+            continue
+        g = grids[k]
+        ax.imshow(g, cmap="Greys", vmin=0, vmax=vmax)
+        for r in range(2):
+            for c in range(4):
+                ax.text(c, r, str(int(g[r, c])), ha="center", va="center", fontsize=8, color=_ink(g[r, c], vmax))
+        ax.set_title(names[k], fontsize=9)
+        ax.set_xticks(range(4), CLASS_NAMES, fontsize=7)
+        ax.set_yticks([0, 1], ["1st", "2nd"], fontsize=7)
+    rows_doc = "; ".join(f"{CLUSTER_NAMES[2 * c].split(':')[0]}: {CLUSTER_NAMES[2 * c].split(': ')[1]} / "
+                         f"{CLUSTER_NAMES[2 * c + 1].split(': ')[1]}" for c in range(4))
+    fig.suptitle(f"examples per strategy cluster, white = 0, black = {vmax:g}\nrows 1st / 2nd: {rows_doc}",
+                 fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)

@@ -1,0 +1,297 @@
+"""Teaching algorithms: choose the environments whose θ* trajectories to show (DESIGN §6).
+
+All selectors work on a likelihood matrix L (M, N) float32 = P(ξ^{θ*}_{E_m} | θ_n)
+from a :class:`~teaching.learners.LearnerModel`, and return environment
+*indices* (rows of the table); :func:`build_sequences` maps them to ids.
+
+With weights w_n = Π_{shown} L[E, n] (uniform prior), showing E next gives
+P(θ*) = w_0 L[E, 0] / (L[E] · w), so one greedy step is one matrix-vector
+product.  For the deterministic models L is 0/1 and L·w counts surviving θ
+exactly in float32.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from .learners import MODEL_NAMES, Distances, LearnerModel, has_hyperparameter, make_model, p_curve
+from .strategies import N_CLUSTERS
+
+GRID = tuple(10.0 ** k for k in range(-5, 6))  # τ, λ ∈ {1e-5, ..., 1e5}
+MAX_EXAMPLES = 10
+MIN_RISE = 0.1  # P(θ*) must rise this much from the first to the last example
+COVERAGE_EPSILON = 1e-3  # gain in P(θ*) below which coverage takes over
+RANDOM_DRAWS, RANDOM_LENGTH = 1000, 8
+# An improvement must exceed this relative amount: float32 products cannot resolve less.
+IMPROVEMENT_RTOL = 1e-6
+CONDITIONS = ("exact", "det-reward", "det-euclidean", "det-strategy", "prob-reward", "prob-euclidean",
+              "random", "coverage-approx*", "coverage-random")
+
+
+@dataclass
+class Sequence:
+    """Environment indices in the order shown, and P(θ*) after each one (shape (n,))."""
+
+    envs: list[int]
+    p: list[float]
+    prior: float
+    added_for_coverage: list[int] = field(default_factory=list)
+
+    @property
+    def n_unique(self) -> int:
+        return len(set(self.envs))
+
+
+def theta_star_clusters(table) -> np.ndarray:
+    """(M,) strategy cluster of θ*'s trajectory in each environment."""
+    return np.asarray(table.strategy[:, 0], dtype=np.int64)
+
+
+def _candidate_p(lik: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """(M,) P(θ*) after adding each environment to the examples with weights w (N,)."""
+    score = lik @ w
+    num = lik[:, 0] * w[0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(score > 0, num / score, 0.0)
+
+
+def greedy(lik: np.ndarray, max_examples: int = MAX_EXAMPLES, allow_repeats: bool = True,
+           stop_gain: float = 0.0) -> tuple[Sequence, np.ndarray]:
+    """Greedy maximisation of P(θ* | ξ_{E_1:t}) (paper, "(Submodular) Example Selection").
+
+    lik: (M, N) float32.  Adds the environment with the highest resulting
+    P(θ*) (lowest index on ties) until ``max_examples`` or until nothing
+    improves P(θ*) — or, with ``stop_gain`` > 0, until the best gain is below
+    it.  Repeats are allowed by default: for a probabilistic learner the same
+    example lowers wrong θs again (the paper's rule counts *unique* examples).
+    Returns the sequence and the final weights w (N,) float32.
+    """
+    m, n = lik.shape
+    w = np.ones(n, np.float32)
+    p_now = 1.0 / n
+    seq = Sequence(envs=[], p=[], prior=p_now)
+    used = np.zeros(m, bool)
+    for _ in range(max_examples):
+        p = _candidate_p(lik, w)
+        if not allow_repeats:
+            p[used] = -1.0
+        best = int(np.argmax(p))
+        if p[best] <= p_now * (1 + IMPROVEMENT_RTOL) or p[best] - p_now < stop_gain:
+            break
+        seq.envs.append(best)
+        seq.p.append(float(p[best]))
+        used[best] = True
+        p_now = float(p[best])
+        w *= lik[best]
+        w /= w.max()  # keep weights away from float32 underflow; P is scale-free
+    return seq, w
+
+
+def coverage_augmented(lik: np.ndarray, clusters: np.ndarray, epsilon: float = COVERAGE_EPSILON,
+                       max_examples: int = MAX_EXAMPLES, allow_repeats: bool = True) -> Sequence:
+    """Greedy until the gain drops below ε, then one example per strategy cluster not yet shown.
+
+    clusters: (M,) θ*'s cluster per environment.  Each added example is the
+    best under the model among environments of a missing cluster (the
+    cluster whose best example gives the highest P(θ*) goes first).
+    Clusters in which θ* never shows its trajectory cannot be covered and
+    are skipped.
+    """
+    seq, w = greedy(lik, max_examples, allow_repeats, stop_gain=epsilon)
+    missing = set(np.unique(clusters).tolist()) - set(clusters[seq.envs].tolist())
+    while missing:
+        p = _candidate_p(lik, w)
+        p[~np.isin(clusters, list(missing))] = -1.0
+        best = int(np.argmax(p))
+        seq.envs.append(best)
+        seq.p.append(float(p[best]))
+        seq.added_for_coverage.append(best)
+        missing.discard(int(clusters[best]))
+        w *= lik[best]
+        if w.max() > 0:
+            w /= w.max()
+    return seq
+
+
+@dataclass
+class SweepRow:
+    value: float
+    sequence: Sequence
+
+    @property
+    def rise(self) -> float:
+        p = self.sequence.p
+        return p[-1] - p[0] if p else 0.0
+
+
+def sweep(model: LearnerModel, dist: Distances, grid=GRID, max_examples: int = MAX_EXAMPLES,
+          allow_repeats: bool = True, buffer: np.ndarray | None = None) -> list[SweepRow]:
+    """Greedy sequences of ``model`` for every τ / λ in ``grid``."""
+    rows = []
+    for value in grid:
+        lik = model.with_value(value).likelihood(dist, out=buffer)
+        rows.append(SweepRow(float(value), greedy(lik, max_examples, allow_repeats)[0]))
+    return rows
+
+
+def choose_hyperparameter(rows: list[SweepRow], min_rise: float = MIN_RISE) -> tuple[float, bool]:
+    """The paper's rule: among values whose P(θ*) rises by >= min_rise from the first to
+    the last example, the one showing the most unique examples.
+
+    Ties go to the higher final P(θ*), then to the smaller value.  When no
+    value qualifies, returns the one with the largest rise (same tie-breaks)
+    and False, so callers can report that the rule was not met.
+    """
+    def key(r):
+        return (r.sequence.n_unique, r.sequence.p[-1] if r.sequence.p else 0.0, -r.value)
+
+    ok = [r for r in rows if r.rise >= min_rise - 1e-12]
+    if ok:
+        return max(ok, key=key).value, True
+    return max(rows, key=lambda r: (r.rise,) + key(r)).value, False
+
+
+def random_baseline(dist: Distances, rng: np.random.Generator, n_draws: int = RANDOM_DRAWS,
+                    length: int = RANDOM_LENGTH) -> tuple[list[int], np.ndarray, int]:
+    """Draw n_draws random sequences of ``length`` distinct environments, rank them by
+    exact-IRL P(θ*) (stable: ties keep draw order), return the median one.
+
+    Returns (sequence, P of every draw (n_draws,), index of the chosen draw).
+    """
+    m = dist.shape[0]
+    length = min(length, m)
+    draws = np.stack([rng.choice(m, size=length, replace=False) for _ in range(n_draws)])
+    exact = make_model("exact")
+    p = np.array([_p_of(exact, dist, d) for d in draws])
+    order = np.argsort(p, kind="stable")
+    chosen = int(order[(n_draws - 1) // 2])
+    return draws[chosen].tolist(), p, chosen
+
+
+def _p_of(model, dist, seq) -> float:
+    curve = p_curve(model, dist, seq)
+    return float(curve[-1]) if len(curve) else 1.0 / dist.shape[1]
+
+
+def coverage_random(clusters: np.ndarray, rng: np.random.Generator) -> list[int]:
+    """One random environment from each cluster in which θ* appears, in cluster order."""
+    out = []
+    for c in range(N_CLUSTERS):
+        members = np.flatnonzero(clusters == c)
+        if len(members):
+            out.append(int(rng.choice(members)))
+    return out
+
+
+@dataclass
+class TeachingResult:
+    """Everything the selectors produce for one table (indices are table rows)."""
+
+    models: dict[str, LearnerModel]  # the 7 user models with their chosen τ / λ
+    sequences: dict[str, Sequence]  # per model name, plus random / coverage conditions
+    sweeps: dict[str, list[SweepRow]]
+    rule_met: dict[str, bool]
+    random_p: np.ndarray  # exact-IRL P(θ*) of the 1000 random draws
+
+
+def fitted_model(name: str, dist: Distances, hyperparameters: dict, grid=GRID, max_examples: int = MAX_EXAMPLES,
+                 allow_repeats: bool = True, buffer=None):
+    """The learner model `name` with its τ / λ: the value in `hyperparameters`, else the
+    paper's sweep rule.  Returns (model, sweep rows, rule met); the last two are None
+    when nothing was swept."""
+    model = make_model(name, hyperparameters.get(name))
+    if not has_hyperparameter(model) or name in hyperparameters:
+        return model, None, None
+    rows = sweep(model, dist, grid, max_examples, allow_repeats, buffer)
+    value, met = choose_hyperparameter(rows)
+    return model.with_value(value), rows, met
+
+
+def random_draws(table, dist: Distances, seed: int):
+    """(random envs, coverage-random envs, exact-IRL P(θ*) of every random draw), from one
+    seeded stream: the random baseline draws first, coverage-random after it."""
+    rng = np.random.default_rng(seed)
+    envs, random_p, _ = random_baseline(dist, rng)
+    return envs, coverage_random(theta_star_clusters(table), rng), random_p
+
+
+def condition_sequence(table, name: str, seed: int = 0, approx_star: str = "det-euclidean",
+                       hyperparameters: dict | None = None, grid=GRID, epsilon: float = COVERAGE_EPSILON,
+                       max_examples: int = MAX_EXAMPLES, allow_repeats: bool = True, dist: Distances | None = None):
+    """One condition's sequence on its own (the unit of a worker's task): the same result as
+    ``teach(...).sequences[name]``.  Returns (Sequence, its model, rule met or None)."""
+    if name not in CONDITIONS:
+        raise ValueError(f"unknown condition {name!r}; choose from {', '.join(CONDITIONS)}")
+    hyperparameters = dict(hyperparameters or {})
+    dist = dist or Distances(table)
+    buffer = np.empty(dist.shape, np.float32)
+
+    def fit(model_name):
+        return fitted_model(model_name, dist, hyperparameters, grid, max_examples, allow_repeats, buffer)
+
+    if name in ("random", "coverage-random"):
+        random_envs, coverage_envs, _ = random_draws(table, dist, seed)
+        model, _, met = fit("exact" if name == "random" else approx_star)
+        return _evaluated(random_envs if name == "random" else coverage_envs, model, dist), model, met
+    model, _, met = fit(approx_star if name == "coverage-approx*" else name)
+    lik = model.likelihood(dist, out=buffer)
+    if name == "coverage-approx*":
+        return coverage_augmented(lik, theta_star_clusters(table), epsilon, max_examples, allow_repeats), model, met
+    return greedy(lik, max_examples, allow_repeats)[0], model, met
+
+
+def teach(table, seed: int = 0, approx_star: str = "det-euclidean", hyperparameters: dict | None = None,
+          grid=GRID, epsilon: float = COVERAGE_EPSILON, max_examples: int = MAX_EXAMPLES,
+          allow_repeats: bool = True, progress: bool = False, dist: Distances | None = None) -> TeachingResult:
+    """Run every selector on ``table``: hyperparameter sweeps, the 7 model sequences,
+    random, coverage-approx* and coverage-random.  Seeded and deterministic.
+
+    hyperparameters: {model name: τ or λ} fixes a value instead of sweeping.  Each model is
+    swept once and the random stream drawn once, so this is cheaper than calling
+    :func:`condition_sequence` per condition, with the same results.
+    """
+    hyperparameters = dict(hyperparameters or {})
+    for name, value in hyperparameters.items():
+        make_model(name, value)  # validates name and value
+    make_model(approx_star)
+    if table.n_envs == 0:
+        raise ValueError("the table has no environments")
+    dist = dist or Distances(table)
+    buffer = np.empty(dist.shape, np.float32)
+    models, sequences, sweeps, rule_met = {}, {}, {}, {}
+    names = MODEL_NAMES
+    bar = tqdm(total=len(names) + 1, desc="teaching", disable=not progress)
+    for name in names:
+        model, rows, met = fitted_model(name, dist, hyperparameters, grid, max_examples, allow_repeats, buffer)
+        if rows is not None:
+            sweeps[name], rule_met[name] = rows, met
+        models[name] = model
+        lik = model.likelihood(dist, out=buffer)
+        sequences[name] = greedy(lik, max_examples, allow_repeats)[0]
+        if name == approx_star:
+            sequences["coverage-approx*"] = coverage_augmented(
+                lik, theta_star_clusters(table), epsilon, max_examples, allow_repeats)
+        bar.update()
+    random_envs, coverage_envs, random_p = random_draws(table, dist, seed)
+    sequences["random"] = _evaluated(random_envs, models["exact"], dist)
+    sequences["coverage-random"] = _evaluated(coverage_envs, models[approx_star], dist)
+    bar.update()
+    bar.close()
+    return TeachingResult(models, sequences, sweeps, rule_met, random_p)
+
+
+def _evaluated(envs: list[int], model, dist) -> Sequence:
+    return Sequence(envs=list(envs), p=p_curve(model, dist, envs).tolist(), prior=1.0 / dist.shape[1])
+
+
+def build_sequences(table, seed: int = 0, approx_star: str = "det-euclidean", **kwargs) -> dict[str, list[int]]:
+    """The study's conditions (CONDITIONS) -> environment *ids* in the order to show.
+
+    approx_star: the model that coverage-approx* augments (the paper's best,
+    det-euclidean, by default).  Other keyword arguments go to :func:`teach`.
+    """
+    result = teach(table, seed=seed, approx_star=approx_star, **kwargs)
+    ids = np.asarray(table.env_ids)
+    return {c: [int(i) for i in ids[result.sequences[c].envs]] for c in CONDITIONS}

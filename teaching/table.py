@@ -1,0 +1,188 @@
+"""The trajectory table: the optimal trajectory of every (environment, theta).
+
+Layout on disk (a directory)::
+
+    meta.json                  identity: preset, sampler, seed, world fingerprint,
+                               normalisers, shapes, chunk list, content hash
+    thetas.npy                 (N, 5) float64, thetas[0] is theta_star
+    env_ids.npy                (M,) int64
+    controls.npy               (M, N, K, 2) float32 knot controls [steer rate, accel],
+                               as fractions of the bounds (teaching.dynamics)
+    features.npy               (M, N, 5) float64 normalised features
+    strategy.npy               (M, N) int8 cluster 0..7
+    d_euclid.npy               (M, N) float32 distance of each theta's trajectory to theta_star's
+
+The content hash covers every array byte and the identity fields, so a
+table that was altered (or built under other world constants) is refused.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .environments import Environments, environment_class, get_environments, other_car_states
+from .world import world_fingerprint
+
+ARRAYS = ("thetas", "env_ids", "controls", "features", "strategy", "d_euclid")
+FORMAT_VERSION = 1
+
+
+class TableError(ValueError):
+    """A table that cannot be used: missing, corrupt, or built under other constants."""
+
+
+@dataclass
+class TrajectoryTable:
+    thetas: np.ndarray
+    env_ids: np.ndarray
+    controls: np.ndarray
+    features: np.ndarray
+    strategy: np.ndarray
+    d_euclid: np.ndarray
+    normalisers: np.ndarray
+    meta: dict = field(default_factory=dict)
+
+    theta_star_index = 0
+
+    @property
+    def n_envs(self) -> int:
+        return len(self.env_ids)
+
+    @property
+    def n_thetas(self) -> int:
+        return len(self.thetas)
+
+    @property
+    def theta_star(self) -> np.ndarray:
+        return self.thetas[0]
+
+    @property
+    def environments(self) -> Environments:
+        return get_environments(self.env_ids)
+
+    @property
+    def env_class(self) -> np.ndarray:
+        return environment_class(self.environments)
+
+    def rewards(self) -> np.ndarray:
+        """(M, N) reward of each theta's own trajectory under that theta."""
+        from .features import reward
+
+        return reward(self.features, self.thetas)
+
+    def d_reward(self) -> np.ndarray:
+        """(M, N) theta.phi(xi^theta) - theta.phi(xi^theta*), >= 0 after the cross-theta step."""
+        from .features import reward
+
+        return self.rewards() - reward(self.features[:, :1], self.thetas)
+
+    def states(self, env_index, theta_index) -> np.ndarray:
+        """Robot states (..., T+1, 5) of the stored trajectories (rolled out from the controls)."""
+        from .dynamics import rollout_np
+
+        return rollout_np(self.controls[env_index, theta_index])
+
+    def other_car(self, env_index) -> np.ndarray:
+        """Other car positions (..., T+1, 2)."""
+        idx = np.atleast_1d(env_index)
+        out = other_car_states(get_environments(self.env_ids[idx]))
+        return out if np.ndim(env_index) else out[0]
+
+    # --- persistence -------------------------------------------------------
+    def save(self, path, arrays=ARRAYS) -> str:
+        """Write the table to directory `path`; returns the content hash.
+
+        Each file is written to a temporary name and renamed, and meta.json
+        (with the hash) goes last, so a reader never sees a half-written table.
+        `arrays` names the arrays to (re)write; the builder passes only the
+        small ones because it has already put the large ones in place.
+        """
+        path = Path(path)
+        try:
+            path.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise TableError(f"cannot write table to {path}: {exc.strerror}") from exc
+        if not os.access(path, os.W_OK):
+            raise TableError(f"cannot write table to {path}: not writable")
+        for name in arrays:
+            tmp = path / f".{name}.tmp.npy"
+            np.save(tmp, np.ascontiguousarray(getattr(self, name)))
+            os.replace(tmp, path / f"{name}.npy")
+        meta = dict(self.meta)
+        meta.update(
+            format_version=FORMAT_VERSION,
+            world=world_fingerprint(),
+            normalisers=[float(v) for v in self.normalisers],
+            shape={"envs": self.n_envs, "thetas": self.n_thetas},
+        )
+        meta["content_hash"] = content_hash(self, meta)
+        self.meta = meta
+        tmp = path / ".meta.json.tmp"
+        tmp.write_text(json.dumps(meta, indent=2, sort_keys=True))
+        os.replace(tmp, path / "meta.json")
+        return meta["content_hash"]
+
+    @classmethod
+    def load(cls, path, mmap: bool = True, verify: bool = True) -> "TrajectoryTable":
+        """Load a saved table (arrays memory-mapped read-only by default).
+
+        Raises TableError for a missing table, one built under other world
+        constants, or (verify=True) one whose bytes do not match its hash.
+        """
+        path = Path(path)
+        try:
+            meta = json.loads((path / "meta.json").read_text())
+        except FileNotFoundError:
+            raise TableError(f"no trajectory table at {path} (meta.json missing)") from None
+        if meta.get("world") != world_fingerprint():
+            raise TableError(
+                f"table at {path} was built with other world constants "
+                f"({meta.get('world')} != {world_fingerprint()}); rebuild it")
+        try:
+            arrays = {n: np.load(path / f"{n}.npy", mmap_mode="r" if mmap else None) for n in ARRAYS}
+        except (FileNotFoundError, ValueError) as exc:
+            raise TableError(f"table at {path} is incomplete or corrupt: {exc}") from None
+        table = cls(**arrays, normalisers=np.array(meta["normalisers"]), meta=meta)
+        if verify and content_hash(table, meta) != meta.get("content_hash"):
+            raise TableError(f"table at {path} does not match its content hash: it was altered or is corrupt")
+        return table
+
+
+IDENTITY = ("preset", "sampler", "seed", "world", "normalisers", "format_version")
+
+
+def content_hash(table: TrajectoryTable, meta: dict) -> str:
+    """sha256 over the identity fields and every array's dtype, shape and bytes."""
+    h = hashlib.sha256()
+    h.update(json.dumps({k: meta.get(k) for k in IDENTITY}, sort_keys=True).encode())
+    for name in ARRAYS:
+        a = getattr(table, name)
+        h.update(f"{name}{a.dtype.str}{a.shape}".encode())
+        for block in _blocks(a):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _blocks(a: np.ndarray, step: int = 1 << 26):
+    """The array's bytes in 64 MB blocks.  A memory-mapped array is read from its
+    file instead of through the map, so hashing a 3 GB table does not make 3 GB
+    of it resident in this process."""
+    if isinstance(a, np.memmap) and a.filename and a.flags.c_contiguous and a.base is not None:
+        with open(a.filename, "rb") as f:
+            f.seek(a.offset)
+            left = a.nbytes
+            while left:
+                block = f.read(min(step, left))
+                if not block:
+                    raise TableError(f"{a.filename} is shorter than its header says")
+                yield block
+                left -= len(block)
+        return
+    flat = np.ascontiguousarray(a).reshape(-1).view(np.uint8)
+    for i in range(0, len(flat), step):
+        yield flat[i:i + step]

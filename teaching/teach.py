@@ -1,0 +1,175 @@
+"""Command line: teaching sequences, test set and ideal-user analysis for one table.
+
+    python -m teaching.teach --table var/tables/demo --out var/teaching/demo
+
+writes to --out:
+    sequences.json             every condition's environment ids, P(θ*) curve, chosen τ/λ and sweeps
+    test_set.json              the 6 test environments and their 4 options
+    matrix.json                ideal-user matrix P_M(θ* | sequence for M'), rows = sequences
+    examples_per_cluster.json  2 × 4 cluster grids per sequence
+    sim_users.png, examples_shown.png
+
+Bad input (unknown model, τ/λ <= 0, a table without θ*, no environments,
+an unreadable table, a table with no valid test set) prints one line to
+stderr and exits with status 2.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .evaluation import SEQUENCE_NAMES, USER_NAMES, examples_per_cluster, ideal_user_matrix
+from .learners import Distances, make_model, model_names
+from .selection import CONDITIONS, COVERAGE_EPSILON, teach, theta_star_clusters
+from .table import TableError, TrajectoryTable
+from .testset import MIN_OPTION_DISTANCE, MIN_REGRET, TestSetError, select_test_set
+from .world import THETA_STAR
+
+EXIT_BAD_INPUT = 2
+
+
+class InputError(ValueError):
+    """Bad command-line input: reported in one line, exit status 2."""
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(prog="python -m teaching.teach", description=__doc__.split("\n\n")[0])
+    p.add_argument("--table", required=True, help="trajectory table directory")
+    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--approx-star", default="det-euclidean", help="model that coverage-approx* augments")
+    p.add_argument("--hyper", action="append", default=[], metavar="MODEL=VALUE",
+                   help="fix τ or λ of a model instead of sweeping (repeatable)")
+    p.add_argument("--epsilon", type=float, default=COVERAGE_EPSILON, help="coverage gain threshold ε")
+    p.add_argument("--min-regret", type=float, default=MIN_REGRET)
+    p.add_argument("--min-option-distance", type=float, default=MIN_OPTION_DISTANCE)
+    p.add_argument("--no-progress", action="store_true")
+    return p.parse_args(argv)
+
+
+def parse_hyper(items: list[str]) -> dict[str, float]:
+    out = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep:
+            raise InputError(f"--hyper expects MODEL=VALUE, got {item!r}")
+        try:
+            v = float(value)
+        except ValueError:
+            raise InputError(f"--hyper {item!r}: {value!r} is not a number") from None
+        try:
+            make_model(name, v)
+        except ValueError as exc:
+            raise InputError(str(exc)) from None
+        out[name] = v
+    return out
+
+
+def check_table(table) -> None:
+    """Refuse tables the selectors cannot use."""
+    if table.n_envs == 0:
+        raise InputError("the table has no environments (empty environment set)")
+    if table.n_thetas == 0:
+        raise InputError("the table has no candidate objectives θ (it must contain θ* as theta 0)")
+    expected = np.asarray(table.meta.get("theta_star", THETA_STAR), np.float64)
+    if not np.allclose(np.asarray(table.thetas[0]), expected):
+        raise InputError(f"the table does not contain θ* as theta 0: thetas[0] = {np.asarray(table.thetas[0]).tolist()}, "
+                         f"θ* = {expected.tolist()}")
+
+
+def run(args) -> dict:
+    hyper = parse_hyper(args.hyper)
+    if args.approx_star not in model_names():
+        raise InputError(f"--approx-star: unknown learner model {args.approx_star!r}; "
+                         f"choose from {', '.join(model_names())}")
+    if not args.epsilon > 0:
+        raise InputError(f"--epsilon must be > 0, got {args.epsilon}")
+    try:
+        table = TrajectoryTable.load(args.table)
+    except TableError as exc:
+        raise InputError(str(exc)) from None
+    check_table(table)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+
+    dist = Distances(table)
+    result = teach(table, seed=args.seed, approx_star=args.approx_star, hyperparameters=hyper,
+                   epsilon=args.epsilon, progress=not args.no_progress, dist=dist)
+    ids = np.asarray(table.env_ids)
+    envs = {k: s.envs for k, s in result.sequences.items()}
+    seq_json = {
+        "table": {"path": str(args.table), "content_hash": table.meta.get("content_hash"),
+                  "envs": table.n_envs, "thetas": table.n_thetas},
+        "seed": args.seed, "approx_star": args.approx_star, "epsilon": args.epsilon,
+        "conditions": {k: _seq_json(result.sequences[k], ids) for k in CONDITIONS},
+        "model_sequences": {k: _seq_json(result.sequences[k], ids) for k in USER_NAMES},
+        "hyperparameters": {k: {"param": m.param, "value": m.value, "rule_met": result.rule_met.get(k),
+                                "fixed": k in hyper,
+                                "sweep": [{"value": r.value, "n_examples": len(r.sequence.envs),
+                                           "n_unique": r.sequence.n_unique, "p": r.sequence.p}
+                                          for r in result.sweeps.get(k, [])]}
+                            for k, m in result.models.items()},
+    }
+    _write(out / "sequences.json", seq_json)
+
+    try:
+        tests = select_test_set(table, [ids[e].tolist() for e in envs.values()], seed=args.seed,
+                                min_regret=args.min_regret, min_distance=args.min_option_distance)
+    except TestSetError as exc:
+        tests = {"error": str(exc)}
+    _write(out / "test_set.json", tests)
+
+    matrix = ideal_user_matrix(result.models, envs, dist)
+    ext_names = SEQUENCE_NAMES + ("coverage-approx*", "coverage-random")
+    extended = ideal_user_matrix(result.models, envs, dist, sequence_names=ext_names)
+    _write(out / "matrix.json", {"sequence_names": list(SEQUENCE_NAMES), "user_names": list(USER_NAMES),
+                                 "matrix": matrix.tolist(), "extended_sequence_names": list(ext_names),
+                                 "extended_matrix": extended.tolist(),
+                                 "models": {k: str(m) for k, m in result.models.items()}})
+    grids = examples_per_cluster(theta_star_clusters(table), envs, ext_names)
+    _write(out / "examples_per_cluster.json", {"layout": "grid[row][col]: col = class (merging, braking, "
+                                               "tailgating, other), row = 1st/2nd strategy (cluster 2*col+row)",
+                                               "grids": {n: g.tolist() for n, g in zip(ext_names, grids)}})
+    from .plots import plot_examples_shown, plot_ideal_users
+
+    plot_ideal_users(matrix, SEQUENCE_NAMES, USER_NAMES, out / "sim_users.png")
+    plot_examples_shown(grids[:len(SEQUENCE_NAMES)], SEQUENCE_NAMES, out / "examples_shown.png")
+    if "error" in tests:  # everything else is written; the study cannot run without tests
+        raise InputError(f"test set: {tests['error']} (other outputs were written to {out})")
+    return {"sequences": seq_json, "test_set": tests, "matrix": matrix}
+
+
+def _seq_json(seq, ids) -> dict:
+    return {"env_ids": [int(i) for i in ids[seq.envs]], "p_theta_star": seq.p,
+            "added_for_coverage": [int(i) for i in ids[seq.added_for_coverage]]}
+
+
+def _write(path: Path, obj) -> None:
+    path.write_text(json.dumps(obj, indent=1, default=_np_default))
+
+
+def _np_default(o):
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    raise TypeError(type(o).__name__)
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    try:
+        run(args)
+    except InputError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,68 @@
+"""Constants of the driving world (units: feet, seconds, radians).
+
+Everything a trajectory table depends on lives in :data:`WORLD`, whose
+:func:`world_fingerprint` is stored with every table so that a table built
+under other constants is refused on load.  See docs/calibration.md for why
+each number is what it is.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class World:
+    lane_width: float = 12.0
+    lane_centres: tuple = (-12.0, 0.0, 12.0)  # left, centre, right; x grows to the right
+    wheelbase: float = 9.0
+    car_length: float = 15.0  # drawn body only
+    car_width: float = 6.0
+    horizon: int = 20  # T steps
+    dt: float = 0.25  # seconds per step -> 5 s
+    v_init: float = 50.0
+    # Controls are piecewise constant over `n_knots` segments of T / n_knots steps.
+    n_knots: int = 10
+    steer_rate_max: float = 0.4  # rad/s: fastest lane change ~1.5 s at 50 ft/s
+    accel_max: float = 10.0  # ft/s^2 both ways: 50 ft/s cannot brake below 0 in 5 s, so no clamp on v
+    steer_max: float = 0.5  # rad, steering angle is clipped here
+    sigma_long: float = 20.0  # closeness kernel, along the other car's heading
+    sigma_lat: float = 6.0  # closeness kernel, across it
+    road_half_width: float = 18.0  # three 12 ft lanes; the car's centre stays within 18 - car_width/2
+    road_penalty: float = 10.0  # W in W (ft outside)^2, normalised reward units: overshoot ~0.005 ft
+    turn_smoothing: float = 1e-2  # rad: |dh| ~ sqrt(dh^2 + eps^2) - eps inside the optimiser
+    # Euclidean learner: per-dimension scale of [x, y, heading, v, steer]
+    state_scale: tuple = (12.0, 12.0, 0.1, 10.0, 0.05)
+
+    @property
+    def steps_per_knot(self) -> int:
+        return self.horizon // self.n_knots
+
+    @property
+    def control_bounds(self) -> np.ndarray:
+        """(2,) upper bounds on |steer rate|, |acceleration|."""
+        return np.array([self.steer_rate_max, self.accel_max])
+
+    @property
+    def y_reachable_max(self) -> float:
+        """Furthest y_T: full throttle straight ahead (explicit Euler)."""
+        t = np.arange(self.horizon)
+        return float(self.dt * np.sum(self.v_init + self.accel_max * self.dt * t))
+
+
+WORLD = World()
+THETA_STAR = np.array([-64.0, -0.1, -1.0, -0.1, -0.5])
+FEATURE_NAMES = ("closeness", "acceleration", "speed_deviation", "turning", "goal_distance")
+
+# Goals and lanes (indices used in the environment grid).
+GOAL_MERGE, GOAL_FORWARD = 0, 1
+GOAL_NAMES = ("merge right", "drive forward")
+
+
+def world_fingerprint(world: World = WORLD) -> str:
+    """Short stable hash of the world constants."""
+    blob = json.dumps(asdict(world), sort_keys=True).encode()
+    return hashlib.sha256(blob).hexdigest()[:16]

@@ -1,0 +1,91 @@
+"""Shared fixtures.  Django is configured by pytest-django (pytest.ini sets
+DJANGO_SETTINGS_MODULE); the teaching tests use none of these fixtures, and
+every Django import here happens inside a fixture so they stay Django-free.
+"""
+from __future__ import annotations
+
+import pytest
+
+SMALL_SEQUENCES = {"alpha": [100, 5000, 12000], "beta": [7000, 15000], "gamma": [300, 20000]}
+
+
+@pytest.fixture
+def make_study(db):
+    """Factory: a placeholder-trajectory study with the given conditions (default: 3 short ones)."""
+    from studyapp.studies import build_study
+
+    def make(slug="s1", sequences=None, **extra):
+        sequences = sequences or SMALL_SEQUENCES
+        spec = {"slug": slug, "name": f"Study {slug}", "target_per_condition": 10,
+                "conditions": [{"name": n, "env_ids": ids} for n, ids in sequences.items()], **extra}
+        return build_study(spec)
+
+    return make
+
+
+@pytest.fixture
+def study(make_study):
+    return make_study()
+
+
+@pytest.fixture
+def staff_client(client, django_user_model):
+    user = django_user_model.objects.create_user("staff", password="pw-staff-123", is_staff=True)
+    client.force_login(user)
+    return client
+
+
+def answer_payload(participant, step):
+    """A valid POST body (dict of lists) for `step` of `participant` (theta*'s option chosen, rated 6)."""
+    if step.kind == "consent":
+        return {"consent": ["yes"]}
+    if step.kind == "instructions":
+        return {"ack": ["1"]}
+    if step.kind == "training":
+        return {"played": ["1"]}
+    if step.kind == "test":
+        options = participant.study.test_set[step.item]["options"]
+        star = next(k for k, o in enumerate(options) if o["is_theta_star"])
+        body = {"choice": [str(star)], "played": [str(k) for k in range(len(options))]}
+        body.update({f"rating_{k}": ["6" if k == star else "2"] for k in range(len(options))})
+        return body
+    if step.kind == "attention":
+        return {"goals": ["merge", "forward"]}
+    if step.kind == "demographics":
+        return {"age": ["34"], "gender": ["female"]}
+    raise ValueError(step.kind)
+
+
+@pytest.fixture
+def answer_for():
+    return answer_payload
+
+
+def complete_flow(participant, choices=None, attentive=True, stop_before=None):
+    """Record valid answers for every step of `participant` up to the completion page.
+
+    choices: the option picked in each test (default theta*'s); attentive=False fails the
+    attention check (only one of the two goals); stop_before: a step kind to stop at.
+    """
+    from django.http import QueryDict
+
+    from studyapp import flow
+
+    for step in flow.steps_for(participant)[:-1]:
+        if stop_before and step.kind == stop_before:
+            break
+        body = answer_payload(participant, step)
+        if step.kind == "test" and choices:
+            body["choice"] = [str(choices[step.item])]
+        if step.kind == "attention" and not attentive:
+            body = {"goals": ["forward"]}
+        q = QueryDict(mutable=True)
+        for k, v in body.items():
+            q.setlist(k, v)
+        participant = flow.record(participant, step.index, q)
+    return participant
+
+
+@pytest.fixture
+def complete():
+    return complete_flow

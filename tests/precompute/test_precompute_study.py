@@ -1,0 +1,109 @@
+"""Study jobs: one task per condition, then the test set, with an in-process worker."""
+from __future__ import annotations
+
+import io
+
+import pytest
+from django.core.management import CommandError, call_command
+
+from precompute import jobs
+from precompute.models import Job
+from precompute.sequences import condition_sequence
+from teaching.selection import CONDITIONS, build_sequences
+from teaching.synthetic import synthetic_table
+from teaching.table import TrajectoryTable
+from teaching.testset import select_test_set
+
+
+@pytest.fixture(scope="module")
+def table_path(tmp_path_factory):
+    """A saved synthetic table (300 environments × 80 thetas): every condition and a test set exist."""
+    path = tmp_path_factory.mktemp("synthetic")
+    synthetic_table(300, 80, n_candidates=6, seed=4).save(path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def expected(table_path):
+    table = TrajectoryTable.load(table_path)
+    seqs = build_sequences(table, seed=0)
+    return seqs, select_test_set(table, list(seqs.values()), seed=0)
+
+
+@pytest.mark.parametrize("hyper", [{}, {"det-euclidean": 0.1, "prob-reward": 10.0}])
+def test_each_condition_alone_equals_the_whole_teaching_run(table_path, hyper):
+    table = TrajectoryTable.load(table_path)
+    whole = build_sequences(table, seed=7, hyperparameters=hyper)
+    for name in CONDITIONS:
+        one = condition_sequence(table, name, seed=7, hyperparameters=hyper)
+        assert one["env_ids"] == whole[name], name
+        assert len(one["p"]) == len(one["env_ids"])
+    assert condition_sequence(table, "det-euclidean", hyperparameters=hyper)["value"] == hyper.get(
+        "det-euclidean", condition_sequence(table, "det-euclidean")["value"])
+
+
+@pytest.mark.slow
+def test_build_study_command_stores_sequences_on_the_conditions(
+        inprocess_worker, transactional_db, table_path, expected):
+    from studyapp.models import Study
+
+    seqs, tests = expected
+    out, err = io.StringIO(), io.StringIO()
+    call_command("build_study", "--table", str(table_path), "--slug", "syn", "--name", "Synthetic",
+                 "--wait", "--timeout", "180", stdout=out, stderr=err)
+    study = Study.objects.get(slug="syn")
+    assert study.is_open and study.name == "Synthetic"
+    assert [c.name for c in study.conditions.all()] == list(CONDITIONS)
+    for c in study.conditions.all():
+        assert c.env_ids == seqs[c.name], c.name
+        assert all(len(env["robot"]) == len(env["other"]) > 2 for env in c.training)
+    assert [t["env_id"] for t in study.test_set] == [t["env_id"] for t in tests]
+    job = Job.objects.get(kind=Job.STUDY)
+    assert job.status == Job.SUCCEEDED and job.chunks_done == job.chunks_total == len(CONDITIONS) + 1
+    assert set(job.result["conditions"]) == set(CONDITIONS)
+    assert "test set:" in out.getvalue() and f"{len(CONDITIONS) + 1}/{len(CONDITIONS) + 1} parts" in err.getvalue()
+
+    # a retry recomputes no condition: each one is already frozen on its Condition
+    before = {p.key: p.finished_at for p in job.parts.all()}
+    job = jobs.wait(jobs.retry(job), progress=False, timeout=180)
+    assert job.status == Job.SUCCEEDED
+    assert {p.key: p.finished_at for p in job.parts.all()} == before
+    assert [c.env_ids for c in Study.objects.get(slug="syn").conditions.all()] == [seqs[c] for c in CONDITIONS]
+
+
+@pytest.mark.slow
+def test_build_study_subset_closed(inprocess_worker, transactional_db, table_path, expected):
+    from studyapp.models import Study
+
+    call_command("build_study", "--table", str(table_path), "--slug", "two", "--conditions", "exact,random",
+                 "--closed", "--wait", "--no-progress", "--timeout", "180", stdout=io.StringIO())
+    study = Study.objects.get(slug="two")
+    assert not study.is_open and len(study.test_set) == 6
+    assert [c.name for c in study.conditions.all()] == ["exact", "random"]
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--table", "/nonexistent/table", "--slug", "x"], "no trajectory table at /nonexistent/table"),
+    (["--preset", "nope", "--slug", "x"], "build it first: manage.py precompute_table"),
+    (["--slug", "x", "--conditions", "exact,greedy"], "unknown condition(s) greedy"),
+    (["--slug", "x", "--conditions", "exact,exact"], "a condition is listed twice"),
+    (["--slug", "x", "--hyper", "det-euclidean"], "--hyper expects MODEL=VALUE"),
+    (["--slug", "x", "--hyper", "det-euclidean=-1"], "must be a finite number > 0"),
+    (["--slug", "x", "--hyper", "psychic=1"], "unknown learner model 'psychic'"),
+    (["--slug", "x", "--approx-star", "psychic"], "unknown learner model 'psychic'"),
+    (["--slug", "x", "--target-per-condition", "0"], "--target-per-condition must be positive"),
+])
+def test_build_study_rejects_bad_arguments(db, table_path, argv, message, settings, tmp_path):
+    settings.VAR_DIR = tmp_path
+    if "--table" not in argv and "--preset" not in argv:
+        argv = ["--table", str(table_path)] + argv
+    with pytest.raises(CommandError) as info:
+        call_command("build_study", *argv)
+    assert message in str(info.value)
+    assert not Job.objects.exists()
+
+
+def test_build_study_refuses_to_overwrite(db, table_path, make_study):
+    make_study(slug="taken")
+    with pytest.raises(CommandError, match="exists; pass --replace"):
+        call_command("build_study", "--table", str(table_path), "--slug", "taken")

@@ -1,0 +1,89 @@
+"""Balanced assignment: least-filled condition, counting completed + recently active, random tie-break."""
+from collections import Counter
+from datetime import timedelta
+
+import pytest
+from django.utils import timezone
+
+from studyapp import assignment
+from studyapp.models import Participant
+
+pytestmark = pytest.mark.django_db
+
+
+def counts(study):
+    return Counter(Participant.objects.filter(study=study).exclude(platform="preview")
+                   .values_list("condition__name", flat=True))
+
+
+def test_sequential_arrivals_fill_conditions_evenly(study):
+    for i in range(31):
+        assignment.assign(study, "prolific", f"p{i}")
+    c = counts(study)
+    assert sum(c.values()) == 31 and max(c.values()) - min(c.values()) <= 1
+
+
+def test_tie_break_is_random(make_study):
+    firsts = set()
+    for i in range(30):
+        s = make_study(f"tie{i}")
+        firsts.add(assignment.assign(s).condition.name)
+    assert firsts == {"alpha", "beta", "gamma"}  # P(miss one) = 3 * (2/3)^30 < 1e-5
+
+
+def test_abandoned_participants_free_their_place(study):
+    stale = assignment.assign(study, "prolific", "stale")
+    Participant.objects.filter(pk=stale.pk).update(last_seen_at=timezone.now() - timedelta(hours=2))
+    # stale no longer counts: the three conditions are all empty, so stale's condition can be picked again;
+    # with two fresh arrivals in the other two conditions, the next goes to stale's condition for sure.
+    others = [c for c in study.conditions.all() if c != stale.condition]
+    for i, c in enumerate(others):
+        Participant.objects.create(study=study, condition=c, platform="prolific", platform_pid=f"o{i}")
+    assert assignment.assign(study, "prolific", "new").condition == stale.condition
+    assert assignment.condition_counts(study)[stale.condition.pk] == 1
+
+
+def test_completed_count_but_excluded_and_previews_do_not(study):
+    a, b, c = study.conditions.all()
+    old = timezone.now() - timedelta(days=1)
+    Participant.objects.create(study=study, condition=a, completed_at=old, last_seen_at=old)  # counts
+    Participant.objects.create(study=study, condition=b, completed_at=old, last_seen_at=old, excluded=True)
+    assignment.preview_participant(c)
+    assert assignment.condition_counts(study) == {a.pk: 1, b.pk: 0, c.pk: 0}
+    picked = {assignment.assign(study, "prolific", f"x{i}").condition.name for i in range(2)}
+    assert picked == {b.name, c.name}
+
+
+def test_targets_weight_the_fill(make_study):
+    s = make_study("weighted", sequences={"big": [100], "small": [200]})
+    big = s.conditions.get(name="big")
+    big.target = 30
+    big.save()
+    s.target_per_condition = 10
+    s.save()
+    for i in range(40):
+        assignment.assign(s, "prolific", f"w{i}")
+    assert counts(s) == {"big": 30, "small": 10}
+
+
+def test_returning_id_never_gets_a_second_condition(study):
+    first = assignment.assign(study, "mturk", "W1")
+    for _ in range(10):
+        assert assignment.assign(study, "mturk", "W1").pk == first.pk
+    # the same id on another platform is another person
+    assert assignment.assign(study, "prolific", "W1").pk != first.pk
+
+
+def test_closed_study_raises(study):
+    study.is_open = False
+    study.save()
+    with pytest.raises(assignment.StudyClosed):
+        assignment.assign(study, "prolific", "late")
+
+
+def test_unique_constraint_backs_up_the_lock(study):
+    from django.db import IntegrityError, transaction
+
+    p = assignment.assign(study, "prolific", "dup")
+    with pytest.raises(IntegrityError), transaction.atomic():
+        Participant.objects.create(study=study, condition=p.condition, platform="prolific", platform_pid="dup")

@@ -1,0 +1,288 @@
+"""The participant's flow: every step renders, answers are stored once, bad input is a 4xx that writes nothing."""
+import pytest
+from django.test import Client
+from django.urls import reverse
+
+from studyapp import flow
+from studyapp.models import Answer, Participant
+
+pytestmark = pytest.mark.django_db
+
+
+@pytest.fixture
+def participant(client, study):
+    client.get(reverse("entry", args=[study.slug]), {"PROLIFIC_PID": "flow1", "STUDY_ID": "S", "SESSION_ID": "X"})
+    return Participant.objects.get()
+
+
+def url(p, step=None):
+    if step is None:
+        return reverse("step", args=[p.study.slug, p.token])
+    return reverse("answer", args=[p.study.slug, p.token, step])
+
+
+def advance(client, p, answer_for, until_kind):
+    """Answer steps with valid data until the participant stands on a step of `until_kind`."""
+    p.refresh_from_db()
+    while flow.current_step(p).kind != until_kind:
+        step = flow.current_step(p)
+        r = client.post(url(p, step.index), answer_for(p, step))
+        assert r.status_code == 302, r.content[:300]
+        p.refresh_from_db()
+    return flow.current_step(p)
+
+
+def snapshot():
+    return (list(Answer.objects.values_list("pk", "step", "data")),
+            list(Participant.objects.values_list("pk", "position", "excluded", "completed_at")))
+
+
+def test_every_step_renders_in_order(client, participant, answer_for):
+    seen = []
+    p = participant
+    while True:
+        step = flow.current_step(p)
+        r = client.get(url(p))
+        assert r.status_code == 200
+        assert r["Cache-Control"].count("no-store") == 1  # back/reload always refetches the current step
+        seen.append(step.kind)
+        if step.kind == "done":
+            break
+        assert client.post(url(p, step.index), answer_for(p, step)).status_code == 302
+        p.refresh_from_db()
+    n_train = len(p.condition.training)
+    assert seen == ["consent", "instructions"] + ["training"] * n_train + ["test"] * 6 + [
+        "attention", "demographics", "done"]
+    assert Answer.objects.filter(participant=p).count() == len(seen) - 1
+
+
+def test_training_page_carries_the_trajectory(client, participant, answer_for):
+    advance(client, participant, answer_for, "training")
+    r = client.get(url(participant))
+    env = participant.condition.training[0]
+    assert r.context["env"]["env_id"] == env["env_id"]
+    assert b'id="env-data"' in r.content and b"training.js" in r.content
+    assert len(env["robot"]) == 21 and len(env["robot"][0]) == 5 and len(env["other"]) == 21
+
+
+def test_test_page_shows_options_in_the_participants_order(client, participant, answer_for):
+    step = advance(client, participant, answer_for, "test")
+    r = client.get(url(participant))
+    order = participant.option_orders[step.item]
+    assert [o["id"] for o in r.context["options"]] == order
+    assert [o["label"] for o in r.context["options"]] == ["A", "B", "C", "D"]
+    test = participant.study.test_set[step.item]
+    assert r.context["option_robots"]["A"] == test["options"][order[0]]["robot"]
+    assert b"is_theta_star" not in r.content  # the page never reveals which option is theta*'s
+
+
+def test_test_answer_is_scored(client, participant, answer_for):
+    step = advance(client, participant, answer_for, "test")
+    options = participant.study.test_set[step.item]["options"]
+    star = next(k for k, o in enumerate(options) if o["is_theta_star"])
+    wrong = (star + 1) % 4
+    body = answer_for(participant, step)
+    body.update(choice=[str(wrong)], **{f"rating_{wrong}": ["5"]})
+    assert client.post(url(participant, step.index), body).status_code == 302
+    a = Answer.objects.get(participant=participant, step=step.index)
+    assert (a.kind, a.item, a.chosen_option, a.correct, a.confidence_score) == ("test", 0, wrong, False, -5)
+    assert a.data["order"] == participant.option_orders[0] and a.data["ratings"][wrong] == 5
+    # the next test, answered right with confidence 6
+    step = advance(client, participant, answer_for, "test")
+    client.post(url(participant, step.index), answer_for(participant, step))
+    a = Answer.objects.get(participant=participant, step=step.index)
+    assert (a.correct, a.confidence_score) == (True, 6)
+
+
+def test_repeated_post_is_idempotent(client, participant, answer_for):
+    step = advance(client, participant, answer_for, "test")
+    body = answer_for(participant, step)
+    assert client.post(url(participant, step.index), body).status_code == 302
+    before = snapshot()
+    r = client.post(url(participant, step.index), body)
+    assert r.status_code == 302 and r["Location"] == url(participant)
+    r = client.post(url(participant, step.index), body, HTTP_ACCEPT="application/json")
+    assert r.status_code == 200 and r.json()["ok"] is True
+    assert snapshot() == before
+
+
+def test_back_button_cannot_reanswer(client, participant, answer_for):
+    step = advance(client, participant, answer_for, "test")
+    client.post(url(participant, step.index), answer_for(participant, step))
+    before = snapshot()
+    changed = answer_for(participant, step)
+    changed["rating_0"] = ["1"] if changed["rating_0"] != ["1"] else ["7"]
+    r = client.post(url(participant, step.index), changed)
+    assert r.status_code == 409 and b"already answered" in r.content
+    assert snapshot() == before
+
+
+def test_answer_for_a_future_step_is_409(client, participant, answer_for):
+    step = advance(client, participant, answer_for, "training")
+    r = client.post(url(participant, step.index + 1), {"played": ["1"]})
+    assert r.status_code == 409
+    assert client.post(url(participant, 999), {"x": "1"}).status_code == 404
+
+
+def test_token_of_another_study_is_404(client, participant, make_study):
+    other = make_study("other")
+    before = snapshot()
+    r = client.get(reverse("step", args=[other.slug, participant.token]))
+    assert r.status_code == 404
+    r = client.post(reverse("answer", args=[other.slug, participant.token, 0]), {"consent": "yes"})
+    assert r.status_code == 404
+    assert client.get(reverse("step", args=[participant.study.slug, "no-such-token"])).status_code == 404
+    assert snapshot() == before
+
+
+def test_get_on_answer_url_is_405(client, participant):
+    assert client.get(url(participant, 0)).status_code == 405
+
+
+def _bad(body, **changes):
+    body = {k: list(v) for k, v in body.items()}
+    for k, v in changes.items():
+        if v is None:
+            body.pop(k, None)
+        else:
+            body[k] = v
+    return body
+
+
+@pytest.mark.parametrize("changes, message", [
+    ({"rating_0": ["0"]}, b"between 1 and 7"),
+    ({"rating_1": ["8"]}, b"between 1 and 7"),
+    ({"rating_2": ["abc"]}, b"whole number"),
+    ({"rating_3": None}, b"required"),
+    ({"rating_3": ["3", "4"]}, b"exactly one"),
+    ({"rating_4": ["3"]}, b"unknown option"),
+    ({"choice": ["4"]}, b"unknown option"),
+    ({"choice": ["-1"]}, b"unknown option"),
+    ({"choice": ["B"]}, b"unknown option"),
+    ({"choice": None}, b"required"),
+    ({"played": ["0", "1", "2"]}, b"played"),
+    ({"played": None}, b"played"),
+])
+def test_bad_test_answers_are_400_and_write_nothing(client, participant, answer_for, changes, message):
+    step = advance(client, participant, answer_for, "test")
+    before = snapshot()
+    r = client.post(url(participant, step.index), _bad(answer_for(participant, step), **changes))
+    assert r.status_code == 400 and message in r.content
+    r = client.post(url(participant, step.index), _bad(answer_for(participant, step), **changes),
+                    HTTP_ACCEPT="application/json")
+    assert r.status_code == 400 and r.json()["ok"] is False
+    assert snapshot() == before
+
+
+@pytest.mark.parametrize("kind, body, status", [
+    ("consent", {}, 400),
+    ("consent", {"consent": "maybe"}, 400),
+    ("instructions", {}, 400),
+    ("training", {"played": "0"}, 400),
+    ("training", {}, 400),
+    ("attention", {}, 400),
+    ("attention", {"goals": ["merge", "fly"]}, 400),
+    ("demographics", {"age": "17", "gender": "female"}, 400),
+    ("demographics", {"age": "121", "gender": "female"}, 400),
+    ("demographics", {"age": "thirty", "gender": "female"}, 400),
+    ("demographics", {"age": "30", "gender": "robot"}, 400),
+    ("demographics", {"age": "30"}, 400),
+])
+def test_bad_answers_on_other_steps(client, participant, answer_for, kind, body, status):
+    step = advance(client, participant, answer_for, kind)
+    before = snapshot()
+    assert client.post(url(participant, step.index), body).status_code == status
+    assert snapshot() == before
+
+
+def test_declining_consent_writes_nothing(client, participant):
+    r = client.post(url(participant, 0), {"consent": "no"})
+    assert r.status_code == 200 and b"chose not to take part" in r.content
+    assert not Answer.objects.exists()
+
+
+def test_attention_check_failure_excludes_but_keeps(client, participant, answer_for):
+    step = advance(client, participant, answer_for, "attention")
+    client.post(url(participant, step.index), {"goals": ["merge", "park"]})
+    participant.refresh_from_db()
+    a = Answer.objects.get(participant=participant, kind="attention")
+    assert participant.excluded and a.data == {"goals": ["merge", "park"], "passed": False}
+    advance(client, participant, answer_for, "done")
+    participant.refresh_from_db()
+    assert participant.completed_at is not None and participant.excluded
+
+
+def test_attention_check_pass(client, participant, answer_for):
+    step = advance(client, participant, answer_for, "attention")
+    client.post(url(participant, step.index), {"goals": ["forward", "merge"]})
+    participant.refresh_from_db()
+    assert not participant.excluded
+    assert Answer.objects.get(participant=participant, kind="attention").data["passed"] is True
+
+
+def test_completion_redirect_only_after_last_answer(client, participant, answer_for):
+    step = advance(client, participant, answer_for, "demographics")
+    r = client.get(url(participant))
+    assert b"prolific.com" not in r.content and participant.completed_at is None
+    client.post(url(participant, step.index), {"age": "40", "gender": "other", "gender_text": "x"})
+    participant.refresh_from_db()
+    assert participant.completed_at is not None and participant.completion_code
+    demo = Answer.objects.get(participant=participant, kind="demographics")
+    assert demo.data == {"age": 40, "gender": "other", "gender_text": "x"}
+    r = client.get(url(participant))
+    target = f"https://app.prolific.com/submissions/complete?cc={participant.completion_code}"
+    assert r.context["redirect_url"] == target
+    assert target.encode() in r.content and b'http-equiv="refresh"' in r.content
+    # nothing more can be answered once done
+    assert client.post(url(participant, step.index + 1), {"x": "1"}).status_code == 409
+
+
+def test_study_wide_completion_code(client, make_study, answer_for):
+    s = make_study("coded", completion_code="C0DE123")
+    client.get(reverse("entry", args=[s.slug]), {"PROLIFIC_PID": "z"})
+    p = Participant.objects.get(study=s)
+    advance(client, p, answer_for, "done")
+    p.refresh_from_db()
+    assert p.completion_code == "C0DE123"
+
+
+def test_mturk_completion_posts_back_to_turk(client, study, answer_for):
+    client.get(reverse("entry", args=[study.slug]), {"workerId": "W9", "assignmentId": "A9", "hitId": "H9",
+                                                     "turkSubmitTo": "https://workersandbox.mturk.com"})
+    p = Participant.objects.get()
+    advance(client, p, answer_for, "done")
+    r = client.get(url(p))
+    assert b'action="https://workersandbox.mturk.com/mturk/externalSubmit"' in r.content
+    assert b'name="assignmentId" value="A9"' in r.content
+
+
+def test_anonymous_completion_shows_code_without_redirect(study, answer_for):
+    c = Client()
+    c.get(reverse("entry", args=[study.slug]))
+    p = Participant.objects.get()
+    advance(c, p, answer_for, "done")
+    r = c.get(url(p))
+    p.refresh_from_db()
+    assert p.completion_code.encode() in r.content and "redirect_url" not in r.context
+
+
+def test_visiting_updates_last_seen(client, participant):
+    before = participant.last_seen_at
+    client.get(url(participant))
+    participant.refresh_from_db()
+    assert participant.last_seen_at > before
+
+
+def test_participant_pages_can_be_framed_by_mturk_only(client, participant, staff_client):
+    for r in (client.get(url(participant)), client.get(reverse("entry", args=[participant.study.slug]))):
+        assert "X-Frame-Options" not in r
+        assert r["Content-Security-Policy"] == (
+            "frame-ancestors 'self' https://www.mturk.com https://workersandbox.mturk.com")
+    assert staff_client.get(reverse("dashboard"))["X-Frame-Options"] == "DENY"
+
+
+def test_answers_need_no_csrf_cookie(participant):
+    """Inside MTurk's cross-site iframe no cookie is sent; the token in the URL is the credential."""
+    strict = Client(enforce_csrf_checks=True)
+    assert strict.post(url(participant, 0), {"consent": "yes"}).status_code == 302
+    assert Answer.objects.filter(participant=participant, step=0).exists()

@@ -1,0 +1,69 @@
+"""`python -m teaching build|info` as a researcher runs it: summary on success, exit 2 and one
+'error: ...' line (no traceback) on bad input."""
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def run(*args, timeout=300):
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    return subprocess.run([sys.executable, "-m", "teaching", *args], cwd=ROOT, env=env, capture_output=True,
+                          text=True, timeout=timeout)
+
+
+def assert_clean_error(proc, *needles):
+    assert proc.returncode == 2, (proc.stdout, proc.stderr)
+    assert "Traceback" not in proc.stderr and "Traceback" not in proc.stdout
+    assert "error:" in proc.stderr
+    for needle in needles:
+        assert needle in proc.stderr, proc.stderr
+
+
+@pytest.mark.slow
+def test_build_tiny_then_info(tmp_path):
+    out = tmp_path / "tiny"
+    proc = run("build", "--preset", "tiny", "--out", str(out))
+    assert proc.returncode == 0, proc.stderr
+    assert "table: preset=tiny envs=48 thetas=24" in proc.stdout
+    assert "min d_reward: 0 (must be >= 0)" in proc.stdout
+    assert "theta* strategies per cluster:" in proc.stdout
+    # the stratified sample puts 12 environments in each class
+    assert "environments per class: merging 12, braking 12, tailgating 12, other 12" in proc.stdout
+    assert "built 1,152 trajectories" in proc.stdout  # 48 x 24
+    assert (out / "meta.json").exists() and (out / "features.npy").exists()
+    info = run("info", str(out))
+    assert info.returncode == 0, info.stderr
+    # info prints the same summary as the build (same table, same hash)
+    assert info.stdout.strip() == proc.stdout.strip().rsplit("\n", 1)[0].strip()
+
+
+def test_unknown_preset():
+    assert_clean_error(run("build", "--preset", "huge", "--out", "/tmp/never-written-teaching-table"),
+                       "unknown preset", "tiny")
+    assert not Path("/tmp/never-written-teaching-table").exists()
+
+
+@pytest.mark.parametrize("n", ["1", "0", "-3"])
+def test_too_few_thetas(tmp_path, n):
+    assert_clean_error(run("build", "--preset", "tiny", "--out", str(tmp_path / "t"), "--thetas", n), "--thetas")
+    assert not (tmp_path / "t").exists()
+
+
+def test_unwritable_output(tmp_path):
+    blocker = tmp_path / "a-file"
+    blocker.write_text("x")
+    assert_clean_error(run("build", "--preset", "tiny", "--out", str(blocker / "table")), "cannot write")
+
+
+def test_info_on_a_missing_table(tmp_path):
+    assert_clean_error(run("info", str(tmp_path / "missing")), "no trajectory table")
+
+
+def test_info_on_an_altered_table(tmp_path):
+    (tmp_path / "meta.json").write_text('{"world": "not this world"}')
+    assert_clean_error(run("info", str(tmp_path)), "other world constants")

@@ -1,0 +1,78 @@
+"""Ideal-user matrix and examples-per-cluster grids, by hand and on a synthetic table."""
+import matplotlib.image as mpimg
+import numpy as np
+import pytest
+
+from teaching.evaluation import (SEQUENCE_NAMES, USER_NAMES, cluster_counts, cluster_grid, examples_per_cluster,
+                                 ideal_user_matrix)
+from teaching.learners import Distances, make_model
+from teaching.plots import plot_examples_shown, plot_ideal_users
+from teaching.selection import teach, theta_star_clusters
+from teaching.synthetic import hand_table, synthetic_table
+
+
+def test_matrix_by_hand():
+    # 3 envs x 4 thetas
+    d_reward = np.array([[0, 0, 1, 1], [0, 1, 0, 1], [0, 0, 0, 0.0]])
+    d_euclid = np.array([[0, 2, 0, 2], [0, 0, 0, 0], [0, 2, 2, 2.0]])
+    dist = Distances(hand_table(d_reward, d_euclid))
+    models = {"exact": make_model("exact"), "det-euclidean": make_model("det-euclidean", 1.0),
+              "prob-reward": make_model("prob-reward", np.log(3.0))}
+    seqs = {"a": [0], "b": [0, 1], "c": [2]}
+    m = ideal_user_matrix(models, seqs, dist, sequence_names=("a", "b", "c"),
+                          user_names=("exact", "det-euclidean", "prob-reward"))
+    expect = np.array([
+        [1 / 2, 1 / 2, 1 / (1 + 1 + 2 / 3)],      # env 0: exact keeps {0,1}; euclid keeps {0,2}
+        [1.0, 1 / 2, 1 / (1 + 1 / 3 + 1 / 3 + 1 / 9)],
+        [1 / 4, 1.0, 1 / 4],
+    ])
+    np.testing.assert_allclose(m, expect, rtol=1e-6)
+
+
+def test_cluster_grid_layout_matches_the_paper():
+    grid = cluster_grid(np.arange(8))
+    # columns = merging, braking, tailgating, other; rows = first / second strategy
+    np.testing.assert_array_equal(grid, [[0, 2, 4, 6], [1, 3, 5, 7]])
+
+
+def test_cluster_counts_count_repeats():
+    clusters = np.array([0, 3, 3, 7, 5])
+    np.testing.assert_array_equal(cluster_counts(clusters, [1, 2, 1, 4]), [0, 0, 0, 3, 0, 1, 0, 0])
+    grids = examples_per_cluster(clusters, {"x": [0, 3], "y": []}, names=("x", "y"))
+    np.testing.assert_array_equal(grids[0], [[1, 0, 0, 0], [0, 0, 0, 1]])
+    assert grids[1].sum() == 0
+
+
+@pytest.fixture(scope="module")
+def result():
+    table = synthetic_table(120, 50, n_candidates=5, seed=21)
+    return table, Distances(table), teach(table, seed=0)
+
+
+def test_paper_matrix_shape_and_diagonal(result):
+    table, dist, res = result
+    envs = {k: s.envs for k, s in res.sequences.items()}
+    m = ideal_user_matrix(res.models, envs, dist)
+    assert m.shape == (8, 7) and SEQUENCE_NAMES[-1] == "random" and len(USER_NAMES) == 7
+    assert np.all((m >= 0) & (m <= 1))
+    # prob-strategy and det-strategy are the same user and the same sequence
+    np.testing.assert_allclose(m[:, 3], m[:, 6])
+    np.testing.assert_allclose(m[3], m[6])
+    # each deterministic user is taught best by its own sequence unless the cap binds
+    for j, name in enumerate(USER_NAMES):
+        if name in ("exact", "det-reward", "det-euclidean", "det-strategy") and len(envs[name]) < 10:
+            assert m[j, j] == pytest.approx(m[:, j].max())
+
+
+def test_figures_are_grayscale_white_zero_black_one(tmp_path, result):
+    table, dist, res = result
+    path = tmp_path / "sim.png"
+    plot_ideal_users(np.array([[0.0, 1.0]]), ["s"], ["u0", "u1"], path)
+    img = mpimg.imread(path)[..., :3]
+    assert img.shape[0] > 50
+    # the image is gray: R = G = B everywhere
+    assert np.allclose(img[..., 0], img[..., 1]) and np.allclose(img[..., 1], img[..., 2])
+    assert (img.mean(-1) < 0.05).any() and (img.mean(-1) > 0.95).any()  # a black cell and white paper
+    grids = examples_per_cluster(theta_star_clusters(table), {k: s.envs for k, s in res.sequences.items()})
+    plot_examples_shown(grids, SEQUENCE_NAMES, tmp_path / "ex.png")
+    assert (tmp_path / "ex.png").stat().st_size > 1000

@@ -1,0 +1,84 @@
+"""The command line: full run on a small saved table, and one-line errors with exit status 2."""
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from teaching.selection import CONDITIONS
+from teaching.synthetic import synthetic_table
+from teaching.table import TrajectoryTable
+from teaching.teach import main
+
+
+@pytest.fixture(scope="module")
+def saved(tmp_path_factory):
+    path = tmp_path_factory.mktemp("tables") / "syn"
+    synthetic_table(200, 40, n_candidates=6, seed=8).save(path)
+    return path
+
+
+def test_full_run_writes_every_output(saved, tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["--table", str(saved), "--out", str(out), "--no-progress"]) == 0
+    seqs = json.loads((out / "sequences.json").read_text())
+    assert tuple(seqs["conditions"]) == CONDITIONS
+    table = TrajectoryTable.load(saved)
+    ids = set(table.env_ids.tolist())
+    assert all(set(c["env_ids"]) <= ids for c in seqs["conditions"].values())
+    assert len(seqs["conditions"]["random"]["env_ids"]) == 8
+    assert len(seqs["hyperparameters"]["det-euclidean"]["sweep"]) == 11
+    tests = json.loads((out / "test_set.json").read_text())
+    assert len(tests) == 6 and all(len(t["options"]) == 4 for t in tests)
+    matrix = json.loads((out / "matrix.json").read_text())
+    assert np.array(matrix["matrix"]).shape == (8, 7)
+    assert np.array(matrix["extended_matrix"]).shape == (10, 7)
+    grids = json.loads((out / "examples_per_cluster.json").read_text())["grids"]
+    assert np.array(grids["random"]).sum() == 8
+    for png in ("sim_users.png", "examples_shown.png"):
+        assert (out / png).read_bytes()[:4] == b"\x89PNG"
+
+
+def _err(argv, capsys):
+    code = main(argv)
+    err = capsys.readouterr().err
+    return code, err
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--approx-star", "det-manhattan"], "unknown learner model 'det-manhattan'"),
+    (["--hyper", "det-manhattan=1"], "unknown learner model 'det-manhattan'"),
+    (["--hyper", "det-euclidean=0"], "must be a finite number > 0"),
+    (["--hyper", "prob-reward=-3"], "must be a finite number > 0"),
+    (["--hyper", "prob-reward"], "MODEL=VALUE"),
+])
+def test_bad_model_or_hyperparameter(saved, tmp_path, capsys, extra, message):
+    code, err = _err(["--table", str(saved), "--out", str(tmp_path / "o"), *extra], capsys)
+    assert code == 2 and message in err and err.startswith("error:") and "Traceback" not in err
+
+
+def test_table_without_theta_star(tmp_path, capsys):
+    t = synthetic_table(20, 10, seed=1)
+    t.thetas = t.thetas[1:].copy()
+    for name in ("features", "strategy", "d_euclid", "controls"):
+        setattr(t, name, np.ascontiguousarray(getattr(t, name)[:, 1:]))
+    t.save(tmp_path / "t")
+    code, err = _err(["--table", str(tmp_path / "t"), "--out", str(tmp_path / "o")], capsys)
+    assert code == 2 and "does not contain θ*" in err
+
+
+def test_empty_environment_set(tmp_path, capsys):
+    t = synthetic_table(20, 10, seed=1)
+    for name in ("env_ids", "features", "strategy", "d_euclid", "controls"):
+        setattr(t, name, np.ascontiguousarray(getattr(t, name)[:0]))
+    t.save(tmp_path / "t")
+    code, err = _err(["--table", str(tmp_path / "t"), "--out", str(tmp_path / "o")], capsys)
+    assert code == 2 and "no environments" in err
+
+
+def test_missing_table_and_real_entry_point(tmp_path):
+    proc = subprocess.run([sys.executable, "-m", "teaching.teach", "--table", str(tmp_path / "nope"),
+                           "--out", str(tmp_path / "o")], capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert "no trajectory table" in proc.stderr and "Traceback" not in proc.stderr
