@@ -27,11 +27,13 @@ def condition_stats(study: Study) -> list[dict]:
         active=Count("participants", filter=real & ~done & Q(participants__last_seen_at__gte=cutoff)),
         abandoned=Count("participants", filter=real & ~done & Q(participants__last_seen_at__lt=cutoff)),
         counted=Count("participants", filter=counted_filter(study, now)),
+        # Valid = finished and kept: a participant who failed the attention check is excluded
+        # whether or not they finished, so "completed - excluded" would undercount.
+        valid=Count("participants", filter=real & done & Q(participants__excluded=False)),
     )
     return [{"condition": c, "target": c.target_count, "started": c.started, "completed": c.completed,
              "excluded": c.excluded, "active": c.active, "abandoned": c.abandoned, "counted": c.counted,
-             "valid": c.completed - c.excluded,
-             "percent": min(100, round(100 * (c.completed - c.excluded) / max(c.target_count, 1)))}
+             "valid": c.valid, "percent": min(100, round(100 * c.valid / max(c.target_count, 1)))}
             for c in rows]
 
 

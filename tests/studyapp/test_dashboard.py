@@ -48,6 +48,10 @@ def test_detail_counts(staff_client, study, complete):
                                         option_orders=assignment.option_orders(study)))
     complete(Participant.objects.create(study=study, condition=a, platform="prolific", platform_pid="2",
                                         option_orders=assignment.option_orders(study)), attentive=False)
+    # failed the attention check, then left before the demographics: excluded but not completed
+    complete(Participant.objects.create(study=study, condition=a, platform="prolific", platform_pid="3",
+                                        option_orders=assignment.option_orders(study)),
+             attentive=False, stop_before="demographics")
     Participant.objects.create(study=study, condition=b, last_seen_at=timezone.now() - timedelta(hours=3))
     Participant.objects.create(study=study, condition=c)
     assignment.preview_participant(c)
@@ -55,10 +59,11 @@ def test_detail_counts(staff_client, study, complete):
     assert r.status_code == 200
     rows = {row["condition"].name: row for row in r.context["stats"]}
     assert {k: rows["alpha"][k] for k in ("started", "completed", "excluded", "active", "abandoned", "valid")} == \
-        {"started": 2, "completed": 2, "excluded": 1, "active": 0, "abandoned": 0, "valid": 1}
+        {"started": 3, "completed": 2, "excluded": 2, "active": 1, "abandoned": 0, "valid": 1}
+    assert rows["alpha"]["percent"] == 10  # 1 valid of a target of 10
     assert (rows["beta"]["started"], rows["beta"]["abandoned"], rows["beta"]["active"]) == (1, 1, 0)
     assert (rows["gamma"]["started"], rows["gamma"]["active"]) == (1, 1)  # the preview is not counted
-    assert r.context["totals"]["started"] == 4
+    assert r.context["totals"]["started"] == 5
     assert b"PROLIFIC_PID={{%PROLIFIC_PID%}}" in r.content
     assert b"dashboard.js" in r.content and b'data-refresh="5"' in r.content
     assert len(r.context["recent"]) > 0

@@ -119,9 +119,11 @@ def test_back_button_cannot_reanswer(client, participant, answer_for):
 
 def test_answer_for_a_future_step_is_409(client, participant, answer_for):
     step = advance(client, participant, answer_for, "training")
+    before = snapshot()
     r = client.post(url(participant, step.index + 1), {"played": ["1"]})
     assert r.status_code == 409
     assert client.post(url(participant, 999), {"x": "1"}).status_code == 404
+    assert snapshot() == before
 
 
 def test_token_of_another_study_is_404(client, participant, make_study):
