@@ -26,8 +26,11 @@ from typing import Callable
 import numpy as np
 from scipy.special import logsumexp
 
-# d_reward at or below this counts as "optimal" for exact IRL.  The planner's
-# tolerance is used when the table records one (meta["reward_tolerance"]).
+# d_reward / |θ| at or below this counts as "optimal" for exact IRL.  It is in normalised
+# reward units (θ·φ / |θ|), the planner's own yardstick: the optimum does not change when θ
+# is scaled, so neither may the test for it (raw units would make the test 640x stricter for
+# one θ than for another).  Newton stops at a projected gradient of 1e-9, so a trajectory
+# within 1e-6 is optimal for θ to solver precision (docs/teaching.md).
 EXACT_TOLERANCE = 1e-6
 METRICS = ("reward", "euclidean", "strategy")
 
@@ -42,7 +45,11 @@ class Distances:
     def __init__(self, table, chunk: int = 1024):
         self.table = table
         self.chunk = chunk
-        self.exact_tolerance = float(table.meta.get("reward_tolerance", EXACT_TOLERANCE))
+
+    @cached_property
+    def theta_norms(self) -> np.ndarray:
+        """(N,) |θ|: d_reward / |θ| is in normalised reward units."""
+        return np.linalg.norm(np.asarray(self.table.thetas, np.float64), axis=1).astype(np.float32)
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -112,11 +119,12 @@ def check_value(name: str, value) -> float:
 @dataclass(frozen=True)
 class ExactIRL(LearnerModel):
     name: str = "exact"
+    tolerance: float = EXACT_TOLERANCE  # normalised reward units
 
     def likelihood(self, dist, rows=None, out=None):
         d = _rows(dist.reward, rows)
         out = np.empty(d.shape, np.float32) if out is None else out
-        out[...] = d <= dist.exact_tolerance
+        out[...] = d <= self.tolerance * dist.theta_norms
         return out
 
 

@@ -48,6 +48,17 @@ def test_exact_irl_keeps_exactly_the_thetas_for_which_the_shown_trajectory_is_op
     assert 0 < lik.mean() < 1  # the instance actually eliminates something and keeps something
 
 
+def test_exact_irl_tolerance_is_in_normalised_reward_units():
+    # hand_table's theta n (n >= 1) is -(n+1) e_0, so |theta_1| = 2 and |theta_9| = 10.  The same
+    # raw gap of 5e-6 is 2.5e-6 normalised for theta 1 (not optimal: eliminated) but 5e-7 for
+    # theta 9 (optimal to solver precision: kept).  Scaling theta must not change the verdict.
+    d = np.zeros((1, 10))
+    d[0, 1] = d[0, 9] = 5e-6
+    lik = make_model("exact").likelihood(Distances(hand_table(d)))
+    assert lik[0, 1] == 0 and lik[0, 9] == 1
+    assert lik[0, [0, 2, 3, 4, 5, 6, 7, 8]].all()
+
+
 def test_deterministic_likelihoods_by_hand(dist):
     np.testing.assert_array_equal(make_model("det-reward", 1.0).likelihood(dist), [[1, 1, 0, 1], [1, 1, 0, 1]])
     np.testing.assert_array_equal(make_model("det-euclidean", 0.25).likelihood(dist), [[1, 1, 1, 0], [1, 0, 1, 0]])
