@@ -63,13 +63,20 @@ def _payloads(spec: dict):
         source = {"kind": "table", "table": str(spec["table"]), "content_hash": table.meta.get("content_hash")}
     else:
         training = {c["name"]: trajectories.placeholder_training(c["env_ids"]) for c in conditions}
-        used = {e for c in conditions for e in c["env_ids"]}
+        used = {int(e) for c in conditions for e in c["env_ids"]}
         if spec.get("test_set"):
             tests = spec["test_set"]
             trajectories.check_test_set(tests)
         else:
             tests = trajectories.placeholder_test_set(exclude=used, seed=spec.get("seed", 0))
         source = {"kind": "placeholder", "note": "synthesised trajectories, not the optimal ones (docs/study.md)"}
+    # A test environment a participant already saw in training would measure recall, not
+    # anticipation of a novel situation (DESIGN §6: the test set is disjoint from training).
+    seen = {int(e) for c in conditions for e in c["env_ids"]}
+    overlap = sorted(seen & {int(t["env_id"]) for t in tests})
+    if overlap:
+        raise SpecError(f"test environments {overlap} also appear in a training sequence; "
+                        "the test set must be disjoint from every condition's training")
     return conditions, training, tests, source
 
 

@@ -92,7 +92,7 @@ def inprocess_worker(celery_app_inprocess):
 
 
 @pytest.fixture
-def redis_url():
+def redis_url(ci):
     """Redis for the real-worker tests (database 13 unless $PRECOMPUTE_TEST_REDIS says otherwise).
     Under CI=true an unreachable Redis fails the test; elsewhere it skips."""
     import redis
@@ -101,7 +101,7 @@ def redis_url():
     try:
         redis.Redis.from_url(url, socket_connect_timeout=2).ping()
     except redis.exceptions.ConnectionError as exc:
-        if os.environ.get("CI", "").lower() == "true":
+        if ci:
             raise
         pytest.skip(f"no Redis at {url}: {exc}")
     return url

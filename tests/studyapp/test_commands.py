@@ -103,6 +103,11 @@ def test_create_study_from_a_saved_table(tmp_path):
     assert s.conditions.get(name="random").env_ids == ids[3:8]
     assert [t["env_id"] for t in s.test_set] == ids[10:16]
     assert all(len(o["robot"]) == 21 for t in s.test_set for o in t["options"])
+    # a test environment that is also shown in training is refused, and nothing is created
+    spec.update(slug="tab2", test_set=[dict(tests[0], env_id=ids[4])] + tests[1:])
+    with pytest.raises(CommandError, match=rf"test environments \[{ids[4]}\] also appear in a training"):
+        call_command("create_study", str(write(tmp_path, spec)), stdout=io.StringIO())
+    assert not Study.objects.filter(slug="tab2").exists()
 
 
 def test_setup_demo_uses_the_table_when_the_pipeline_works(tmp_path, monkeypatch):

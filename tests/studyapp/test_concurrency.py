@@ -91,9 +91,9 @@ else:
 
     @pytest.mark.postgres
     @pytest.mark.slow
-    def test_concurrent_arrivals_on_postgresql():
+    def test_concurrent_arrivals_on_postgresql(ci):
         if not _postgres_reachable():
-            if os.environ.get("CI", "").lower() in ("1", "true", "yes"):
+            if ci:
                 pytest.fail(f"CI is set but PostgreSQL at {PG_URL} is unreachable")
             pytest.skip(f"PostgreSQL at {PG_URL} unreachable (allowed only outside CI)")
         # its own test database name, so parallel runs on one PostgreSQL server do not collide

@@ -188,3 +188,18 @@ def test_unwritable_output_raises_table_error(built, tmp_path):
     with pytest.raises(TableError, match="cannot write"):
         built[1].save(blocker / "table")
     assert blocker.read_text() == "not a directory"  # left as it was
+
+
+def test_every_world_constant_is_in_the_fingerprint():
+    """A table is refused when built under other world constants only because the fingerprint
+    it stores differs: so changing any one constant must change the fingerprint."""
+    from dataclasses import fields, replace
+
+    from teaching.world import WORLD
+
+    base = world_fingerprint()
+    for f in fields(WORLD):
+        value = getattr(WORLD, f.name)
+        other = tuple(v + 1 for v in value) if isinstance(value, tuple) else value + 1
+        assert world_fingerprint(replace(WORLD, **{f.name: other})) != base, f.name
+    assert world_fingerprint(replace(WORLD)) == base  # and it is stable
