@@ -61,7 +61,8 @@ for (const fieldset of options) {
 }
 
 form.addEventListener("change", () => { remember(); update(); });
-form.addEventListener("submit", () => memory.clear());
+// forget this step only once the server has it: a failed save keeps it for a reload
+form.addEventListener("studyapp:saved", () => memory.clear());
 lockOnSubmit(form);
 update();
 document.body.dataset.ready = "1";

@@ -19,7 +19,8 @@ const player = mountScene(root, env, env.robot, () => {
   unlock();
 });
 lockOnSubmit(form);
-form.addEventListener("submit", () => memory.clear());
+// forget this step only once the server has it: a failed save keeps it for a reload
+form.addEventListener("studyapp:saved", () => memory.clear());
 if (memory.load().played) {
   player.played = true;
   unlock();
