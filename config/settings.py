@@ -52,6 +52,7 @@ INSTALLED_APPS = [
 ]
 
 MIDDLEWARE = [
+    "studyapp.security.RequestLimitsMiddleware",  # body/field caps -> 413/400 (security section)
     "django.middleware.security.SecurityMiddleware",
     "whitenoise.middleware.WhiteNoiseMiddleware",
     "django.contrib.sessions.middleware.SessionMiddleware",
@@ -157,3 +158,58 @@ LOGGING = {
     "handlers": {"console": {"class": "logging.StreamHandler"}},
     "loggers": {"studyapp": {"handlers": ["console"], "level": os.environ.get("LOG_LEVEL", "INFO")}},
 }
+
+# --- security -------------------------------------------------------------------
+# Rate limits, request-size caps and the cache they count in (studyapp/security.py;
+# policy in docs/decisions.md, "Security").
+#
+# * CACHE_URL            — "redis://127.0.0.1:6379/1" for Redis; default: this process's memory.
+#                          Several server processes (gunicorn workers, machines) must share the Redis
+#                          cache, or each counts on its own and the limits multiply by their number.
+# * RATE_LIMIT_ENTRY     — "30/60": requests per seconds to a study's entry link, per client address
+# * RATE_LIMIT_ANSWER    — "60/60": answer posts per participant token
+# * RATE_LIMIT_ANSWER_IP — "600/60": answer posts per client address (a lab behind one NAT)
+#                          "off" disables one limit.
+# * TRUSTED_PROXY_COUNT  — "0": the client address is REMOTE_ADDR; n > 0: the n-th address from the
+#                          right of X-Forwarded-For (set it to the number of proxies you run in front)
+# * MAX_REQUEST_BODY     — 65536 bytes: a larger Content-Length is refused with 413 before reading
+# * MAX_REQUEST_FIELDS   — 500 form/query fields at most (400 beyond)
+
+
+def _cache(url):
+    if url.startswith(("redis://", "rediss://", "unix://")):
+        # Short timeouts: an unreachable Redis must fail fast, and the rate limiter then lets
+        # requests through (fail open) instead of holding participants.
+        return {"BACKEND": "django.core.cache.backends.redis.RedisCache", "LOCATION": url,
+                "OPTIONS": {"socket_connect_timeout": 0.5, "socket_timeout": 0.5}}
+    if url in ("", "locmem://"):
+        return {"BACKEND": "django.core.cache.backends.locmem.LocMemCache", "LOCATION": "studyapp"}
+    raise RuntimeError(f"CACHE_URL must be redis://..., rediss://... or locmem://, not {url!r}")
+
+
+def _rate(name, default):
+    """'N/SECONDS' -> (N, SECONDS); 'off' -> None."""
+    spec = os.environ.get(name, default).strip().lower()
+    if spec in ("off", "0", ""):
+        return None
+    count, _, seconds = spec.partition("/")
+    try:
+        rule = (int(count), int(seconds or "60"))
+    except ValueError:
+        raise RuntimeError(f"{name} must look like 30/60 (requests/seconds) or off, not {spec!r}") from None
+    if min(rule) < 1:
+        raise RuntimeError(f"{name}: requests and seconds must be positive, got {spec!r}")
+    return rule
+
+
+CACHES = {"default": _cache(os.environ.get("CACHE_URL", "").strip())}
+RATE_LIMIT_CACHE = "default"
+RATE_LIMIT_ENTRY = _rate("RATE_LIMIT_ENTRY", "30/60")
+RATE_LIMIT_ANSWER = _rate("RATE_LIMIT_ANSWER", "60/60")
+RATE_LIMIT_ANSWER_IP = _rate("RATE_LIMIT_ANSWER_IP", "600/60")
+TRUSTED_PROXY_COUNT = int(os.environ.get("TRUSTED_PROXY_COUNT", "0"))
+MAX_REQUEST_BODY = int(os.environ.get("MAX_REQUEST_BODY", str(64 * 1024)))
+# Django's own caps on parsed form data: at most the body cap, so a body that arrives without a
+# Content-Length (chunked) is still bounded; both end as a clean 413/400 (RequestLimitsMiddleware).
+DATA_UPLOAD_MAX_MEMORY_SIZE = MAX_REQUEST_BODY
+DATA_UPLOAD_MAX_NUMBER_FIELDS = int(os.environ.get("MAX_REQUEST_FIELDS", "500"))

@@ -124,12 +124,27 @@ def wide_rows(study: Study):
         yield row
 
 
+# A spreadsheet runs a cell that starts with one of these as a formula (OWASP "CSV injection").
+FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
+
+
+def neutralise(value):
+    """Text that a spreadsheet would read as a formula gets a leading single quote.
+
+    Only strings: they are what participants typed (platform ids, gender_text); numbers, such as a
+    confidence score of -5, are written as numbers and stay untouched.
+    """
+    if isinstance(value, str) and value.startswith(FORMULA_STARTS):
+        return "'" + value
+    return value
+
+
 def to_csv(columns, rows) -> str:
     out = io.StringIO()
     writer = csv.DictWriter(out, fieldnames=[c for c, _ in columns], extrasaction="raise", restval="")
     writer.writeheader()
     for row in rows:
-        writer.writerow(row)
+        writer.writerow({k: neutralise(v) for k, v in row.items()})
     return out.getvalue()
 
 

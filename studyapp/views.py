@@ -11,13 +11,14 @@ from django.views.decorators.clickjacking import xframe_options_exempt
 from django.views.decorators.csrf import csrf_exempt
 from django.views.decorators.http import require_GET, require_POST
 
-from . import flow
+from . import flow, security
 from .assignment import StudyClosed, assign
 from .models import Participant, Study
 
 MTURK_PREVIEW = "ASSIGNMENT_ID_NOT_AVAILABLE"
 MTURK_HOSTS = {"www.mturk.com", "workersandbox.mturk.com"}
 ID_MAX = 100
+SUBMIT_TO_MAX = Participant._meta.get_field("turk_submit_to").max_length
 
 
 FRAME_ANCESTORS = "frame-ancestors 'self' https://www.mturk.com https://workersandbox.mturk.com"
@@ -51,6 +52,8 @@ def _platform_ids(request):
             "platform_study_id": values["STUDY_ID"], "platform_session_id": values["SESSION_ID"]}
     if values["workerId"]:
         submit_to = values["turkSubmitTo"]
+        if len(submit_to) > SUBMIT_TO_MAX:  # the column's length: longer would fail in PostgreSQL
+            raise ValueError(f"turkSubmitTo is at most {SUBMIT_TO_MAX} characters")
         if submit_to and urlparse(submit_to).hostname not in MTURK_HOSTS:
             raise ValueError("turkSubmitTo must be an mturk.com address")
         return Participant.MTURK, values["workerId"], {
@@ -61,6 +64,7 @@ def _platform_ids(request):
 
 @participant_page
 @require_GET
+@security.rate_limit("RATE_LIMIT_ENTRY", by="ip")
 def entry(request, slug):
     study = get_object_or_404(Study, slug=slug)
     if request.GET.get("assignmentId") == MTURK_PREVIEW:
@@ -147,12 +151,15 @@ def _wants_json(request) -> bool:
     return "application/json" in request.headers.get("Accept", "")
 
 
-# No CSRF cookie check: the participant's unguessable token in the URL is the secret a forged
-# request would need, and inside MTurk's cross-site iframe the (SameSite=Lax) CSRF cookie is
-# never sent, so the check would refuse every answer there.
+# csrf_exempt only hands the CSRF check from the global middleware to framed_csrf_protect: inside
+# MTurk's cross-site iframe the (SameSite=Lax) CSRF cookie is never sent, and Django's check would
+# refuse every answer there; without the cookie the browser's Origin must be this site instead.
 @csrf_exempt
 @participant_page
 @require_POST
+@security.rate_limit("RATE_LIMIT_ANSWER_IP", by="ip")
+@security.rate_limit("RATE_LIMIT_ANSWER", by="token")
+@security.framed_csrf_protect
 def answer(request, slug, token, step_index):
     participant = _participant(slug, token)
     steps = flow.steps_for(participant)

@@ -9,6 +9,18 @@ import pytest
 SMALL_SEQUENCES = {"alpha": [100, 5000, 12000], "beta": [7000, 15000], "gamma": [300, 20000]}
 
 
+@pytest.fixture(autouse=True)
+def _fresh_rate_limits():
+    """Every test starts with fresh rate-limit counters (the limits stay on): the suite sends
+    thousands of requests from 127.0.0.1 within minutes, which no participant does.  Only when
+    studyapp.security is loaded, so the teaching tests stay Django-free."""
+    import sys
+
+    security = sys.modules.get("studyapp.security")
+    if security is not None:
+        security.reset_rate_limits()
+
+
 @pytest.fixture
 def make_study(db):
     """Factory: a placeholder-trajectory study with the given conditions (default: 3 short ones)."""

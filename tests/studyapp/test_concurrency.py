@@ -62,7 +62,10 @@ if ON_POSTGRES:
             pid = "same-person" if i < N_SAME_ID else f"p{i}"
             try:
                 barrier.wait(timeout=30)
-                r = Client().get(f"/s/{study.slug}/", {"PROLIFIC_PID": pid})
+                # 50 people from 50 addresses, and one person's 10 tabs from one: within the
+                # per-address entry rate limit (studyapp/security.py), as real arrivals are.
+                addr = "10.0.0.1" if i < N_SAME_ID else f"10.0.1.{i}"
+                r = Client(REMOTE_ADDR=addr).get(f"/s/{study.slug}/", {"PROLIFIC_PID": pid})
                 results[i] = (pid, r.status_code, r["Location"])
             except Exception as exc:  # noqa: BLE001 - reported below
                 errors.append(repr(exc))

@@ -283,8 +283,15 @@ def test_participant_pages_can_be_framed_by_mturk_only(client, participant, staf
     assert staff_client.get(reverse("dashboard"))["X-Frame-Options"] == "DENY"
 
 
-def test_answers_need_no_csrf_cookie(participant):
-    """Inside MTurk's cross-site iframe no cookie is sent; the token in the URL is the credential."""
+def test_cookieless_answers_need_this_sites_origin(participant):
+    """Inside MTurk's cross-site iframe no cookie is sent, but the browser names our page as the
+    Origin: accepted. Without the cookie and without a same-site Origin: refused, nothing written
+    (the full CSRF policy is tested in test_security.py)."""
     strict = Client(enforce_csrf_checks=True)
-    assert strict.post(url(participant, 0), {"consent": "yes"}).status_code == 302
+    r = strict.post(url(participant, 0), {"consent": "yes"}, HTTP_ORIGIN="https://evil.example")
+    assert r.status_code == 403 and not Answer.objects.exists()
+    assert strict.post(url(participant, 0), {"consent": "yes"}).status_code == 403
+    assert not Answer.objects.exists()
+    r = strict.post(url(participant, 0), {"consent": "yes"}, HTTP_ORIGIN="http://testserver")
+    assert r.status_code == 302
     assert Answer.objects.filter(participant=participant, step=0).exists()
