@@ -2,7 +2,7 @@
 PY := .venv/bin/python
 PIP := .venv/bin/pip
 
-.PHONY: demo test venv browser-deps table bench clean
+.PHONY: demo test venv browser-deps table bench clean serve load
 
 venv: .venv/.installed
 .venv/.installed: requirements.txt
@@ -21,6 +21,16 @@ table: venv
 # Serve the demo study locally on the embedded default (SQLite + filesystem broker, worker included).
 demo: venv table
 	bash scripts/demo.sh
+
+# The production configuration on this machine: gunicorn + PostgreSQL + Redis + a Celery worker
+# (docs/operations.md; DATABASE_URL, CELERY_BROKER_URL, CACHE_URL, GUNICORN_BIND override).
+serve: venv
+	bash scripts/serve.sh
+
+# Launch-day load: 500 simulated participants within 60 s against a fresh PostgreSQL database,
+# PostgreSQL restarted in the middle (docs/operations.md); LOAD_ARGS adds options.
+load: venv
+	$(PY) -m tests.load.run --participants 500 --window 60 $(LOAD_ARGS)
 
 # pytest exit 5 means "no tests collected": that is a failure here, never a pass.
 test: venv browser-deps

@@ -54,6 +54,7 @@ INSTALLED_APPS = [
 MIDDLEWARE = [
     "studyapp.security.RequestLimitsMiddleware",  # body/field caps -> 413/400 (security section)
     "django.middleware.security.SecurityMiddleware",
+    "config.middleware.DatabaseUnavailableMiddleware",  # DB outage -> 503 + Retry-After
     "whitenoise.middleware.WhiteNoiseMiddleware",
     "django.contrib.sessions.middleware.SessionMiddleware",
     "django.middleware.common.CommonMiddleware",
@@ -158,6 +159,37 @@ LOGGING = {
     "handlers": {"console": {"class": "logging.StreamHandler"}},
     "loggers": {"studyapp": {"handlers": ["console"], "level": os.environ.get("LOG_LEVEL", "INFO")}},
 }
+
+# --- production -----------------------------------------------------------------
+# Deploy settings, read when DEBUG is off.  With DEBUG=0, a SECRET_KEY of 50+ random characters
+# and ALLOWED_HOSTS, `manage.py check --deploy` is clean (tests/studyapp/test_production.py).
+# The defaults assume HTTPS in front, at a TLS-terminating proxy (docs/operations.md);
+# scripts/serve.sh turns the HTTPS-only ones off when it serves plain HTTP on this machine.
+#
+# * SECURE_SSL_REDIRECT            — "1" (default): http:// is redirected to https://
+# * SECURE_HSTS_SECONDS            — default 31536000 (a year); "0" sends no HSTS header
+# * SECURE_HSTS_INCLUDE_SUBDOMAINS — default "1"
+# * SECURE_HSTS_PRELOAD            — default "1" (only makes the host eligible; nothing is submitted)
+# * SECURE_COOKIES                 — "1" (default, above): session and CSRF cookies over HTTPS only
+# * BEHIND_PROXY                   — "1": trust the proxy's X-Forwarded-Proto: https (the proxy must
+#                                    overwrite any such header the client sent)
+# * CONN_MAX_AGE                   — (above) 60 in production: connections are health-checked before
+#                                    reuse, so one broken by a database restart is replaced, not reused
+# * DB_OUTAGE_RETRY_AFTER          — Retry-After seconds of the 503 sent during a database outage (3)
+if not DEBUG:
+    SECURE_SSL_REDIRECT = _flag("SECURE_SSL_REDIRECT", "1")
+    SECURE_HSTS_SECONDS = int(os.environ.get("SECURE_HSTS_SECONDS", str(365 * 24 * 3600)))
+    SECURE_HSTS_INCLUDE_SUBDOMAINS = _flag("SECURE_HSTS_INCLUDE_SUBDOMAINS", "1")
+    SECURE_HSTS_PRELOAD = _flag("SECURE_HSTS_PRELOAD", "1")
+    # collectstatic (scripts/serve.sh) writes gzip copies that WhiteNoise serves; the finders
+    # would shadow them with the uncompressed sources.
+    STORAGES = {"default": {"BACKEND": "django.core.files.storage.FileSystemStorage"},
+                "staticfiles": {"BACKEND": "whitenoise.storage.CompressedStaticFilesStorage"}}
+    WHITENOISE_USE_FINDERS = _flag("WHITENOISE_USE_FINDERS", "0")
+if _flag("BEHIND_PROXY", "0"):
+    SECURE_PROXY_SSL_HEADER = ("HTTP_X_FORWARDED_PROTO", "https")
+DATABASES["default"]["CONN_HEALTH_CHECKS"] = True
+DB_OUTAGE_RETRY_AFTER = int(os.environ.get("DB_OUTAGE_RETRY_AFTER", "3"))
 
 # --- security -------------------------------------------------------------------
 # Rate limits, request-size caps and the cache they count in (studyapp/security.py;

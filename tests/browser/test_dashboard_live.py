@@ -16,14 +16,16 @@ OUT = Path(__file__).resolve().parents[2] / "test-output"
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
 
-def test_dashboard_live_progress(make_study, transactional_db, live_server, django_user_model):
+def test_dashboard_live_progress(make_study, transactional_db, live_server, django_user_model, monkeypatch):
     from django.db import connections
     from playwright.sync_api import expect, sync_playwright
 
     from studyapp.assignment import assign
     from studyapp.models import Participant
 
-    os.environ.setdefault("DJANGO_ALLOW_ASYNC_UNSAFE", "true")
+    # ORM calls below run beside Playwright's loop; undone after the test, so no later
+    # subprocess (manage.py check --deploy) inherits it
+    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")
     study = make_study("live")
     django_user_model.objects.create_user("res", password="pw-dash-123", is_staff=True)
     OUT.mkdir(exist_ok=True)

@@ -75,7 +75,7 @@ def answer_test_by_keyboard(page, choose_label="A", rating=5):
     page.keyboard.press("Enter")
 
 
-def test_participant_flow_in_chromium(demo_study, live_server):  # db first: torn down after the server
+def test_participant_flow_in_chromium(demo_study, live_server, monkeypatch):  # db first: torn down after the server
     from playwright.sync_api import expect, sync_playwright
 
     from django.db import connections
@@ -83,7 +83,7 @@ def test_participant_flow_in_chromium(demo_study, live_server):  # db first: tor
     from studyapp import flow
     from studyapp.models import Answer, Participant
 
-    os.environ.setdefault("DJANGO_ALLOW_ASYNC_UNSAFE", "true")  # ORM checks below run beside Playwright's loop
+    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")  # ORM checks below run beside Playwright's loop (undone after)
     OUT.mkdir(exist_ok=True)
     entry = f"{live_server.url}/s/{demo_study.slug}/?PROLIFIC_PID={PID}&STUDY_ID={STUDY_ID}&SESSION_ID={SESSION_ID}"
     with sync_playwright() as pw:

@@ -1,0 +1,65 @@
+"""gunicorn settings for the study app (scripts/serve.sh; docs/operations.md).
+
+    gunicorn -c config/gunicorn.conf.py config.wsgi
+
+Environment (all optional):
+
+* ``GUNICORN_BIND``      — address to listen on (default 127.0.0.1:8000: the TLS proxy in front
+                           forwards to it; nothing else should reach it)
+* ``WEB_CONCURRENCY``    — worker processes (default 2 × cores + 1)
+* ``GUNICORN_THREADS``   — threads per worker (default 4)
+* ``GUNICORN_TIMEOUT``   — seconds before a silent worker is killed and replaced (default 30)
+* ``GUNICORN_ACCESS_LOG``— file for the access log, "-" for stdout (default), "" for none
+* ``FORWARDED_ALLOW_IPS``— proxies whose X-Forwarded-* headers gunicorn trusts (default 127.0.0.1)
+"""
+import multiprocessing
+import os
+
+bind = os.environ.get("GUNICORN_BIND", "127.0.0.1:8000")
+
+# Requests spend much of their time waiting on PostgreSQL, so a process per core is not enough
+# to keep the cores busy: 2n+1 processes, each with a few threads for overlapping waits.  Every
+# thread holds at most one database connection (CONN_MAX_AGE), so workers × threads must stay
+# well under PostgreSQL's max_connections (100 by default): 5 × 4 = 20 on 2 cores.
+workers = int(os.environ.get("WEB_CONCURRENCY", 2 * multiprocessing.cpu_count() + 1))
+worker_class = "gthread"
+threads = int(os.environ.get("GUNICORN_THREADS", "4"))
+
+# No participant request does more than a few database round trips: a request still running
+# after 30 s is stuck, and its worker is replaced.  Stopping waits as long for requests in flight,
+# so a deploy or Ctrl-C never cuts an answer being saved.
+timeout = int(os.environ.get("GUNICORN_TIMEOUT", "30"))
+graceful_timeout = 30
+# Keep idle connections a little longer than the gap between a page and its static files.
+keepalive = 5
+# Recycle workers now and then so that slow leaks in a long recruitment never build up;
+# the jitter keeps them from restarting all at once.
+max_requests = 5000
+max_requests_jitter = 500
+
+forwarded_allow_ips = os.environ.get("FORWARDED_ALLOW_IPS", "127.0.0.1")
+
+_access = os.environ.get("GUNICORN_ACCESS_LOG", "-")
+accesslog = _access or None
+# Combined log format plus the request time in milliseconds (%(M)s), for latency alarms.
+access_log_format = '%(h)s %(l)s %(u)s %(t)s "%(r)s" %(s)s %(b)s "%(f)s" "%(a)s" %(M)sms'
+errorlog = "-"
+loglevel = os.environ.get("GUNICORN_LOG_LEVEL", "info")
+# Heartbeat files in memory, not on a disk that may stall under load.
+worker_tmp_dir = "/dev/shm" if os.path.isdir("/dev/shm") else None
+
+
+def post_worker_init(worker):
+    """Import every view (the URLconf pulls in the analysis stack: ~1.5 s of CPU) and compile the
+    participant templates before this worker takes its first request, so that no participant
+    waits for it after a deploy, a restart or a max_requests recycle."""
+    import time
+
+    from django.template.loader import get_template
+    from django.urls import get_resolver
+
+    start = time.monotonic()
+    get_resolver().url_patterns
+    for kind in ("consent", "instructions", "training", "test", "attention", "demographics", "done"):
+        get_template(f"studyapp/step_{kind}.html")
+    worker.log.info("worker %s warm in %.1f s", worker.pid, time.monotonic() - start)
