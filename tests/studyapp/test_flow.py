@@ -5,6 +5,7 @@ from django.urls import reverse
 
 from studyapp import flow
 from studyapp.models import Answer, Participant
+from tests.studyapp.helpers import snapshot
 
 pytestmark = pytest.mark.django_db
 
@@ -30,11 +31,6 @@ def advance(client, p, answer_for, until_kind):
         assert r.status_code == 302, r.content[:300]
         p.refresh_from_db()
     return flow.current_step(p)
-
-
-def snapshot():
-    return (list(Answer.objects.values_list("pk", "step", "data")),
-            list(Participant.objects.values_list("pk", "position", "excluded", "completed_at")))
 
 
 def test_every_step_renders_in_order(client, participant, answer_for):
@@ -286,7 +282,7 @@ def test_participant_pages_can_be_framed_by_mturk_only(client, participant, staf
 def test_cookieless_answers_need_this_sites_origin(participant):
     """Inside MTurk's cross-site iframe no cookie is sent, but the browser names our page as the
     Origin: accepted. Without the cookie and without a same-site Origin: refused, nothing written
-    (the full CSRF policy is tested in test_security.py)."""
+    (the full CSRF policy is tested in test_csrf.py)."""
     strict = Client(enforce_csrf_checks=True)
     r = strict.post(url(participant, 0), {"consent": "yes"}, HTTP_ORIGIN="https://evil.example")
     assert r.status_code == 403 and not Answer.objects.exists()

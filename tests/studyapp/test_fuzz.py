@@ -10,7 +10,6 @@ Origin headers and entry-link query strings:
 
 Deterministic (derandomize, no example database) and quick: a few hundred requests in all.
 """
-import json
 from contextlib import contextmanager
 from urllib.parse import quote, urlencode
 
@@ -22,7 +21,8 @@ from django.urls import reverse
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from studyapp import assignment, flow, security
-from studyapp.models import Answer, Participant
+from studyapp.models import Participant
+from tests.studyapp.helpers import snapshot
 
 pytestmark = pytest.mark.django_db
 
@@ -60,12 +60,6 @@ entry_links = st.one_of(  # a Prolific link, an MTurk link, or any mix of the fi
                                                           "turkSubmitTo": submit_to}),
     st.fixed_dictionaries({}, optional={name: values for name in ENTRY_FIELDS}),
 )
-
-
-def snapshot():
-    answers = Answer.objects.values_list("participant_id", "step", "data")
-    return (sorted((who, step, json.dumps(data, sort_keys=True)) for who, step, data in answers),
-            sorted(Participant.objects.values_list("pk", "position", "excluded", "completed_at", "completion_code")))
 
 
 def valid_pairs(p, answer_for) -> list[tuple[str, str]]:

@@ -1,0 +1,37 @@
+"""Plain helpers shared by the study-app tests (fixtures live in conftest.py)."""
+import json
+import re
+
+from django.http import QueryDict
+from django.urls import reverse
+
+from studyapp import flow
+from studyapp.models import Answer, Participant
+
+
+def snapshot():
+    """Everything an answer post may write: compare before and after a refused request."""
+    answers = Answer.objects.values_list("participant_id", "step", "data")
+    return (sorted((who, step, json.dumps(data, sort_keys=True)) for who, step, data in answers),
+            sorted(Participant.objects.values_list("pk", "position", "excluded", "completed_at", "completion_code")))
+
+
+def answer_url(p, step=0):
+    return reverse("answer", args=[p.study.slug, p.token, step])
+
+
+def step_url(p):
+    return reverse("step", args=[p.study.slug, p.token])
+
+
+def page_token(response) -> str:
+    """The CSRF token a step page's form carries."""
+    return re.search(rb'name="csrfmiddlewaretoken" value="([^"]+)"', response.content).group(1).decode()
+
+
+def record(p, step, **fields):
+    """Store an answer through studyapp.flow (no request), fields given as keyword arguments."""
+    q = QueryDict(mutable=True)
+    for k, v in fields.items():
+        q.setlist(k, v if isinstance(v, list) else [v])
+    return flow.record(p, step, q)

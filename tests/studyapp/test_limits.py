@@ -1,0 +1,180 @@
+"""Rate limits on the entry and answer endpoints and caps on request sizes: refusals are clean
+4xx (429, 413, 400), never a 500, and write nothing (docs/decisions.md, "Security")."""
+import logging
+
+import pytest
+from django.test import Client, override_settings
+from django.urls import reverse
+
+from studyapp import assignment, security
+from studyapp.models import Answer, Participant, Study
+from tests.studyapp.helpers import answer_url, snapshot
+
+pytestmark = pytest.mark.django_db
+
+
+# --- rate limits ------------------------------------------------------------------------------
+@override_settings(RATE_LIMIT_ENTRY=(3, 60))
+def test_entry_is_rate_limited_per_address(study):
+    c = Client()
+    for i in range(3):
+        assert c.get(reverse("entry", args=[study.slug]), {"PROLIFIC_PID": f"r{i}"}).status_code == 302
+    r = c.get(reverse("entry", args=[study.slug]), {"PROLIFIC_PID": "r3"})
+    assert r.status_code == 429 and 1 <= int(r["Retry-After"]) <= 60
+    assert b"Too many requests" in r.content and b"Traceback" not in r.content
+    assert "frame-ancestors" in r["Content-Security-Policy"]  # readable inside the MTurk iframe too
+    r = c.get(reverse("entry", args=[study.slug]), {"PROLIFIC_PID": "r3"}, HTTP_ACCEPT="application/json")
+    assert r.status_code == 429 and r.json()["ok"] is False and "wait" in r.json()["error"]
+    assert Participant.objects.count() == 3
+    # another address is counted on its own; a forged X-Forwarded-For changes nothing
+    assert Client(REMOTE_ADDR="192.0.2.7").get(reverse("entry", args=[study.slug])).status_code == 302
+    assert c.get(reverse("entry", args=[study.slug]), HTTP_X_FORWARDED_FOR="198.51.100.1").status_code == 429
+
+
+@override_settings(RATE_LIMIT_ANSWER=(2, 60))
+def test_answers_are_rate_limited_per_token(client, study):
+    p, q = (assignment.assign(study, "prolific", pid) for pid in ("t1", "t2"))
+    for _ in range(2):  # the repeat is an idempotent no-op, but it still counts
+        assert client.post(answer_url(p), {"consent": "yes"}).status_code == 302
+    before = snapshot()
+    r = client.post(answer_url(p, 1), {"ack": "1"}, HTTP_ACCEPT="application/json")
+    assert r.status_code == 429 and r.json()["ok"] is False and int(r["Retry-After"]) >= 1
+    assert snapshot() == before
+    assert client.post(answer_url(q), {"consent": "yes"}).status_code == 302  # another token, same address
+
+
+@override_settings(RATE_LIMIT_ANSWER_IP=(3, 60))
+def test_answers_are_rate_limited_per_address(client, study):
+    people = [assignment.assign(study, "prolific", f"ip{i}") for i in range(4)]
+    for p in people[:3]:
+        assert client.post(answer_url(p), {"consent": "yes"}).status_code == 302
+    assert client.post(answer_url(people[3]), {"consent": "yes"}).status_code == 429
+    assert not Answer.objects.filter(participant=people[3]).exists()
+
+
+@override_settings(RATE_LIMIT_ENTRY=(1, 60))
+def test_the_window_ends(study, monkeypatch):
+    now = [1_000_000.0]
+    monkeypatch.setattr(security.time, "time", lambda: now[0])
+    c = Client()
+    assert c.get(reverse("entry", args=[study.slug])).status_code == 302
+    r = c.get(reverse("entry", args=[study.slug]))
+    assert r.status_code == 429 and r["Retry-After"] == "20"  # 1_000_020 is the next multiple of 60
+    now[0] += 20
+    assert c.get(reverse("entry", args=[study.slug])).status_code == 302
+
+
+@override_settings(RATE_LIMIT_ENTRY=(1, 60), RATE_LIMIT_CACHE="down", CACHES={
+    "default": {"BACKEND": "django.core.cache.backends.locmem.LocMemCache"},
+    "down": {"BACKEND": "django.core.cache.backends.redis.RedisCache", "LOCATION": "redis://127.0.0.1:1/0",
+             "OPTIONS": {"socket_connect_timeout": 0.2, "socket_timeout": 0.2}}})
+def test_a_cache_outage_lets_participants_through(study, caplog, monkeypatch):
+    monkeypatch.setattr(security, "_last_outage_log", 0.0)
+    with caplog.at_level(logging.WARNING, logger="studyapp.security"):
+        for _ in range(3):
+            assert Client().get(reverse("entry", args=[study.slug])).status_code == 302
+    assert sum("cache is unavailable" in r.getMessage() for r in caplog.records) == 1  # once, not per request
+
+
+def test_client_address(rf, settings):
+    settings.TRUSTED_PROXY_COUNT = 0
+    req = rf.get("/", REMOTE_ADDR="10.1.2.3", HTTP_X_FORWARDED_FOR="6.6.6.6")
+    assert security.client_ip(req) == "10.1.2.3"
+    settings.TRUSTED_PROXY_COUNT = 1
+    assert security.client_ip(rf.get("/", REMOTE_ADDR="10.0.0.1", HTTP_X_FORWARDED_FOR="6.6.6.6, 203.0.113.5")
+                              ) == "203.0.113.5"
+    settings.TRUSTED_PROXY_COUNT = 2
+    assert security.client_ip(rf.get("/", REMOTE_ADDR="10.0.0.1", HTTP_X_FORWARDED_FOR="6.6.6.6, 203.0.113.5, "
+                                      "10.0.0.2")) == "203.0.113.5"
+    settings.TRUSTED_PROXY_COUNT = 0
+    assert security.client_ip(rf.get("/", REMOTE_ADDR="2001:db8:1:2:3:4:5:6")) == "2001:db8:1:2::/64"
+    assert security.client_ip(rf.get("/", REMOTE_ADDR="::ffff:192.0.2.9")) == "192.0.2.9"
+
+
+@pytest.mark.redis
+def test_counters_in_redis(settings):
+    import redis
+
+    try:
+        redis.Redis(socket_connect_timeout=1).ping()
+    except redis.exceptions.ConnectionError:
+        pytest.skip("no Redis on 127.0.0.1:6379")
+    settings.CACHES = {"default": {"BACKEND": "django.core.cache.backends.locmem.LocMemCache"},
+                       "rl": {"BACKEND": "django.core.cache.backends.redis.RedisCache",
+                              "LOCATION": "redis://127.0.0.1:6379/1"}}
+    settings.RATE_LIMIT_CACHE = "rl"
+    key = f"test:{security._generation}:{id(settings)}"  # expires by itself; nothing is flushed
+    assert [security.hit(key, 2, 30) for _ in range(2)] == [0, 0]
+    assert security.hit(key, 2, 30) >= 1
+
+
+def test_settings_parse_limits_and_cache_urls(monkeypatch):
+    from config import settings as cfg
+
+    monkeypatch.setenv("RATE_LIMIT_X", "5/10")
+    assert cfg._rate("RATE_LIMIT_X", "1/1") == (5, 10)
+    monkeypatch.setenv("RATE_LIMIT_X", "off")
+    assert cfg._rate("RATE_LIMIT_X", "1/1") is None
+    for bad in ("fast", "0/10", "5/0"):
+        monkeypatch.setenv("RATE_LIMIT_X", bad)
+        with pytest.raises(RuntimeError, match="RATE_LIMIT_X"):
+            cfg._rate("RATE_LIMIT_X", "1/1")
+    assert cfg._cache("redis://r:6379/1")["BACKEND"].endswith("RedisCache")
+    assert cfg._cache("")["BACKEND"].endswith("LocMemCache")
+    with pytest.raises(RuntimeError, match="CACHE_URL"):
+        cfg._cache("memcached://x")
+
+
+# --- request size -----------------------------------------------------------------------------
+@pytest.mark.parametrize("debug", [False, True])
+def test_oversized_and_overfull_requests_are_clean_4xx(client, participant, settings, debug):
+    settings.DEBUG = debug
+    before = snapshot()
+    big = client.post(answer_url(participant), {"consent": "yes", "pad": "x" * (70 * 1024)})
+    assert big.status_code == 413 and b"too large" in big.content
+    many = client.post(answer_url(participant), {"consent": "yes", **{f"f{i}": "1" for i in range(600)}})
+    assert many.status_code == 400 and b"too many fields" in many.content
+    query = client.get(reverse("entry", args=[participant.study.slug]) + "?" + "&".join(f"a{i}=1" for i in range(600)))
+    assert query.status_code == 400
+    bad_length = client.generic("POST", answer_url(participant), b"consent=yes",
+                                content_type="application/x-www-form-urlencoded", CONTENT_LENGTH="lots")
+    assert bad_length.status_code == 400
+    broken = client.generic("POST", answer_url(participant), b"--x\r\nnot a multipart body",
+                            content_type="multipart/form-data; boundary=x")
+    assert broken.status_code == 400
+    settings.DATA_UPLOAD_MAX_MEMORY_SIZE = 100  # as a body that came without a Content-Length
+    assert client.post(answer_url(participant), {"consent": "yes", "pad": "x" * 200}).status_code == 413
+    for r in (big, many, query, bad_length, broken):
+        assert b"Traceback" not in r.content
+    assert snapshot() == before
+
+
+def test_json_clients_get_json_refusals(client, participant):
+    r = client.post(answer_url(participant), {"pad": "x" * (70 * 1024)}, HTTP_ACCEPT="application/json")
+    assert r.status_code == 413 and r.json()["ok"] is False
+
+
+def test_admin_still_works_under_the_caps(admin_client, study, complete):
+    complete(assignment.assign(study, "prolific", "adm"))
+    url = reverse("admin:studyapp_study_change", args=[study.pk])
+    form = admin_client.get(url).context["adminform"].form
+    data = {k: ("" if v is None else v) for k, v in form.initial.items() if k in form.fields}
+    data.update(name="Renamed", is_open="on", **{
+        "conditions-TOTAL_FORMS": "0", "conditions-INITIAL_FORMS": "0",
+        "conditions-MIN_NUM_FORMS": "0", "conditions-MAX_NUM_FORMS": "1000"})
+    r = admin_client.post(url, data)
+    assert r.status_code == 302, r.content[:2000]
+    assert Study.objects.get().name == "Renamed"
+    assert admin_client.get(reverse("admin:studyapp_participant_changelist")).status_code == 200
+
+
+def test_nul_characters_and_overlong_ids_are_refused_not_500(client, participant):
+    """Both would fail inside PostgreSQL (a 500) rather than be refused as bad input."""
+    before = snapshot()
+    entry = reverse("entry", args=[participant.study.slug])
+    assert client.get(entry, {"PROLIFIC_PID": "a\x00b"}).status_code == 400
+    assert client.get(entry, {"workerId": "W", "assignmentId": "A",
+                              "turkSubmitTo": "https://www.mturk.com/" + "x" * 300}).status_code == 400
+    assert client.post(answer_url(participant), {"consent": "yes", "x\x00": "1"}).status_code == 400
+    assert client.get(reverse("step", args=[participant.study.slug, "to\x00ken"])).status_code == 400
+    assert snapshot() == before and Participant.objects.count() == 1
