@@ -103,14 +103,10 @@ def complete():
     return complete_flow
 
 
-def under_ci() -> bool:
+@pytest.fixture(scope="session")
+def ci() -> bool:
     """CI sets CI=true; a service a test needs (PostgreSQL, Redis) must then be there: the
     test fails instead of skipping.  One definition, so no test reads the variable differently."""
     import os
 
     return os.environ.get("CI", "").strip().lower() in ("1", "true", "yes")
-
-
-@pytest.fixture(scope="session")
-def ci() -> bool:
-    return under_ci()
