@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import hashlib
 
+import logging
+
 from django.contrib.admin.views.decorators import staff_member_required
 from django.core.cache import cache
 from django.http import HttpResponse, HttpResponseNotModified
@@ -27,6 +29,7 @@ from ..models import Study
 from . import data as D
 from . import report as R
 
+logger = logging.getLogger("studyapp.analysis")
 REFRESH_SECONDS = 20
 CACHE_SECONDS = 60 * 60 * 24
 
@@ -51,12 +54,22 @@ def render_report(study: Study, extra_comparisons=(), include_incomplete: bool =
     extra = [tuple(c) for c in extra_comparisons]
     fp = fingerprint or D.fingerprint(study, include_incomplete)
     key = _key(study, fp, extra, include_incomplete)
-    html = cache.get(key)
+    html = _cached(cache.get, key)
     if html is None:
         analysis = D.analyze_study(study, include_incomplete=include_incomplete, extra_comparisons=extra)
         html = R.render_fragment(analysis, title=f"Analysis of {study.name}")
-        cache.set(key, html, CACHE_SECONDS)
+        _cached(cache.set, key, html, CACHE_SECONDS)
     return html
+
+
+def _cached(call, *args):
+    """The cache only saves work: when it is down (Redis restarting), the report is computed
+    afresh instead of failing, as the rate limits fail open (studyapp/security.py)."""
+    try:
+        return call(*args)
+    except Exception as exc:  # noqa: BLE001 - any backend error (connection refused, timeout)
+        logger.warning("analysis report cache unavailable (%s: %s); computing without it", type(exc).__name__, exc)
+        return None
 
 
 @staff_member_required

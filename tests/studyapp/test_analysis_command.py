@@ -121,6 +121,20 @@ def test_too_few_participants_reported_not_nan(tmp_path):
     assert "Not every test could be run" in html and not re.search(r"\bnan\b", html.lower())
 
 
+def test_report_is_computed_when_the_cache_is_down(monkeypatch):
+    seqs = studies.placeholder_sequences(0)
+    study = make_study("nocache", {k: v for k, v in seqs.items() if S.canonical(k) in ("exact", "random")})
+    simulate(study, n_per_condition=3, seed=4)
+
+    def down(*args, **kwargs):
+        raise ConnectionError("Redis is restarting")
+
+    monkeypatch.setattr(V.cache, "get", down)
+    monkeypatch.setattr(V.cache, "set", down)
+    html = V.render_report(study)
+    assert "Analysis of Synthetic study" in html
+
+
 def test_live_report_is_cached_until_a_response_arrives(monkeypatch):
     seqs = studies.placeholder_sequences(0)
     keep = ("exact", "det-euclidean", "random", "coverage-random", "coverage-approx*")
