@@ -30,6 +30,8 @@ from django.db import InterfaceError, OperationalError
 from django.http import HttpResponse, JsonResponse
 from django.views import defaults
 
+from studyapp.security import wants_json
+
 logger = logging.getLogger("studyapp.availability")
 
 DB_ERRORS = (OperationalError, InterfaceError)
@@ -55,7 +57,7 @@ def unavailable_response(request, exc: BaseException) -> HttpResponse:
     logger.warning("database unavailable for %s %s: %s: %s", request.method, request.path,
                    type(exc).__name__, str(exc).strip().splitlines()[0] if str(exc).strip() else "")
     seconds = retry_after()
-    if "application/json" in request.headers.get("Accept", ""):
+    if wants_json(request):
         response = JsonResponse({"ok": False, "error": MESSAGE, "retry_after": seconds}, status=503)
     else:
         response = HttpResponse(HTML.format(message=MESSAGE, retry_after=seconds), status=503,

@@ -147,10 +147,6 @@ def completion_target(participant: Participant) -> dict:
     return {}
 
 
-def _wants_json(request) -> bool:
-    return "application/json" in request.headers.get("Accept", "")
-
-
 # csrf_exempt only hands the CSRF check from the global middleware to framed_csrf_protect: inside
 # MTurk's cross-site iframe the (SameSite=Lax) CSRF cookie is never sent, and Django's check would
 # refuse every answer there; without the cookie the browser's Origin must be this site instead.
@@ -169,11 +165,11 @@ def answer(request, slug, token, step_index):
     try:
         participant = flow.record(participant, step_index, request.POST)
     except flow.AnswerError as exc:
-        if _wants_json(request):
+        if security.wants_json(request):
             return JsonResponse({"ok": False, "error": exc.message}, status=exc.status)
         return render(request, "studyapp/error.html", {
             "study": participant.study, "participant": participant, "message": exc.message}, status=exc.status)
-    if _wants_json(request):
+    if security.wants_json(request):
         return JsonResponse({"ok": True, "position": participant.position, "next": participant.get_absolute_url()})
     return redirect(participant.get_absolute_url(), permanent=False)
 
