@@ -110,3 +110,16 @@ def ci() -> bool:
     import os
 
     return os.environ.get("CI", "").strip().lower() in ("1", "true", "yes")
+
+
+@pytest.fixture
+def require_service(ci):
+    """require_service(ok, what): a test whose service (tests/services.py) is missing fails under
+    CI and is skipped elsewhere, with `what` as the reason."""
+    def require(ok: bool, what: str) -> None:
+        if not ok:
+            if ci:
+                pytest.fail(f"CI is set but {what}")
+            pytest.skip(f"{what} (allowed only outside CI)")
+
+    return require

@@ -24,8 +24,9 @@ from urllib.parse import urlsplit, urlunsplit
 import psycopg
 from psycopg import sql
 
+from tests.services import PG_URL, postgres_reachable
+
 ROOT = Path(__file__).resolve().parents[2]
-PG_URL = os.environ.get("POSTGRES_TEST_URL", "postgres://postgres@127.0.0.1:5432/test")
 REDIS_URL = os.environ.get("LOAD_TEST_REDIS", "redis://127.0.0.1:6379/14")
 NO_PROXY = urllib.request.build_opener(urllib.request.ProxyHandler({}))  # loopback only, never via a proxy
 
@@ -45,14 +46,6 @@ def with_database(url: str, name: str) -> str:
 
 def connect(url: str, **kwargs):
     return psycopg.connect(url.replace("postgres://", "postgresql://", 1), connect_timeout=5, **kwargs)
-
-
-def postgres_reachable(url: str = PG_URL) -> bool:
-    try:
-        connect(url).close()
-        return True
-    except psycopg.OperationalError:
-        return False
 
 
 def wait_for_postgres(url: str = PG_URL, timeout: float = 90) -> float:

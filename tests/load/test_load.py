@@ -17,31 +17,16 @@ from __future__ import annotations
 import pytest
 
 from tests.load import harness, run
+from tests.services import PG_URL, postgres_reachable, redis_reachable
 
 pytestmark = [pytest.mark.slow, pytest.mark.postgres, pytest.mark.redis]
 
-def require(ci: bool, ok: bool, what: str):
-    if not ok:
-        if ci:
-            pytest.fail(f"CI is set but {what}")
-        pytest.skip(what)
-
-
-def redis_reachable() -> bool:
-    import redis
-
-    try:
-        return bool(redis.Redis.from_url(harness.REDIS_URL, socket_connect_timeout=2).ping())
-    except redis.exceptions.ConnectionError:
-        return False
-
-
-def test_load_with_a_postgres_restart(tmp_path, ci):
+def test_load_with_a_postgres_restart(tmp_path, require_service):
     from django.db import connections
 
-    require(ci, harness.postgres_reachable(), f"PostgreSQL at {harness.PG_URL} is unreachable")
-    require(ci, redis_reachable(), f"Redis at {harness.REDIS_URL} is unreachable")
-    require(ci, harness.local_cluster() is not None, "no local PostgreSQL cluster to restart (pg_lsclusters)")
+    require_service(postgres_reachable(), f"PostgreSQL at {PG_URL} is unreachable")
+    require_service(redis_reachable(harness.REDIS_URL), f"Redis at {harness.REDIS_URL} is unreachable")
+    require_service(harness.local_cluster() is not None, "no local PostgreSQL cluster to restart (pg_lsclusters)")
     # This process's own connections (a suite run on PostgreSQL) would not survive the restart.
     connections.close_all()
     try:

@@ -10,6 +10,7 @@ import pytest
 
 from teaching.build import Preset, build_table
 from teaching.table import ARRAYS, TrajectoryTable
+from tests.services import redis_reachable
 
 # 16 environments × 16 thetas in 4 chunks of 4: big enough for the chord and the fault
 # test to have work in flight, small enough for ~1 s per chunk on one core.
@@ -92,16 +93,9 @@ def inprocess_worker(celery_app_inprocess):
 
 
 @pytest.fixture
-def redis_url(ci):
+def redis_url(require_service):
     """Redis for the real-worker tests (database 13 unless $PRECOMPUTE_TEST_REDIS says otherwise).
     Under CI=true an unreachable Redis fails the test; elsewhere it skips."""
-    import redis
-
     url = os.environ.get("PRECOMPUTE_TEST_REDIS", "redis://127.0.0.1:6379/13")
-    try:
-        redis.Redis.from_url(url, socket_connect_timeout=2).ping()
-    except redis.exceptions.ConnectionError as exc:
-        if ci:
-            raise
-        pytest.skip(f"no Redis at {url}: {exc}")
+    require_service(redis_reachable(url), f"no Redis at {url}")
     return url

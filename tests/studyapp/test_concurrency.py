@@ -26,22 +26,11 @@ from pathlib import Path
 import pytest
 from django.conf import settings
 
+from tests.services import PG_URL, postgres_reachable
 
-
-PG_URL = os.environ.get("POSTGRES_TEST_URL", "postgres://postgres@127.0.0.1:5432/test")
 ON_POSTGRES = settings.DATABASES["default"]["ENGINE"] == "django.db.backends.postgresql"
 N_THREADS, N_SAME_ID = 60, 10
 ROOT = Path(__file__).resolve().parents[2]
-
-
-def _postgres_reachable() -> bool:
-    import psycopg
-
-    try:
-        psycopg.connect(PG_URL.replace("postgres://", "postgresql://"), connect_timeout=3).close()
-        return True
-    except psycopg.OperationalError:
-        return False
 
 
 if ON_POSTGRES:
@@ -94,11 +83,8 @@ else:
 
     @pytest.mark.postgres
     @pytest.mark.slow
-    def test_concurrent_arrivals_on_postgresql(ci):
-        if not _postgres_reachable():
-            if ci:
-                pytest.fail(f"CI is set but PostgreSQL at {PG_URL} is unreachable")
-            pytest.skip(f"PostgreSQL at {PG_URL} unreachable (allowed only outside CI)")
+    def test_concurrent_arrivals_on_postgresql(require_service):
+        require_service(postgres_reachable(), f"PostgreSQL at {PG_URL} is unreachable")
         # its own test database name, so parallel runs on one PostgreSQL server do not collide
         env = dict(os.environ, DATABASE_URL=PG_URL, DATABASE_TEST_NAME=f"test_studyapp_race_{os.getpid()}")
         proc = subprocess.run(
