@@ -19,6 +19,7 @@ from __future__ import annotations
 import asyncio
 import html
 import ipaddress
+import json
 import random
 import re
 import time
@@ -232,8 +233,6 @@ class Participant:
 
 
 def _json(body: str) -> dict:
-    import json
-
     try:
         return json.loads(body)
     except ValueError:
