@@ -14,6 +14,7 @@ Environment variables:
 * ``CONN_MAX_AGE``      — seconds to keep database connections open (default 0: per request).
 """
 import os
+import tempfile
 from pathlib import Path
 
 import dj_database_url
@@ -96,6 +97,12 @@ if DATABASES["default"]["ENGINE"] == "django.db.backends.sqlite3":
     # front, so the assignment transaction is serialised (see docs/study.md).
     DATABASES["default"]["CONN_MAX_AGE"] = 0
     DATABASES["default"].setdefault("OPTIONS", {}).update({"transaction_mode": "IMMEDIATE", "timeout": 20})
+    # The test runner's database is a file too, not Django's shared-cache in-memory one: there a
+    # second thread (an in-process Celery worker, the live server) meets SQLite's table locks,
+    # which fail at once ("database table is locked") instead of waiting out the timeout above.
+    # A file locks as the embedded default does.  One per process: parallel runs do not collide.
+    DATABASES["default"].setdefault("TEST", {}).setdefault(
+        "NAME", os.path.join(tempfile.gettempdir(), f"studyapp-test-{os.getpid()}.sqlite3"))
 DEFAULT_AUTO_FIELD = "django.db.models.BigAutoField"
 
 # --- celery -----------------------------------------------------------------
