@@ -15,20 +15,20 @@ from .dynamics import HEADING, X
 from .world import WORLD, World
 
 
-def raw_features(knots: np.ndarray, other_xy: np.ndarray, goal: np.ndarray, smooth: bool = False) -> np.ndarray:
-    """Unnormalised features of a batch of trajectories.
+def raw_features(knots: np.ndarray, other_xy: np.ndarray, goal: np.ndarray) -> np.ndarray:
+    """Unnormalised features of a batch of trajectories: exactly the ones the planner optimises.
 
     knots (B, K, 2) in [-1, 1]; other_xy (B, T+1, 2) other car positions;
-    goal (B,) 0 merge / 1 forward.  smooth=True replaces |dh| by the
-    optimiser's surrogate sqrt(dh^2 + eps^2) - eps.  Returns (B, 5):
-    closeness, acceleration^2, speed deviation^2, turning, goal distance.
+    goal (B,) 0 merge / 1 forward.  Returns (B, 5): closeness, acceleration^2,
+    speed deviation^2, turning (sum_t sqrt(dh^2 + eps^2) - eps, eps =
+    WORLD.turn_smoothing: one definition everywhere), goal distance.
     """
     knots = np.ascontiguousarray(knots, dtype=np.float64)
     out = np.empty((len(knots), 5))
     if len(knots):
         kernels.features_batch(knots, np.ascontiguousarray(other_xy[..., 0], dtype=np.float64),
                                np.ascontiguousarray(other_xy[..., 1], dtype=np.float64),
-                               np.asarray(goal, dtype=np.int64), smooth, out)
+                               np.asarray(goal, dtype=np.int64), out)
     return out
 
 
@@ -44,7 +44,7 @@ def calibration_controls(world: World = WORLD, n_random: int = 200_000, seed: in
 
     Constant accelerations on a grid across the bounds (they give the largest
     speed features), plus seeded uniformly random bounded sequences that keep
-    the car on the three-lane road (|x| <= 1.5 lanes, |heading - pi/2| <= 0.5):
+    the car where the world lets it drive (|x| <= x_limit, |heading - pi/2| <= 0.5):
     the maximum of each feature over plausible driving, not over spinning cars.
     """
     K = world.n_knots
@@ -53,7 +53,7 @@ def calibration_controls(world: World = WORLD, n_random: int = 200_000, seed: in
     rng = np.random.default_rng(seed)
     rand = rng.uniform(-1, 1, size=(n_random, K, 2))
     states = dynamics.rollout_np(rand)
-    on_road = (np.abs(states[..., X]).max(1) <= 1.5 * world.lane_width) & (
+    on_road = (np.abs(states[..., X]).max(1) <= world.x_limit) & (
         np.abs(states[..., HEADING] - np.pi / 2).max(1) <= 0.5)
     return np.concatenate([const, rand[on_road]])
 

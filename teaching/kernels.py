@@ -4,10 +4,14 @@ exact gradient and Hessian, for one trajectory at a time.
 Decision variables z (K, 2) lie in [-1, 1]; the controls are
 u_k = z_k * [steer_rate_max, accel_max], held for `steps_per_knot` steps.
 
-The minimised objective is F(z) = sum_i w_i phi_i(z) + road(z) with
+The minimised objective is F(z) = sum_i w_i phi_i(z) + C(z) with
 w = -theta / |theta| / normalisers (so F is in normalised reward units, sign
-flipped), and road(z) = sum_t road_penalty(x_t) the stiff C2 penalty that keeps
-the car on the road (a constraint of the world, not a feature).
+flipped), and C(z) the stiff C2 penalties of the world's constraints (not
+features, docs/calibration.md): the car's centre stays within the outer lane
+centres at every step, and at step T it lies within `lane_end_band` of a lane
+centre (of the right lane's for the merge goal) with its heading within
+`heading_end_band` of straight ahead.  The features here are the
+stored ones: turning is sum_t sqrt(dh^2 + eps^2) - eps everywhere.
 
 Exact derivatives, with s_t the state after t steps and J_t = ds_t/dz:
   grad F = sum_t J_t^T grad l_t  (+ the acceleration term, quadratic in z)
@@ -52,27 +56,58 @@ SIG_LAT2 = WORLD.sigma_lat**2
 SIG_LONG2 = WORLD.sigma_long**2
 EPS = WORLD.turn_smoothing
 Y_MAX = WORLD.y_reachable_max
-X_ROAD = WORLD.road_half_width - WORLD.car_width / 2  # the car's centre keeps its body on the road
-W_ROAD = WORLD.road_penalty
-ROAD_DELTA = 0.01  # ft: width of the penalty's cubic ramp
+X_LIM = WORLD.x_limit  # the car's centre stays between the outer lane centres
+BAND = WORLD.lane_end_band  # at step T the centre lies this close to a lane centre
+H_BAND = WORLD.heading_end_band  # ... and the heading this close to straight ahead
+H_SCALE = WORLD.heading_penalty_scale  # ft per rad in the penalty
+W_PEN = WORLD.constraint_penalty
+PEN_DELTA = 0.1  # ft: width of the penalty's cubic ramp (narrower ramps made Newton crawl along a bound)
 ACTIVE_EPS = 1e-3  # widest band next to a bound in which a variable may be held fixed
 
 
 @njit(cache=True)
-def road_penalty(x):
-    """Penalty for the car's centre at lateral position x, with its first and
-    second derivatives.  Zero on the road; past the edge a cubic ramp over
-    ROAD_DELTA joins a quadratic, so the function is C2 (Newton needs a
-    continuous Hessian: a plain quadratic's jump made it oscillate) and its
-    curvature is the full 2 W_ROAD a hundredth of a foot past the edge (a plain
-    cubic's vanishing curvature there slowed Newton down)."""
-    o = abs(x) - X_ROAD
+def overshoot_penalty(o):
+    """Penalty for being o ft outside an allowed interval, with its first and
+    second derivatives in o.  Zero for o <= 0; a cubic ramp over PEN_DELTA then
+    joins a quadratic, so the function is C2 (Newton needs a continuous
+    Hessian: a plain quadratic's jump made it oscillate) and its curvature is
+    the full 2 W_PEN a tenth of a foot outside (a plain cubic's vanishing
+    curvature there slowed Newton down; so did a 0.01 ft ramp, whose curvature
+    changes too fast for the quadratic model)."""
     if o <= 0.0:
         return 0.0, 0.0, 0.0
-    sgn = 1.0 if x > 0.0 else -1.0
-    if o < ROAD_DELTA:
-        return W_ROAD * o**3 / (3.0 * ROAD_DELTA), sgn * W_ROAD * o * o / ROAD_DELTA, 2.0 * W_ROAD * o / ROAD_DELTA
-    return W_ROAD * (o * o - ROAD_DELTA * o + ROAD_DELTA**2 / 3.0), sgn * W_ROAD * (2.0 * o - ROAD_DELTA), 2.0 * W_ROAD
+    if o < PEN_DELTA:
+        return W_PEN * o**3 / (3.0 * PEN_DELTA), W_PEN * o * o / PEN_DELTA, 2.0 * W_PEN * o / PEN_DELTA
+    return W_PEN * (o * o - PEN_DELTA * o + PEN_DELTA**2 / 3.0), W_PEN * (2.0 * o - PEN_DELTA), 2.0 * W_PEN
+
+
+@njit(cache=True)
+def road_penalty(x):
+    """The limit on the car's centre, |x| <= X_LIM: (value, d/dx, d2/dx2)."""
+    p, dp, ddp = overshoot_penalty(abs(x) - X_LIM)
+    return p, (dp if x > 0.0 else -dp), ddp
+
+
+@njit(cache=True)
+def lane_end_penalty(x, goal):
+    """The end of the drive: x_T within BAND of a lane centre (goal 0, merge
+    right: of the right lane's).  (value, d/dx, d2/dx2).  Between two lanes the
+    penalty peaks half-way, so a local search keeps the lane its start ends in;
+    the planner's seeds end in every lane."""
+    if goal == 0:
+        c = LW
+    else:
+        c = min(max(LW * math.floor(x / LW + 0.5), -LW), LW)
+    p, dp, ddp = overshoot_penalty(abs(x - c) - BAND)
+    return p, (dp if x > c else -dp), ddp
+
+
+@njit(cache=True)
+def heading_end_penalty(h):
+    """The end of the drive: |h_T - pi/2| <= H_BAND.  (value, d/dh, d2/dh2)."""
+    d = h - H0
+    p, dp, ddp = overshoot_penalty(H_SCALE * (abs(d) - H_BAND))
+    return p, (H_SCALE * dp if d > 0.0 else -H_SCALE * dp), H_SCALE * H_SCALE * ddp
 
 
 @njit(cache=True)
@@ -92,7 +127,7 @@ def rollout_one(z, out):
 
 
 @njit(cache=True)
-def features_one(z, ox, oy, goal, smooth, out):
+def features_one(z, ox, oy, goal, out):
     """Raw features (5,) of one trajectory; ox, oy (T+1,) other car positions."""
     s = np.empty((T + 1, 5))
     rollout_one(z, s)
@@ -106,7 +141,7 @@ def features_one(z, ox, oy, goal, smooth, out):
         clo += math.exp(-0.5 * (dx * dx / SIG_LAT2 + dy * dy / SIG_LONG2))
         dev += (s[t, 3] - V0) ** 2
         d = s[t, 2] - H0
-        turn += math.sqrt(d * d + EPS * EPS) - EPS if smooth else abs(d)
+        turn += math.sqrt(d * d + EPS * EPS) - EPS
         m = max(0.0, LW - s[t, 0])
         merge += m * m
     acc = 0.0
@@ -121,15 +156,15 @@ def features_one(z, ox, oy, goal, smooth, out):
 
 @njit(cache=True)
 def objective(z, ox, oy, goal, w):
-    """F(z) (smooth turning surrogate), value only: used in line searches."""
+    """F(z), value only: used in line searches."""
     f = np.empty(5)
-    features_one(z, ox, oy, goal, True, f)
+    features_one(z, ox, oy, goal, f)
     s = np.empty((T + 1, 5))
     rollout_one(z, s)
-    road = 0.0
+    pen = lane_end_penalty(s[T, 0], goal)[0] + heading_end_penalty(s[T, 2])[0]
     for t in range(1, T + 1):
-        road += road_penalty(s[t, 0])[0]
-    return w[0] * f[0] + w[1] * f[1] + w[2] * f[2] + w[3] * f[3] + w[4] * f[4] + road
+        pen += road_penalty(s[t, 0])[0]
+    return w[0] * f[0] + w[1] * f[1] + w[2] * f[2] + w[3] * f[3] + w[4] * f[4] + pen
 
 
 @njit(cache=True)
@@ -175,9 +210,15 @@ def objective_grad_hess(z, ox, oy, goal, w, g, H, want_hess):
         dl[t + 1, 1] = -w[0] * gk * dy / SIG_LONG2
         dl[t + 1, 2] = w[3] * d / rt
         dl[t + 1, 3] = 2.0 * w[2] * (v - V0)
-        p_road, dp_road, _ = road_penalty(x)  # the road's edge: a constraint of the world, not a feature
-        F += p_road
-        dl[t + 1, 0] += dp_road
+        p_pen, dp_pen, _ = road_penalty(x)  # constraints of the world, not features
+        if t + 1 == T:
+            p_end, dp_end, _ = lane_end_penalty(x, goal)
+            p_head, dp_head, _ = heading_end_penalty(h)
+            p_pen += p_end + p_head
+            dp_pen += dp_end
+            dl[t + 1, 2] += dp_head
+        F += p_pen
+        dl[t + 1, 0] += dp_pen
         if goal == 0:
             m = max(0.0, LW - x)
             F += w[4] * m * m
@@ -213,6 +254,9 @@ def objective_grad_hess(z, ox, oy, goal, w, g, H, want_hess):
         if goal == 0 and LW - x > 0.0:
             M[0, 0] += 2.0 * w[4]
         M[0, 0] += road_penalty(x)[2]
+        if t == T:
+            M[0, 0] += lane_end_penalty(x, goal)[2]
+            M[2, 2] += heading_end_penalty(h)[2]
         if t < T:  # second derivatives of the step s_t -> s_{t+1}, weighted by lam_{t+1}
             ch, sh, tn = math.cos(h), math.sin(h), math.tan(st)
             sec2 = 1.0 + tn * tn
@@ -368,10 +412,10 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol):
         else:
             damping = mu
         zf[:] = zn
-        improvement = F - Fn
+        # No stop on a small decrease: near a constraint the last digits come in many small
+        # steps, and stopping on |dF| < 1e-13 left the projected gradient at 1e-5 and F up to
+        # 3e-7 short of the optimum.  Only the tolerance, a failed line search or maxiter stop it.
         F = objective_grad_hess(z, ox, oy, goal, w, g, H, True)
-        if improvement < 1e-13:
-            break
     return F, it
 
 
@@ -391,9 +435,9 @@ def rollout_batch(z, out):
 
 
 @njit(parallel=True, cache=True)
-def features_batch(z, ox, oy, goal, smooth, out):
+def features_batch(z, ox, oy, goal, out):
     for b in prange(z.shape[0]):
-        features_one(z[b], ox[b], oy[b], goal[b], smooth, out[b])
+        features_one(z[b], ox[b], oy[b], goal[b], out[b])
 
 
 numba_config.CACHE_DIR = _user_cache_dir  # only these kernels' cache is keyed by the world

@@ -32,17 +32,17 @@ from .features import raw_features, reward
 from .strategies import strategy_labels
 from .world import WORLD
 
-PLANNER_VERSION = 4  # bump whenever a change alters the trajectories it returns
+PLANNER_VERSION = 5  # bump whenever a change alters the trajectories it returns
 NEWTON_TOL = 1e-9  # max |projected gradient|, normalised reward units per unit of z
-REFINE_GAIN = 1e-5  # normalised reward units: 100x below the 1e-3 quality bar
+REFINE_GAIN = 1e-8  # normalised reward units: 100x below exact IRL's 1e-6 tolerance
 
 
 @dataclass(frozen=True)
 class PlannerSettings:
     n_anchors: int = 8
     all_anchors_below: int = 32  # with so few thetas the cross-theta step has little to share: multi-start all
-    anchor_iters: int = 150
-    warm_iters: int = 12
+    anchor_iters: int = 200
+    warm_iters: int = 200  # a cap, not a budget: warm starts run until Newton converges (NEWTON_TOL)
     refine_rounds: int = 1
 
 
@@ -148,6 +148,7 @@ def plan_chunk(env_ids, thetas, normalisers, settings: PlannerSettings = Planner
         if stats is not None:
             stats["solves"] = stats.get("solves", 0) + len(z)
             stats["iterations"] = stats.get("iterations", 0) + int(its.sum())
+            stats["at_cap"] = stats.get("at_cap", 0) + int((its >= iters - 1).sum())
         return _as_stored(z)
 
     def phi(z, env_idx):

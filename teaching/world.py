@@ -30,10 +30,16 @@ class World:
     accel_max: float = 10.0  # ft/s^2 both ways: 50 ft/s cannot brake below 0 in 5 s, so no clamp on v
     steer_max: float = 0.5  # rad, steering angle is clipped here
     sigma_long: float = 20.0  # closeness kernel, along the other car's heading
-    sigma_lat: float = 6.0  # closeness kernel, across it
-    road_half_width: float = 18.0  # three 12 ft lanes; the car's centre stays within 18 - car_width/2
-    road_penalty: float = 10.0  # W in W (ft outside)^2, normalised reward units: overshoot ~0.005 ft
-    turn_smoothing: float = 1e-2  # rad: |dh| ~ sqrt(dh^2 + eps^2) - eps inside the optimiser
+    sigma_lat: float = 3.0  # closeness kernel, across it: a quarter lane, so a car in the next lane costs ~e^-8
+    road_half_width: float = 18.0  # three 12 ft lanes (drawing; the car's centre is limited by x_limit)
+    # Where a car may drive (constraints of the world, not features; docs/calibration.md):
+    x_limit: float = 12.0  # the car's centre stays between the outer lane centres
+    lane_end_band: float = 2.0  # ft: at the end of the drive the centre is this close to a lane centre
+    #                             (to the right lane's for "merge right": the goal is reached)
+    heading_end_band: float = 0.05  # rad: ... and the car drives along its lane (no dive at the last moment)
+    heading_penalty_scale: float = 100.0  # ft per rad: heading overshoot enters the penalty as feet
+    constraint_penalty: float = 10.0  # W in W (ft outside)^2, normalised reward units: overshoot ~0.01 ft
+    turn_smoothing: float = 1e-2  # rad: the turning feature is sum_t sqrt(dh^2 + eps^2) - eps (everywhere)
     # Euclidean learner: per-dimension scale of [x, y, heading, v, steer]
     state_scale: tuple = (12.0, 12.0, 0.1, 10.0, 0.05)
 

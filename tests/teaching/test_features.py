@@ -29,18 +29,19 @@ def straight(accel=0.0):
     return z
 
 
-def hand_features(knots, other_xy, goal, smooth=False):
-    """Features computed from the rolled-out states with plain NumPy (the test's own reference)."""
+def hand_features(knots, other_xy, goal):
+    """Features computed from the rolled-out states with plain NumPy (the test's own reference):
+    sigma_lat = 3 ft, sigma_long = 20 ft, turning sum_t sqrt(dh^2 + 0.01^2) - 0.01."""
     s = rollout_np(knots)
     x, y, h, v = s[..., 0], s[..., 1], s[..., 2], s[..., 3]
     dx = x[..., 1:] - other_xy[..., 1:, 0]
     dy = y[..., 1:] - other_xy[..., 1:, 1]
-    close = np.exp(-0.5 * (dx**2 / 36.0 + dy**2 / 400.0)).sum(-1)
+    close = np.exp(-0.5 * (dx**2 / 9.0 + dy**2 / 400.0)).sum(-1)
     acc = (np.diff(v, axis=-1) ** 2).sum(-1)
     dev = ((v[..., 1:] - 50.0) ** 2).sum(-1)
     d = h[..., 1:] - math.pi / 2
     eps = 1e-2
-    turn = (np.sqrt(d**2 + eps**2) - eps).sum(-1) if smooth else np.abs(d).sum(-1)
+    turn = (np.sqrt(d**2 + eps**2) - eps).sum(-1)
     merge = (np.maximum(0.0, 12.0 - x[..., 1:]) ** 2).sum(-1)
     fwd = Y_MAX - y[..., -1]
     return np.stack([close, acc, dev, turn, np.where(np.asarray(goal) == 0, merge, fwd)], axis=-1)
@@ -71,16 +72,16 @@ def test_full_throttle_gives_the_hand_worked_speed_features():
 def test_closeness_for_a_car_at_a_known_offset():
     s = rollout_np(straight())  # (1, 21, 5)
     robot = s[..., :2]
-    # 3 ft to the side and 10 ft ahead at every step: exp(-1/2 (9/36 + 100/400)) = exp(-1/4) per step
+    # 3 ft to the side and 10 ft ahead at every step: exp(-1/2 (9/9 + 100/400)) = exp(-5/8) per step
     f = raw_features(straight(), robot + [3.0, 10.0], np.array([1]))[0]
-    assert f[0] == pytest.approx(20 * math.exp(-0.25), rel=1e-12)
-    # the long axis is along the other car's heading (y): 20 ft ahead costs what 6 ft aside does
+    assert f[0] == pytest.approx(20 * math.exp(-0.625), rel=1e-12)
+    # the long axis is along the other car's heading (y): 20 ft ahead costs what 3 ft aside does
     ahead = raw_features(straight(), robot + [0.0, 20.0], np.array([1]))[0, 0]
-    aside = raw_features(straight(), robot + [6.0, 0.0], np.array([1]))[0, 0]
+    aside = raw_features(straight(), robot + [3.0, 0.0], np.array([1]))[0, 0]
     assert ahead == pytest.approx(20 * math.exp(-0.5), rel=1e-12)
     assert aside == pytest.approx(20 * math.exp(-0.5), rel=1e-12)
-    across = raw_features(straight(), robot + [20.0, 0.0], np.array([1]))[0, 0]
-    assert across == pytest.approx(20 * math.exp(-0.5 * 400 / 36), rel=1e-9)
+    across = raw_features(straight(), robot + [12.0, 0.0], np.array([1]))[0, 0]  # level, in the next lane
+    assert across == pytest.approx(20 * math.exp(-8.0), rel=1e-9)
     # the sum runs over t = 1..T: a car on top of the robot only at t = 0 adds nothing
     only_start = far_car()
     only_start[0, 0] = [0.0, 0.0]
@@ -105,15 +106,15 @@ def test_turning_and_merge_cost_on_a_lane_change():
     s = rollout_np(z)[0]
     assert s[-1, 0] > 9  # ends near the right lane
     f = raw_features(z, far_car(), np.array([0]))[0]
-    assert f[3] == pytest.approx(sum(abs(s[t, 2] - math.pi / 2) for t in range(1, 21)), rel=1e-12)
+    # turning is defined once, everywhere (planner, table, learners): sum_t sqrt(dh^2 + eps^2) - eps
+    eps = WORLD.turn_smoothing
+    assert eps == 0.01
+    assert f[3] == pytest.approx(sum(math.sqrt((s[t, 2] - math.pi / 2) ** 2 + 1e-4) - 0.01
+                                     for t in range(1, 21)), rel=1e-12)
+    exact = sum(abs(s[t, 2] - math.pi / 2) for t in range(1, 21))
+    assert exact - 20 * eps <= f[3] < exact  # within eps per step below |dh|
     assert f[4] == pytest.approx(sum(max(0.0, 12.0 - s[t, 0]) ** 2 for t in range(1, 21)), rel=1e-12)
     assert f[1] == 0.0 and f[2] == 0.0
-    smooth = raw_features(z, far_car(), np.array([0]), smooth=True)[0]
-    eps = WORLD.turn_smoothing
-    assert smooth[3] == pytest.approx(sum(math.sqrt((s[t, 2] - math.pi / 2) ** 2 + eps**2) - eps
-                                          for t in range(1, 21)), rel=1e-12)
-    assert smooth[3] < f[3]  # the surrogate lies below |dh|
-    np.testing.assert_array_equal(smooth[[0, 1, 2, 4]], f[[0, 1, 2, 4]])
 
 
 def test_all_features_on_random_trajectories_match_the_reference_from_states():
@@ -121,9 +122,8 @@ def test_all_features_on_random_trajectories_match_the_reference_from_states():
     z = rng.uniform(-1, 1, (64, K, 2))
     env = get_environments(rng.integers(0, 21216, 64))
     oxy = other_car_states(env)
-    for smooth in (False, True):
-        np.testing.assert_allclose(raw_features(z, oxy, env.goal, smooth=smooth),
-                                   hand_features(z, oxy, env.goal, smooth=smooth), rtol=1e-11, atol=1e-11)
+    np.testing.assert_allclose(raw_features(z, oxy, env.goal), hand_features(z, oxy, env.goal),
+                               rtol=1e-11, atol=1e-11)
 
 
 def test_normalisers_closeness_raw_the_rest_from_the_calibration_maximum():
@@ -194,6 +194,45 @@ def _central_differences(z, oxy, goal, w, h=1e-5):
     return g_fd, H_fd
 
 
+def hand_penalties(x, goal, h_end=math.pi / 2):
+    """The constraints by hand: |x_t| <= 12 (outer lane centres) at every step, x_T within 2 ft of a
+    lane centre (of the right lane's, x = 12, for the merge goal) and h_T within 0.05 rad of straight
+    (100 ft per rad); C2 penalty W o^2 on o ft outside, W = 10, with a cubic ramp over the first 0.1 ft."""
+    def pen(o):
+        d, W = 0.1, 10.0
+        return np.where(o <= 0, 0.0, np.where(o < d, W * o**3 / (3 * d), W * (o**2 - d * o + d**2 / 3)))
+
+    centre = 12.0 if goal == 0 else min((-12.0, 0.0, 12.0), key=lambda c: abs(x[-1] - c))
+    return float(np.sum(pen(np.abs(x) - 12.0)) + pen(abs(x[-1] - centre) - 2.0)
+                 + pen(100.0 * (abs(h_end - math.pi / 2) - 0.05)))
+
+
+def test_constraint_penalties_by_hand():
+    far = far_car()[0]
+    w = np.zeros(5)  # no features: F is the penalties alone
+    z = np.zeros((K, 2))
+    assert _obj(z.reshape(-1), far, 1, w) == 0.0  # straight on in the centre lane: allowed
+    assert _obj(z.reshape(-1), far, 0, w) == pytest.approx(10 * (100 - 1.0 + 1e-2 / 3))  # merge goal: 10 ft short
+    z[:4, 0] = [-0.45, 0.45, 0.45, -0.45]  # right lane change: ends at x = 12.43, 0.43 ft past the limit
+    s = rollout_np(z)
+    x, h_end = s[1:, 0], s[-1, 2]
+    assert 12.0 < x[-1] < 12.5 and abs(h_end - math.pi / 2) < 0.05
+    for goal in (0, 1):
+        assert _obj(z.reshape(-1), far, goal, w) == pytest.approx(hand_penalties(x, goal, h_end), rel=1e-12)
+    z[:4, 0] *= 0.5  # half a lane change: ends between the centre and the right lane
+    s = rollout_np(z)
+    x, h_end = s[1:, 0], s[-1, 2]
+    assert 3.0 < x[-1] < 9.0
+    assert hand_penalties(x, 1, h_end) > 1.0
+    assert _obj(z.reshape(-1), far, 1, w) == pytest.approx(hand_penalties(x, 1, h_end), rel=1e-12)
+    z[-1, 0] = 1.0  # and turns left in the last half second: ends at an angle
+    s = rollout_np(z)
+    x, h_end = s[1:, 0], s[-1, 2]
+    assert h_end - math.pi / 2 > 0.05
+    for goal in (0, 1):
+        assert _obj(z.reshape(-1), far, goal, w) == pytest.approx(hand_penalties(x, goal, h_end), rel=1e-12)
+
+
 CASES = {
     # (environment, theta): forward with the other car ahead in the robot's lane and slow (it gets close),
     # merging with the car just behind in the target lane, and a merge with the car two lanes away
@@ -216,12 +255,10 @@ def test_gradient_and_hessian_match_central_differences(case, seed):
     steer = rollout_np(z)[:, 4]
     assert np.abs(steer).max() < 0.45  # away from the clip, where F is smooth
     F, g, H = _grad_hess(z, oxy, goal, w)
-    # the value: F = w . phi_raw with the smooth turning surrogate, plus the road-edge penalty
-    phi = raw_features(z[None], oxy[None], env.goal, smooth=True)[0]
-    o = np.abs(rollout_np(z)[1:, 0]) - (WORLD.road_half_width - WORLD.car_width / 2)  # feet past the edge
-    d, W = 0.01, WORLD.road_penalty  # C2 edge penalty: cubic ramp over d, then quadratic
-    road = np.sum(np.where(o <= 0, 0.0, np.where(o < d, W * o**3 / (3 * d), W * (o**2 - d * o + d**2 / 3))))
-    assert F == pytest.approx(float(w @ phi) + road, rel=1e-12)
+    # the value: F = w . phi_raw (the stored features) plus the world's constraint penalties
+    phi = raw_features(z[None], oxy[None], env.goal)[0]
+    s = rollout_np(z)
+    assert F == pytest.approx(float(w @ phi) + hand_penalties(s[1:, 0], goal, s[-1, 2]), rel=1e-12)
     assert F == pytest.approx(_obj(z.reshape(-1), oxy, goal, w), rel=1e-13)
     if case.endswith("close"):
         assert phi[0] * w[0] > 1e-3 * abs(float(w @ phi))  # the closeness term really takes part

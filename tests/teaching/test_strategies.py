@@ -1,12 +1,14 @@
-"""Strategy clusters h(xi) on hand-built robot state arrays (DESIGN §2): computed from the trajectory only."""
+"""Strategy clusters h(xi) on hand-built robot state arrays (DESIGN §2): computed from the trajectory only,
+and honest: a label names a strategy only when the trajectory shows it."""
 import math
 
 import numpy as np
 import pytest
 
 from teaching.environments import BRAKING, MERGING, OTHER, TAILGATING, environment_id, get_environments
-from teaching.strategies import (BRAKE_CHANGE, BRAKE_STAY, CLASS_OF_CLUSTER, MERGE_AHEAD, MERGE_BEHIND,
-                                 OTHER_FORWARD, OTHER_MERGE, TAIL_CHANGE, TAIL_STAY, strategy_labels)
+from teaching.strategies import (BRAKE_CHANGE, BRAKE_STAY, CLASS_OF_CLUSTER, CLUSTER_NAMES, MERGE_AHEAD,
+                                 MERGE_BEHIND, N_CLUSTERS, NO_STRATEGY, OTHER_FORWARD, OTHER_MERGE, TAIL_CHANGE,
+                                 TAIL_STAY, strategy_labels)
 
 T = 20
 t = np.arange(T + 1)
@@ -38,7 +40,9 @@ def test_the_hand_environments_are_in_the_intended_classes():
     assert get_environments([MERGE_CAR_AHEAD, MERGE_CAR_BEHIND, BRAKE_ENV, TAIL_ENV, OTHER_MERGE_ENV,
                              OTHER_FWD_ENV]).env_class.tolist() == [MERGING, MERGING, BRAKING, TAILGATING, OTHER,
                                                                     OTHER]
-    assert CLASS_OF_CLUSTER.tolist() == [MERGING, MERGING, BRAKING, BRAKING, TAILGATING, TAILGATING, OTHER, OTHER]
+    assert CLASS_OF_CLUSTER[:N_CLUSTERS].tolist() == [MERGING, MERGING, BRAKING, BRAKING, TAILGATING, TAILGATING,
+                                                      OTHER, OTHER]
+    assert NO_STRATEGY == N_CLUSTERS and CLASS_OF_CLUSTER[NO_STRATEGY] == -1 and len(CLUSTER_NAMES) == 9
 
 
 def test_merging_ahead_or_behind_by_the_gap_when_entering_the_right_lane():
@@ -62,49 +66,72 @@ def test_merging_uses_the_first_entry_not_the_end():
     assert x[2] < 6 <= x[3]
     assert y[-1] > 100 + 12.5 * 20
     assert label(MERGE_CAR_AHEAD, x, y) == MERGE_BEHIND
-    # entry counts at x >= 6 exactly (half a lane towards the right)
+    # entry counts at x >= 6 exactly (half a lane towards the right); at t = 10: robot 125 vs car 25
     x_edge = np.where(t >= 10, 6.0, 0.0)
-    assert label(MERGE_CAR_BEHIND, x_edge, 12.5 * t) == MERGE_AHEAD  # at t = 10: 125 vs 25
-    # x = 5.99 is not yet in the lane: never enters, so the gap at T decides (250 vs 150 -> ahead; vs 350 -> behind)
-    x_near = np.where(t >= 10, 5.99, 0.0)
-    assert label(MERGE_CAR_BEHIND, x_near, 12.5 * t) == MERGE_AHEAD
-    assert label(MERGE_CAR_AHEAD, x_near, 12.5 * t) == MERGE_BEHIND
+    x_edge[-3:] = 12.0
+    assert label(MERGE_CAR_BEHIND, x_edge, 12.5 * t) == MERGE_AHEAD
 
 
-def test_merging_moving_left_is_not_an_entry():
-    # the robot swerves left (x = -12) and stays level with nothing: only x >= +6 counts as entering
-    x = -np.minimum(t, 12.0)
-    y = 12.5 * t
-    # never enters: gap at T: robot 250, car 100 behind at 150 -> ahead; car 100 ahead at 350 -> behind
-    assert label(MERGE_CAR_BEHIND, x, y) == MERGE_AHEAD
-    assert label(MERGE_CAR_AHEAD, x, y) == MERGE_BEHIND
+@pytest.mark.parametrize("x_end", [9.0, 10.5, 12.0])
+def test_a_car_that_ends_in_the_right_lane_merged(x_end):
+    x = x_end * np.minimum(t / 8.0, 1.0)
+    assert label(MERGE_CAR_BEHIND, x, 12.5 * t) == MERGE_AHEAD
+    assert label(OTHER_MERGE_ENV, x, 12.5 * t) == OTHER_MERGE
+
+
+def test_merge_right_car_that_approaches_the_lane_line_and_swerves_back_left_did_not_merge():
+    # the issue's case: drifts to the lane line (x = 6), then swerves back left and ends at x = -10
+    x = np.interp(t, [0, 8, 12, 20], [0.0, 6.0, 6.0, -10.0])
+    assert x.max() >= 6.0  # it did cross into the right lane's half: the old labeller called this a merge
+    for env in (MERGE_CAR_AHEAD, MERGE_CAR_BEHIND, OTHER_MERGE_ENV):
+        assert label(env, x, 12.5 * t) == NO_STRATEGY
+
+
+@pytest.mark.parametrize("x_path", [
+    [0.0, 0.0, 0.0, 0.0],  # never moves: the goal not reached
+    [0.0, 4.0, 8.0, 8.5],  # stops on the lane line
+    [0.0, 6.0, 6.0, 7.0],  # straddles the line to the end
+    [0.0, -12.0, -12.0, -12.0],  # dodges into the left lane
+    [0.0, -7.0, 6.0, 12.0],  # ends in the right lane, but entered the left lane on the way
+    [0.0, 12.0, 12.0, 2.0],  # merged, then came back to the centre lane
+])
+def test_merge_right_without_ending_in_the_right_lane_is_no_strategy(x_path):
+    x = np.interp(t, [0, 6, 12, 20], x_path)
+    for env in (MERGE_CAR_AHEAD, MERGE_CAR_BEHIND, OTHER_MERGE_ENV):
+        assert label(env, x, 12.5 * t) == NO_STRATEGY
 
 
 @pytest.mark.parametrize("x_end, expected", [
-    (0.0, BRAKE_STAY), (5.9, BRAKE_STAY), (-5.9, BRAKE_STAY), (6.1, BRAKE_CHANGE), (-12.0, BRAKE_CHANGE),
-    (12.0, BRAKE_CHANGE)])
-def test_braking_stay_or_change_by_leaving_the_centre_lane(x_end, expected):
+    (0.0, BRAKE_STAY), (5.9, BRAKE_STAY), (-5.9, BRAKE_STAY), (-12.0, BRAKE_CHANGE), (12.0, BRAKE_CHANGE),
+    (9.0, BRAKE_CHANGE), (-9.0, BRAKE_CHANGE), (6.1, NO_STRATEGY), (8.9, NO_STRATEGY), (-7.5, NO_STRATEGY)])
+def test_braking_stay_in_lane_or_change_into_another_lane(x_end, expected):
     x = x_end * np.minimum(t / 8.0, 1.0)
     assert label(BRAKE_ENV, x, 10.0 * t) == expected
 
 
-def test_braking_change_counts_even_if_the_robot_comes_back():
-    x = np.where((t >= 5) & (t <= 12), -12.0, 0.0)  # out to the left and back
-    assert label(BRAKE_ENV, x, 12.5 * t) == BRAKE_CHANGE
+def test_a_lane_change_that_comes_back_is_no_strategy():
+    x = np.where((t >= 5) & (t <= 12), -12.0, 0.0)  # out to the left and back: neither stays nor changes
+    assert label(BRAKE_ENV, x, 12.5 * t) == NO_STRATEGY
+    assert label(TAIL_ENV, x, 12.5 * t) == NO_STRATEGY
 
 
 @pytest.mark.parametrize("x_end, expected", [
-    (0.0, TAIL_STAY), (4.0, TAIL_STAY), (-12.0, TAIL_CHANGE), (12.0, TAIL_CHANGE)])
+    (0.0, TAIL_STAY), (4.0, TAIL_STAY), (-12.0, TAIL_CHANGE), (12.0, TAIL_CHANGE), (-15.5, NO_STRATEGY),
+    (7.0, NO_STRATEGY)])
 def test_tailgating_change_or_stay(x_end, expected):
     x = x_end * np.minimum(t / 8.0, 1.0)
     assert label(TAIL_ENV, x, 15.0 * t) == expected
 
 
-def test_other_environments_are_labelled_by_goal_whatever_the_trajectory():
-    for x in (np.zeros(T + 1), np.minimum(t, 12.0), -np.minimum(t, 12.0)):
-        for y in (5.0 * t, 20.0 * t):
-            assert label(OTHER_MERGE_ENV, x, y) == OTHER_MERGE
-            assert label(OTHER_FWD_ENV, x, y) == OTHER_FORWARD
+def test_other_environments_merge_only_if_merged_and_forward_only_if_in_lane():
+    for y in (5.0 * t, 20.0 * t):
+        assert label(OTHER_MERGE_ENV, np.minimum(t, 12.0), y) == OTHER_MERGE
+        assert label(OTHER_FWD_ENV, np.zeros(T + 1), y) == OTHER_FORWARD
+        assert label(OTHER_FWD_ENV, 0.5 * np.sin(t), y) == OTHER_FORWARD  # wobbles within its lane
+        assert label(OTHER_MERGE_ENV, np.zeros(T + 1), y) == NO_STRATEGY
+        assert label(OTHER_MERGE_ENV, -np.minimum(t, 12.0), y) == NO_STRATEGY
+        assert label(OTHER_FWD_ENV, np.minimum(t, 12.0), y) == NO_STRATEGY
+        assert label(OTHER_FWD_ENV, -np.minimum(t, 12.0), y) == NO_STRATEGY
 
 
 def test_batched_labels_match_one_at_a_time_and_use_the_given_other_car():
@@ -118,14 +145,14 @@ def test_batched_labels_match_one_at_a_time_and_use_the_given_other_car():
     for m, eid in enumerate(ids):
         for n, s in enumerate(trajs):
             assert out[m, n] == label(eid, s[:, 0], s[:, 1])
-    assert out.tolist() == [[MERGE_BEHIND, MERGE_BEHIND, MERGE_BEHIND],
+    assert out.tolist() == [[NO_STRATEGY, MERGE_BEHIND, NO_STRATEGY],
                             [BRAKE_STAY, BRAKE_CHANGE, BRAKE_CHANGE],
                             [TAIL_STAY, TAIL_CHANGE, TAIL_CHANGE],
-                            [OTHER_FORWARD] * 3]
+                            [OTHER_FORWARD, NO_STRATEGY, NO_STRATEGY]]
     # an explicitly given other car is used instead of the environment's: put the merging car far behind
     other = np.zeros((4, T + 1, 2))
     other[..., 1] = -1000.0
-    assert strategy_labels(batch, envs, other)[0].tolist() == [MERGE_AHEAD] * 3
+    assert strategy_labels(batch, envs, other)[0].tolist() == [NO_STRATEGY, MERGE_AHEAD, NO_STRATEGY]
     single = strategy_labels(batch[:, 1], envs)
     assert single.shape == (4,)
     np.testing.assert_array_equal(single, out[:, 1])
