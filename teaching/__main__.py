@@ -3,6 +3,7 @@
 Sub-commands:
   build   build (or resume) a trajectory table from a preset, with a progress bar
   info    print a table's identity and a summary (strategy counts, d_reward check)
+  sheet   draw every training example and test option of a teach output as one PNG
 """
 from __future__ import annotations
 
@@ -43,6 +44,12 @@ def main(argv=None) -> int:
     b.add_argument("--thetas", type=int, help="override the number of candidate thetas (>= 2)")
     i = sub.add_parser("info", help="summarise a table")
     i.add_argument("path")
+    s = sub.add_parser("sheet", help="contact sheet: every training example and test option, one PNG")
+    s.add_argument("--table", required=True, help="trajectory table directory")
+    s.add_argument("--teach", required=True, help="output directory of python -m teaching.teach")
+    s.add_argument("--out", required=True, help="PNG file to write")
+    s.add_argument("--columns", type=int, default=5, help="panels per row before a sequence wraps")
+    s.add_argument("--dpi", type=int, default=140)
     args = parser.parse_args(argv)
     try:
         if args.command == "build":
@@ -61,6 +68,16 @@ def main(argv=None) -> int:
                 table = build_table(preset, args.out, progress)
             print(summary(table))
             print(f"built {n * preset.n_thetas:,} trajectories in {time.time() - start:.1f} s -> {args.out}")
+        elif args.command == "sheet":
+            from .sheet import make_sheet
+
+            if args.columns < 1 or args.dpi < 10:
+                raise ValueError(f"--columns must be >= 1 and --dpi >= 10, got {args.columns} and {args.dpi}")
+            n, no_tests = make_sheet(table_dir=args.table, teach_dir=args.teach, out=args.out,
+                                     columns=args.columns, dpi=args.dpi)
+            if no_tests:
+                print(f"note: the teach output has no test set ({no_tests}); drew the training examples only")
+            print(f"drew {n} panels -> {args.out}")
         else:
             print(summary(TrajectoryTable.load(args.path)))
     except (ValueError, TableError) as exc:

@@ -49,6 +49,12 @@ def theta_star_clusters(table) -> np.ndarray:
     return np.asarray(table.strategy[:, 0], dtype=np.int64)
 
 
+def showable(table) -> np.ndarray:
+    """(M,) bool: environments whose θ* trajectory shows one of its class's strategies.  The
+    others (NO_STRATEGY: e.g. a merge along the lane line) are never shown to participants."""
+    return theta_star_clusters(table) < N_CLUSTERS
+
+
 def _candidate_p(lik: np.ndarray, w: np.ndarray) -> np.ndarray:
     """(M,) P(θ*) after adding each environment to the examples with weights w (N,)."""
     score = lik @ w
@@ -58,7 +64,7 @@ def _candidate_p(lik: np.ndarray, w: np.ndarray) -> np.ndarray:
 
 
 def greedy(lik: np.ndarray, max_examples: int = MAX_EXAMPLES, allow_repeats: bool = True,
-           stop_gain: float = 0.0) -> tuple[Sequence, np.ndarray]:
+           stop_gain: float = 0.0, *, eligible: np.ndarray | None = None) -> tuple[Sequence, np.ndarray]:
     """Greedy maximisation of P(θ* | ξ_{E_1:t}) (paper, "(Submodular) Example Selection").
 
     lik: (M, N) float32.  Adds the environment with the highest resulting
@@ -66,6 +72,7 @@ def greedy(lik: np.ndarray, max_examples: int = MAX_EXAMPLES, allow_repeats: boo
     improves P(θ*) — or, with ``stop_gain`` > 0, until the best gain is below
     it.  Repeats are allowed by default: for a probabilistic learner the same
     example lowers wrong θs again (the paper's rule counts *unique* examples).
+    eligible: (M,) bool, the environments that may be shown (default all).
     Returns the sequence and the final weights w (N,) float32.
     """
     m, n = lik.shape
@@ -77,6 +84,8 @@ def greedy(lik: np.ndarray, max_examples: int = MAX_EXAMPLES, allow_repeats: boo
         p = _candidate_p(lik, w)
         if not allow_repeats:
             p[used] = -1.0
+        if eligible is not None:
+            p[~eligible] = -1.0
         best = int(np.argmax(p))
         if p[best] <= p_now * (1 + IMPROVEMENT_RTOL) or p[best] - p_now < stop_gain:
             break
@@ -97,10 +106,12 @@ def coverage_augmented(lik: np.ndarray, clusters: np.ndarray, epsilon: float = C
     best under the model among environments of a missing cluster (the
     cluster whose best example gives the highest P(θ*) goes first).
     Clusters in which θ* never shows its trajectory cannot be covered and
-    are skipped.
+    are skipped; environments where θ* shows no strategy (NO_STRATEGY) are
+    never shown.
     """
-    seq, w = greedy(lik, max_examples, allow_repeats, stop_gain=epsilon)
-    missing = set(np.unique(clusters).tolist()) - set(clusters[seq.envs].tolist())
+    eligible = clusters < N_CLUSTERS
+    seq, w = greedy(lik, max_examples, allow_repeats, stop_gain=epsilon, eligible=eligible)
+    missing = set(np.unique(clusters[eligible]).tolist()) - set(clusters[seq.envs].tolist())
     while missing:
         p = _candidate_p(lik, w)
         p[~np.isin(clusters, list(missing))] = -1.0
@@ -128,11 +139,12 @@ class SweepRow:
 
 def sweep(model: LearnerModel, dist: Distances, grid=GRID, max_examples: int = MAX_EXAMPLES,
           allow_repeats: bool = True, buffer: np.ndarray | None = None) -> list[SweepRow]:
-    """Greedy sequences of ``model`` for every τ / λ in ``grid``."""
+    """Greedy sequences of ``model`` for every τ / λ in ``grid`` (showable environments only)."""
     rows = []
+    eligible = showable(dist.table)
     for value in grid:
         lik = model.with_value(value).likelihood(dist, out=buffer)
-        rows.append(SweepRow(float(value), greedy(lik, max_examples, allow_repeats)[0]))
+        rows.append(SweepRow(float(value), greedy(lik, max_examples, allow_repeats, eligible=eligible)[0]))
     return rows
 
 
@@ -160,9 +172,9 @@ def random_baseline(dist: Distances, rng: np.random.Generator, n_draws: int = RA
 
     Returns (sequence, P of every draw (n_draws,), index of the chosen draw).
     """
-    m = dist.shape[0]
-    length = min(length, m)
-    draws = np.stack([rng.choice(m, size=length, replace=False) for _ in range(n_draws)])
+    rows = np.flatnonzero(showable(dist.table))
+    length = min(length, len(rows))
+    draws = np.stack([rows[rng.choice(len(rows), size=length, replace=False)] for _ in range(n_draws)])
     exact = make_model("exact")
     p = np.array([_p_of(exact, dist, d) for d in draws])
     order = np.argsort(p, kind="stable")
@@ -239,7 +251,7 @@ def condition_sequence(table, name: str, seed: int = 0, approx_star: str = "det-
     lik = model.likelihood(dist, out=buffer)
     if name == "coverage-approx*":
         return coverage_augmented(lik, theta_star_clusters(table), epsilon, max_examples, allow_repeats), model, met
-    return greedy(lik, max_examples, allow_repeats)[0], model, met
+    return greedy(lik, max_examples, allow_repeats, eligible=showable(table))[0], model, met
 
 
 def teach(table, seed: int = 0, approx_star: str = "det-euclidean", hyperparameters: dict | None = None,
@@ -269,7 +281,7 @@ def teach(table, seed: int = 0, approx_star: str = "det-euclidean", hyperparamet
             sweeps[name], rule_met[name] = rows, met
         models[name] = model
         lik = model.likelihood(dist, out=buffer)
-        sequences[name] = greedy(lik, max_examples, allow_repeats)[0]
+        sequences[name] = greedy(lik, max_examples, allow_repeats, eligible=showable(table))[0]
         if name == approx_star:
             sequences["coverage-approx*"] = coverage_augmented(
                 lik, theta_star_clusters(table), epsilon, max_examples, allow_repeats)

@@ -3,7 +3,10 @@
 
 Computed from the trajectory itself, never from theta.  A car is *in* a lane
 when its centre is within a quarter lane (3 ft) of the lane's centre, and has
-*left* the centre lane once its centre is more than half a lane (6 ft) from it:
+*left* the centre lane once its centre is more than half a lane (6 ft) from it.
+A lane change is *clean* when it is one movement: the car is between lanes (in
+none) for at most 2 s, and it never turns back across by more than 3 ft (no
+weaving).  Every strategy that changes lane must be clean:
 
 * merging: only a car that merged -- ends in the right lane, never entered the
   left lane -- is "ahead" or "behind": the sign of the y gap to the other car at
@@ -14,8 +17,9 @@ when its centre is within a quarter lane (3 ft) of the lane's centre, and has
   forward-goal car that never left the centre lane.
 
 Anything else -- a "merge right" car that stops on the lane line or swerves
-left, a lane change that ends between lanes or comes back -- is NO_STRATEGY and
-is never shown as an example or a test option of a cluster.
+left, drives along the lane line, weaves, or a lane change that ends between
+lanes or comes back -- is NO_STRATEGY and is never shown as an example or a
+test option of a cluster (selection skips environments where theta* shows it).
 """
 from __future__ import annotations
 
@@ -37,6 +41,18 @@ CLUSTER_NAMES = (
 CLASS_OF_CLUSTER = np.array([MERGING, MERGING, BRAKING, BRAKING, TAILGATING, TAILGATING, OTHER, OTHER, -1])
 IN_LANE = WORLD.lane_width / 4  # ft from a lane centre: "in" that lane
 LEFT_LANE = WORLD.lane_width / 2  # ft from the centre lane's centre: "left" it
+MAX_STEPS_BETWEEN_LANES = 8  # 2 s: a lane change here takes 1.5-3 s, half of it between lanes
+MAX_TURN_BACK = 3.0  # ft a lane change may come back across (weaving beyond it is not one movement)
+
+
+def clean_lane_change(x: np.ndarray) -> np.ndarray:
+    """(..., T+1) lateral positions (ft) -> (...) bool: between lanes for at most
+    MAX_STEPS_BETWEEN_LANES steps and never turning back across by more than MAX_TURN_BACK ft."""
+    centres = np.asarray(WORLD.lane_centres)
+    between = (np.abs(x[..., None] - centres).min(-1) > IN_LANE).sum(-1)
+    back_left = (np.maximum.accumulate(x, axis=-1) - x).max(-1)  # came back left from its rightmost
+    back_right = (x - np.minimum.accumulate(x, axis=-1)).max(-1)  # came back right from its leftmost
+    return (between <= MAX_STEPS_BETWEEN_LANES) & (np.minimum(back_left, back_right) <= MAX_TURN_BACK)
 
 
 def strategy_labels(states: np.ndarray, envs: Environments, other_xy: np.ndarray | None = None) -> np.ndarray:
@@ -55,9 +71,10 @@ def strategy_labels(states: np.ndarray, envs: Environments, other_xy: np.ndarray
     right = WORLD.lane_centres[2]
     x, y = states[..., 0], states[..., 1]  # (n, N, T+1)
 
-    merged = (np.abs(x[..., -1] - right) <= IN_LANE) & (x.min(-1) >= -LEFT_LANE)
+    clean = clean_lane_change(x)
+    merged = (np.abs(x[..., -1] - right) <= IN_LANE) & (x.min(-1) >= -LEFT_LANE) & clean
     kept_lane = np.abs(x).max(-1) <= LEFT_LANE
-    changed = np.abs(np.abs(x[..., -1]) - right) <= IN_LANE  # ends in the left or the right lane
+    changed = (np.abs(np.abs(x[..., -1]) - right) <= IN_LANE) & clean  # ends in the left or the right lane
 
     entered = x >= LEFT_LANE
     first = np.where(entered.any(-1), entered.argmax(-1), x.shape[-1] - 1)  # (n, N)

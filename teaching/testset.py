@@ -16,6 +16,12 @@ and any two options must look different:
 random (seeded) from those not used in any training sequence; for each, up
 to MAX_TRIES random option sets are drawn and the first one meeting the
 thresholds is kept (rejection sampling); environments with none are skipped.
+
+When no unused environment of cluster c has two θ in Θ taking the other
+strategy (on the demo table no θ ever merges on the other side of the car
+than θ* does: docs/decisions.md), the two remaining options may come from
+either strategy of the class (``"rule": "relaxed"`` in the test's entry,
+``"design"`` otherwise).  Trajectories that show no strategy are never options.
 """
 from __future__ import annotations
 
@@ -62,19 +68,26 @@ def _distinct(table, env_index: int, thetas: np.ndarray) -> np.ndarray:
     return np.sort(thetas[first])
 
 
-def _draw_options(table, env_index: int, cluster: int, rng, min_regret, min_distance, max_tries):
-    """[θ*, same-cluster θ, other-cluster θ, other-cluster θ] or None when rejected."""
+def _draw_options(table, env_index: int, cluster: int, rng, min_regret, min_distance, max_tries,
+                  relaxed: bool = False):
+    """[θ*, same-cluster θ, other-cluster θ, other-cluster θ] or None when rejected; relaxed: the last
+    two from either cluster of the class."""
     regret = theta_star_regret(table, env_index)
     strat = np.asarray(table.strategy[env_index])
     same = _distinct(table, env_index, np.flatnonzero((strat == cluster) & (regret >= min_regret)))
-    other = _distinct(table, env_index, np.flatnonzero((strat == sibling(cluster)) & (regret >= min_regret)))
-    if len(same) < 1 or len(other) < 2:
+    wanted = (strat == sibling(cluster)) | ((strat == cluster) if relaxed else False)
+    other = _distinct(table, env_index, np.flatnonzero(wanted & (regret >= min_regret)))
+    if len(same) < 1 or len(other) < 2 + relaxed:
         return None
     pool = np.concatenate([[0], same, other])
     dist = pairwise_distance(np.asarray(table.states(env_index, pool), np.float64))
     pos = {int(t): i for i, t in enumerate(pool)}
     for _ in range(max_tries):
-        pick = [0, int(rng.choice(same)), *map(int, rng.choice(other, size=2, replace=False))]
+        first = int(rng.choice(same))
+        rest = other[other != first]
+        if len(rest) < 2:
+            return None
+        pick = [0, first, *map(int, rng.choice(rest, size=2, replace=False))]
         idx = [pos[t] for t in pick]
         d = dist[np.ix_(idx, idx)][np.triu_indices(4, 1)]
         if d.min() >= min_distance:
@@ -100,21 +113,26 @@ def select_test_set(table, training_env_ids: list[list[int]], seed: int = 0, min
     out = []
     for c in TEST_CLUSTERS:
         cand = np.flatnonzero(free & (star_cluster == c) & (env_class == CLASS_OF_CLUSTER[c]))
-        for m in rng.permutation(cand):
-            drawn = _draw_options(table, int(m), c, rng, min_regret, min_distance, max_tries)
+        drawn = None
+        for rule in ("design", "relaxed"):
+            for m in rng.permutation(cand):
+                drawn = _draw_options(table, int(m), c, rng, min_regret, min_distance, max_tries,
+                                      relaxed=rule == "relaxed")
+                if drawn is not None:
+                    break
             if drawn is not None:
                 break
         else:
             raise TestSetError(
                 f"no test environment for cluster '{CLUSTER_NAMES[c]}': {len(cand)} unused environments "
-                f"show it, none has 1 same-cluster and 2 other-cluster alternatives with θ*-regret >= "
-                f"{min_regret:g} that are pairwise >= {min_distance:g} apart")
+                f"show it, none has 3 alternatives of its class's strategies (at least 1 of this one) with "
+                f"θ*-regret >= {min_regret:g} that are pairwise >= {min_distance:g} apart")
         pick, regret, dmin = drawn
         strat = table.strategy[m]
         options = [{"theta_index": t, "is_theta_star": t == 0, "cluster": int(strat[t]),
                     "regret": float(regret[t])} for t in pick]
         options = [options[i] for i in rng.permutation(4)]
         out.append({"env_id": int(env_ids[m]), "env_index": int(m), "cluster": c,
-                    "cluster_name": CLUSTER_NAMES[c], "env_class": CLASS_NAMES[CLASS_OF_CLUSTER[c]],
+                    "cluster_name": CLUSTER_NAMES[c], "env_class": CLASS_NAMES[CLASS_OF_CLUSTER[c]], "rule": rule,
                     "min_option_distance": dmin, "options": options})
     return out

@@ -69,11 +69,9 @@ def test_stored_features_labels_and_distances_describe_the_stored_controls(chunk
     np.testing.assert_array_equal(phi.reshape(M_ENVS, N_THETAS, 5), table.features)
     states = rollout_np(table.controls)
     np.testing.assert_array_equal(table.strategy, strategy_labels(states, envs))
-    # every label is one of the two clusters of its environment's class, or "none" (some thetas do neither);
-    # theta* always shows one of its class's strategies
+    # every label is one of the two clusters of its environment's class, or "none" (some thetas do neither)
     cls = environment_class(envs)[:, None]
     assert np.all((CLASS_OF_CLUSTER[table.strategy] == cls) | (table.strategy == NO_STRATEGY))
-    assert np.all(CLASS_OF_CLUSTER[table.strategy[:, 0]] == cls[:, 0])
     np.testing.assert_array_equal(table.d_euclid, euclidean_distance(states, states[:, :1]).astype(np.float32))
     np.testing.assert_array_equal(table.d_euclid[:, 0], 0.0)
 
@@ -226,13 +224,13 @@ def test_theta_star_uses_both_strategies_in_every_informative_class():
     out = plan_chunk(ids, THETA_STAR[None], default_normalisers())
     labels = out["strategy"][:, 0]
     cls = environment_class(get_environments(ids))
-    assert np.all(CLASS_OF_CLUSTER[labels] == cls)
-    counts = np.bincount(labels, minlength=8)
-    for cluster in (MERGE_AHEAD, MERGE_BEHIND, BRAKE_STAY, BRAKE_CHANGE, TAIL_CHANGE, TAIL_STAY):
-        assert counts[cluster] > 0, (cluster, counts.tolist())
-    assert counts[[MERGE_AHEAD, MERGE_BEHIND]].sum() == (cls == MERGING).sum()
-    assert counts[[BRAKE_STAY, BRAKE_CHANGE]].sum() == (cls == BRAKING).sum()
-    assert counts[[TAIL_CHANGE, TAIL_STAY]].sum() == (cls == TAILGATING).sum()
+    assert np.all((CLASS_OF_CLUSTER[labels] == cls) | (labels == NO_STRATEGY))
+    for c, pair in ((MERGING, (MERGE_AHEAD, MERGE_BEHIND)), (BRAKING, (BRAKE_STAY, BRAKE_CHANGE)),
+                    (TAILGATING, (TAIL_CHANGE, TAIL_STAY))):
+        mine = labels[cls == c]
+        for cluster in pair:  # both strategies, each in >= 5 % of the class's environments (issue 10)
+            assert np.mean(mine == cluster) >= 0.05, (cluster, np.bincount(mine, minlength=9).tolist())
+        assert np.mean(mine == NO_STRATEGY) <= 0.10
     # theta* never leaves the lanes to keep away from the other car
     x = rollout_np(out["controls"][:, 0])[..., 0]
     assert np.abs(x).max() <= X_LIMIT + 0.15

@@ -1,4 +1,5 @@
 """Selectors against exhaustive search, hand-built instances and their own definitions."""
+import copy
 import itertools
 
 import numpy as np
@@ -258,3 +259,26 @@ def test_each_condition_alone_equals_the_whole_teaching_run(hyper):
         assert met == whole.rule_met.get(key), name
     with pytest.raises(ValueError, match="unknown condition"):
         condition_sequence(table, "nope")
+
+
+def test_environments_where_theta_star_shows_no_strategy_are_never_shown():
+    """A table where the most informative environments are ones in which θ*'s trajectory is labelled
+    NO_STRATEGY (e.g. a merge along the lane line): no condition, sweep value or random draw shows them."""
+    from teaching.strategies import NO_STRATEGY
+
+    table = synthetic_table(90, 40, n_candidates=5, seed=5)
+    best = teach(table, seed=4)
+    hidden = sorted({e for name in CONDITIONS for e in best.sequences[name].envs})
+    strategy = np.array(table.strategy)
+    strategy[hidden, 0] = NO_STRATEGY  # θ*'s label only: the θs' own trajectories keep theirs
+    masked = copy.copy(table)  # a synthetic table keeps its candidates' states beside its fields
+    masked.strategy = strategy
+    result = teach(masked, seed=4)
+    for name in CONDITIONS:
+        assert not set(result.sequences[name].envs) & set(hidden), name
+        assert len(result.sequences[name].envs) > 0, name
+    for rows in result.sweeps.values():
+        for row in rows:
+            assert not set(row.sequence.envs) & set(hidden)
+    # coverage never tries to "cover" the non-strategy
+    assert NO_STRATEGY not in theta_star_clusters(masked)[result.sequences["coverage-approx*"].envs]

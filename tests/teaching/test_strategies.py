@@ -101,6 +101,29 @@ def test_merge_right_without_ending_in_the_right_lane_is_no_strategy(x_path):
         assert label(env, x, 12.5 * t) == NO_STRATEGY
 
 
+def test_a_merge_along_the_lane_line_or_weaving_is_no_strategy():
+    # drives on the lane line (x = 6) for 3 s before completing the merge: 12 steps between lanes
+    along_line = np.interp(t, [0, 3, 15, 18, 20], [0.0, 6.0, 6.0, 12.0, 12.0])
+    # merges, comes back to the centre lane while the other car passes, merges again at the end
+    weave = np.interp(t, [0, 4, 8, 12, 16, 20], [0.0, 12.0, 12.0, 1.0, 12.0, 12.0])
+    # the clean version of each: one movement, 1.5 s between lanes
+    clean = np.interp(t, [0, 3, 9, 20], [0.0, 0.0, 12.0, 12.0])
+    for env in (MERGE_CAR_AHEAD, MERGE_CAR_BEHIND, OTHER_MERGE_ENV):
+        assert label(env, along_line, 12.5 * t) == NO_STRATEGY
+        assert label(env, weave, 12.5 * t) == NO_STRATEGY
+        assert label(env, clean, 12.5 * t) != NO_STRATEGY
+    # the limits: 8 steps between lanes is one movement, 9 is not; turning back 3 ft is, 3.5 ft is not
+    eight = np.interp(t, [0, 2, 11, 20], [0.0, 3.0, 9.0, 12.0])
+    nine = np.interp(t, [0, 2, 12, 20], [0.0, 3.0, 9.0, 12.0])
+    assert ((np.abs(eight[:, None] - [-12, 0, 12]).min(1) > 3).sum(),
+            (np.abs(nine[:, None] - [-12, 0, 12]).min(1) > 3).sum()) == (8, 9)
+    assert label(BRAKE_ENV, eight, 12.5 * t) == BRAKE_CHANGE
+    assert label(BRAKE_ENV, nine, 12.5 * t) == NO_STRATEGY
+    overshoot = np.interp(t, [0, 6, 10, 20], [0.0, -12.0, -9.0, -9.0])  # left, then 3 ft back: still a change
+    assert label(TAIL_ENV, overshoot, 12.5 * t) == TAIL_CHANGE
+    assert label(TAIL_ENV, np.interp(t, [0, 6, 10, 20], [0.0, -12.5, -9.0, -9.0]), 12.5 * t) == NO_STRATEGY
+
+
 @pytest.mark.parametrize("x_end, expected", [
     (0.0, BRAKE_STAY), (5.9, BRAKE_STAY), (-5.9, BRAKE_STAY), (-12.0, BRAKE_CHANGE), (12.0, BRAKE_CHANGE),
     (9.0, BRAKE_CHANGE), (-9.0, BRAKE_CHANGE), (6.1, NO_STRATEGY), (8.9, NO_STRATEGY), (-7.5, NO_STRATEGY)])

@@ -1,4 +1,6 @@
 """Test-set selection: every documented constraint is checked on the result."""
+import copy
+
 import numpy as np
 import pytest
 
@@ -35,6 +37,7 @@ def test_six_environments_with_the_promised_options(table, training):
         clusters = [o["cluster"] for o in opts]
         assert clusters == [int(table.strategy[m, k]) for k in thetas]  # option = that theta's trajectory
         assert sorted(clusters) == sorted([c, c, sibling(c), sibling(c)])
+        assert t["rule"] == "design"
         regret = theta_star_regret(table, m)
         for o in opts:
             assert o["regret"] == pytest.approx(regret[o["theta_index"]])
@@ -76,3 +79,25 @@ def test_distinct_keeps_one_theta_per_trajectory(table):
     kept = _distinct(table, m, thetas)
     assert len(kept) == len(np.unique(table.features[m], axis=0))
     assert kept[0] == 0  # the lowest index represents its trajectory
+
+
+def test_relaxed_options_only_when_no_environment_has_the_other_strategy(table, training):
+    """Where no θ in Θ ever takes the other strategy in cluster 0's environments (as merging on the demo
+    table), the alternatives come from the class's strategies, never from trajectories showing none."""
+    from teaching.strategies import NO_STRATEGY
+
+    strategy = np.array(table.strategy)
+    rows = np.flatnonzero(strategy[:, 0] == 0)
+    block = strategy[rows]
+    block[block == sibling(0)] = 0  # nobody merges on the other side ...
+    block[:, 1::7] = NO_STRATEGY  # ... and some θs show no strategy at all
+    strategy[rows] = block
+    masked = copy.copy(table)  # a synthetic table keeps its candidates' states beside its fields
+    masked.strategy = strategy
+    tests = select_test_set(masked, training, seed=0)
+    assert [t["rule"] for t in tests] == ["relaxed"] + ["design"] * 5
+    opts = tests[0]["options"]
+    assert all(o["cluster"] == 0 for o in opts)  # the class's strategies only: never NO_STRATEGY
+    assert len({o["theta_index"] for o in opts}) == 4
+    d = pairwise_distance(masked.states(tests[0]["env_index"], np.array([o["theta_index"] for o in opts])))
+    assert d[np.triu_indices(4, 1)].min() >= MIN_OPTION_DISTANCE
