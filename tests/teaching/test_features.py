@@ -197,10 +197,11 @@ def _central_differences(z, oxy, goal, w, h=1e-5):
 def hand_penalties(x, goal, h_end=math.pi / 2):
     """The constraints by hand: |x_t| <= 12 (outer lane centres) at every step, x_T within 2 ft of a
     lane centre (of the right lane's, x = 12, for the merge goal) and h_T within 0.05 rad of straight
-    (100 ft per rad); C2 penalty W o^2 on o ft outside, W = 10, with a cubic ramp over the first 0.1 ft."""
+    (100 ft per rad); penalty W q^2 for o ft outside (o < 0 inside), q = s log(1 + e^(o/s)), W = 10,
+    s = 0.05 ft."""
     def pen(o):
-        d, W = 0.1, 10.0
-        return np.where(o <= 0, 0.0, np.where(o < d, W * o**3 / (3 * d), W * (o**2 - d * o + d**2 / 3)))
+        o = np.asarray(o, float)
+        return 10.0 * (0.05 * np.logaddexp(0.0, o / 0.05)) ** 2
 
     centre = 12.0 if goal == 0 else min((-12.0, 0.0, 12.0), key=lambda c: abs(x[-1] - c))
     return float(np.sum(pen(np.abs(x) - 12.0)) + pen(abs(x[-1] - centre) - 2.0)
@@ -211,8 +212,9 @@ def test_constraint_penalties_by_hand():
     far = far_car()[0]
     w = np.zeros(5)  # no features: F is the penalties alone
     z = np.zeros((K, 2))
-    assert _obj(z.reshape(-1), far, 1, w) == 0.0  # straight on in the centre lane: allowed
-    assert _obj(z.reshape(-1), far, 0, w) == pytest.approx(10 * (100 - 1.0 + 1e-2 / 3))  # merge goal: 10 ft short
+    assert _obj(z.reshape(-1), far, 1, w) < 1e-30  # straight on in the centre lane: allowed (2 ft inside)
+    # merge goal: 10 ft short of the band, ~W o^2 (the softplus adds ~s^2 e^(-o/s), nothing here)
+    assert _obj(z.reshape(-1), far, 0, w) == pytest.approx(10 * 100.0, rel=1e-12)
     z[:4, 0] = [-0.45, 0.45, 0.45, -0.45]  # right lane change: ends at x = 12.43, 0.43 ft past the limit
     s = rollout_np(z)
     x, h_end = s[1:, 0], s[-1, 2]
