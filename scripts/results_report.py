@@ -1,0 +1,348 @@
+"""Write docs/results.md from a trajectory table and the outputs of `python -m teaching.teach`.
+
+    .venv/bin/python scripts/results_report.py --table var/tables/demo --teach var/teaching/demo \
+        --out docs/results.md [--figures docs/figures] [--planner-precision TEXT] \
+        [--paper-table DIR --paper-teach DIR]
+
+Every number in the document comes from the table, the teach outputs, or a computation on the
+table made here (the exact-IRL tolerance section); nothing is typed by hand.  Bad input (a
+missing or corrupt table or teach directory, outputs made from another table) prints one
+`error: ...` line and exits with status 2.
+"""
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import os
+import shlex
+import shutil
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from teaching.environments import CLASS_NAMES, N_ENVIRONMENTS  # noqa: E402
+from teaching.learners import EXACT_TOLERANCE, Distances, make_model, p_theta_star  # noqa: E402
+from teaching.selection import MIN_RISE, greedy, showable  # noqa: E402
+from teaching.strategies import CLUSTER_NAMES, N_CLUSTERS  # noqa: E402
+from teaching.table import TableError, TrajectoryTable  # noqa: E402
+
+TOLERANCES = (0.0, 1e-7, 1e-6, 1e-5)
+TEACH_FILES = ("sequences.json", "matrix.json", "examples_per_cluster.json", "test_set.json")
+FIGURES = ("sim_users.png", "examples_shown.png")
+GRID_COLUMNS = ("merging ahead", "merging behind", "braking stay", "braking change",
+                "tailgating change", "tailgating stay", "other merge", "other forward")
+EXIT_BAD_INPUT = 2
+
+
+class ReportError(ValueError):
+    """Bad input: reported in one line, exit status 2."""
+
+
+def fmt_p(p) -> str:
+    """A probability with enough digits that a value just below 1 does not print as 1."""
+    p = float(p)
+    if p == 1.0 or p == 0.0:
+        return f"{p:g}"
+    if p > 0.999:
+        return f"{p:.{int(np.ceil(-np.log10(1 - p))) + 1}f}"
+    return f"{p:.3g}"
+
+
+def md_table(header, rows) -> list[str]:
+    return ["| " + " | ".join(header) + " |", "|" + "---|" * len(header),
+            *("| " + " | ".join(str(c) for c in r) + " |" for r in rows), ""]
+
+
+def load_inputs(table_dir, teach_dir):
+    """(table, {file stem: parsed JSON}); raises ReportError for anything unusable."""
+    try:
+        table = TrajectoryTable.load(table_dir)
+    except TableError as exc:
+        raise ReportError(str(exc)) from None
+    teach_dir, data = Path(teach_dir), {}
+    if not teach_dir.is_dir():
+        raise ReportError(f"no teach outputs at {teach_dir} (run python -m teaching.teach first)")
+    missing = [n for n in TEACH_FILES + FIGURES if not (teach_dir / n).is_file()]
+    if missing:
+        raise ReportError(f"{teach_dir} lacks {', '.join(missing)} (run python -m teaching.teach first)")
+    for name in TEACH_FILES:
+        try:
+            data[name.split(".")[0]] = json.loads((teach_dir / name).read_text())
+        except (OSError, ValueError) as exc:
+            raise ReportError(f"{teach_dir / name} is unreadable: {exc}") from None
+    made_from = data["sequences"].get("table", {}).get("content_hash")
+    if made_from != table.meta.get("content_hash"):
+        raise ReportError(f"{teach_dir} was made from another table (content hash {made_from}, "
+                          f"table {table_dir} has {table.meta.get('content_hash')})")
+    return table, data
+
+
+def _param(hp) -> str:
+    return f"{'τ' if hp['param'] == 'tau' else 'λ'} = {hp['value']:g}"
+
+
+def section_identity(table, data) -> list[str]:
+    meta, seq, planner = table.meta, data["sequences"], dict(table.meta.get("planner") or {})
+    planner_s = ", ".join(f"{k} = {v}" for k, v in sorted(planner.items(), key=lambda kv: kv[0] != "version"))
+    return [f"- **Table**: preset `{meta.get('preset')}`, {table.n_envs:,} environments × {table.n_thetas:,} θ "
+            f"(θ* = theta 0, prior P(θ*) = 1/{table.n_thetas} = {fmt_p(1 / table.n_thetas)}), sampler "
+            f"`{meta.get('sampler')}`, seed {meta.get('seed')}, built at {meta.get('built_at', '(not recorded)')}.",
+            f"- **Content hash**: `{meta.get('content_hash')}`.",
+            f"- **World fingerprint**: `{meta.get('world')}`.",
+            f"- **Planner**: {planner_s or 'not recorded'}.",
+            f"- **Feature normalisers**: {', '.join(f'{v:.6g}' for v in meta.get('normalisers', []))}.",
+            f"- **Teach settings** (from `sequences.json`): seed {seq.get('seed')}, approx* = "
+            f"`{seq.get('approx_star')}`, coverage ε = {seq.get('epsilon'):g}.", ""]
+
+
+def section_strategies(table, h) -> list[str]:
+    counts = np.bincount(np.asarray(table.strategy[:, 0], np.int64), minlength=N_CLUSTERS + 1)
+    rows = [(c, CLUSTER_NAMES[c], f"{counts[c]:,}") for c in range(len(CLUSTER_NAMES))]
+    n_show = int(showable(table).sum())
+    return [f"{h} θ*'s strategy per environment", "", "Cluster of θ*'s own trajectory in each environment "
+            "(`table.strategy[:, 0]`).", "", *md_table(("cluster", "strategy", "environments"), rows),
+            f"{n_show:,} of {table.n_envs:,} environments are showable; in the other "
+            f"{table.n_envs - n_show:,} θ* shows none of its class's strategies (label {N_CLUSTERS}), and "
+            "they are never shown as examples or used as tests (`teaching.selection.showable`).", ""]
+
+
+def section_hyper(data, h) -> list[str]:
+    rows = []
+    for name, hp in data["sequences"]["hyperparameters"].items():
+        sweep = hp.get("sweep") or []
+        chosen = "none" if hp["param"] is None else _param(hp)
+        if hp["param"] is None:
+            sweep_s = "no hyperparameter"
+        elif not sweep:
+            sweep_s = "fixed with --hyper" if hp.get("fixed") else "not swept (distance is 0 or ∞: no effect)"
+        else:
+            parts = []  # (values, description); consecutive values with the same outcome are merged
+            for r in sweep:
+                desc = (f"{r['n_examples']}/{r['n_unique']}, {fmt_p(r['p'][0])} → {fmt_p(r['p'][-1])}"
+                        if r["p"] else "nothing improves P(θ*)")
+                chosen_r = r["value"] == hp["value"]
+                if parts and parts[-1][1] == desc and not chosen_r and not parts[-1][2]:
+                    parts[-1][0].append(r["value"])
+                else:
+                    parts.append(([r["value"]], desc, chosen_r))
+            sweep_s = "; ".join(("**{}**" if c else "{}").format(
+                f"{v[0]:g}" + (f"…{v[-1]:g}" if len(v) > 1 else "") + f": {d}") for v, d, c in parts)
+        rows.append((name, chosen, {True: "yes", False: "**no**", None: "—"}[hp.get("rule_met")], sweep_s))
+    return [f"{h} Chosen hyperparameters", "",
+            "Rule (`teaching.selection.choose_hyperparameter`): among grid values whose P(θ*) rises by "
+            f"≥ {MIN_RISE:g} from after the first to after the last example, the one showing the most unique examples "
+            "(ties: higher final P(θ*), then the smaller value). Sweep entries read "
+            "value: examples/unique, P(θ*) after first → after last; the chosen value is in bold.", "",
+            *md_table(("model", "chosen", "rule met", "sweep"), rows)]
+
+
+def _env_label(table, env_id, index_of) -> str:
+    m = index_of[env_id]
+    c = int(table.strategy[m, 0])
+    return f"{env_id} ({CLUSTER_NAMES[c] if c < N_CLUSTERS else CLASS_NAMES[table.env_class[m]] + ': none'})"
+
+
+def section_sequences(table, data, index_of, h) -> list[str]:
+    seq = data["sequences"]
+
+    def model_of(cond):
+        name = {"random": "exact", "coverage-approx*": seq["approx_star"],
+                "coverage-random": seq["approx_star"]}.get(cond, cond)
+        hp = seq["hyperparameters"].get(name, {})
+        return name if hp.get("param") is None or "strategy" in name else f"{name}, {_param(hp)}"
+
+    rows = []
+    for cond, s in seq["conditions"].items():
+        ids, cov = s["env_ids"], set(s.get("added_for_coverage", []))
+        envs = "<br>".join(_env_label(table, e, index_of) + (" *[coverage]*" if e in cov else "") for e in ids)
+        final = fmt_p(s["p_theta_star"][-1]) if s["p_theta_star"] else "— (no example)"
+        rows.append((cond, f"{len(ids)} ({len(set(ids))})", envs or "—", f"{final} ({model_of(cond)})"))
+    return [f"{h} Sequences", "",
+            "Environment ids in the order shown, each with θ*'s strategy there (class: strategy); P(θ*) after "
+            "the last example under the condition's own model (random: exact IRL; coverage: approx*).", "",
+            *md_table(("condition", "examples (unique)", "environments in order", "final P(θ*) (model)"), rows)]
+
+
+def section_clusters(data, fig_links, h) -> list[str]:
+    grids = data["examples_per_cluster"]["grids"]
+    rows = [(n, *(int(v) for v in np.asarray(g).T.reshape(-1))) for n, g in grids.items()]
+    return [f"{h} Examples per strategy cluster", "",
+            "How many of each sequence's examples show θ* in each cluster (repeats counted).", "",
+            *md_table(("sequence",) + GRID_COLUMNS, rows),
+            f"![examples shown per cluster]({fig_links['examples_shown.png']})", ""]
+
+
+def section_matrix(data, fig_links, h) -> list[str]:
+    mx = data["matrix"]
+    users, base = mx["user_names"], set(mx["sequence_names"])
+    approx = [i for i, u in enumerate(users) if u != "exact"]
+    rows = [(name if name in base else "*{}*".format(name.replace("*", "\\*")), *(f"{v:.3f}" for v in r),
+             f"{r.mean():.3f}", f"{r[approx].mean():.3f}")
+            for name, r in zip(mx["extended_sequence_names"], np.asarray(mx["extended_matrix"]))]
+    return [f"{h} Ideal-user matrix", "",
+            "Entry = P_user(θ* | the sequence of the row), 3 decimals. Rows in italics are the coverage "
+            "conditions (extended matrix; not in the paper's figure). Users use the chosen τ/λ: "
+            + ", ".join(f"`{m}`" for m in mx["models"].values()) + ".", "",
+            *md_table(("sequence \\ user", *users, "mean", f"mean of {len(approx)} approximate"), rows),
+            f"![ideal-user matrix]({fig_links['sim_users.png']})", ""]
+
+
+def section_tests(data, h) -> list[str]:
+    tests = data["test_set"]
+    head = [f"{h} Test set", ""]
+    if isinstance(tests, dict):
+        return head + [f"No test set on this table: {tests.get('error')}", ""]
+    rows = [(*((t["env_id"], t["cluster_name"], t["rule"], f"{t['min_option_distance']:.3f}") if k == 0 else [""] * 4),
+             "ABCD"[k], o["theta_index"], "**yes**" if o["is_theta_star"] else "no", CLUSTER_NAMES[o["cluster"]],
+             f"{o['regret']:.3g}") for t in tests for k, o in enumerate(t["options"])]
+    n_relaxed = sum(t["rule"] == "relaxed" for t in tests)
+    return head + [
+        "One environment per cluster, in no training sequence; options in `test_set.json`'s order. "
+        "Regret = θ*·φ(ξ^θ*) − θ*·φ(ξ^θ). Rule \"relaxed\" means no unused environment of that cluster had "
+        "two θ taking the sibling strategy, so the two remaining options may come from either strategy of "
+        f"the class (`teaching/testset.py`); {n_relaxed} of {len(tests)} tests use it.", "",
+        *md_table(("env id", "cluster under test", "rule", "min option distance", "option", "θ index", "θ*",
+                   "strategy", "regret"), rows)]
+
+
+def tolerance_study(table, data, index_of, dist, tolerances=TOLERANCES) -> list[dict]:
+    """Per ε: exact-IRL greedy sequence, P(θ*) of every condition, decisive single environments,
+    share of (E, θ≠θ*) pairs that survive only because of the tolerance."""
+    off = (dist.reward / dist.theta_norms)[:, 1:]  # normalised reward units, θ ≠ θ*
+    eligible, ids, out = showable(table), np.asarray(table.env_ids), []
+    for eps in tolerances:
+        model = replace(make_model("exact"), tolerance=eps)
+        lik = model.likelihood(dist)
+        seq, _ = greedy(lik, eligible=eligible)
+        decisive = lik[:, 1:].sum(1) == 0
+        conds = {c: p_theta_star(model, dist, [index_of[e] for e in s["env_ids"]])
+                 for c, s in data["sequences"]["conditions"].items()}
+        out.append({"eps": eps, "envs": [int(i) for i in ids[seq.envs]], "conditions": conds,
+                    "p": seq.p[-1] if seq.p else 1 / dist.shape[1], "decisive": int(decisive.sum()),
+                    "decisive_showable": int((decisive & eligible).sum()), "negative": int((off < 0).sum()),
+                    "tolerance_only": float(((off > 0) & (off <= eps)).mean()), "zero": float((off == 0).mean())})
+    return out
+
+
+def section_tolerance(rows, conditions, exact_envs, precision, h) -> list[str]:
+    def eps_s(r):
+        return f"{r['eps']:g}" + (" (default)" if r["eps"] == EXACT_TOLERANCE else "")
+
+    summary = [(eps_s(r), len(r["envs"]), ", ".join(map(str, r["envs"])) or "—", fmt_p(r["p"]),
+                f"{r['decisive']:,} ({r['decisive_showable']:,})", f"{100 * r['tolerance_only']:.4g} %")
+               for r in rows]
+    per_condition = [(c, *(fmt_p(r["conditions"][c]) for r in rows)) for c in conditions]
+    moved = [c for c in conditions if len({round(r["conditions"][c], 12) for r in rows}) > 1]
+    changed = [what for what, differs in (
+        ("the exact-IRL greedy sequence", len({tuple(r["envs"]) for r in rows}) > 1),
+        ("exact-IRL P(θ*) of the sequences of " + ", ".join(moved), bool(moved)),
+        ("the number of decisive single environments", len({r["decisive"] for r in rows}) > 1)) if differs]
+    eps_list = ", ".join(f"{r['eps']:g}" for r in rows)
+    sentence = (f"Across ε ∈ {{{eps_list}}} " + (
+        "only the share of tolerance-only pairs changes: on this table the tolerance decides none of "
+        "these findings." if not changed else "these findings change: " + "; ".join(changed) + "."))
+    neg, default = rows[0]["negative"], [r for r in rows if r["eps"] == EXACT_TOLERANCE]
+    neg_s = (f"{100 * rows[0]['zero']:.4g} % of (E, θ≠θ*) pairs have d_reward = 0 exactly (θ's trajectory is "
+             "θ*'s); " + (f"{neg:,} have d_reward < 0, which no ε ≥ 0 admits." if neg else "none has d_reward < 0."))
+    if default:
+        same = default[0]["envs"] == exact_envs
+        neg_s += (" At the default ε the greedy sequence " + ("equals" if same else "**differs from**")
+                  + " the exact condition's in `sequences.json`.")
+    return [f"{h} Exact IRL's tolerance", "",
+            "Exact IRL counts θ as consistent with an example when d_reward / |θ| ≤ ε (normalised reward units; "
+            f"`teaching.learners.ExactIRL.tolerance`, default EXACT_TOLERANCE = {EXACT_TOLERANCE:g}). For each ε, "
+            "computed here on this table: the exact-IRL greedy sequence over showable environments and its P(θ*); "
+            "the single environments that alone leave P(θ*) = 1 (eliminate every other θ; showable ones in "
+            "brackets); the share of (environment, θ≠θ*) pairs with 0 < d_reward/|θ| ≤ ε, which survive only "
+            "because of the tolerance; and exact-IRL P(θ*) of every condition's sequence in `sequences.json`.", "",
+            *md_table(("ε", "greedy length", "greedy env ids", "its P(θ*)", "decisive single envs",
+                       "tolerance-only pairs"), summary),
+            *md_table(("exact-IRL P(θ*) of", *(f"ε = {eps_s(r)}" for r in rows)), per_condition),
+            sentence + " " + neg_s, "",
+            f"Planner precision: {precision}" if precision else "Planner precision: not stated.", ""]
+
+
+def table_sections(table_dir, teach_dir, out_dir, figures, prefix, h, precision) -> list[str]:
+    table, data = load_inputs(table_dir, teach_dir)
+    index_of = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
+    figures.mkdir(parents=True, exist_ok=True)
+    for name in FIGURES:
+        shutil.copyfile(Path(teach_dir) / name, figures / (prefix + name))
+    links = {n: Path(os.path.relpath(figures / (prefix + n), out_dir)).as_posix() for n in FIGURES}
+    tol = tolerance_study(table, data, index_of, Distances(table))
+    return (section_identity(table, data) + section_strategies(table, h) + section_hyper(data, h)
+            + section_sequences(table, data, index_of, h) + section_clusters(data, links, h)
+            + section_matrix(data, links, h) + section_tests(data, h)
+            + section_tolerance(tol, list(data["sequences"]["conditions"]),
+                                data["sequences"]["conditions"]["exact"]["env_ids"], precision, h))
+
+
+def section_paper(args, out_dir, figures) -> list[str]:
+    head = ["## The paper table", ""]
+    why = ("no paper table was given to this report" if not args.paper_table else
+           f"there is no table at {args.paper_table}" if not (Path(args.paper_table) / "meta.json").is_file() else
+           "no teach outputs (--paper-teach) were given for it" if not args.paper_teach else None)
+    if why is not None:
+        return head + [f"The paper-scale table ({N_ENVIRONMENTS:,} environments) has not been rebuilt under the "
+                       f"current world and planner ({why}), so no paper-scale results are reported here; the "
+                       "paper-scale results published before described an older world.", ""]
+    try:
+        return head + table_sections(args.paper_table, args.paper_teach, out_dir, figures, "paper_", "###",
+                                     args.planner_precision)
+    except ReportError as exc:
+        return head + [f"No paper-scale results are reported: {exc}. The paper-scale results published before "
+                       "described an older world.", ""]
+
+
+def build_report(args) -> str:
+    out = Path(args.out)
+    figures = Path(args.figures) if args.figures else out.parent / "figures"
+    flags = ("table", "teach", "out", "figures", "planner_precision", "paper_table", "paper_teach")
+    argv = ["scripts/results_report.py"] + [a for f in flags if getattr(args, f)
+                                             for a in ("--" + f.replace("_", "-"), getattr(args, f))]
+    body = table_sections(args.table, args.teach, out.parent, figures, "", "##", args.planner_precision)
+    preset = json.loads((Path(args.table) / "meta.json").read_text()).get("preset")
+    head = ["# Results: ideal-user analysis", "",
+            "Generated by `scripts/results_report.py` from the table and the teach outputs; do not edit by hand. "
+            f"Generated {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC with:", "", "```",
+            f".venv/bin/python -m teaching build --preset {preset} --out {args.table}",
+            f".venv/bin/python -m teaching.teach --table {args.table} --out {args.teach}",
+            ".venv/bin/python " + shlex.join(argv), "```", ""]
+    return "\n".join(head + body + section_paper(args, out.parent, figures))
+
+
+def parse_args(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--table", required=True)
+    p.add_argument("--teach", required=True)
+    p.add_argument("--out", required=True)
+    p.add_argument("--figures", help="where to copy the figures (default: figures/ beside --out)")
+    p.add_argument("--planner-precision", help="the planner's measured precision, quoted verbatim")
+    p.add_argument("--paper-table")
+    p.add_argument("--paper-teach")
+    return p.parse_args(argv)
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    try:
+        text = build_report(args)
+        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.out).write_text(text)
+    except (ReportError, TableError, OSError, KeyError) as exc:
+        why = f"a teach output lacks the field {exc} (made by another version?)" if isinstance(exc, KeyError) else exc
+        print(f"error: {why}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

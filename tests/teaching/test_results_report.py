@@ -1,0 +1,88 @@
+"""scripts/results_report.py: docs/results.md generated from a table and its teach outputs."""
+import importlib.util
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from teaching.selection import CONDITIONS
+from teaching.synthetic import synthetic_table
+from teaching.teach import main as teach_main
+
+SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "results_report.py"
+_spec = importlib.util.spec_from_file_location("results_report", SCRIPT)
+report = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(report)
+
+HEADINGS = ("# Results", "## θ*'s strategy per environment", "## Chosen hyperparameters", "## Sequences",
+            "## Examples per strategy cluster", "## Ideal-user matrix", "## Test set", "## Exact IRL's tolerance",
+            "## The paper table")
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory):
+    root = tmp_path_factory.mktemp("report")
+    synthetic_table(200, 40, n_candidates=6, seed=8).save(root / "table")
+    assert teach_main(["--table", str(root / "table"), "--out", str(root / "teach"), "--no-progress"]) == 0
+    return root
+
+
+@pytest.fixture(scope="module")
+def generated(inputs):
+    out = inputs / "docs" / "results.md"
+    assert report.main(["--table", str(inputs / "table"), "--teach", str(inputs / "teach"), "--out", str(out),
+                        "--planner-precision", "quoted verbatim: 42 %"]) == 0
+    return out, out.read_text()
+
+
+def test_every_section_and_identity(inputs, generated):
+    out, text = generated
+    for h in HEADINGS:
+        assert re.search(rf"^{re.escape(h)}", text, re.M), h
+    meta = json.loads((inputs / "table" / "meta.json").read_text())
+    assert meta["content_hash"] in text and meta["world"] in text
+    for cond in CONDITIONS:
+        assert f"| {cond} |" in text, cond
+    assert "python -m teaching.teach --table" in text and "scripts/results_report.py" in text
+    assert "quoted verbatim: 42 %" in text
+    assert "has not been rebuilt" in text  # no paper table given
+    for png in ("sim_users.png", "examples_shown.png"):
+        assert (out.parent / "figures" / png).read_bytes()[:4] == b"\x89PNG"
+        assert f"(figures/{png})" in text
+
+
+def test_tolerance_rows_and_exact_sequence_match_teach_outputs(inputs, generated):
+    _, text = generated
+    section = text.split("## Exact IRL's tolerance")[1].split("\n## ")[0]
+    rows = {eps: re.search(rf"^\| {re.escape(eps)} \| (\d+) \| ([\d, ]+) \|", section, re.M)
+            for eps in ("0", "1e-07", "1e-06 (default)", "1e-05")}
+    assert all(rows.values()), rows
+    seqs = json.loads((inputs / "teach" / "sequences.json").read_text())
+    exact = seqs["conditions"]["exact"]["env_ids"]
+    default = rows["1e-06 (default)"]
+    assert int(default.group(1)) == len(exact)
+    assert [int(v) for v in default.group(2).split(", ")] == exact
+    # the sequences table quotes the same ids, in order
+    seq_row = re.search(r"^\| exact \| (\d+) \((\d+)\) \| (.*?) \|", text, re.M)
+    assert [int(v) for v in re.findall(r"(\d+) \(", seq_row.group(3))] == exact
+
+
+def test_paper_table_sections_are_reused(inputs, tmp_path):
+    out = tmp_path / "results.md"
+    assert report.main(["--table", str(inputs / "table"), "--teach", str(inputs / "teach"), "--out", str(out),
+                        "--paper-table", str(inputs / "table"), "--paper-teach", str(inputs / "teach")]) == 0
+    paper = out.read_text().split("## The paper table")[1]
+    assert "### Exact IRL's tolerance" in paper and "has not been rebuilt" not in paper
+    assert (tmp_path / "figures" / "paper_sim_users.png").exists()
+
+
+def test_missing_teach_dir_is_one_line_error(inputs, tmp_path):
+    proc = subprocess.run([sys.executable, str(SCRIPT), "--table", str(inputs / "table"),
+                           "--teach", str(tmp_path / "nope"), "--out", str(tmp_path / "r.md")],
+                          capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert proc.stderr.startswith("error:") and proc.stderr.count("\n") == 1 and "Traceback" not in proc.stderr
+    assert not (tmp_path / "r.md").exists()
