@@ -14,8 +14,15 @@ pytestmark = pytest.mark.django_db
 
 
 # --- rate limits ------------------------------------------------------------------------------
+@pytest.fixture
+def frozen_clock(monkeypatch):
+    """The limits count in fixed windows: a test whose requests straddled a window boundary saw its
+    count reset (it happened once in a loaded CI run).  The clock stands 1 s into a window."""
+    monkeypatch.setattr(security.time, "time", lambda: 1_000_201.0)
+
+
 @override_settings(RATE_LIMIT_ENTRY=(3, 60))
-def test_entry_is_rate_limited_per_address(study):
+def test_entry_is_rate_limited_per_address(study, frozen_clock):
     c = Client()
     for i in range(3):
         assert c.get(reverse("entry", args=[study.slug]), {"PROLIFIC_PID": f"r{i}"}).status_code == 302
@@ -32,7 +39,7 @@ def test_entry_is_rate_limited_per_address(study):
 
 
 @override_settings(RATE_LIMIT_ANSWER=(2, 60))
-def test_answers_are_rate_limited_per_token(client, study):
+def test_answers_are_rate_limited_per_token(client, study, frozen_clock):
     p, q = (assignment.assign(study, "prolific", pid) for pid in ("t1", "t2"))
     for _ in range(2):  # the repeat is an idempotent no-op, but it still counts
         assert client.post(answer_url(p), {"consent": "yes"}).status_code == 302
@@ -44,7 +51,7 @@ def test_answers_are_rate_limited_per_token(client, study):
 
 
 @override_settings(RATE_LIMIT_ANSWER_IP=(3, 60))
-def test_answers_are_rate_limited_per_address(client, study):
+def test_answers_are_rate_limited_per_address(client, study, frozen_clock):
     people = [assignment.assign(study, "prolific", f"ip{i}") for i in range(4)]
     for p in people[:3]:
         assert client.post(answer_url(p), {"consent": "yes"}).status_code == 302
