@@ -82,7 +82,8 @@ def markdown(fig: dict) -> str:
         ("projected `paper` table (21,216 × 1,000)", f"**{fig['paper_minutes']:.1f} min**",
          f"≤ 30 min: {ok[fig['bar_paper_minutes']]} (goal ≤ 20)"),
         ("Newton", f"{fig['newton_solves']:,} solves, {fig['newton_iterations_per_solve']:.1f} iterations each, "
-                   f"{fig['newton_at_cap']:,} at the cap; {fig['cross_theta_moved']:,} improved by the cross-θ step", ""),
+                   f"{fig['newton_at_cap']:,} at the cap; {fig['cross_theta_moved']:,} improved by the cross-θ step",
+         ""),
         ("per-problem SciPy L-BFGS-B, exact gradient, the planner's 8 seeds",
          f"{fig['scipy_rate']:.2f} trajectories/s ({fig['scipy_single_start_rate']:.1f} single-start solves/s)", ""),
         ("speed-up", f"**{fig['speedup']:,.0f}×** against the same 8 starts "
@@ -98,8 +99,8 @@ def markdown(fig: dict) -> str:
         ("… within 1e-4", f"**{within['1e-04']:.1%}**", f"100 %: {ok[fig['bar_within_1e4']]}"),
         ("… within 1e-8 / 1e-7 / 1e-5 / 1e-3", " / ".join(f"{within[k]:.1%}" for k in ("1e-08", "1e-07", "1e-05",
                                                                                      "1e-03")), ""),
-        ("largest gap", f"{fig['largest_gap']:.2e} (env {fig['largest_gap_env_id']}, θ {fig['largest_gap_theta_index']})",
-         ""),
+        ("largest gap",
+         f"{fig['largest_gap']:.2e} (env {fig['largest_gap_env_id']}, θ {fig['largest_gap_theta_index']})", ""),
         ("gap quantiles", ", ".join(f"{q}: {v:.1e}" for q, v in fig["gap_quantiles"].items()), ""),
         ("table strictly better than the reference", f"{fig['share_table_strictly_better']:.1%} (by more than 1e-8: "
                                                      f"{fig['share_table_better_beyond_1e8']:.1%})", ""),
