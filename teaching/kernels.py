@@ -137,6 +137,12 @@ def features_one(z, ox, oy, goal, out):
     """Raw features (5,) of one trajectory; ox, oy (T+1,) other car positions."""
     s = np.empty((T + 1, 5))
     rollout_one(z, s)
+    features_of_states(s, ox, oy, goal, out)
+
+
+@njit(cache=True)
+def features_of_states(s, ox, oy, goal, out):
+    """Raw features (5,) of rolled-out states s (T+1, 5)."""
     clo = 0.0
     dev = 0.0
     turn = 0.0
@@ -163,10 +169,10 @@ def features_one(z, ox, oy, goal, out):
 @njit(cache=True)
 def objective(z, ox, oy, goal, w):
     """F(z), value only: used in line searches."""
-    f = np.empty(5)
-    features_one(z, ox, oy, goal, f)
     s = np.empty((T + 1, 5))
-    rollout_one(z, s)
+    rollout_one(z, s)  # once: the features and the penalties read the same states
+    f = np.empty(5)
+    features_of_states(s, ox, oy, goal, f)
     pen = lane_end_penalty(s[T, 0], goal)[0] + heading_end_penalty(s[T, 2])[0]
     for t in range(1, T + 1):
         pen += road_penalty(s[t, 0])[0]

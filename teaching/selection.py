@@ -274,6 +274,7 @@ def teach(table, seed: int = 0, approx_star: str = "det-euclidean", hyperparamet
     buffer = np.empty(dist.shape, np.float32)
     models, sequences, sweeps, rule_met = {}, {}, {}, {}
     names = MODEL_NAMES
+    eligible = showable(table)
     bar = tqdm(total=len(names) + 1, desc="teaching", disable=not progress)
     for name in names:
         model, rows, met = fitted_model(name, dist, hyperparameters, grid, max_examples, allow_repeats, buffer)
@@ -281,7 +282,7 @@ def teach(table, seed: int = 0, approx_star: str = "det-euclidean", hyperparamet
             sweeps[name], rule_met[name] = rows, met
         models[name] = model
         lik = model.likelihood(dist, out=buffer)
-        sequences[name] = greedy(lik, max_examples, allow_repeats, eligible=showable(table))[0]
+        sequences[name] = greedy(lik, max_examples, allow_repeats, eligible=eligible)[0]
         if name == approx_star:
             sequences["coverage-approx*"] = coverage_augmented(
                 lik, theta_star_clusters(table), epsilon, max_examples, allow_repeats)

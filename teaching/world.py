@@ -38,7 +38,7 @@ class World:
     #                             (to the right lane's for "merge right": the goal is reached)
     heading_end_band: float = 0.05  # rad: ... and the car drives along its lane (no dive at the last moment)
     heading_penalty_scale: float = 100.0  # ft per rad: heading overshoot enters the penalty as feet
-    constraint_penalty: float = 10.0  # W in W (ft outside)^2, normalised reward units: overshoot ~0.01 ft
+    constraint_penalty: float = 10.0  # W: ~W (ft outside)^2 in normalised reward units (kernels.overshoot_penalty)
     turn_smoothing: float = 1e-2  # rad: the turning feature is sum_t sqrt(dh^2 + eps^2) - eps (everywhere)
     # Euclidean learner: per-dimension scale of [x, y, heading, v, steer]
     state_scale: tuple = (12.0, 12.0, 0.1, 10.0, 0.05)
