@@ -33,6 +33,7 @@ GENDER_CHOICES = [
 ]
 AGE_MIN, AGE_MAX = 18, 120
 RATING_MIN, RATING_MAX = 1, 7
+LETTERS = "ABCDEFGH"  # options as the participant sees them
 
 
 @dataclass(frozen=True)
@@ -43,11 +44,18 @@ class Step:
 
 
 class AnswerError(Exception):
-    """An answer that is rejected; nothing was written."""
+    """An answer that is rejected; nothing was written.
 
-    def __init__(self, message: str, status: int = 400):
+    `moved`: the page was out of date (the step was answered in another tab, or the participant
+    is elsewhere in the study); the participant is sent to where they are, with `MOVED_ON`."""
+
+    def __init__(self, message: str, status: int = 400, moved: bool = False):
         super().__init__(message)
-        self.message, self.status = message, status
+        self.message, self.status, self.moved = message, status, moved
+
+
+MOVED_ON = ("That page was out of date (perhaps answered in another tab or window), "
+            "so your answer there was not saved again. You are now on your current step.")
 
 
 def steps_for(participant: Participant) -> list[Step]:
@@ -64,35 +72,36 @@ def current_step(participant: Participant) -> Step:
 
 
 # --- validation: POST data -> the JSON stored in Answer.data -----------------
-def _one(post, name: str) -> str:
+# Every message is in the participant's words: the page calls things "Option B", "your age".
+def _one(post, name: str, missing: str) -> str:
     values = post.getlist(name)
     if len(values) != 1 or not values[0].strip():
-        raise AnswerError(f"'{name}' is required (exactly one value)")
+        raise AnswerError(missing)
     return values[0].strip()
 
 
-def _int(post, name: str, low: int, high: int) -> int:
-    raw = _one(post, name)
+def _int(post, name: str, low: int, high: int, missing: str, what: str) -> int:
+    raw = _one(post, name, missing)
     try:
         value = int(raw)
     except ValueError:
-        raise AnswerError(f"'{name}' must be a whole number, got {raw!r}") from None
+        raise AnswerError(f"{what} must be a whole number from {low} to {high}.") from None
     if not low <= value <= high:
-        raise AnswerError(f"'{name}' must lie between {low} and {high}, got {value}")
+        raise AnswerError(f"{what} must be a whole number from {low} to {high}.")
     return value
 
 
 def clean_answer(participant: Participant, step: Step, post) -> dict:
     if step.kind == "consent":
-        if _one(post, "consent") != "yes":
-            raise AnswerError("consent must be 'yes' to continue")
+        if _one(post, "consent", "Please say whether you agree to take part.") != "yes":
+            raise AnswerError("You can only continue if you agree to take part.")
         return {"consent": True}
     if step.kind == "instructions":
-        _one(post, "ack")
+        _one(post, "ack", "Please confirm that you have read the instructions.")
         return {"ack": True}
     if step.kind == "training":
-        if _one(post, "played") != "1":
-            raise AnswerError("the animation must be played before continuing")
+        if post.get("played") != "1":
+            raise AnswerError("Please watch the whole animation before you continue.")
         return {"env_id": participant.condition.training[step.item]["env_id"]}
     if step.kind == "test":
         return clean_test(participant, step.item, post)
@@ -100,39 +109,53 @@ def clean_answer(participant: Participant, step: Step, post) -> dict:
         goals = post.getlist("goals")
         known = {key for key, _ in ATTENTION_CHOICES}
         if not goals:
-            raise AnswerError("choose the goals you saw")
-        unknown = set(goals) - known
-        if unknown:
-            raise AnswerError(f"unknown goal(s): {', '.join(sorted(unknown))}")
+            raise AnswerError("Please tick the goals you saw.")
+        if set(goals) - known:
+            raise AnswerError("Please tick only goals from the list.")
         return {"goals": sorted(set(goals)), "passed": set(goals) == ATTENTION_CORRECT}
     if step.kind == "demographics":
-        gender = _one(post, "gender")
+        gender = _one(post, "gender", "Please choose an answer for gender (or 'Prefer not to say').")
         if gender not in {key for key, _ in GENDER_CHOICES}:
-            raise AnswerError(f"unknown gender option {gender!r}")
-        data = {"age": _int(post, "age", AGE_MIN, AGE_MAX), "gender": gender}
+            raise AnswerError("Please choose an answer for gender from the list.")
+        data = {"age": _int(post, "age", AGE_MIN, AGE_MAX, "Please enter your age.", "Your age"), "gender": gender}
         if gender == "other":
             data["gender_text"] = post.get("gender_text", "").strip()[:100]
         return data
-    raise AnswerError("this step takes no answer", status=409)
+    raise AnswerError("This page takes no answer.", status=409)
+
+
+def option_letters(participant: Participant, j: int) -> list[tuple[str, int]]:
+    """(letter, option index) of test j's options as this participant sees them, top to bottom.
+
+    The page names options only by these letters, so nothing in it tells theta*'s option
+    apart (the option indices, where theta*'s may sit first, stay on the server)."""
+    return [(LETTERS[pos], k) for pos, k in enumerate(participant.option_orders[j])]
 
 
 def clean_test(participant: Participant, j: int, post) -> dict:
-    options = participant.study.test_set[j]["options"]
-    ids = range(len(options))
-    raw = _one(post, "choice")
-    if raw not in {str(k) for k in ids}:
-        raise AnswerError(f"unknown option {raw!r}: options are 0-{len(options) - 1}")
-    choice = int(raw)
-    ratings = [_int(post, f"rating_{k}", RATING_MIN, RATING_MAX) for k in ids]
-    extra = [key for key in post if key.startswith("rating_") and key not in {f"rating_{k}" for k in ids}]
-    if extra:
-        raise AnswerError(f"unknown option(s) rated: {', '.join(sorted(extra))}")
+    shown = option_letters(participant, j)
+    letters = [letter for letter, _ in shown]
+    listed = ", ".join(letters)
     played = set(post.getlist("played"))
-    if played != {str(k) for k in ids}:
-        raise AnswerError("every option must be played at least once")
+    if not played <= set(letters):
+        raise AnswerError(f"This question has options {listed} only; please reload the page.")
+    unplayed = [letter for letter in letters if letter not in played]
+    if unplayed:
+        raise AnswerError(f"Please play option {', '.join(unplayed)} before you continue.")
+    chosen = _one(post, "choice", "Please choose the option that matches the car's driving style.")
+    if chosen not in letters:
+        raise AnswerError(f"This question has options {listed} only; please choose one of them.")
+    extra = sorted(key for key in post if key.startswith("rating_") and key[len("rating_"):] not in letters)
+    if extra:
+        raise AnswerError(f"This question has options {listed} only; please reload the page.")
+    ratings = [0] * len(shown)
+    for letter, k in shown:
+        ratings[k] = _int(post, f"rating_{letter}", RATING_MIN, RATING_MAX,
+                          f"Please rate how well option {letter} matches (1 = not at all, 7 = exactly).",
+                          f"The rating of option {letter}")
     return {
         "env_id": participant.study.test_set[j]["env_id"],
-        "choice": choice,
+        "choice": dict(shown)[chosen],
         "ratings": ratings,
         "order": participant.option_orders[j],
     }
@@ -156,7 +179,7 @@ def record(participant: Participant, step_index: int, post) -> Participant:
     """
     steps = steps_for(participant)
     if not 0 <= step_index < len(steps):
-        raise AnswerError(f"this study has no step {step_index}", status=404)
+        raise AnswerError("This study has no such step; please use the link you were given.", status=404)
     step = steps[step_index]
     data = clean_answer(participant, step, post)
     with transaction.atomic():
@@ -169,9 +192,11 @@ def record(participant: Participant, step_index: int, post) -> Participant:
         if stored is not None:
             if stored.data == data:
                 return locked  # idempotent repeat
-            raise AnswerError("this question was already answered; the stored answer cannot be changed", status=409)
+            raise AnswerError("This question was already answered; an answer cannot be changed.", status=409,
+                              moved=True)
         if step_index != locked.position:
-            raise AnswerError(f"you are on step {locked.position}, not step {step_index}", status=409)
+            raise AnswerError(f"You are on step {locked.position + 1}, not step {step_index + 1}.", status=409,
+                              moved=True)
         answer = Answer(participant=locked, step=step_index, kind=step.kind, item=step.item, data=data)
         if step.kind == "test":
             answer.chosen_option = data["choice"]
@@ -180,7 +205,7 @@ def record(participant: Participant, step_index: int, post) -> Participant:
             with transaction.atomic():
                 answer.save()
         except IntegrityError:
-            raise AnswerError("this question was already answered", status=409) from None
+            raise AnswerError("This question was already answered.", status=409, moved=True) from None
         now = timezone.now()
         locked.position = step_index + 1
         locked.last_seen_at = now

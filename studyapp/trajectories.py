@@ -58,6 +58,17 @@ def env_payload(env, robot, other, cluster) -> dict:
     }
 
 
+def drawn_scene(payload: dict, *, robot: bool) -> dict:
+    """What a participant's page may carry of an environment payload: what it draws.
+
+    The goal (lane highlight), the time step and the other car's path; with `robot`, the
+    yellow car's path too (a training example).  A test page draws four options, sent
+    separately under their display letters; everything else in a payload (environment and
+    theta ids, classes, strategy clusters, theta*'s own trajectory) stays on the server."""
+    keys = ("goal", "dt", "other") + (("robot",) if robot else ())
+    return {k: payload[k] for k in keys}
+
+
 def option_payload(theta_index, is_theta_star, cluster, robot) -> dict:
     return {
         "theta_index": None if theta_index is None else int(theta_index),

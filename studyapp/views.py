@@ -14,6 +14,7 @@ from django.views.decorators.http import require_GET, require_POST
 from . import flow, security
 from .assignment import StudyClosed, assign
 from .models import Participant, Study
+from .trajectories import drawn_scene
 
 MTURK_PREVIEW = "ASSIGNMENT_ID_NOT_AVAILABLE"
 MTURK_HOSTS = {"www.mturk.com", "workersandbox.mturk.com"}
@@ -100,7 +101,10 @@ def step(request, slug, token):
     participant = _participant(slug, token)
     Participant.objects.filter(pk=participant.pk).update(last_seen_at=timezone.now())
     current = flow.current_step(participant)
-    return render(request, f"studyapp/step_{current.kind}.html", step_context(participant, current))
+    ctx = step_context(participant, current)
+    if request.GET.get("moved"):
+        ctx["notice"] = flow.MOVED_ON
+    return render(request, f"studyapp/step_{current.kind}.html", ctx)
 
 
 def step_context(participant: Participant, current: flow.Step) -> dict:
@@ -111,16 +115,21 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
         "total_training": len(participant.condition.training),
         "total_tests": len(participant.study.test_set),
     }
+    # The page gets what it draws and nothing else (drawn_scene): no theta, cluster or option
+    # index, and no reference trajectory, so its source cannot tell theta*'s option apart.
     if current.kind == "training":
-        ctx["env"] = participant.condition.training[current.item]
+        payload = participant.condition.training[current.item]
+        ctx["goal_name"] = payload["goal_name"]
+        ctx["env"] = drawn_scene(payload, robot=True)
         ctx["number"] = current.item + 1
     elif current.kind == "test":
         test = participant.study.test_set[current.item]
-        order = participant.option_orders[current.item]
+        shown = flow.option_letters(participant, current.item)
         ctx["number"] = current.item + 1
-        ctx["scene"] = {k: v for k, v in test.items() if k != "options"}
-        ctx["options"] = [{"id": k, "label": "ABCDEFGH"[pos]} for pos, k in enumerate(order)]
-        ctx["option_robots"] = {"ABCDEFGH"[pos]: test["options"][k]["robot"] for pos, k in enumerate(order)}
+        ctx["goal_name"] = test["goal_name"]
+        ctx["scene"] = drawn_scene(test, robot=False)
+        ctx["options"] = [letter for letter, _ in shown]
+        ctx["option_robots"] = {letter: test["options"][k]["robot"] for letter, k in shown}
         ctx["ratings"] = range(flow.RATING_MIN, flow.RATING_MAX + 1)
     elif current.kind == "attention":
         ctx["choices"] = flow.ATTENTION_CHOICES
@@ -165,6 +174,12 @@ def answer(request, slug, token, step_index):
     try:
         participant = flow.record(participant, step_index, request.POST)
     except flow.AnswerError as exc:
+        if exc.moved:  # an out-of-date page: back to where the participant is, saying why
+            current = f"{participant.get_absolute_url()}?moved=1"
+            if security.wants_json(request):
+                return JsonResponse({"ok": False, "error": exc.message, "moved": True, "next": current},
+                                    status=exc.status)
+            return redirect(current)
         if security.wants_json(request):
             return JsonResponse({"ok": False, "error": exc.message}, status=exc.status)
         return render(request, "studyapp/error.html", {

@@ -55,11 +55,14 @@ def answer_payload(participant, step):
         return {"ack": ["1"]}
     if step.kind == "training":
         return {"played": ["1"]}
-    if step.kind == "test":
+    if step.kind == "test":  # options go by the letters the participant sees (flow.option_letters)
+        from studyapp.flow import option_letters
+
         options = participant.study.test_set[step.item]["options"]
-        star = next(k for k, o in enumerate(options) if o["is_theta_star"])
-        body = {"choice": [str(star)], "played": [str(k) for k in range(len(options))]}
-        body.update({f"rating_{k}": ["6" if k == star else "2"] for k in range(len(options))})
+        shown = option_letters(participant, step.item)
+        star = next(letter for letter, k in shown if options[k]["is_theta_star"])
+        body = {"choice": [star], "played": [letter for letter, _ in shown]}
+        body.update({f"rating_{letter}": ["6" if letter == star else "2"] for letter, _ in shown})
         return body
     if step.kind == "attention":
         return {"goals": ["merge", "forward"]}
@@ -87,8 +90,9 @@ def complete_flow(participant, choices=None, attentive=True, stop_before=None):
         if stop_before and step.kind == stop_before:
             break
         body = answer_payload(participant, step)
-        if step.kind == "test" and choices:
-            body["choice"] = [str(choices[step.item])]
+        if step.kind == "test" and choices:  # choices are option indices; the page posts letters
+            body["choice"] = [letter for letter, k in flow.option_letters(participant, step.item)
+                              if k == choices[step.item]]
         if step.kind == "attention" and not attentive:
             body = {"goals": ["forward"]}
         q = QueryDict(mutable=True)

@@ -1,7 +1,8 @@
 // Sending a step's answer without leaving the page, so that a lost connection loses nothing.
 //
 // Every participant form marked data-save is posted with fetch (the same fields to the same
-// URL, asking for JSON). Accepted: go on to the next step. Refused (4xx): show the server's
+// URL, asking for JSON). Accepted: go on to the next step. Refused because the page is out of
+// date (answered in another tab): go to the current step. Refused (4xx): show the server's
 // reason and let the participant try again. No answer, a 5xx (a 503 during a database outage)
 // or a 429: keep the answer, say so in a banner and send it again with exponential backoff,
 // at once when the browser reports it is back online. Re-sending is safe: the server stores
@@ -40,6 +41,8 @@ async function post(url, body) {
   }
   const reply = await response.json().catch(() => null);
   if (response.ok && reply && reply.ok) return { next: reply.next };
+  // an out-of-date page (answered in another tab): go where the participant is; that page says why
+  if (reply && reply.moved && reply.next) return { next: reply.next };
   if (response.status >= 400 && response.status < 500 && response.status !== 429) {
     return { error: (reply && reply.error) || `Your answer was not accepted (HTTP ${response.status}). Please reload the page.` };
   }

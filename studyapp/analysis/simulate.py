@@ -51,9 +51,10 @@ def run_participant(study, rng, attentive: bool = True, effect: dict | None = No
             star = [k for k, o in enumerate(options) if o["is_theta_star"]][0]
             others = [k for k in range(len(options)) if k != star]
             choice = star if rng.random() < p_star else int(rng.choice(others))
-            ratings = {f"rating_{k}": int(rng.integers(1, 4)) for k in range(len(options))}
-            ratings[f"rating_{choice}"] = int(rng.integers(5, 8))
-            data = post(choice=choice, played=[str(k) for k in range(len(options))], **ratings)
+            letter = dict((k, a) for a, k in flow.option_letters(p, step.item))  # the page posts letters
+            ratings = {f"rating_{letter[k]}": int(rng.integers(1, 4)) for k in range(len(options))}
+            ratings[f"rating_{letter[choice]}"] = int(rng.integers(5, 8))
+            data = post(choice=letter[choice], played=list(letter.values()), **ratings)
         elif step.kind == "attention":
             data = post(goals=["merge", "forward"] if attentive else ["park", "merge"])
         elif step.kind == "demographics":

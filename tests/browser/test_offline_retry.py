@@ -168,7 +168,7 @@ def test_answers_survive_a_server_outage(server, tmp_path):
                 choice.check()
                 for group in page.locator(".rating").all():
                     group.locator(f'input[value="{2 + j % 5}"]').check()
-                chosen[j] = int(choice.get_attribute("value"))
+                chosen[j] = choice.get_attribute("value")  # the option's letter: the page has no other id
                 submit = page.locator('#test-form button[type="submit"]')
                 expect(submit).to_be_enabled()
                 if j == 1:
@@ -180,7 +180,7 @@ def test_answers_survive_a_server_outage(server, tmp_path):
                     page.wait_for_timeout(2000)
                     assert len(failed_posts) >= before + 2  # it kept trying while the server was down
                     expect(h1).to_have_text("Question 2 of 6")  # the page and its answer stay
-                    assert page.locator('input[name="choice"]:checked').get_attribute("value") == str(chosen[1])
+                    assert page.locator('input[name="choice"]:checked').get_attribute("value") == chosen[1]
                     page.screenshot(path=str(OUT / "offline_banner.png"))
                     server.start()
                     expect(h1).to_have_text("Question 3 of 6", timeout=30_000)  # by itself
@@ -235,6 +235,6 @@ def test_answers_survive_a_server_outage(server, tmp_path):
     assert ("training", 0) in by_kind
     for j in range(6):
         data = by_kind[("test", j)]
-        assert data["choice"] == chosen[j] and data["ratings"] == [2 + j % 5] * 4
+        assert "ABCD"[data["order"].index(data["choice"])] == chosen[j] and data["ratings"] == [2 + j % 5] * 4
     assert by_kind[("demographics", None)] == {"age": 41, "gender": "female"}
     assert (OUT / "offline_banner.png").stat().st_size > 10_000

@@ -39,7 +39,7 @@ DWELL = {"consent": 10.0, "instructions": 20.0, "training": 7.0, "test": 30.0, "
 
 CSRF_RE = re.compile(r'name="csrfmiddlewaretoken"\s+value="([^"]+)"')
 ACTION_RE = re.compile(r'<form[^>]*\saction="(/s/[^"]+/p/[^"]+/\d+/)"')
-CHOICE_RE = re.compile(r'name="choice"\s+value="(\d+)"')
+CHOICE_RE = re.compile(r'name="choice"\s+value="([A-H])"')  # the letters the participant sees
 CODE_RE = re.compile(r'id="completion-code">([^<]+)<')
 
 
@@ -135,7 +135,8 @@ def answer_for(step: dict, rng: random.Random) -> tuple[list, dict]:
         ratings = {k: rng.randint(1, 7) for k in options}
         fields = [("choice", choice)] + [("played", k) for k in options]
         fields += [(f"rating_{k}", str(r)) for k, r in ratings.items()]
-        return fields, {"choice": int(choice), "ratings": [ratings[k] for k in sorted(options, key=int)]}
+        # the page shows letters only; the harness maps the stored answer back through its order
+        return fields, {"shown_choice": choice, "shown_ratings": ratings}
     if kind == "attention":
         return [("goals", "merge"), ("goals", "forward")], {"passed": True}
     if kind == "demographics":

@@ -56,7 +56,11 @@ def test_training_page_carries_the_trajectory(client, participant, answer_for):
     advance(client, participant, answer_for, "training")
     r = client.get(url(participant))
     env = participant.condition.training[0]
-    assert r.context["env"]["env_id"] == env["env_id"]
+    # what the page draws, and nothing else: no environment id, class or strategy cluster
+    assert r.context["env"] == {k: env[k] for k in ("goal", "dt", "other", "robot")}
+    assert r.context["goal_name"] == env["goal_name"]
+    for leak in (b"cluster", b"env_id", b"class_name", b"theta"):
+        assert leak not in r.content
     assert b'id="env-data"' in r.content and b"training.js" in r.content
     assert len(env["robot"]) == 21 and len(env["robot"][0]) == 5 and len(env["other"]) == 21
 
@@ -65,8 +69,7 @@ def test_test_page_shows_options_in_the_participants_order(client, participant, 
     step = advance(client, participant, answer_for, "test")
     r = client.get(url(participant))
     order = participant.option_orders[step.item]
-    assert [o["id"] for o in r.context["options"]] == order
-    assert [o["label"] for o in r.context["options"]] == ["A", "B", "C", "D"]
+    assert r.context["options"] == ["A", "B", "C", "D"]
     test = participant.study.test_set[step.item]
     assert r.context["option_robots"]["A"] == test["options"][order[0]]["robot"]
     assert b"is_theta_star" not in r.content  # the page never reveals which option is theta*'s
@@ -77,8 +80,9 @@ def test_test_answer_is_scored(client, participant, answer_for):
     options = participant.study.test_set[step.item]["options"]
     star = next(k for k, o in enumerate(options) if o["is_theta_star"])
     wrong = (star + 1) % 4
+    letter = "ABCD"[participant.option_orders[step.item].index(wrong)]  # as the participant sees it
     body = answer_for(participant, step)
-    body.update(choice=[str(wrong)], **{f"rating_{wrong}": ["5"]})
+    body.update(choice=[letter], **{f"rating_{letter}": ["5"]})
     assert client.post(url(participant, step.index), body).status_code == 302
     a = Answer.objects.get(participant=participant, step=step.index)
     assert (a.kind, a.item, a.chosen_option, a.correct, a.confidence_score) == ("test", 0, wrong, False, -5)
@@ -107,9 +111,16 @@ def test_back_button_cannot_reanswer(client, participant, answer_for):
     client.post(url(participant, step.index), answer_for(participant, step))
     before = snapshot()
     changed = answer_for(participant, step)
-    changed["rating_0"] = ["1"] if changed["rating_0"] != ["1"] else ["7"]
+    changed["rating_A"] = ["1"] if changed["rating_A"] != ["1"] else ["7"]
+    # an out-of-date page is sent to the participant's current step, which says why
     r = client.post(url(participant, step.index), changed)
-    assert r.status_code == 409 and b"already answered" in r.content
+    assert r.status_code == 302 and r["Location"] == url(participant) + "?moved=1"
+    page = client.get(r["Location"])
+    assert page.context["notice"] == flow.MOVED_ON and flow.MOVED_ON.encode() in page.content
+    assert page.context["step"].index == step.index + 1
+    r = client.post(url(participant, step.index), changed, HTTP_ACCEPT="application/json")
+    assert r.status_code == 409 and r.json() == {"ok": False, "moved": True, "next": url(participant) + "?moved=1",
+                                                 "error": "This question was already answered; an answer cannot be changed."}
     assert snapshot() == before
 
 
@@ -117,7 +128,9 @@ def test_answer_for_a_future_step_is_409(client, participant, answer_for):
     step = advance(client, participant, answer_for, "training")
     before = snapshot()
     r = client.post(url(participant, step.index + 1), {"played": ["1"]})
-    assert r.status_code == 409
+    assert r.status_code == 302 and r["Location"] == url(participant) + "?moved=1"
+    r = client.post(url(participant, step.index + 1), {"played": ["1"]}, HTTP_ACCEPT="application/json")
+    assert r.status_code == 409 and r.json()["moved"] is True
     assert client.post(url(participant, 999), {"x": "1"}).status_code == 404
     assert snapshot() == before
 
@@ -147,19 +160,20 @@ def _bad(body, **changes):
     return body
 
 
-@pytest.mark.parametrize("changes, message", [
-    ({"rating_0": ["0"]}, b"between 1 and 7"),
-    ({"rating_1": ["8"]}, b"between 1 and 7"),
-    ({"rating_2": ["abc"]}, b"whole number"),
-    ({"rating_3": None}, b"required"),
-    ({"rating_3": ["3", "4"]}, b"exactly one"),
-    ({"rating_4": ["3"]}, b"unknown option"),
-    ({"choice": ["4"]}, b"unknown option"),
-    ({"choice": ["-1"]}, b"unknown option"),
-    ({"choice": ["B"]}, b"unknown option"),
-    ({"choice": None}, b"required"),
-    ({"played": ["0", "1", "2"]}, b"played"),
-    ({"played": None}, b"played"),
+@pytest.mark.parametrize("changes, message", [  # in the participant's words: the page says "Option B"
+    ({"rating_A": ["0"]}, b"The rating of option A must be a whole number from 1 to 7."),
+    ({"rating_B": ["8"]}, b"The rating of option B must be a whole number from 1 to 7."),
+    ({"rating_C": ["abc"]}, b"The rating of option C must be a whole number from 1 to 7."),
+    ({"rating_D": None}, b"Please rate how well option D matches (1 = not at all, 7 = exactly)."),
+    ({"rating_D": ["3", "4"]}, b"Please rate how well option D matches"),
+    ({"rating_E": ["3"]}, b"This question has options A, B, C, D only"),
+    ({"rating_0": ["3"]}, b"This question has options A, B, C, D only"),
+    ({"choice": ["E"]}, b"This question has options A, B, C, D only; please choose one of them."),
+    ({"choice": ["0"]}, b"This question has options A, B, C, D only"),
+    ({"choice": None}, b"Please choose the option that matches the car&#x27;s driving style."),
+    ({"played": ["A", "B", "C"]}, b"Please play option D before you continue."),
+    ({"played": None}, b"Please play option A, B, C, D before you continue."),
+    ({"played": ["A", "B", "C", "D", "0"]}, b"This question has options A, B, C, D only"),
 ])
 def test_bad_test_answers_are_400_and_write_nothing(client, participant, answer_for, changes, message):
     step = advance(client, participant, answer_for, "test")
@@ -172,24 +186,26 @@ def test_bad_test_answers_are_400_and_write_nothing(client, participant, answer_
     assert snapshot() == before
 
 
-@pytest.mark.parametrize("kind, body, status", [
-    ("consent", {}, 400),
-    ("consent", {"consent": "maybe"}, 400),
-    ("instructions", {}, 400),
-    ("training", {"played": "0"}, 400),
-    ("training", {}, 400),
-    ("attention", {}, 400),
-    ("attention", {"goals": ["merge", "fly"]}, 400),
-    ("demographics", {"age": "17", "gender": "female"}, 400),
-    ("demographics", {"age": "121", "gender": "female"}, 400),
-    ("demographics", {"age": "thirty", "gender": "female"}, 400),
-    ("demographics", {"age": "30", "gender": "robot"}, 400),
-    ("demographics", {"age": "30"}, 400),
+@pytest.mark.parametrize("kind, body, message", [  # no field names: what the participant can act on
+    ("consent", {}, b"Please say whether you agree to take part."),
+    ("consent", {"consent": "maybe"}, b"You can only continue if you agree to take part."),
+    ("instructions", {}, b"Please confirm that you have read the instructions."),
+    ("training", {"played": "0"}, b"Please watch the whole animation before you continue."),
+    ("training", {}, b"Please watch the whole animation before you continue."),
+    ("attention", {}, b"Please tick the goals you saw."),
+    ("attention", {"goals": ["merge", "fly"]}, b"Please tick only goals from the list."),
+    ("demographics", {"age": "17", "gender": "female"}, b"Your age must be a whole number from 18 to 120."),
+    ("demographics", {"age": "121", "gender": "female"}, b"Your age must be a whole number from 18 to 120."),
+    ("demographics", {"age": "thirty", "gender": "female"}, b"Your age must be a whole number from 18 to 120."),
+    ("demographics", {"age": "30", "gender": "robot"}, b"Please choose an answer for gender from the list."),
+    ("demographics", {"age": "30"}, b"Please choose an answer for gender (or &#x27;Prefer not to say&#x27;)."),
+    ("demographics", {"gender": "female"}, b"Please enter your age."),
 ])
-def test_bad_answers_on_other_steps(client, participant, answer_for, kind, body, status):
+def test_bad_answers_on_other_steps(client, participant, answer_for, kind, body, message):
     step = advance(client, participant, answer_for, kind)
     before = snapshot()
-    assert client.post(url(participant, step.index), body).status_code == status
+    r = client.post(url(participant, step.index), body)
+    assert r.status_code == 400 and message in r.content, r.content.decode()[-600:]
     assert snapshot() == before
 
 

@@ -28,8 +28,8 @@ pytestmark = pytest.mark.django_db
 
 FUZZ = settings(max_examples=150, deadline=None, derandomize=True, database=None,
                 suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
-ANSWER_FIELDS = ["consent", "ack", "played", "choice", "rating_0", "rating_1", "rating_2", "rating_3",
-                 "rating_4", "rating_-1", "goals", "age", "gender", "gender_text", "csrfmiddlewaretoken"]
+ANSWER_FIELDS = ["consent", "ack", "played", "choice", "rating_A", "rating_B", "rating_C", "rating_D",
+                 "rating_E", "rating_0", "rating_-1", "goals", "age", "gender", "gender_text", "csrfmiddlewaretoken"]
 ENTRY_FIELDS = ["PROLIFIC_PID", "STUDY_ID", "SESSION_ID", "workerId", "assignmentId", "hitId", "turkSubmitTo"]
 ORIGINS = {"same": {"HTTP_ORIGIN": "http://testserver"}, "referer": {"HTTP_REFERER": "http://testserver/s/x/"},
            "cross": {"HTTP_ORIGIN": "https://evil.example"}, "none": {}}
@@ -41,7 +41,8 @@ values = st.one_of(
     tricky,
     st.tuples(text, tricky, text).map("".join),
     st.integers(-10**30, 10**30).map(str),
-    st.sampled_from(["", " ", "0", "1", "2", "3", "6", "7", "8", "-1", "-5", "yes", "no", "merge", "forward",
+    st.sampled_from(["", " ", "0", "1", "2", "3", "6", "7", "8", "-1", "-5", "A", "B", "C", "D", "E", "a",
+                     "yes", "no", "merge", "forward",
                      "park", "female", "other", "undisclosed", "34", "017", "1e3", "NaN", "inf", "٥", "５",
                      "1_0", " 6 ", "<script>alert(1)</script>", "' OR 1=1 --", "\x00", "ASSIGNMENT_ID_NOT_AVAILABLE",
                      "https://www.mturk.com", "https://workersandbox.mturk.com/x", "http://[", "javascript:x",

@@ -1,0 +1,118 @@
+"""What participants' pages carry (issue 11): on a study built from a real trajectory table,
+nothing in a test page's HTML, embedded JSON or asset references tells theta*'s option apart
+from the other three, and a training page carries only what it draws."""
+import json
+import re
+
+import numpy as np
+import pytest
+from django.test import Client
+from django.urls import reverse
+
+from studyapp import flow
+from studyapp.models import Participant
+from studyapp.studies import build_study
+from teaching.build import PRESETS, build_table
+from teaching.selection import showable
+from teaching.strategies import CLUSTER_NAMES
+from teaching.table import TrajectoryTable
+from tests.conftest import answer_payload
+
+pytestmark = pytest.mark.django_db
+
+N_TESTS = 4
+# words that would name what only the server may know: which option is theta*'s, its strategy
+FORBIDDEN = ["theta", "cluster", "is_theta_star", "env_id", "class_name", "env_class"] + [
+    n for n in CLUSTER_NAMES if ":" in n]
+JSON_SCRIPT = re.compile(r'<script id="([^"]+)" type="application/json">(.*?)</script>', re.S)
+FIELDSET = re.compile(r"<fieldset class=\"option card\".*?</fieldset>", re.S)
+URL_ATTR = re.compile(r'(?<![-\w])(?:src|href|action)="([^"]*)"')
+
+
+@pytest.fixture(scope="module")
+def tiny_table(tmp_path_factory):
+    out = tmp_path_factory.mktemp("stimuli") / "table"
+    build_table(PRESETS["tiny"], out)
+    return TrajectoryTable.load(out), out
+
+
+def real_spec(table, path, slug="real"):
+    """A study on the tiny table: two conditions of two training examples, and N_TESTS tests,
+    each theta*'s trajectory and the three trajectories furthest from it (all real optima)."""
+    ok = np.flatnonzero(showable(table))
+    train, tests = ok[:4], ok[4:4 + N_TESTS]
+    test_set = []
+    for m in tests:
+        others = np.argsort(-table.d_euclid[m])[:3]
+        test_set.append({"env_id": int(table.env_ids[m]), "options": [
+            {"theta_index": 0, "is_theta_star": True}] + [
+            {"theta_index": int(n), "is_theta_star": False} for n in others]})
+    return {"slug": slug, "name": "Real tiny study", "table": str(path), "test_set": test_set,
+            "conditions": [{"name": "exact", "env_ids": [int(e) for e in table.env_ids[train[:2]]]},
+                           {"name": "random", "env_ids": [int(e) for e in table.env_ids[train[2:]]]}]}
+
+
+def embedded(html: str) -> dict:
+    return {name: json.loads(body) for name, body in JSON_SCRIPT.findall(html)}
+
+
+def walk(client, study, pid):
+    """One participant through the study with the browser's requests; yields (participant,
+    step, html) for every page shown."""
+    r = client.get(reverse("entry", args=[study.slug]), {"PROLIFIC_PID": pid, "STUDY_ID": "S", "SESSION_ID": "X"})
+    assert r.status_code == 302
+    p = Participant.objects.get(platform_pid=pid)
+    while True:
+        p.refresh_from_db()
+        step = flow.current_step(p)
+        html = client.get(reverse("step", args=[study.slug, p.token])).content.decode()
+        yield p, step, html
+        if step.kind == "done":
+            return
+        r = client.post(reverse("answer", args=[study.slug, p.token, step.index]), answer_payload(p, step))
+        assert r.status_code == 302, r.content[:300]
+
+
+def test_no_test_page_tells_theta_stars_option_apart(tiny_table):
+    table, path = tiny_table
+    study = build_study(real_spec(table, path))
+    assert study.source["kind"] == "table"
+    star_letters, asset_sets = [], set()
+    for pid in ("p1", "p2", "p3", "p4"):
+        for p, step, html in walk(Client(), study, pid):
+            low = html.lower()
+            for word in FORBIDDEN:
+                assert word.lower() not in low, (step.kind, word)
+            data = embedded(html)
+            if step.kind == "training":
+                payload = p.condition.training[step.item]
+                assert data == {"env-data": {k: payload[k] for k in ("goal", "dt", "other", "robot")}}
+            if step.kind != "test":
+                continue
+            test = study.test_set[step.item]
+            shown = flow.option_letters(p, step.item)
+            assert '"robot"' not in html  # no trajectory outside the four options
+            # the shared scene: the goal, the time step, the other car; no reference trajectory
+            assert set(data) == {"scene-data", "option-robots"}
+            assert data["scene-data"] == {k: test[k] for k in ("goal", "dt", "other")}
+            # four robots under opaque letters, all of one shape; theta*'s is just one of them
+            robots = data["option-robots"]
+            assert sorted(robots) == ["A", "B", "C", "D"]
+            assert {letter: robots[letter] for letter, _ in shown} == {
+                letter: test["options"][k]["robot"] for letter, k in shown}
+            assert all(np.shape(r) == (21, 5) for r in robots.values())
+            assert test["robot"] in robots.values()  # theta*'s own trajectory appears only as its option
+            # the four option blocks are the same markup but for their letter
+            blocks = FIELDSET.findall(html)
+            assert len(blocks) == 4
+            masked = {re.sub(rf"(?<![A-Za-z]){letter}(?![A-Za-z])", "X", b) for b, (letter, _) in zip(blocks, shown)}
+            assert len(masked) == 1, masked
+            # the posted values are letters too: no option index anywhere in the form
+            assert not re.search(r'name="(choice|played)" value="\d', html)
+            asset_sets.add(frozenset(u for u in URL_ATTR.findall(html) if "/p/" not in u))  # not the form's
+            star_letters.append(next(letter for letter, k in shown if test["options"][k]["is_theta_star"]))
+    assert len(star_letters) == 4 * N_TESTS
+    assert len(set(star_letters)) > 1  # theta*'s letter is drawn per participant and test
+    # every test page refers to the same static assets: nothing is fetched per option or per test
+    assert len(asset_sets) == 1, asset_sets
+    assert all(u.startswith(("/static/", "#")) for u in next(iter(asset_sets))), asset_sets
