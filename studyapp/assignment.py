@@ -80,19 +80,34 @@ def assign(study: Study, platform: str = Participant.ANONYMOUS, pid: str = "", *
             locked = Study.objects.select_for_update().get(pk=study.pk)
             existing = find_returning(locked, platform, pid)
             if existing:
-                return existing
+                return note_session(existing, ids.get("platform_session_id", ""))
             if not locked.is_open:
                 raise StudyClosed(locked.slug)
             condition = pick_condition(locked)
+            session = ids.get("platform_session_id", "")
             return Participant.objects.create(
                 study=locked, condition=condition, platform=platform, platform_pid=pid,
-                option_orders=option_orders(locked), **ids)
+                option_orders=option_orders(locked), platform_session_ids=[session] if session else [], **ids)
     except IntegrityError:
         # Another arrival with the same platform id won the race: return theirs.
         existing = find_returning(study, platform, pid)
         if existing is None:
             raise
-        return existing
+        return note_session(existing, ids.get("platform_session_id", ""))
+
+
+def note_session(participant: Participant, session: str) -> Participant:
+    """Keep every SESSION_ID (assignmentId) a returning participant arrives with: Prolific gives a
+    new one when they restart, and paying or querying them needs each."""
+    if not session or session in participant.platform_session_ids:
+        return participant
+    with transaction.atomic():
+        locked = Participant.objects.select_for_update().get(pk=participant.pk)
+        if session not in locked.platform_session_ids:
+            locked.platform_session_ids = [*locked.platform_session_ids, session]
+            locked.save(update_fields=["platform_session_ids"])
+    participant.platform_session_ids = locked.platform_session_ids
+    return participant
 
 
 def preview_participant(condition: Condition) -> Participant:

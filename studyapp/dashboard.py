@@ -1,6 +1,7 @@
 """Researcher views: study list, per-study dashboard with live progress, open/close, preview, exports."""
 from __future__ import annotations
 
+from django.contrib import messages
 from django.contrib.admin.views.decorators import staff_member_required
 from django.db.models import Count, Q
 from django.http import HttpResponse
@@ -75,7 +76,12 @@ def progress(request, slug):
 @require_POST
 def toggle(request, slug):
     study = get_object_or_404(Study, slug=slug)
-    study.is_open = request.POST.get("open") == "1"
+    opening = request.POST.get("open") == "1"
+    if opening and study.opening_problems():
+        for problem in study.opening_problems():
+            messages.error(request, problem)
+        return redirect("dashboard_study", slug=slug)
+    study.is_open = opening
     study.save(update_fields=["is_open"])
     return redirect("dashboard_study", slug=slug)
 

@@ -19,7 +19,8 @@ PARTICIPANT_COLUMNS = [
     ("platform", "prolific, mturk or anonymous."),
     ("platform_pid", "PROLIFIC_PID (Prolific) or workerId (MTurk); empty when anonymous."),
     ("platform_study_id", "STUDY_ID (Prolific) or hitId (MTurk)."),
-    ("platform_session_id", "SESSION_ID (Prolific) or assignmentId (MTurk)."),
+    ("platform_session_id", "SESSION_ID (Prolific) or assignmentId (MTurk) of the first arrival."),
+    ("platform_session_ids", "Every SESSION_ID / assignmentId the participant arrived with, ';'-separated."),
     ("started_at", "UTC time of the first arrival (ISO 8601)."),
     ("completed_at", "UTC time the last answer was stored; empty if unfinished."),
     ("excluded", "1 if the attention check was failed (keep in data, drop from analysis)."),
@@ -65,7 +66,8 @@ def _participant_fields(p: Participant) -> dict:
     return {
         "participant_id": p.pk, "study": p.study.slug, "condition": p.condition.name, "platform": p.platform,
         "platform_pid": p.platform_pid, "platform_study_id": p.platform_study_id,
-        "platform_session_id": p.platform_session_id, "started_at": p.started_at.isoformat(),
+        "platform_session_id": p.platform_session_id, "platform_session_ids": ";".join(p.platform_session_ids),
+        "started_at": p.started_at.isoformat(),
         "completed_at": p.completed_at.isoformat() if p.completed_at else "", "excluded": int(p.excluded),
     }
 

@@ -10,12 +10,22 @@ from __future__ import annotations
 import secrets
 from datetime import timedelta
 
+from django.core.exceptions import ValidationError
 from django.db import models
 from django.urls import reverse
 from django.utils import timezone
 
 PROLIFIC_COMPLETION_URL = "https://app.prolific.com/submissions/complete?cc={code}"
 MTURK_SUBMIT_URL = "https://www.mturk.com/mturk/externalSubmit"
+
+
+DEFAULT_CONSENT = (
+    "This is a research study about how people understand the driving style of an autonomous car. "
+    "You will watch short animations of a yellow car driving on a three-lane road and then answer "
+    "questions about how it would drive in new situations.\n\n"
+    "We record your answers, the time you spend, your age and gender, and the identifier of the "
+    "recruiting platform (if any). The data are stored under a pseudonym and used only for research. "
+    "Taking part is voluntary; you may stop at any time by closing this page.")
 
 
 def new_token() -> str:
@@ -39,6 +49,18 @@ class Study(models.Model):
     prolific_completion_url = models.CharField(
         max_length=300, default=PROLIFIC_COMPLETION_URL, help_text="{code} is replaced by the completion code.")
     mturk_submit_url = models.CharField(max_length=300, default=MTURK_SUBMIT_URL)
+    LINK, PROLIFIC, MTURK = "link", "prolific", "mturk"
+    RECRUITMENTS = [(LINK, "a link (anyone)"), (PROLIFIC, "Prolific"), (MTURK, "Mechanical Turk")]
+    recruitment = models.CharField(
+        max_length=12, choices=RECRUITMENTS, default=LINK,
+        help_text="Prolific studies cannot open without Prolific's completion code.")
+    # What the consent page tells participants (the ethics-approved texts), per study.
+    consent_text = models.TextField(
+        blank=True, help_text="The approved consent text (paragraphs separated by blank lines); blank: the default.")
+    estimated_minutes = models.PositiveIntegerField(default=15, help_text="Shown on the consent page.")
+    payment = models.CharField(max_length=300, blank=True, help_text="e.g. '£2.50, paid through Prolific'.")
+    contact = models.CharField(max_length=300, blank=True, help_text="Who answers questions: name and email.")
+    ethics_reference = models.CharField(max_length=200, blank=True, help_text="The approval's reference.")
     test_set = models.JSONField(default=list, help_text="Shared test environments with their 4 options each.")
     source = models.JSONField(default=dict, blank=True, help_text="Where the trajectories came from (table, seed).")
     created_at = models.DateTimeField(auto_now_add=True)
@@ -56,6 +78,26 @@ class Study(models.Model):
     @property
     def active_timeout(self) -> timedelta:
         return timedelta(minutes=self.active_timeout_minutes)
+
+    def opening_problems(self) -> list[str]:
+        """Why this study may not accept participants yet (empty: it may)."""
+        if self.recruitment == self.PROLIFIC and not self.completion_code.strip():
+            return ["Prolific only accepts its study's own completion code: set the completion code "
+                    "(Prolific's study page, 'Completion paths') before opening."]
+        return []
+
+    def clean(self):
+        if self.is_open and self.opening_problems():
+            raise ValidationError({"is_open": self.opening_problems()})
+
+    @property
+    def completion_url(self) -> str:
+        """Where a finished Prolific participant is sent, exactly."""
+        return self.prolific_completion_url.format(code=self.completion_code)
+
+    def consent_paragraphs(self) -> list[str]:
+        text = self.consent_text.strip() or DEFAULT_CONSENT
+        return [p.strip() for p in text.split("\n\n") if p.strip()]
 
 
 class Condition(models.Model):
@@ -92,6 +134,8 @@ class Participant(models.Model):
     platform_pid = models.CharField(max_length=100, blank=True, help_text="PROLIFIC_PID or workerId.")
     platform_study_id = models.CharField(max_length=100, blank=True, help_text="STUDY_ID or hitId.")
     platform_session_id = models.CharField(max_length=100, blank=True, help_text="SESSION_ID or assignmentId.")
+    platform_session_ids = models.JSONField(
+        default=list, blank=True, help_text="Every SESSION_ID or assignmentId this participant arrived with.")
     turk_submit_to = models.CharField(max_length=300, blank=True)
     position = models.PositiveIntegerField(default=0, help_text="Index of the current step of the flow.")
     option_orders = models.JSONField(default=list, help_text="Display order of the options, per test.")

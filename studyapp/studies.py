@@ -5,7 +5,10 @@ Spec (a JSON file for ``manage.py create_study``)::
     {
       "slug": "driving-2026", "name": "Driving styles",
       "target_per_condition": 30,                  # optional
-      "completion_code": "C1ABCDEF",               # optional (Prolific's code)
+      "completion_code": "C1ABCDEF",               # Prolific's code (required with "recruitment": "prolific")
+      "recruitment": "prolific",                   # optional: link (default), prolific, mturk
+      "consent_text": "...", "estimated_minutes": 15, "payment": "...", "contact": "...",
+      "ethics_reference": "...",                   # optional: the consent page's texts
       "table": "data/tables/demo",                 # optional: a teaching TrajectoryTable
       "conditions": [{"name": "exact", "env_ids": [12, 4031, ...]}, ...],
       "test_set": [{"env_id": 77, "options": [{"theta_index": 0, "is_theta_star": true}, ...]}, ...]
@@ -36,6 +39,11 @@ PAPER_CONDITIONS = list(CONDITIONS)
 DEMO_SLUG = "demo"
 DEMO_TABLE_ENV = "DEMO_TABLE"
 DEMO_TABLE_DEFAULT = "var/tables/demo"  # where `python -m teaching build --preset demo` writes
+
+
+# The per-study texts of the consent page a spec may set (models.Study; defaults there).
+TEXT_FIELDS = ("consent_text", "estimated_minutes", "payment", "contact", "ethics_reference")
+DEMO_COMPLETION_CODE = "DEMO2026"  # Prolific rejects a per-participant code: the demo sets one
 
 
 class SpecError(ValueError):
@@ -94,6 +102,8 @@ def build_study(spec: dict, replace: bool = False) -> Study:
         return existing
     if existing and existing.participants.exists():
         raise SpecError(f"study {slug!r} already has participants; refusing to replace it")
+    if spec.get("recruitment", Study.LINK) not in dict(Study.RECRUITMENTS):
+        raise SpecError(f"'recruitment' must be one of {', '.join(dict(Study.RECRUITMENTS))}")
     conditions, training, tests, source = _payloads(spec)
     with transaction.atomic():
         if existing:
@@ -101,8 +111,11 @@ def build_study(spec: dict, replace: bool = False) -> Study:
         study = Study.objects.create(
             slug=slug, name=spec.get("name", slug), test_set=tests, source=source,
             target_per_condition=spec.get("target_per_condition", 30),
-            completion_code=spec.get("completion_code", ""),
-            is_open=spec.get("is_open", True))
+            completion_code=spec.get("completion_code", ""), recruitment=spec.get("recruitment", Study.LINK),
+            is_open=spec.get("is_open", True), **{k: spec[k] for k in TEXT_FIELDS if k in spec})
+        problems = study.opening_problems()
+        if study.is_open and problems:
+            raise SpecError(problems[0])
         for i, c in enumerate(conditions):
             Condition.objects.create(study=study, name=c["name"], position=i, training=training[c["name"]],
                                      target=c.get("target"))
@@ -160,7 +173,9 @@ def demo_spec(table_path=None, log=lambda msg: None) -> dict:
     $DEMO_TABLE or var/tables/demo) when that table exists and loads;
     otherwise the PLACEHOLDER trajectories (and says why through `log`).
     """
-    spec = {"slug": DEMO_SLUG, "name": "Demo: how does the autonomous car drive?", "target_per_condition": 20}
+    spec = {"slug": DEMO_SLUG, "name": "Demo: how does the autonomous car drive?", "target_per_condition": 20,
+            "completion_code": DEMO_COMPLETION_CODE, "estimated_minutes": 12,
+            "contact": "The research team (demo: no real contact)"}
     table_path = demo_table_path(table_path)
     if (table_path / "meta.json").exists():
         try:

@@ -74,6 +74,11 @@ def entry(request, slug):
         platform, pid, ids = _platform_ids(request)
     except ValueError as exc:
         return render(request, "studyapp/error.html", {"study": study, "message": str(exc)}, status=400)
+    if platform == Participant.PROLIFIC and not study.completion_code.strip():
+        # Prolific accepts only its study's own code: a per-participant code would leave them unpaid.
+        return render(request, "studyapp/error.html", {"study": study, "message": (
+            "This study is not ready for Prolific participants yet (it has no completion code). "
+            "Please return it on Prolific; the researchers have been shown why.")}, status=503)
     if platform == Participant.ANONYMOUS:
         token = request.session.get(_session_key(study))
         known = Participant.objects.filter(study=study, token=token).first() if token else None

@@ -28,6 +28,7 @@ def make_study(db):
 
     def make(slug="s1", sequences=None, **extra):
         sequences = sequences or SMALL_SEQUENCES
+        extra.setdefault("completion_code", "TEST2026")  # Prolific arrivals need one (views.entry)
         spec = {"slug": slug, "name": f"Study {slug}", "target_per_condition": 10,
                 "conditions": [{"name": n, "env_ids": ids} for n, ids in sequences.items()], **extra}
         return build_study(spec)

@@ -119,8 +119,9 @@ def test_back_button_cannot_reanswer(client, participant, answer_for):
     assert page.context["notice"] == flow.MOVED_ON and flow.MOVED_ON.encode() in page.content
     assert page.context["step"].index == step.index + 1
     r = client.post(url(participant, step.index), changed, HTTP_ACCEPT="application/json")
-    assert r.status_code == 409 and r.json() == {"ok": False, "moved": True, "next": url(participant) + "?moved=1",
-                                                 "error": "This question was already answered; an answer cannot be changed."}
+    assert r.status_code == 409 and r.json() == {
+        "ok": False, "moved": True, "next": url(participant) + "?moved=1",
+        "error": "This question was already answered; an answer cannot be changed."}
     assert snapshot() == before
 
 

@@ -48,6 +48,7 @@ def real_spec(table, path, slug="real"):
             {"theta_index": 0, "is_theta_star": True}] + [
             {"theta_index": int(n), "is_theta_star": False} for n in others]})
     return {"slug": slug, "name": "Real tiny study", "table": str(path), "test_set": test_set,
+            "recruitment": "prolific", "completion_code": "REAL2026",
             "conditions": [{"name": "exact", "env_ids": [int(e) for e in table.env_ids[train[:2]]]},
                            {"name": "random", "env_ids": [int(e) for e in table.env_ids[train[2:]]]}]}
 
