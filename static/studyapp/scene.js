@@ -9,10 +9,28 @@ const LANE_W = 12;
 const ROAD_HALF = 18;
 const VIEW_W_FT = 60;         // feet shown across the canvas
 const CAR_L = 15, CAR_W = 6;
-const COLORS = {
-  grass: "#dfe9d8", road: "#5b6068", line: "#f4f4f4", goal: "rgba(37, 99, 235, 0.22)",
-  goalEdge: "#2563eb", robot: "#f5c518", other: "#a3a8b0", outline: "#1f2328",
+// The other car within this distance along the road counts as interacting: the camera frames
+// both cars while it is (and at their closest approach in any case), so the participant sees
+// the merge ahead of or behind it, or the pass, instead of an edge marker.
+const INTERACTION_FT = 150;
+const MARGIN_FT = 10;         // road shown beyond each framed car
+const MAX_SQUEEZE = 3;        // the forward axis is compressed at most 3:1 against the lateral one
+// Colours come from the page's CSS (--scene-*), so the legend's swatches are the canvas's colours.
+const FALLBACK = {
+  grass: "#dfe9d8", road: "#5b6068", line: "#f4f4f4", goal: "#4a6190",
+  goalEdge: "#2563eb", robot: "#f5c518", other: "#c9ccd1", outline: "#1f2328",
 };
+let COLORS = null;
+function colors() {
+  if (!COLORS) {
+    const css = getComputedStyle(document.documentElement);
+    COLORS = Object.fromEntries(Object.entries(FALLBACK).map(([name, fallback]) => {
+      const value = css.getPropertyValue(`--scene-${name.replace(/[A-Z]/g, (c) => "-" + c.toLowerCase())}`).trim();
+      return [name, value || fallback];
+    }));
+  }
+  return COLORS;
+}
 
 function lerp(a, b, f) { return a + (b - a) * f; }
 
@@ -35,6 +53,8 @@ export class Scene {
     this.duration = (robot.length - 1) * this.dt;
     this.mode = "frame";     // "frame" | "trail"
     this.t = 0;
+    this.span = framedSpan(robot, env.other);
+    this.lastFrame = null;   // screen positions drawn last: {robot: [x, y], other: [x, y] | null}
     this.resize();
   }
 
@@ -57,13 +77,13 @@ export class Scene {
 
   drawRoad(cam) {
     const ctx = this.ctx, s = cam.xs;
-    ctx.fillStyle = COLORS.grass;
+    ctx.fillStyle = colors().grass;
     ctx.fillRect(0, 0, this.w, this.h);
     const [left] = this.toScreen(cam, -ROAD_HALF, 0);
-    ctx.fillStyle = COLORS.road;
+    ctx.fillStyle = colors().road;
     ctx.fillRect(left, 0, 2 * ROAD_HALF * s, this.h);
     // goal: the right lane (merge) or the centre lane straight ahead (forward), in blue
-    ctx.fillStyle = COLORS.goal;
+    ctx.fillStyle = colors().goal;
     if (this.env.goal === 0) {
       const [gx] = this.toScreen(cam, LANE_W / 2, 0);
       ctx.fillRect(gx, 0, LANE_W * s, this.h);
@@ -73,7 +93,7 @@ export class Scene {
       this.arrow(cam);
     }
     // lane markings: solid edges, dashed separators scrolling with the world
-    ctx.strokeStyle = COLORS.line;
+    ctx.strokeStyle = colors().line;
     ctx.lineWidth = Math.max(1, 0.5 * s);
     for (const x of [-ROAD_HALF + 0.5, ROAD_HALF - 0.5]) {
       const [sx] = this.toScreen(cam, x, 0);
@@ -95,7 +115,7 @@ export class Scene {
     const ctx = this.ctx, s = cam.xs;
     const [ax] = this.toScreen(cam, 0, 0);
     const top = 6, size = 4 * s;
-    ctx.fillStyle = COLORS.goalEdge;
+    ctx.fillStyle = colors().goalEdge;
     ctx.beginPath();
     ctx.moveTo(ax, top); ctx.lineTo(ax - size, top + size * 1.4); ctx.lineTo(ax + size, top + size * 1.4);
     ctx.closePath(); ctx.fill();
@@ -112,7 +132,7 @@ export class Scene {
     ctx.translate(sx, sy);
     ctx.rotate(-Math.atan2(Math.sin(heading) * cam.ys, Math.cos(heading) * cam.xs));
     ctx.fillStyle = color;
-    ctx.strokeStyle = COLORS.outline;
+    ctx.strokeStyle = colors().outline;
     ctx.lineWidth = 1;
     ctx.beginPath();
     ctx.rect(-len / 2, -wid / 2, len, wid);
@@ -123,21 +143,29 @@ export class Scene {
     return true;
   }
 
-  // The other car outside the view: a gray arrow at the edge with its distance.
+  // The other car outside the view: an arrow at the edge, and its distance on a white tag
+  // beside it (readable on grass, road and goal lane alike, never over the arrow).
   offscreen(cam, x, y, ry) {
     const ctx = this.ctx;
     const [sx, sy] = this.toScreen(cam, x, y);
     const above = sy < 0, dir = above ? 1 : -1;
-    const edge = above ? (this.env.goal === 1 ? 30 : 4) : this.h - 4;  // below the goal arrow
-    ctx.fillStyle = COLORS.other;
-    ctx.strokeStyle = COLORS.outline;
+    const edge = above ? (this.env.goal === 1 ? 30 : 4) : this.h - 24;  // clear of the goal arrow and time label
+    ctx.fillStyle = colors().other;
+    ctx.strokeStyle = colors().outline;
+    ctx.lineWidth = 1.5;
     ctx.beginPath();
     ctx.moveTo(sx, edge); ctx.lineTo(sx - 7, edge + dir * 12); ctx.lineTo(sx + 7, edge + dir * 12);
     ctx.closePath(); ctx.fill(); ctx.stroke();
     ctx.font = "11px system-ui, sans-serif";
+    const text = `other car ${Math.round(Math.abs(y - ry))} ft ${above ? "ahead" : "behind"}`;
+    const tw = ctx.measureText(text).width;
+    const right = sx + 10 + tw + 6 <= this.w;  // the tag goes beside the arrow, on whichever side fits
+    const tx = right ? sx + 12 : Math.max(2, sx - 12 - tw - 6);
+    const ty = above ? edge : edge - 2;
+    ctx.fillStyle = "rgba(255, 255, 255, 0.92)";
+    ctx.fillRect(tx, ty, tw + 6, 14);
     ctx.fillStyle = "#111";
-    const text = `${Math.round(Math.abs(y - ry))} ft ${above ? "ahead" : "behind"}`;
-    ctx.fillText(text, Math.min(sx + 10, this.w - ctx.measureText(text).width - 4), edge + dir * 12);
+    ctx.fillText(text, tx + 3, ty + 11);
   }
 
   begin() {
@@ -146,18 +174,31 @@ export class Scene {
     this.ctx.setTransform(this.dpr, 0, 0, this.dpr, 0, 0);
   }
 
-  // One animation frame at time t: the camera follows the robot.
+  // The camera for time t: one scale for the whole drive (the road does not zoom in and out),
+  // wide enough along the road to hold both cars whenever they interact; it centres between
+  // them, and on the robot alone (with the other car at the edge) when they are further apart.
+  camera(r, o) {
+    const base = this.w / VIEW_W_FT;
+    const usable = this.h - 36;  // room for the goal arrow above and the time label below
+    const ys = Math.min(base, usable / (this.span + CAR_L + 2 * MARGIN_FT));
+    const xs = Math.min(base, MAX_SQUEEZE * ys);
+    const dy = Math.max(-this.span, Math.min(this.span, o.y - r.y));
+    return { cy: r.y + dy / 2, anchor: 0.5, xs, ys };
+  }
+
+  // One animation frame at time t.
   drawFrame(t) {
     this.t = t;
     this.begin();
     const r = sample(this.robot, t, this.dt);
     const o = sample(this.env.other, t, this.dt);
-    const s = this.w / VIEW_W_FT;
-    const cam = { cy: r.y, anchor: 0.68, xs: s, ys: s };
+    const cam = this.camera(r, o);
     this.drawRoad(cam);
-    if (!this.car(cam, o.x, o.y, Math.PI / 2, COLORS.other)) this.offscreen(cam, o.x, o.y, r.y);
-    this.car(cam, r.x, r.y, r.h, COLORS.robot);
+    const otherShown = this.car(cam, o.x, o.y, Math.PI / 2, colors().other);
+    if (!otherShown) this.offscreen(cam, o.x, o.y, r.y);
+    this.car(cam, r.x, r.y, r.h, colors().robot);
     this.label(`t = ${t.toFixed(1)} s`);
+    this.lastFrame = { robot: this.toScreen(cam, r.x, r.y), other: otherShown ? this.toScreen(cam, o.x, o.y) : null };
   }
 
   // Still view of the whole drive: earlier positions faint, later ones more opaque.
@@ -172,8 +213,8 @@ export class Scene {
     for (let k = 0; k <= last; k += (last % 2 === 0 ? 2 : 1)) {
       const alpha = 0.12 + 0.88 * (k / last);
       const o = this.env.other[k], r = this.robot[k];
-      this.car(cam, o[0], o[1], Math.PI / 2, COLORS.other, alpha);
-      this.car(cam, r[0], r[1], r[2], COLORS.robot, alpha);
+      this.car(cam, o[0], o[1], Math.PI / 2, colors().other, alpha);
+      this.car(cam, r[0], r[1], r[2], colors().robot, alpha);
     }
     this.label("trail: whole drive");
   }
@@ -190,6 +231,15 @@ export class Scene {
   redraw() {
     if (this.mode === "trail") this.drawTrail(); else this.drawFrame(this.t);
   }
+}
+
+// Along-road distance (ft) the animation's view must hold between the two cars: the largest
+// gap while they interact (within INTERACTION_FT), and at least the gap at their closest approach.
+export function framedSpan(robot, other) {
+  const gaps = robot.map((r, k) => Math.abs(other[Math.min(k, other.length - 1)][1] - r[1]));
+  const closest = Math.min(...gaps);
+  const near = gaps.filter((g) => g <= INTERACTION_FT);
+  return Math.max(closest, near.length ? Math.max(...near) : 0);
 }
 
 // Plays a Scene in real time; calls onPlayed once the animation has reached its end.
@@ -245,6 +295,7 @@ export function mountScene(root, env, robot, onPlayed) {
   const trailBtn = root.querySelector('[data-action="trail"]');
   const baseLabel = playBtn.textContent.trim();
   const scene = new Scene(canvas, env, robot);
+  canvas.scene = scene;  // for the browser tests, which read what each frame drew (lastFrame)
   const player = new Player(scene, {
     onPlayed,
     onState: (state) => {
