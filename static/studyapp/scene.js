@@ -294,6 +294,7 @@ export function mountScene(root, env, robot, onPlayed) {
   const playBtn = root.querySelector('[data-action="play"]');
   const trailBtn = root.querySelector('[data-action="trail"]');
   const baseLabel = playBtn.textContent.trim();
+  const trailLabel = trailBtn.textContent.trim();  // "Show trail" toggles to "Hide trail"; a short label stays
   const scene = new Scene(canvas, env, robot);
   canvas.scene = scene;  // for the browser tests, which read what each frame drew (lastFrame)
   const player = new Player(scene, {
@@ -303,15 +304,16 @@ export function mountScene(root, env, robot, onPlayed) {
       if (state !== "playing") playBtn.textContent = baseLabel.replace(/^Play/, "Replay");
     },
   });
+  const trailText = (on) => (trailLabel === "Show trail" ? (on ? "Hide trail" : "Show trail") : trailLabel);
   playBtn.addEventListener("click", () => {
     trailBtn.setAttribute("aria-pressed", "false");
-    trailBtn.textContent = "Show trail";
+    trailBtn.textContent = trailText(false);
     player.play();
   });
   trailBtn.addEventListener("click", () => {
     const on = trailBtn.getAttribute("aria-pressed") !== "true";
     trailBtn.setAttribute("aria-pressed", String(on));
-    trailBtn.textContent = on ? "Hide trail" : "Show trail";
+    trailBtn.textContent = trailText(on);
     player.showTrail(on);
   });
   return player;

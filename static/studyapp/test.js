@@ -1,4 +1,5 @@
-// Test step: four animated options; continue only once each was played and all are rated.
+// Test step: four animated options in a grid (each playable, or all together), one choice and a
+// 1-7 rating for each; continue only once each option was played and all are rated.
 import { lockOnSubmit, mountScene, readJSON, stepMemory } from "./scene.js";
 
 const scene = readJSON("scene-data");
@@ -6,20 +7,20 @@ const robots = readJSON("option-robots");
 const form = document.querySelector("form[data-test-form]");
 const submit = form.querySelector('button[type="submit"]');
 const hint = form.querySelector("[data-hint]");
-const options = [...form.querySelectorAll("fieldset[data-option]")];
+const options = [...form.querySelectorAll("section[data-option]")];
 const memory = stepMemory(form);
 
-function label(fieldset) {
-  return fieldset.querySelector(".scene").dataset.robot;
+function letter(section) {
+  return section.dataset.option;
 }
 
 function missing() {
   const out = [];
   const unplayed = options.filter((o) => !o.querySelector('input[name="played"]').checked);
-  if (unplayed.length) out.push(`play option ${unplayed.map(label).join(", ")}`);
+  if (unplayed.length) out.push(`play option ${unplayed.map(letter).join(", ")}`);
   if (!form.querySelector('input[name="choice"]:checked')) out.push("choose the matching option");
-  const unrated = options.filter((o) => !o.querySelector(".rating input:checked"));
-  if (unrated.length) out.push(`rate option ${unrated.map(label).join(", ")}`);
+  const unrated = options.filter((o) => !form.querySelector(`.rating[data-option="${letter(o)}"] input:checked`));
+  if (unrated.length) out.push(`rate option ${unrated.map(letter).join(", ")}`);
   return out;
 }
 
@@ -29,10 +30,10 @@ function update() {
   hint.textContent = todo.length ? `To continue: ${todo.join("; ")}.` : "All done: you can continue.";
 }
 
-function markPlayed(fieldset) {
-  fieldset.querySelector('input[name="played"]').checked = true;
-  fieldset.querySelector(".played-flag").textContent = "✓ played";
-  fieldset.classList.add("played");
+function markPlayed(section) {
+  section.querySelector('input[name="played"]').checked = true;
+  section.querySelector(".played-flag").textContent = "✓ played";
+  section.classList.add("played");
 }
 
 function remember() {
@@ -41,14 +42,19 @@ function remember() {
   memory.save({ checked, played });
 }
 
-for (const fieldset of options) {
-  const root = fieldset.querySelector(".scene");
-  mountScene(root, scene, robots[root.dataset.robot], () => {
-    markPlayed(fieldset);
+const players = options.map((section) => {
+  const root = section.querySelector(".scene");
+  return mountScene(root, scene, robots[root.dataset.robot], () => {
+    markPlayed(section);
     remember();
     update();
   });
-}
+});
+
+// all four at once: the same moments side by side, as the buttons would start them
+form.querySelector('[data-action="play-all"]').addEventListener("click", () => {
+  for (const section of options) section.querySelector('[data-action="play"]').click();
+});
 
 // restore what this participant already did on this step (reload, new tab)
 const saved = memory.load();
@@ -56,8 +62,8 @@ for (const [name, value] of saved.checked || []) {
   const input = form.querySelector(`input[type="radio"][name="${CSS.escape(name)}"][value="${CSS.escape(value)}"]`);
   if (input) input.checked = true;
 }
-for (const fieldset of options) {
-  if ((saved.played || []).includes(fieldset.dataset.option)) markPlayed(fieldset);
+for (const section of options) {
+  if ((saved.played || []).includes(letter(section))) markPlayed(section);
 }
 
 form.addEventListener("change", () => { remember(); update(); });

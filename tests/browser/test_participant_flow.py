@@ -61,7 +61,7 @@ def answer_test_by_keyboard(page, choose_label="A", rating=5):
         button.focus()
         page.keyboard.press("Space")
     play_all(page)
-    choice = page.locator(f'fieldset:has(legend:text-is("Option {choose_label}")) input[name="choice"]')
+    choice = page.locator(f'input[name="choice"][value="{choose_label}"]')
     choice.focus()
     page.keyboard.press("Space")
     for group in page.locator(".rating").all():
@@ -156,15 +156,16 @@ def test_participant_flow_in_chromium(demo_study, live_server, monkeypatch):  # 
         ready(page)
         page.locator('[data-action="play"]').first.click()
         play_all(page)
-        first = page.locator("fieldset[data-option]").first
-        first.locator('.rating input[value="3"]').check()
+        first = page.locator("section[data-option]").first
+        first_rating = page.locator('.rating[data-option="A"] input[value="3"]')
+        first_rating.check()
         page.reload()
         expect(page.locator("h1")).to_have_text("Question 3 of 6")
         ready(page)
         # the step is shown as it was left: option A played and rated 3, the rest still to do
-        expect(first).to_have_class("option card played")
-        assert first.locator('.rating input[value="3"]').is_checked()
-        assert page.locator("fieldset.played").count() == 1
+        expect(first).to_have_class("option played")
+        assert first_rating.is_checked()
+        assert page.locator("section.played").count() == 1
         assert page.locator('#test-form button[type="submit"]').is_disabled()
         assert [page.locator(".scene").nth(k).get_attribute("data-robot") for k in range(4)] == labels_before
         p.refresh_from_db()
@@ -176,7 +177,7 @@ def test_participant_flow_in_chromium(demo_study, live_server, monkeypatch):  # 
         tab.clock.install()
         tab.goto(entry)
         expect(tab.locator("h1")).to_have_text("Question 3 of 6")
-        expect(tab.locator("fieldset.played")).to_have_count(1)
+        expect(tab.locator("section.played")).to_have_count(1)
         tab.set_viewport_size({"width": 375, "height": 800})  # phone width: no sideways scrolling
         tab.reload()
         assert tab.evaluate("document.documentElement.scrollWidth") <= 375

@@ -25,7 +25,8 @@ N_TESTS = 4
 FORBIDDEN = ["theta", "cluster", "is_theta_star", "env_id", "class_name", "env_class"] + [
     n for n in CLUSTER_NAMES if ":" in n]
 JSON_SCRIPT = re.compile(r'<script id="([^"]+)" type="application/json">(.*?)</script>', re.S)
-FIELDSET = re.compile(r"<fieldset class=\"option card\".*?</fieldset>", re.S)
+OPTION_BLOCKS = (re.compile(r'<section class="option".*?</section>', re.S),
+                 re.compile(r'<div class="rating" data-option.*?</div>', re.S))
 URL_ATTR = re.compile(r'(?<![-\w])(?:src|href|action)="([^"]*)"')
 
 
@@ -103,11 +104,12 @@ def test_no_test_page_tells_theta_stars_option_apart(tiny_table):
                 letter: test["options"][k]["robot"] for letter, k in shown}
             assert all(np.shape(r) == (21, 5) for r in robots.values())
             assert test["robot"] in robots.values()  # theta*'s own trajectory appears only as its option
-            # the four option blocks are the same markup but for their letter
-            blocks = FIELDSET.findall(html)
-            assert len(blocks) == 4
-            masked = {re.sub(rf"(?<![A-Za-z]){letter}(?![A-Za-z])", "X", b) for b, (letter, _) in zip(blocks, shown)}
-            assert len(masked) == 1, masked
+            # the four animations and the four rating rows are the same markup but for their letter
+            for pattern in OPTION_BLOCKS:
+                blocks = pattern.findall(html)
+                assert len(blocks) == 4
+                masked = {re.sub(rf"(?<![A-Za-z]){letter}(?![A-Za-z])", "X", b) for b, (letter, _) in zip(blocks, shown)}
+                assert len(masked) == 1, masked
             # the posted values are letters too: no option index anywhere in the form
             assert not re.search(r'name="(choice|played)" value="\d', html)
             asset_sets.add(frozenset(u for u in URL_ATTR.findall(html) if "/p/" not in u))  # not the form's

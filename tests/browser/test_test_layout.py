@@ -1,0 +1,79 @@
+"""The test page's layout (issue 11): four options compared on a phone (a 2x2 grid, one "play
+all" control) and on a laptop (the whole question down to "Next" without scrolling), with every
+control a participant touches at least 44 px.  Screenshots at 390x844 and 1280x800 go to
+test-output/ (look at them)."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
+OUT = Path(__file__).resolve().parents[2] / "test-output"
+TOUCH_PX = 44
+
+pytestmark = [pytest.mark.browser, pytest.mark.slow]
+
+
+@pytest.fixture
+def on_a_test(transactional_db, tmp_path, monkeypatch, make_study):
+    """A participant standing on the first test of a study (answers recorded server-side)."""
+    from studyapp import flow
+    from studyapp.assignment import assign
+    from tests.conftest import complete_flow
+
+    study = make_study("layout")
+    p = assign(study, "prolific", "layout-1", platform_study_id="S", platform_session_id="X")
+    p = complete_flow(p, stop_before="test")
+    assert flow.current_step(p).kind == "test"
+    return p
+
+
+def sizes(page, selector):
+    return page.eval_on_selector_all(selector, "els => els.map(e => { const r = e.getBoundingClientRect();"
+                                               " return [r.width, r.height, r.top, r.bottom]; })")
+
+
+@pytest.mark.parametrize("name, width, height", [("phone", 390, 844), ("laptop", 1280, 800)])
+def test_four_options_compared_without_scrolling_and_44px_targets(on_a_test, live_server, name, width, height):
+    from playwright.sync_api import expect, sync_playwright
+
+    url = f"{live_server.url}{on_a_test.get_absolute_url()}"
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
+        page = browser.new_page(viewport={"width": width, "height": height}, has_touch=(name == "phone"))
+        errors = []
+        page.on("pageerror", lambda exc: errors.append(str(exc)))
+        page.clock.install()
+        page.goto(url)
+        page.wait_for_selector("body[data-ready]", state="attached")
+        expect(page.locator("h1")).to_have_text("Question 1 of 6")
+        assert page.evaluate("document.documentElement.scrollWidth") <= width  # no sideways scrolling
+        # every control a participant presses: at least 44 x 44 px
+        for selector in (".tile span", ".option button", "[data-action=play-all]", "#test-form button[type=submit]"):
+            boxes = sizes(page, selector)
+            assert boxes, selector
+            small = [b for b in boxes if b[0] < TOUCH_PX - 0.5 or b[1] < TOUCH_PX - 0.5]
+            assert not small, (selector, small[:3])
+        canvases = sizes(page, ".option canvas")
+        assert len(canvases) == 4
+        if name == "phone":  # the 2x2 grid: all four animations on the first screen, side by side in pairs
+            assert all(c[3] <= height for c in canvases), canvases
+            assert canvases[0][2] == canvases[1][2] and canvases[2][2] == canvases[3][2] > canvases[0][2]
+            assert all(c[0] >= 150 for c in canvases)
+        else:  # the laptop: the whole question, down to its Next button, above the fold
+            assert sizes(page, "#test-form button[type=submit]")[0][3] <= height
+            assert all(c[0] >= 150 for c in canvases)
+        # "Play all four together" starts every animation and marks each played
+        page.locator("[data-action=play-all]").click()
+        page.clock.run_for(5600)
+        expect(page.locator("section.played")).to_have_count(4)
+        page.locator('input[name="choice"][value="B"]').check()
+        for row in page.locator(".rating").all():
+            row.locator('input[value="5"]').check()
+        expect(page.locator("#test-form button[type=submit]")).to_be_enabled()
+        OUT.mkdir(exist_ok=True)
+        page.screenshot(path=str(OUT / f"test_page_{name}_{width}x{height}.png"))
+        browser.close()
+    assert not errors, errors
