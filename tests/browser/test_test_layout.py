@@ -77,3 +77,40 @@ def test_four_options_compared_without_scrolling_and_44px_targets(on_a_test, liv
         page.screenshot(path=str(OUT / f"test_page_{name}_{width}x{height}.png"))
         browser.close()
     assert not errors, errors
+
+
+def answer_test(page, letter="B", rating="5"):
+    page.wait_for_selector("body[data-ready]", state="attached")
+    page.locator("[data-action=play-all]").click()
+    page.clock.run_for(5600)
+    page.locator(f'input[name="choice"][value="{letter}"]').check()
+    for row in page.locator(".rating").all():
+        row.locator(f'input[value="{rating}"]').check()
+
+
+def test_a_stale_tab_recovers_by_itself(on_a_test, live_server):
+    """The same question open in two tabs, answered in the first: the second tab's answer is
+    refused (the step moved on), and that tab goes to the current step, saying why."""
+    from playwright.sync_api import expect, sync_playwright
+
+    from studyapp import flow
+    from studyapp.models import Answer
+
+    url = f"{live_server.url}{on_a_test.get_absolute_url()}"
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
+        context = browser.new_context(viewport={"width": 1280, "height": 800})
+        first, second = context.new_page(), context.new_page()
+        for page in (first, second):
+            page.clock.install()
+            page.goto(url)
+        answer_test(first, "B", "5")
+        first.locator("#test-form button[type=submit]").click()
+        expect(first.locator("h1")).to_have_text("Question 2 of 6")
+        answer_test(second, "C", "2")  # a different answer to the same, already answered, question
+        second.locator("#test-form button[type=submit]").click()
+        expect(second.locator("h1")).to_have_text("Question 2 of 6")
+        expect(second.locator(".notice")).to_have_text(flow.MOVED_ON)
+        browser.close()
+    stored = Answer.objects.get(participant=on_a_test, kind="test", item=0)
+    assert stored.data["ratings"] == [5, 5, 5, 5]  # the first tab's answer, unchanged
