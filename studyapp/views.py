@@ -1,7 +1,7 @@
 """Participant views: entry link, the current step, answers, completion."""
 from __future__ import annotations
 
-from urllib.parse import urlparse
+from urllib.parse import urlsplit
 
 from django.http import Http404, JsonResponse
 from django.shortcuts import get_object_or_404, redirect, render
@@ -37,6 +37,28 @@ def participant_page(view):
     return xframe_options_exempt(never_cache(wrapped))
 
 
+def mturk_submit_base(raw: str) -> str:
+    """The MTurk site a worker's answers go back to, from the link's `turkSubmitTo`: exactly
+    "https://www.mturk.com" or "https://workersandbox.mturk.com", rebuilt from the allowlist (the
+    page's form posts there), or "" when absent; anything else raises ValueError.
+
+    Checking only `urlparse(x).hostname` let `javascript://www.mturk.com/%0A...` (script on this
+    site) and `https://evil.example\\@www.mturk.com/` (a browser posts to evil.example) through:
+    browsers parse URLs by the WHATWG rules, which strip tabs and newlines and read backslashes as
+    slashes.  So: printable ASCII without backslashes only, https only, no user, password, port,
+    path, query or fragment, and the stored value is the allowlisted one, never the raw input."""
+    if not raw:
+        return ""
+    if any(not 0x21 <= ord(c) <= 0x7E or c == "\\" for c in raw):
+        raise ValueError("turkSubmitTo must be a plain https://www.mturk.com address")
+    parts = urlsplit(raw)
+    host = parts.netloc.lower()
+    if (parts.scheme.lower() != "https" or host not in MTURK_HOSTS or parts.path not in ("", "/")
+            or parts.query or parts.fragment):
+        raise ValueError("turkSubmitTo must be https://www.mturk.com or https://workersandbox.mturk.com")
+    return f"https://{host}"
+
+
 def _session_key(study: Study) -> str:
     return f"participant:{study.slug}"
 
@@ -55,11 +77,9 @@ def _platform_ids(request):
         submit_to = values["turkSubmitTo"]
         if len(submit_to) > SUBMIT_TO_MAX:  # the column's length: longer would fail in PostgreSQL
             raise ValueError(f"turkSubmitTo is at most {SUBMIT_TO_MAX} characters")
-        if submit_to and urlparse(submit_to).hostname not in MTURK_HOSTS:
-            raise ValueError("turkSubmitTo must be an mturk.com address")
         return Participant.MTURK, values["workerId"], {
             "platform_study_id": values["hitId"], "platform_session_id": values["assignmentId"],
-            "turk_submit_to": submit_to}
+            "turk_submit_to": mturk_submit_base(submit_to)}
     return Participant.ANONYMOUS, "", {}
 
 
@@ -154,8 +174,11 @@ def completion_target(participant: Participant) -> dict:
     if participant.platform == Participant.PROLIFIC:
         return {"redirect_url": study.prolific_completion_url.format(code=code)}
     if participant.platform == Participant.MTURK and participant.platform_session_id:
-        base = participant.turk_submit_to.rstrip("/") + "/mturk/externalSubmit" if participant.turk_submit_to \
-            else study.mturk_submit_url
+        try:  # checked again: a row stored before the allowlist may hold anything
+            site = mturk_submit_base(participant.turk_submit_to)
+        except ValueError:
+            site = ""
+        base = site + "/mturk/externalSubmit" if site else study.mturk_submit_url
         return {"mturk_form": {"action": base, "assignmentId": participant.platform_session_id,
                                "completion_code": code}}
     return {}

@@ -91,6 +91,37 @@ def test_bad_platform_parameters_are_400(client, study, params):
     assert not Participant.objects.exists()
 
 
+@pytest.mark.parametrize("submit_to", [  # issue 12: each got past a hostname check, or would
+    "javascript://www.mturk.com/%0Aalert(document.domain)",  # script on this site (the form's action)
+    "https://evil.example\\@www.mturk.com/",  # a browser reads the backslash as a slash: evil.example
+    "https://evil.example@www.mturk.com/",  # userinfo
+    "https://user:pw@www.mturk.com",
+    "data:text/html,<script>alert(1)</script>",
+    "http://www.mturk.com",  # not https
+    "https://www.mturk.com:8443",
+    "https://www.mt\turk.com",  # browsers drop tabs and newlines inside a URL
+    "https://www.mturk.com/\nx",
+    "https://www.mturk.com.evil.example",
+    "https://www.mturk.com/mturk/externalSubmit?x=1",
+    "//www.mturk.com",
+])
+def test_turk_submit_to_only_ever_an_mturk_site(client, study, submit_to):
+    r = entry(client, study, workerId="W", assignmentId="A", hitId="H", turkSubmitTo=submit_to)
+    assert r.status_code == 400 and b"turkSubmitTo must be" in r.content
+    assert not Participant.objects.exists()
+
+
+@pytest.mark.parametrize("submit_to, stored", [
+    ("https://www.mturk.com", "https://www.mturk.com"),
+    ("https://www.mturk.com/", "https://www.mturk.com"),
+    ("HTTPS://WorkerSandbox.MTurk.com", "https://workersandbox.mturk.com"),
+    (" https://www.mturk.com\t", "https://www.mturk.com"),  # ids are trimmed of surrounding space first
+])
+def test_turk_submit_to_is_stored_as_the_allowlisted_site(client, study, submit_to, stored):
+    assert entry(client, study, workerId="W", assignmentId="A", hitId="H", turkSubmitTo=submit_to).status_code == 302
+    assert Participant.objects.get().turk_submit_to == stored
+
+
 def test_unknown_study_is_404(client, db):
     assert client.get("/s/nope/").status_code == 404
 

@@ -271,6 +271,16 @@ def test_mturk_completion_posts_back_to_turk(client, study, answer_for):
     assert b'name="assignmentId" value="A9"' in r.content
 
 
+def test_a_stored_turk_submit_to_is_checked_again_before_it_becomes_a_form_action(client, study, answer_for):
+    client.get(reverse("entry", args=[study.slug]), {"workerId": "W8", "assignmentId": "A8", "hitId": "H8"})
+    Participant.objects.update(turk_submit_to="javascript://www.mturk.com/%0Aalert(document.domain)")  # legacy row
+    p = Participant.objects.get()
+    advance(client, p, answer_for, "done")
+    r = client.get(url(p))
+    assert b"javascript:" not in r.content
+    assert f'action="{study.mturk_submit_url}"'.encode() in r.content
+
+
 def test_anonymous_completion_shows_code_without_redirect(study, answer_for):
     c = Client()
     c.get(reverse("entry", args=[study.slug]))
