@@ -77,9 +77,10 @@ def progress(request, slug):
 def toggle(request, slug):
     study = get_object_or_404(Study, slug=slug)
     opening = request.POST.get("open") == "1"
-    if opening and study.opening_problems():
-        for problem in study.opening_problems():
-            messages.error(request, problem)
+    problems = study.opening_problems() if opening else []
+    for problem in problems:
+        messages.error(request, problem)
+    if problems:
         return redirect("dashboard_study", slug=slug)
     study.is_open = opening
     study.save(update_fields=["is_open"])

@@ -87,8 +87,9 @@ class Study(models.Model):
         return []
 
     def clean(self):
-        if self.is_open and self.opening_problems():
-            raise ValidationError({"is_open": self.opening_problems()})
+        problems = self.opening_problems() if self.is_open else []
+        if problems:
+            raise ValidationError({"is_open": problems})
 
     @property
     def completion_url(self) -> str:

@@ -7,7 +7,7 @@ a local optimiser alone is wrong.  For one chunk of environments:
    log|theta|, theta* first) are solved from every strategy seed (all of them
    when Theta is small);
 2. **continuation over theta**: the thetas in the same farthest-point order,
-   in rounds of doubling size (8, 8, 16, 32, ...); each starts from the best,
+   in rounds of doubling size (A, A, 2A, 4A, ... for A anchors); each starts from the best,
    under it, of everything solved so far in its environment (the anchors' seed
    solutions and all earlier rounds), and is solved by projected Newton.  A
    later theta lies close to an earlier one, so it starts near its optimum
