@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from .conditions import APPROX_STAR_DEFAULT, COVERAGE_APPROX, COVERAGE_RANDOM, MIN_PER_GROUP
+from .conditions import APPROX_STAR_DEFAULT, COVERAGE_APPROX, COVERAGE_RANDOM, MIN_PER_GROUP, negligible_spread
 from .tables import included
 
 
@@ -79,6 +79,16 @@ def factorial_anova(data: pd.DataFrame, factors: tuple[str, str], dv: str = "mea
     op = "*" if interaction else "+"
     names2 = {f"C({a})": a, f"C({b})": b, f"C({a}):C({b})": f"{a} x {b}"}
     names3 = {f"C({a}, Sum)": a, f"C({b}, Sum)": b, f"C({a}, Sum):C({b}, Sum)": f"{a} x {b}"}
+    # Within-cell spread, not the model's residual: an additive model's residual also holds the
+    # cells' departure from additivity, which would make constant cells look like data.
+    within = d[dv] - d.groupby([a, b])[dv].transform("mean")
+    if negligible_spread(float(np.sqrt(np.mean(within**2))), d[dv]):
+        same = negligible_spread(float(d[dv].std(ddof=0)), d[dv])
+        res.message = (f"{name or 'ANOVA'} not computed: " + (
+            "every included participant has the same score, so there is nothing to explain."
+            if same else "no variance within cells (every participant in a cell has the same score), "
+            "so F is undefined; compare the cell means directly."))
+        return res
     m2 = smf.ols(f"{dv} ~ C({a}) {op} C({b})", data=d).fit()
     m3 = smf.ols(f"{dv} ~ C({a}, Sum) {op} C({b}, Sum)", data=d).fit()
     res.type2 = _anova_table(anova_lm(m2, typ=2), names2)

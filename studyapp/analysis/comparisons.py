@@ -4,7 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from .conditions import APPROX_STAR_DEFAULT, COVERAGE_APPROX, COVERAGE_RANDOM, MIN_PER_GROUP, canonical, label
+from .conditions import (APPROX_STAR_DEFAULT, COVERAGE_APPROX, COVERAGE_RANDOM, MIN_PER_GROUP, canonical, label,
+                         negligible_spread)
 from .tables import included
 
 
@@ -51,8 +52,9 @@ def welch_tests(table: pd.DataFrame, comparisons=None, approx_star: str = APPROX
             row["note"] = (f"not tested: {a} has {len(x)} and {b} has {len(y)} included participant(s); "
                            f"Welch's t needs at least {MIN_PER_GROUP} per group")
             messages.append(f"{row['comparison']}: {row['note']}.")
-        elif np.var(x, ddof=1) + np.var(y, ddof=1) == 0:
-            row["note"] = "not tested: every score in both groups is identical (zero variance)"
+        elif negligible_spread(np.sqrt(np.var(x, ddof=1) + np.var(y, ddof=1)), np.concatenate([x, y])):
+            row["note"] = ("not tested: within each group every score is the same (zero variance), "
+                           "so t is undefined")
             messages.append(f"{row['comparison']}: {row['note']}.")
         else:
             row.update(welch(x, y))

@@ -21,6 +21,15 @@ DISTANCES = ("reward", "euclidean", "strategy")
 
 MIN_PER_GROUP = 2      # Welch's t and every ANOVA cell need a variance
 MIN_PEARSON = 4        # Fisher-z CI needs n > 3
+# A spread (SD, residual RMS) this small relative to the scores' own size is rounding, not variance:
+# identical scores leave ~1e-16 of floating-point noise, which an F or t would divide by.
+SPREAD_RTOL = 1e-9
+
+
+def negligible_spread(spread: float, values) -> bool:
+    """Whether `spread` is zero up to rounding, relative to the size of `values` (an array of scores)."""
+    scale = float(np.sqrt(np.mean(np.square(np.asarray(values, float))))) if len(values) else 0.0
+    return not spread > SPREAD_RTOL * scale
 
 
 def n_clusters() -> int:

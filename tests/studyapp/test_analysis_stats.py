@@ -342,3 +342,51 @@ def test_pearson_too_few_or_constant_is_a_message():
     d = pd.DataFrame({"x": [2, 2, 2, 2, 2], "y": [1, 3, 2, 5, 4]})
     c = S.correlation(d, "x", "y", "n", "level")
     assert not c.ok and "x is constant" in c.message
+
+
+def _constant(cells, answers_of):
+    """The same shape of study, every participant in a condition giving `answers_of(condition)`."""
+    return {c: [answers_of(c) for _ in people] for c, people in cells.items()}
+
+
+def test_identical_scores_everywhere_are_a_message_not_an_f():
+    """Issue 12: every participant identical used to give 'F(2, 11) = 0.41' from rounding noise."""
+    cells = _constant({**APPROX_CELLS, **COVERAGE_CELLS}, lambda c: [(True, 5), (False, 2)])
+    an = S.analyze(*make_data(cells))
+    for a in an.anovas:
+        assert not a.ok and "every included participant has the same score" in a.message, a.name
+        assert a.type2 is None and a.type3 is None
+    assert an.welch["t"].isna().all() and an.welch["p_holm"].isna().all()
+    assert all("zero variance" in n for n in an.welch["note"])
+
+
+def test_constant_cells_with_different_means_are_a_message_not_an_f():
+    """Constant cells with different means used to give 'F(1, 8) = 1.8e31, p < .001'; two constant
+    groups with fractional means 't(6.0) = 2.7e16', entering the Holm family."""
+    # fractional means (0.5, 1.5, ...) so the rounding residue is not exactly zero
+    answers = {"det-reward": [(True, 3), (False, 2)], "det-euclidean": [(True, 1), (True, 2)],
+               "prob-reward": [(True, 5), (False, 2)], "prob-euclidean": [(True, 7), (False, 4)],
+               "det-strategy": [(True, 2), (True, 1)], "random": [(True, 3), (False, 2)],
+               "coverage-random": [(True, 1), (True, 2)], "coverage-approx*": [(True, 6), (True, 7)],
+               "exact": [(False, 1), (True, 2)]}
+    cells = _constant({**APPROX_CELLS, **COVERAGE_CELLS}, answers.get)
+    an = S.analyze(*make_data(cells))
+    for a in an.anovas:
+        assert not a.ok and "no variance within cells" in a.message, a.name
+    assert an.welch["t"].isna().all() and an.welch["p_holm"].isna().all()
+    # one varying group beside a constant one is an ordinary Welch test
+    cells["random"] = COVERAGE_CELLS["random"]
+    w = S.analyze(*make_data(cells)).welch
+    tested = w[w["t"].notna()]
+    assert sorted(tested["b"]) == ["random"] * 3 and np.isfinite(tested["t"]).all()
+    assert np.allclose(tested["p_holm"], hand_holm(tested["p"]))  # the Holm family is these three only
+
+
+def test_negligible_spread_is_relative_to_the_scores_size():
+    from studyapp.analysis.conditions import negligible_spread
+
+    assert negligible_spread(0.0, [])
+    assert negligible_spread(0.0, [0.0, 0.0])
+    assert negligible_spread(1e-16, [0.5, 1.5])
+    assert not negligible_spread(1e-6, [0.5, 1.5])
+    assert not negligible_spread(1e-13, [1e-6, 2e-6])  # small scores, real spread
