@@ -167,9 +167,12 @@ class RequestLimitsMiddleware:
         try:
             request.GET
             if request.method == "POST":
+                incomplete = _incomplete_body(request)
+                if incomplete:
+                    return refuse(request, 400, incomplete)
                 request.POST
-        except OSError:  # the client went away mid-body; as Django's CSRF middleware, ignore it
-            return None
+        except OSError:  # the client went away mid-body: whatever arrived is not an answer
+            return refuse(request, 400, "The request arrived incomplete, so nothing was saved. Please answer again.")
         except BODY_ERRORS as exc:
             return self.process_exception(request, exc)
         if _has_nul(request):
@@ -186,6 +189,23 @@ class RequestLimitsMiddleware:
             return refuse(request, 400, "The request has too many fields: at most "
                           f"{settings.DATA_UPLOAD_MAX_NUMBER_FIELDS} are accepted.")
         return refuse(request, 400, "The request's form data could not be read.")
+
+
+def _incomplete_body(request) -> str | None:
+    """A message when the body is shorter than its Content-Length, else None.
+
+    A client that closes its side mid-body hands the server an end of file, and the WSGI stream
+    returns the bytes that came: parsed as a form, a truncated answer (`goals=merge` of
+    `goals=merge&goals=forward`) looks like a complete one.  Reading the body first (it is at
+    most MAX_REQUEST_BODY) lets its length be checked before anything is parsed or stored."""
+    declared = int(request.META.get("CONTENT_LENGTH") or 0)
+    if declared <= 0:
+        return None
+    got = len(request.body)
+    if got < declared:
+        return (f"The request arrived incomplete ({got} of {declared} bytes), so nothing was saved. "
+                "Please answer again.")
+    return None
 
 
 def _has_nul(request) -> bool:

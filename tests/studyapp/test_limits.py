@@ -185,3 +185,42 @@ def test_nul_characters_and_overlong_ids_are_refused_not_500(client, participant
     assert client.post(answer_url(participant), {"consent": "yes", "x\x00": "1"}).status_code == 400
     assert client.get(reverse("step", args=[participant.study.slug, "to\x00ken"])).status_code == 400
     assert snapshot() == before and Participant.objects.count() == 1
+
+
+def _raw_post(base_url: str, path: str, body: bytes, declared: int, close_early: bool) -> bytes:
+    """POST over a plain socket: `declared` as Content-Length, `body` sent, then (close_early) the
+    client shuts its sending side, as a dropped connection or a slow client's proxy timeout does."""
+    import socket
+    from urllib.parse import urlsplit
+
+    u = urlsplit(base_url)
+    with socket.create_connection((u.hostname, u.port), timeout=10) as s:
+        s.sendall((f"POST {path} HTTP/1.1\r\nHost: {u.netloc}\r\nOrigin: {base_url}\r\n"
+                   "Content-Type: application/x-www-form-urlencoded\r\n"
+                   f"Content-Length: {declared}\r\nConnection: close\r\n\r\n").encode() + body)
+        if close_early:
+            s.shutdown(socket.SHUT_WR)
+        chunks = []
+        while chunk := s.recv(65536):
+            chunks.append(chunk)
+    return b"".join(chunks)
+
+
+@pytest.mark.django_db(transaction=True)
+def test_a_body_shorter_than_its_content_length_is_refused_not_stored(live_server, participant, complete):
+    """Issue 12, item 3: `goals=merge` of `goals=merge&goals=forward` arrived, was stored as a failed
+    attention check and excluded the participant; the retry then got 409."""
+    from studyapp import flow
+
+    p = complete(participant, stop_before="attention")
+    step = next(s for s in flow.steps_for(p) if s.kind == "attention")
+    full = b"goals=merge&goals=forward"
+    before = snapshot()
+    reply = _raw_post(live_server.url, answer_url(p, step.index), full[:11], len(full), close_early=True)
+    assert reply.startswith(b"HTTP/1.1 400") and b"arrived incomplete (11 of 25 bytes)" in reply
+    assert snapshot() == before
+    reply = _raw_post(live_server.url, answer_url(p, step.index), full, len(full), close_early=False)
+    assert reply.split(b"\r\n", 1)[0] in (b"HTTP/1.1 302 Found", b"HTTP/1.1 200 OK")
+    stored = Answer.objects.get(participant=p, step=step.index)
+    assert sorted(stored.data["goals"]) == ["forward", "merge"]
+    assert not Participant.objects.get(pk=p.pk).excluded
