@@ -190,13 +190,18 @@ def objective_grad_hess(z, ox, oy, goal, w, g, H, want_hess):
     x, y, h, v, st = 0.0, 0.0, H0, V0, 0.0
     S[0, 0], S[0, 1], S[0, 2], S[0, 3], S[0, 4] = x, y, h, v, st
     clipped = np.zeros(T, np.bool_)
+    # cos h, sin h, tan(steer) at each step and the closeness kernel at each state, kept for the
+    # backward pass: recomputing them there was a fifth of a Hessian evaluation
+    trig = np.empty((T + 1, 4))
     F = 0.0
     for t in range(T):
         k = t // SPK
         ch, sh, tn = math.cos(h), math.sin(h), math.tan(st)
+        trig[t, 0], trig[t, 1], trig[t, 2] = ch, sh, tn
         sec2 = 1.0 + tn * tn
         J, Jn = Jall[t], Jall[t + 1]
-        for j in range(NV):
+        nzn = 2 * (k + 1)  # s_{t+1} depends on knots 0..k only; the other columns stay zero
+        for j in range(nzn):
             Jn[0, j] = J[0, j] - DT * v * sh * J[2, j] + DT * ch * J[3, j]
             Jn[1, j] = J[1, j] + DT * v * ch * J[2, j] + DT * sh * J[3, j]
             Jn[2, j] = J[2, j] + DT / WB * tn * J[3, j] + DT / WB * v * sec2 * J[4, j]
@@ -216,6 +221,7 @@ def objective_grad_hess(z, ox, oy, goal, w, g, H, want_hess):
         # stage cost at s_{t+1}
         dx, dy = x - ox[t + 1], y - oy[t + 1]
         gk = math.exp(-0.5 * (dx * dx / SIG_LAT2 + dy * dy / SIG_LONG2))
+        trig[t + 1, 3] = gk
         d = h - H0
         rt = math.sqrt(d * d + EPS * EPS)
         F += w[0] * gk + w[2] * (v - V0) ** 2 + w[3] * (rt - EPS)
@@ -241,7 +247,7 @@ def objective_grad_hess(z, ox, oy, goal, w, g, H, want_hess):
             dl[t + 1, 1] += -w[4]
         for i in range(5):
             if dl[t + 1, i] != 0.0:
-                for j in range(NV):
+                for j in range(nzn):
                     g[j] += Jn[i, j] * dl[t + 1, i]
     ca = 2.0 * w[1] * SPK * (DT * A_MAX) ** 2  # acceleration: spk * sum_k (dt a_k)^2
     for kk in range(K):
@@ -257,7 +263,7 @@ def objective_grad_hess(z, ox, oy, goal, w, g, H, want_hess):
         x, y, h, v, st = S[t, 0], S[t, 1], S[t, 2], S[t, 3], S[t, 4]
         M[:, :] = 0.0
         dx, dy = x - ox[t], y - oy[t]
-        gk = w[0] * math.exp(-0.5 * (dx * dx / SIG_LAT2 + dy * dy / SIG_LONG2))
+        gk = w[0] * trig[t, 3]
         M[0, 0] = gk * (dx * dx / SIG_LAT2**2 - 1.0 / SIG_LAT2)
         M[0, 1] = M[1, 0] = gk * dx * dy / (SIG_LAT2 * SIG_LONG2)
         M[1, 1] = gk * (dy * dy / SIG_LONG2**2 - 1.0 / SIG_LONG2)
@@ -271,7 +277,7 @@ def objective_grad_hess(z, ox, oy, goal, w, g, H, want_hess):
             M[0, 0] += lane_end_penalty(x, goal)[2]
             M[2, 2] += heading_end_penalty(h)[2]
         if t < T:  # second derivatives of the step s_t -> s_{t+1}, weighted by lam_{t+1}
-            ch, sh, tn = math.cos(h), math.sin(h), math.tan(st)
+            ch, sh, tn = trig[t, 0], trig[t, 1], trig[t, 2]
             sec2 = 1.0 + tn * tn
             M[2, 2] += -lam[0] * DT * v * ch - lam[1] * DT * v * sh
             M[2, 3] += -lam[0] * DT * sh + lam[1] * DT * ch
@@ -288,18 +294,26 @@ def objective_grad_hess(z, ox, oy, goal, w, g, H, want_hess):
             lam[4] = dl[t, 4] + (0.0 if clipped[t] else l4) + l2 * DT / WB * v * sec2
         J = Jall[t]
         nz = 2 * ((t - 1) // SPK + 1)  # J_t depends only on knots before step t
-        for i in range(5):
-            for j in range(nz):
-                acc = 0.0
-                for r in range(5):
-                    acc += M[i, r] * J[r, j]
-                N[i, j] = acc
-        for a in range(nz):
+        # N = M J with M's structure spelled out: 11 of its 25 entries can be non-zero
+        # (position block, heading-speed-steer chain), and this product is a third of the Hessian's cost
+        for j in range(nz):
+            j0, j1, j2, j3, j4 = J[0, j], J[1, j], J[2, j], J[3, j], J[4, j]
+            N[0, j] = M[0, 0] * j0 + M[0, 1] * j1
+            N[1, j] = M[1, 0] * j0 + M[1, 1] * j1
+            N[2, j] = M[2, 2] * j2 + M[2, 3] * j3
+            N[3, j] = M[3, 2] * j2 + M[3, 3] * j3 + M[3, 4] * j4
+            N[4, j] = M[4, 3] * j3 + M[4, 4] * j4
+        # H[a, b] += J[:, a] . N[:, b].  A steer column (a even) has no speed entry and an
+        # acceleration column (a odd) no steering-angle entry, so four terms each; with J[:, a]
+        # held in scalars the loop over b runs along contiguous rows and vectorises.
+        for a in range(0, nz, 2):
+            c0, c1, c2, c4 = J[0, a], J[1, a], J[2, a], J[4, a]
             for b in range(a, nz):
-                acc = 0.0
-                for i in range(5):
-                    acc += J[i, a] * N[i, b]
-                H[a, b] += acc
+                H[a, b] += c0 * N[0, b] + c1 * N[1, b] + c2 * N[2, b] + c4 * N[4, b]
+        for a in range(1, nz, 2):
+            c0, c1, c2, c3 = J[0, a], J[1, a], J[2, a], J[3, a]
+            for b in range(a, nz):
+                H[a, b] += c0 * N[0, b] + c1 * N[1, b] + c2 * N[2, b] + c3 * N[3, b]
     for a in range(NV):
         for b in range(a):
             H[a, b] = H[b, a]
