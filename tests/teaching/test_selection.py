@@ -282,3 +282,16 @@ def test_environments_where_theta_star_shows_no_strategy_are_never_shown():
             assert not set(row.sequence.envs) & set(hidden)
     # coverage never tries to "cover" the non-strategy
     assert NO_STRATEGY not in theta_star_clusters(masked)[result.sequences["coverage-approx*"].envs]
+
+
+def test_greedy_rescales_weights_so_tiny_likelihoods_do_not_underflow():
+    """A sharp probabilistic learner gives likelihoods ~1e-30; two examples multiply to 1e-60, below
+    float32's range.  P(θ*) is scale-free, so greedy rescales w after each example; without that the
+    second candidate scores 0/0 and selection stops after one example.  By hand: env 0 shrinks θ1
+    100-fold, env 1 θ2, so two examples give P(θ*) = 1 / (1 + 0.01 + 0.01)."""
+    lik = np.array([[1e-30, 1e-32, 1e-30],
+                    [1e-30, 1e-30, 1e-32]], np.float32)
+    seq, w = greedy(lik, max_examples=2)
+    assert sorted(seq.envs) == [0, 1]
+    assert seq.p[-1] == pytest.approx(1 / 1.02, rel=1e-5)
+    assert w.max() == 1.0 and w[0] == 1.0
