@@ -2,8 +2,12 @@
 
 Environment variables:
 
-* ``SECRET_KEY``        — required when DEBUG is off; a fixed dev key otherwise.
-* ``DEBUG``             — "1"/"true" to enable (default on, for the local demo).
+* ``SECRET_KEY``        — required when DEBUG is off (and never the public dev key); a fixed dev
+                          key otherwise.
+* ``DEBUG``             — "1"/"true" to enable; default **off**, so a server started without the
+                          project's scripts (systemd, a bare gunicorn) is never in debug mode.
+                          `make demo` and the test suite turn it on for local use.
+* Every on/off variable takes 1/0, true/false, yes/no or on/off; anything else stops the start.
 * ``ALLOWED_HOSTS``     — comma separated (default "localhost,127.0.0.1,[::1],testserver").
 * ``DATABASE_URL``      — any dj-database-url URL; default SQLite at var/db.sqlite3.
 * ``CELERY_BROKER_URL`` — default kombu's "filesystem://" transport under var/broker
@@ -18,25 +22,36 @@ import tempfile
 from pathlib import Path
 
 import dj_database_url
+from django.core.exceptions import ImproperlyConfigured
 
 BASE_DIR = Path(__file__).resolve().parent.parent
 VAR_DIR = Path(os.environ.get("VAR_DIR", BASE_DIR / "var"))
 
 
+_TRUE, _FALSE = ("1", "true", "yes", "on"), ("0", "false", "no", "off", "")
+
+
 def _flag(name, default):
-    return os.environ.get(name, default).strip().lower() in ("1", "true", "yes", "on")
+    """An on/off variable; a value that is neither (a typo like DEBUG=flase) is refused, not read as off."""
+    value = os.environ.get(name, default).strip().lower()
+    if value not in _TRUE + _FALSE:
+        raise ImproperlyConfigured(f"{name}={os.environ.get(name)!r} is not an on/off value: "
+                                   "use 1/0, true/false, yes/no or on/off")
+    return value in _TRUE
 
 
 def _list(name, default):
     return [item.strip() for item in os.environ.get(name, default).split(",") if item.strip()]
 
 
-DEBUG = _flag("DEBUG", "1")
+DEBUG = _flag("DEBUG", "0")
+_DEV_KEY = "dev-only-insecure-key-change-me"  # public (it is in this file): only ever with DEBUG on
 SECRET_KEY = os.environ.get("SECRET_KEY", "")
-if not SECRET_KEY:
-    if not DEBUG:
-        raise RuntimeError("SECRET_KEY must be set when DEBUG is off")
-    SECRET_KEY = "dev-only-insecure-key-change-me"
+if not DEBUG and SECRET_KEY in ("", _DEV_KEY):
+    raise ImproperlyConfigured(
+        "SECRET_KEY must be set when DEBUG is off (to 50+ random characters, not the public dev key). "
+        "For local use set DEBUG=1 instead, as `make demo` does; scripts/serve.sh makes and keeps a key.")
+SECRET_KEY = SECRET_KEY or _DEV_KEY
 ALLOWED_HOSTS = _list("ALLOWED_HOSTS", "localhost,127.0.0.1,[::1],testserver")
 CSRF_TRUSTED_ORIGINS = _list("CSRF_TRUSTED_ORIGINS", "")
 

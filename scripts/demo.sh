@@ -4,6 +4,8 @@
 # when the server stops (Ctrl-C).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# A local demo: debug on (settings default to off, for anything started by hand in production).
+export DEBUG=${DEBUG:-1}
 PY=.venv/bin/python
 ADDR=${DEMO_ADDR:-127.0.0.1:8000}
 $PY manage.py migrate --verbosity 0

@@ -92,6 +92,8 @@ def test_participant_flow_in_chromium(demo_study, live_server, monkeypatch):  # 
         page = context.new_page()
         errors = []
         page.on("pageerror", lambda exc: errors.append(str(exc)))
+        # the participant pages' Content-Security-Policy must not block anything they need
+        page.on("console", lambda msg: errors.append(msg.text) if "Content Security Policy" in msg.text else None)
         completed = []
         page.route("https://app.prolific.com/**", lambda route: (completed.append(route.request.url), route.fulfill(
             status=200, content_type="text/html", body="<h1>Prolific: submission complete</h1>"))[-1])
@@ -203,7 +205,7 @@ def test_participant_flow_in_chromium(demo_study, live_server, monkeypatch):  # 
         browser.close()
         connections.close_all()  # the ORM calls above ran in Playwright's context: close its connection
 
-    assert not errors, errors
+    assert not errors, errors  # page errors and CSP violations
     p.refresh_from_db()
     assert completed == [f"https://app.prolific.com/submissions/complete?cc={code}"]
     assert p.completed_at is not None and p.completion_code == code and not p.excluded

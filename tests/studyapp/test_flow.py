@@ -301,8 +301,12 @@ def test_visiting_updates_last_seen(client, participant):
 def test_participant_pages_can_be_framed_by_mturk_only(client, participant, staff_client):
     for r in (client.get(url(participant)), client.get(reverse("entry", args=[participant.study.slug]))):
         assert "X-Frame-Options" not in r
-        assert r["Content-Security-Policy"] == (
-            "frame-ancestors 'self' https://www.mturk.com https://workersandbox.mturk.com")
+        policy = dict(d.strip().split(" ", 1) for d in r["Content-Security-Policy"].split(";"))
+        assert policy["frame-ancestors"] == "'self' https://www.mturk.com https://workersandbox.mturk.com"
+        # issue 12, item 8: only this site's own script files run on a participant page
+        assert policy["script-src"] == "'self'" and policy["default-src"] == "'self'"
+        assert policy["form-action"] == "'self' https://workersandbox.mturk.com https://www.mturk.com"
+        assert policy["object-src"] == "'none'" and policy["base-uri"] == "'none'"
     assert staff_client.get(reverse("dashboard"))["X-Frame-Options"] == "DENY"
 
 

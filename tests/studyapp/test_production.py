@@ -39,8 +39,8 @@ def test_check_deploy_is_clean_in_production(tmp_path):
 
 
 def test_check_deploy_flags_a_development_environment(tmp_path):
-    """The check above is real: the demo's defaults (DEBUG on, dev key) are reported."""
-    out = run_django(tmp_path, ["manage.py", "check", "--deploy", "--fail-level", "WARNING"])
+    """The check above is real: the demo's settings (DEBUG on, dev key) are reported."""
+    out = run_django(tmp_path, ["manage.py", "check", "--deploy", "--fail-level", "WARNING"], DEBUG="1")
     assert out.returncode != 0
     assert "security.W018" in out.stderr and "security.W009" in out.stderr
 

@@ -30,7 +30,7 @@ def probe(tmp_path, **env):
 
 
 def test_embedded_defaults(tmp_path):
-    out = probe(tmp_path)
+    out = probe(tmp_path, DEBUG="1")
     assert out.returncode == 0, out.stderr
     cfg = json.loads(out.stdout)
     assert cfg["engine"] == "django.db.backends.sqlite3"
@@ -54,6 +54,33 @@ def test_environment_overrides(tmp_path):
 def test_secret_key_required_without_debug(tmp_path):
     out = probe(tmp_path, DEBUG="0")
     assert out.returncode != 0 and "SECRET_KEY must be set" in out.stderr
+
+
+def test_debug_is_off_unless_asked_for(tmp_path):
+    """Issue 12, item 8: gunicorn started without serve.sh's environment (systemd, by hand) ran with
+    DEBUG on and the public key.  Now no DEBUG means off, which needs a real key."""
+    out = probe(tmp_path)
+    assert out.returncode != 0 and "SECRET_KEY must be set when DEBUG is off" in out.stderr
+    assert "DEBUG=1" in out.stderr  # says how to run locally
+    out = probe(tmp_path, SECRET_KEY="k" * 50)
+    assert out.returncode == 0, out.stderr
+    assert json.loads(out.stdout)["debug"] is False
+
+
+def test_the_public_dev_key_is_refused_without_debug(tmp_path):
+    from config import settings
+
+    out = probe(tmp_path, DEBUG="0", SECRET_KEY=settings._DEV_KEY)
+    assert out.returncode != 0 and "not the public dev key" in out.stderr
+
+
+def test_on_off_values_are_strict(tmp_path):
+    for typo in ("flase", "2", "enabled"):
+        out = probe(tmp_path, DEBUG=typo)
+        assert out.returncode != 0 and f"DEBUG='{typo}' is not an on/off value" in out.stderr
+    out = probe(tmp_path, DEBUG="Yes", CELERY_TASK_ALWAYS_EAGER=" off ")
+    assert out.returncode == 0, out.stderr
+    assert json.loads(out.stdout)["debug"] is True
 
 
 def test_filesystem_broker_needs_no_server(tmp_path):
