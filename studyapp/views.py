@@ -22,14 +22,15 @@ ID_MAX = 100
 SUBMIT_TO_MAX = Participant._meta.get_field("turk_submit_to").max_length
 
 
-FRAME_ANCESTORS = "frame-ancestors 'self' https://www.mturk.com https://workersandbox.mturk.com"
+MTURK_ORIGINS = " ".join(f"https://{host}" for host in sorted(MTURK_HOSTS))
+FRAME_ANCESTORS = f"frame-ancestors 'self' {MTURK_ORIGINS}"
 # Scripts only from this site's own files (no inline script, no eval), forms post only here or back
 # to MTurk, nothing loaded from elsewhere.  Inline style attributes stay allowed (the progress bar's
 # width); the scene data are <script type="application/json"> blocks, which are never executed.
 PARTICIPANT_CSP = "; ".join([
     "default-src 'self'", "script-src 'self'", "style-src 'self' 'unsafe-inline'", "img-src 'self' data:",
     "object-src 'none'", "base-uri 'none'",
-    "form-action 'self' " + " ".join(f"https://{host}" for host in sorted(MTURK_HOSTS)),
+    f"form-action 'self' {MTURK_ORIGINS}",
     FRAME_ANCESTORS,
 ])
 

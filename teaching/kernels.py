@@ -304,8 +304,7 @@ def objective_grad_hess(z, ox, oy, goal, w, g, H, want_hess):
             N[3, j] = M[3, 2] * j2 + M[3, 3] * j3 + M[3, 4] * j4
             N[4, j] = M[4, 3] * j3 + M[4, 4] * j4
         # H[a, b] += J[:, a] . N[:, b].  A steer column (a even) has no speed entry and an
-        # acceleration column (a odd) no steering-angle entry, so four terms each; with J[:, a]
-        # held in scalars the loop over b runs along contiguous rows and vectorises.
+        # acceleration column (a odd) no steering-angle entry, so four terms each, not five.
         for a in range(0, nz, 2):
             c0, c1, c2, c4 = J[0, a], J[1, a], J[2, a], J[4, a]
             for b in range(a, nz):
