@@ -2,7 +2,7 @@
 PY := .venv/bin/python
 PIP := .venv/bin/pip
 
-.PHONY: demo test venv browser-deps table bench clean serve load
+.PHONY: demo test venv browser-deps serve-deps table bench clean serve load
 
 venv: .venv/.installed
 .venv/.installed: requirements.txt
@@ -15,6 +15,10 @@ venv: .venv/.installed
 browser-deps:
 	@command -v chromium >/dev/null 2>&1 || (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null)
 
+# Debian's nginx for scripts/serve.sh (in front of gunicorn; config/nginx.conf.template).
+serve-deps:
+	@command -v nginx >/dev/null 2>&1 || (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq nginx >/dev/null)
+
 table: venv
 	$(PY) -m teaching build --preset demo --out var/tables/demo
 
@@ -23,17 +27,17 @@ demo: venv table
 	bash scripts/demo.sh
 
 # The production configuration on this machine: gunicorn + PostgreSQL + Redis + a Celery worker
-# (docs/operations.md; DATABASE_URL, CELERY_BROKER_URL, CACHE_URL, GUNICORN_BIND override).
-serve: venv
+# (docs/operations.md; DATABASE_URL, CELERY_BROKER_URL, CACHE_URL, BIND override).
+serve: venv serve-deps
 	bash scripts/serve.sh
 
 # Launch-day load: 500 simulated participants within 60 s against a fresh PostgreSQL database,
 # PostgreSQL restarted in the middle (docs/operations.md); LOAD_ARGS adds options.
-load: venv
+load: venv serve-deps
 	$(PY) -m tests.load.run --participants 500 --window 60 $(LOAD_ARGS)
 
 # pytest exit 5 means "no tests collected": that is a failure here, never a pass.
-test: venv browser-deps
+test: venv browser-deps serve-deps
 	$(PY) -m pytest; rc=$$?; if [ $$rc -eq 5 ]; then echo "pytest collected no tests" >&2; exit 1; fi; exit $$rc
 
 bench: venv

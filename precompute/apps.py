@@ -5,3 +5,7 @@ class PrecomputeConfig(AppConfig):
     name = "precompute"
     verbose_name = "Precomputation jobs"
     default_auto_field = "django.db.models.BigAutoField"
+
+    def ready(self):
+        # connects worker_ready: a starting worker puts back the tasks of workers that died
+        from . import recovery  # noqa: F401

@@ -2,9 +2,10 @@
 
 Every task is ``acks_late`` with ``reject_on_worker_lost``: the broker keeps a
 message until the task has finished, so a worker that dies mid-chunk leaves
-its message to be delivered again (Redis: after the visibility timeout; a
-killed pool child: at once), and the content-addressed chunk files make the
-second delivery either skip (stored) or redo (not stored) the chunk.
+its message to be delivered again (Redis: as soon as the next worker starts,
+precompute/recovery.py, else after the visibility timeout; a killed pool
+child: at once), and the content-addressed chunk files make the second
+delivery either skip (stored) or redo (not stored) the chunk.
 
 Worker pool: **prefork** (Celery's default).  The planner's Numba kernels run
 on a threading layer (OpenMP or workqueue) that is not fork-safe once used,

@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Serve the study app in its production configuration on this machine: gunicorn on PostgreSQL,
 # Redis as Celery broker and cache, WhiteNoise for static files, plus one Celery worker for the
-# precompute builds.  Ctrl-C (or SIGTERM) stops both gracefully: requests and tasks in flight
-# finish first.  Every setting is an environment variable (docs/operations.md).
+# precompute builds, with nginx in front; all three under supervisord, which restarts each one
+# alone if it dies.
+# Ctrl-C (or SIGTERM) stops them gracefully: requests and tasks in flight finish first.  Every
+# setting is an environment variable (docs/operations.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PY=.venv/bin/python
@@ -13,7 +15,7 @@ export CACHE_URL=${CACHE_URL:-redis://127.0.0.1:6379/1}
 export CONN_MAX_AGE=${CONN_MAX_AGE:-60}
 export DEBUG=${DEBUG:-0}
 export ALLOWED_HOSTS=${ALLOWED_HOSTS:-localhost,127.0.0.1}
-export GUNICORN_BIND=${GUNICORN_BIND:-127.0.0.1:8000}
+BIND=${BIND:-127.0.0.1:8000}
 VAR=${VAR_DIR:-var}
 mkdir -p "$VAR"
 
@@ -32,7 +34,7 @@ fi
 if [ "${BEHIND_PROXY:-0}" != "1" ]; then
     export SECURE_SSL_REDIRECT=${SECURE_SSL_REDIRECT:-0} SECURE_HSTS_SECONDS=${SECURE_HSTS_SECONDS:-0}
     export SECURE_COOKIES=${SECURE_COOKIES:-0}
-    echo "serve: plain HTTP on $GUNICORN_BIND (set BEHIND_PROXY=1 behind a TLS proxy)" >&2
+    echo "serve: plain HTTP on $BIND (set BEHIND_PROXY=1 behind a TLS proxy)" >&2
 fi
 
 # The database named in DATABASE_URL is created on first use (the server must exist).
@@ -55,33 +57,26 @@ EOF
 $PY manage.py migrate --noinput --verbosity 0
 $PY manage.py collectstatic --noinput --verbosity 0
 
-# Job control gives each child its own process group, so a terminal's Ctrl-C reaches only this
-# script, which then sends each child exactly one SIGTERM: a second signal would make the Celery
-# worker abandon its task (cold shutdown) instead of finishing it.
-set -m
-.venv/bin/gunicorn -c config/gunicorn.conf.py config.wsgi &
-web=$!
-.venv/bin/celery -A config worker --pool=prefork --concurrency "${CELERY_CONCURRENCY:-1}" \
-    --queues "${PRECOMPUTE_QUEUE:-celery}" --loglevel "${CELERY_LOG_LEVEL:-WARNING}" &
-worker=$!
+VAR_DIR=$(cd "$VAR" && pwd)
+export SERVE_ROOT=$PWD VAR_DIR
 
-stopped=0
-stop() {
-    [ "$stopped" = 1 ] && return
-    stopped=1
-    echo "serve: stopping gunicorn ($web) and the Celery worker ($worker)" >&2
-    kill -TERM "$web" "$worker" 2>/dev/null || true
-    wait "$web" 2>/dev/null || true
-    wait "$worker" 2>/dev/null || true
-}
-# A second Ctrl-C (make forwards one too) must not cut the graceful stop short.
-trap 'trap "" INT TERM; stop; exit 0' INT TERM
-trap stop EXIT
-# Either one dying takes the other down too: half a server is worse than none.
-set +e
-wait -n "$web" "$worker"
-rc=$?
-set -e
-echo "serve: a child exited (status $rc)" >&2
-stop
-exit "$rc"
+# nginx on $BIND reads every request whole before gunicorn sees it, so slow clients never hold
+# gunicorn's threads (config/nginx.conf.template).  gunicorn listens on a Unix socket only nginx
+# uses, under /tmp because a Unix socket's path is limited to 107 bytes.
+export BIND GUNICORN_BIND=${GUNICORN_BIND:-unix:/tmp/study-gunicorn-$(printf %s "$VAR_DIR" | sha1sum | cut -c1-12).sock}
+# nginx appends the address it saw to X-Forwarded-For: one more proxy for the rate limits to count past.
+export TRUSTED_PROXY_COUNT=$(( ${TRUSTED_PROXY_COUNT:-0} + 1 ))
+export NGINX_DIR=$VAR_DIR/nginx NGINX_CONF=$VAR_DIR/nginx/nginx.conf
+mkdir -p "$NGINX_DIR"
+$PY scripts/render_nginx.py "$NGINX_CONF"
+if ! nginx -t -q -c "$NGINX_CONF" -e stderr; then
+    echo "serve: nginx refuses $NGINX_CONF (is it installed? make serve-deps)" >&2
+    exit 1
+fi
+
+# supervisord (config/supervisord.conf) runs nginx, gunicorn and the Celery worker and restarts
+# each one on its own when it dies: a killed worker never takes the participant site down.
+# Ctrl-C or SIGTERM stops them gracefully (requests and the task in flight finish first).
+export CELERY_CONCURRENCY=${CELERY_CONCURRENCY:-1} PRECOMPUTE_QUEUE=${PRECOMPUTE_QUEUE:-celery}
+export CELERY_LOG_LEVEL=${CELERY_LOG_LEVEL:-WARNING}
+exec .venv/bin/supervisord -c config/supervisord.conf

@@ -120,7 +120,7 @@ class Server:
         self.env.update(
             DATABASE_URL=self.db_url, CELERY_BROKER_URL=redis_url, CELERY_RESULT_BACKEND="django-db",
             CACHE_URL=redis_url, DEBUG="0", SECRET_KEY=secrets.token_urlsafe(50), ALLOWED_HOSTS="127.0.0.1",
-            GUNICORN_BIND=f"127.0.0.1:{self.port}", GUNICORN_ACCESS_LOG=str(self.access_log),
+            BIND=f"127.0.0.1:{self.port}", GUNICORN_ACCESS_LOG=str(self.access_log),
             VAR_DIR=str(self.workdir / "var"), PRECOMPUTE_QUEUE=f"load-{self.db_name}",
             DEMO_TABLE=str(self.workdir / "no-table"),  # the placeholder demo: quick to build
             DJANGO_SETTINGS_MODULE="config.settings", PYTHONUNBUFFERED="1", CELERY_LOG_LEVEL="INFO")
@@ -153,7 +153,8 @@ class Server:
             conn.execute(sql.SQL("CREATE DATABASE {}").format(sql.Identifier(self.db_name)))
         self._run([sys.executable, "manage.py", "migrate", "--noinput", "--verbosity", "0"])
         self.study = self._run([sys.executable, "-c", BUILD_STUDY]).split()
-        with open(self.log_path, "w") as log:
+        # append mode: supervisord and its programs write to this file through descriptors of their own
+        with open(self.log_path, "a") as log:
             self.proc = subprocess.Popen(["bash", "scripts/serve.sh"], cwd=ROOT, env=self.env, stdout=log,
                                          stderr=subprocess.STDOUT, start_new_session=True)
         deadline = time.monotonic() + ready_timeout
@@ -191,7 +192,7 @@ class Server:
                 except subprocess.TimeoutExpired:
                     self.proc.kill()
                     self.proc.wait(10)
-            for pid in children:  # serve.sh gives each child its own process group
+            for pid in children:  # supervisord gives each program its own process group
                 try:
                     os.killpg(pid, signal.SIGKILL)
                 except (ProcessLookupError, PermissionError):

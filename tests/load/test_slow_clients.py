@@ -1,0 +1,118 @@
+"""Slow clients do not stop the site (issue 12, item 4).
+
+100 connections from one address trickle their request a byte at a time (half of them the
+headers, half a declared 1,000-byte body), and each is reopened as soon as the server drops it,
+for longer than the server's read timeouts.  Meanwhile a participant from another address asks
+for the home page four times a second: its p95 must stay under 1 s.  Against gunicorn alone
+(20 threads, each blocked reading one slow request) that GET times out; scripts/serve.sh puts
+nginx in front, which reads every request whole before gunicorn sees it.  Loopback only, bounded
+in time.
+"""
+from __future__ import annotations
+
+import socket
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from tests.load import harness
+from tests.services import PG_URL, postgres_reachable, redis_reachable
+
+pytestmark = [pytest.mark.slow, pytest.mark.postgres, pytest.mark.redis]
+
+SLOW_CONNECTIONS = 100
+SLOW_ADDRESS = "127.0.250.1"  # one address for all of them
+DURATION = 16.0  # seconds: longer than nginx's 10 s header and body timeouts
+P95_BAR = 1.0
+
+
+class Trickler:
+    """Keeps SLOW_CONNECTIONS slow requests open, one byte per connection every half second."""
+
+    def __init__(self, port: int):
+        self.port = port
+        self.stop = threading.Event()
+        self.opened = 0
+        self.open_counts: list[int] = []
+        self.thread = threading.Thread(target=self.run, daemon=True)
+
+    def connect(self, i: int):
+        try:
+            s = socket.create_connection(("127.0.0.1", self.port), timeout=2, source_address=(SLOW_ADDRESS, 0))
+        except OSError:
+            return None
+        self.opened += 1
+        if i % 2:  # a whole header, then the body a byte at a time
+            s.sendall(b"POST /s/none/p/none/1/ HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: "
+                      b"application/x-www-form-urlencoded\r\nContent-Length: 1000\r\n\r\n")
+        else:  # the request line, then the headers a byte at a time
+            s.sendall(b"GET / HTTP/1.1\r\nHost: 127.0.0.1\r\n")
+        s.setblocking(False)
+        return s
+
+    def run(self):
+        conns = [self.connect(i) for i in range(SLOW_CONNECTIONS)]
+        while not self.stop.wait(0.5):
+            for i, s in enumerate(conns):
+                if s is not None:
+                    try:
+                        if s.recv(4096, socket.MSG_PEEK) == b"":  # closed by the server
+                            raise ConnectionError
+                    except BlockingIOError:
+                        pass  # open, nothing to read: still waiting for us
+                    except OSError:
+                        s.close()
+                        s = None
+                    else:
+                        s.close()  # the server answered (a timeout or a refusal): give up this one
+                        s = None
+                if s is not None:
+                    try:
+                        s.send(b"x" if i % 2 else b"X")
+                    except OSError:
+                        s.close()
+                        s = None
+                conns[i] = s if s is not None else self.connect(i)
+            self.open_counts.append(sum(s is not None for s in conns))
+        for s in conns:
+            if s is not None:
+                s.close()
+
+
+def timed_get(url: str) -> float:
+    start = time.monotonic()
+    try:
+        with harness.NO_PROXY.open(url, timeout=5) as r:
+            r.read()
+            assert r.status == 200
+    except OSError:
+        return float("inf")  # no answer within 5 s
+    return time.monotonic() - start
+
+
+def test_slow_clients_from_one_address_leave_the_site_responsive(tmp_path, require_service):
+    require_service(postgres_reachable(), f"PostgreSQL at {PG_URL} is unreachable")
+    require_service(redis_reachable(harness.REDIS_URL), f"Redis at {harness.REDIS_URL} is unreachable")
+    with harness.Server(tmp_path) as server:
+        url = server.base_url + "/"
+        assert timed_get(url) < P95_BAR
+        slow = Trickler(server.port)
+        slow.thread.start()
+        try:
+            time.sleep(1.0)  # every slow connection is open and trickling
+            times = []
+            end = time.monotonic() + DURATION
+            while time.monotonic() < end:
+                times.append(timed_get(url))
+                time.sleep(0.25)
+        finally:
+            slow.stop.set()
+            slow.thread.join(10)
+    p95 = float(np.percentile(times, 95, method="nearest"))
+    print(f"{len(times)} GETs during {DURATION:.0f} s of {SLOW_CONNECTIONS} slow connections from one address "
+          f"({slow.opened} opened in all, {min(slow.open_counts)}-{max(slow.open_counts)} open at once): "
+          f"p50 {np.median(times) * 1000:.0f} ms, p95 {p95 * 1000:.0f} ms, max {max(times) * 1000:.0f} ms")
+    assert min(slow.open_counts) >= SLOW_CONNECTIONS * 0.9  # the pressure really was on all along
+    assert p95 < P95_BAR
