@@ -33,6 +33,8 @@ logger = logging.getLogger("studyapp.security")
 _generation = 0          # part of every counter's key: reset_rate_limits() starts afresh
 _last_outage_log = 0.0   # a cache outage is logged at most once a minute, not per request
 OUTAGE_LOG_EVERY = 60
+_cache_down_until = 0.0  # circuit breaker: after a cache error, no request waits on the cache for a while
+CACHE_RETRY_AFTER = 15.0  # seconds; then one request tries the cache again
 BODY_ERRORS = (RequestDataTooBig, TooManyFieldsSent, TooManyFilesSent, MultiPartParserError, BadRequest)
 
 
@@ -57,12 +59,12 @@ def refuse(request, status: int, message: str, retry_after: int | None = None) -
 
 
 # --- client address -------------------------------------------------------------------------
-def client_ip(request) -> str:
-    """The address rate limits count by: REMOTE_ADDR, or X-Forwarded-For behind trusted proxies.
+def client_address(request) -> str:
+    """The client's address as given: REMOTE_ADDR, or X-Forwarded-For behind trusted proxies.
 
     With TRUSTED_PROXY_COUNT = n, each of our n proxies appended the address it saw, so the
     client is the n-th entry from the right; entries further left are the client's own claims.
-    IPv6 clients are counted per /64, the block one subscriber usually holds.
+    Also what login throttling (django-axes, AXES_CLIENT_IP_CALLABLE) counts by.
     """
     addr = request.META.get("REMOTE_ADDR", "")
     hops = settings.TRUSTED_PROXY_COUNT
@@ -70,6 +72,13 @@ def client_ip(request) -> str:
         chain = [a.strip() for a in request.META.get("HTTP_X_FORWARDED_FOR", "").split(",") if a.strip()]
         if chain:
             addr = chain[-hops] if len(chain) >= hops else chain[0]
+    return addr
+
+
+def client_ip(request) -> str:
+    """The address rate limits count by (client_address); IPv6 clients are counted per /64, the
+    block one subscriber usually holds."""
+    addr = client_address(request)
     try:
         ip = ipaddress.ip_address(addr)
     except ValueError:
@@ -82,14 +91,18 @@ def client_ip(request) -> str:
 # --- rate limits ----------------------------------------------------------------------------
 def reset_rate_limits() -> None:
     """Start every counter afresh (tests). Old counters are left to expire, never flushed: the
-    cache may be a Redis database shared with other data."""
-    global _generation
+    cache may be a Redis database shared with other data.  Closes the circuit breaker too."""
+    global _generation, _cache_down_until
     _generation += 1
+    _cache_down_until = 0.0
 
 
 def _cache_outage(exc: Exception) -> None:
-    global _last_outage_log
+    global _last_outage_log, _cache_down_until
     now = time.monotonic()
+    # A hung cache (it accepts, never answers) costs each request its socket timeout per call;
+    # with the breaker open only one request per process pays it every CACHE_RETRY_AFTER seconds.
+    _cache_down_until = now + CACHE_RETRY_AFTER
     if now - _last_outage_log >= OUTAGE_LOG_EVERY:
         _last_outage_log = now
         logger.warning("rate limits not enforced: the cache is unavailable (%s: %s)", type(exc).__name__, exc)
@@ -98,6 +111,8 @@ def _cache_outage(exc: Exception) -> None:
 def hit(key: str, limit: int, window: int) -> int:
     """Count one request under `key`; 0 when within the limit, else the seconds until the window
     ends. A cache outage lets the request through (fail open): the study must stay up."""
+    if time.monotonic() < _cache_down_until:
+        return 0  # the cache failed moments ago: do not wait on it again yet
     now = time.time()
     start = int(now // window) * window
     full_key = f"ratelimit:{_generation}:{key}:{window}:{start}"

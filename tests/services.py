@@ -6,6 +6,9 @@ Whether a missing service skips or fails the test is the ``require_service`` fix
 from __future__ import annotations
 
 import os
+import socket
+import threading
+from contextlib import contextmanager
 
 PG_URL = os.environ.get("POSTGRES_TEST_URL", "postgres://postgres@127.0.0.1:5432/test")
 
@@ -27,3 +30,34 @@ def redis_reachable(url: str) -> bool:
         return bool(redis.Redis.from_url(url, socket_connect_timeout=2).ping())
     except redis.exceptions.ConnectionError:
         return False
+
+
+@contextmanager
+def blackhole():
+    """A hung service on a free loopback port: it accepts connections and never answers (a Redis
+    stuck in a long command, a half-dead proxy).  Yields the port."""
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(128)
+    server.settimeout(0.2)
+    held, stop = [], threading.Event()
+
+    def accept():
+        while not stop.is_set():
+            try:
+                held.append(server.accept()[0])
+            except TimeoutError:
+                continue
+            except OSError:
+                return
+
+    thread = threading.Thread(target=accept, daemon=True)
+    thread.start()
+    try:
+        yield server.getsockname()[1]
+    finally:
+        stop.set()
+        thread.join(2)
+        for conn in held:
+            conn.close()
+        server.close()

@@ -9,7 +9,13 @@ from __future__ import annotations
 import collections
 import io
 import json
+import os
 import re
+import sqlite3
+import subprocess
+import sys
+import time
+from pathlib import Path
 
 import pytest
 from django.core.management import CommandError, call_command
@@ -18,6 +24,7 @@ import teaching.build
 from precompute import jobs, work
 from precompute.models import Job
 from precompute.tasks import table_chunk
+from tests.services import blackhole
 
 pytestmark = pytest.mark.slow
 
@@ -209,3 +216,25 @@ def test_unreachable_broker_is_a_clear_error(db, tmp_path, celery_app_with):
         call_command("precompute_table", "--preset", "tiny", "--out", str(tmp_path / "t"))
     job = Job.objects.get()
     assert job.status == Job.FAILED and "Connection refused" in job.error
+
+
+def test_a_hung_broker_fails_the_launch_within_seconds(tmp_path):
+    """Redis accepts and never answers: `precompute_table` (production broker settings, in its own
+    process) gives up within 10 s with a one-line message and leaves a failed job, not a pending one."""
+    root = Path(__file__).resolve().parents[2]
+    db = tmp_path / "db.sqlite3"
+    env = dict(os.environ, DATABASE_URL=f"sqlite:///{db}", VAR_DIR=str(tmp_path / "var"),
+               DJANGO_SETTINGS_MODULE="config.settings")
+    subprocess.run([sys.executable, "manage.py", "migrate", "--noinput", "-v", "0"], cwd=root, env=env, check=True,
+                   timeout=120)
+    with blackhole() as port:
+        env["CELERY_BROKER_URL"] = broker = f"redis://127.0.0.1:{port}/0"
+        start = time.monotonic()
+        out = subprocess.run([sys.executable, "manage.py", "precompute_table", "--preset", "tiny", "--out",
+                              str(tmp_path / "t")], cwd=root, env=env, capture_output=True, text=True, timeout=120)
+        seconds = time.monotonic() - start
+    print(f"precompute_table gave up after {seconds:.1f} s: {out.stderr.strip()}")
+    assert out.returncode != 0 and seconds < 10
+    assert f"cannot send job 1 to the broker at {broker}" in out.stderr and "Traceback" not in out.stderr
+    with sqlite3.connect(db) as conn:
+        assert conn.execute("SELECT status FROM precompute_job").fetchall() == [("failed",)]

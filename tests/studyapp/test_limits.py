@@ -1,13 +1,17 @@
 """Rate limits on the entry and answer endpoints and caps on request sizes: refusals are clean
 4xx (429, 413, 400), never a 500, and write nothing (docs/decisions.md, "Security")."""
 import logging
+import time
 
+import numpy as np
 import pytest
 from django.test import Client, override_settings
 from django.urls import reverse
 
+from config.settings import _cache
 from studyapp import assignment, security
 from studyapp.models import Answer, Participant, Study
+from tests.services import blackhole
 from tests.studyapp.helpers import answer_url, snapshot
 
 pytestmark = pytest.mark.django_db
@@ -81,6 +85,32 @@ def test_a_cache_outage_lets_participants_through(study, caplog, monkeypatch):
         for _ in range(3):
             assert Client().get(reverse("entry", args=[study.slug])).status_code == 302
     assert sum("cache is unavailable" in r.getMessage() for r in caplog.records) == 1  # once, not per request
+
+
+def test_a_hung_cache_costs_one_timeout_not_one_per_request(study, settings):
+    """A cache that accepts and never answers: one request waits out the socket timeout, then the
+    circuit breaker keeps every other request off the cache (issue 12, item 5)."""
+    def answer_seconds(tag):
+        seconds = []
+        for i in range(40):
+            p = assignment.assign(study, "prolific", f"{tag}{i}")
+            start = time.perf_counter()
+            assert Client().post(answer_url(p), {"consent": "yes"}).status_code == 302
+            seconds.append(time.perf_counter() - start)
+        return np.array(seconds)
+
+    local = {"BACKEND": "django.core.cache.backends.locmem.LocMemCache"}
+    settings.CACHES, settings.RATE_LIMIT_CACHE = {"default": local, "rl": dict(local, LOCATION="rl")}, "rl"
+    healthy = answer_seconds("h")
+    with blackhole() as port:
+        settings.CACHES = {"default": local, "rl": _cache(f"redis://127.0.0.1:{port}/0")}  # production options
+        hung = answer_seconds("x")
+    rise = np.percentile(hung, 95) - np.percentile(healthy, 95)
+    print(f"answer p95 {np.percentile(healthy, 95) * 1000:.0f} ms with a working cache, "
+          f"{np.percentile(hung, 95) * 1000:.0f} ms with a hung one (rise {rise * 1000:.0f} ms); slowest {hung.max():.2f} s")
+    assert rise < 0.100
+    assert (hung >= 0.4).sum() == 1  # exactly one request waited on the hung cache: the breaker opened
+    assert Answer.objects.filter(participant__platform_pid__startswith="x").count() == 40
 
 
 def test_client_address(rf, settings):
