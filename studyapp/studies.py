@@ -18,6 +18,11 @@ With ``table`` the trajectories are read from the table (``test_set`` is
 then required, as produced by ``teaching.testset.select_test_set``).
 Without it the PLACEHOLDER synthesiser of ``studyapp.trajectories`` draws
 them (and builds its own test set when ``test_set`` is absent).
+
+``spec_from_teach`` turns the output directory of ``python -m teaching.teach``
+(sequences.json + test_set.json) into the table, conditions and test set of a
+spec; ``table_hash`` then makes sure the table is the one the sequences were
+selected on.  Every malformed spec is a ``SpecError`` with a one-line message.
 """
 from __future__ import annotations
 
@@ -26,6 +31,8 @@ import os
 from pathlib import Path
 
 import numpy as np
+from django.core.exceptions import ValidationError
+from django.core.validators import validate_slug
 from django.db import transaction
 
 from teaching.selection import CONDITIONS
@@ -50,10 +57,100 @@ class SpecError(ValueError):
     pass
 
 
-def _payloads(spec: dict):
-    conditions = spec.get("conditions") or []
-    if not conditions:
+def _is_int(v) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def check_spec_shape(spec) -> None:
+    """The spec's JSON types, before anything reads it: a SpecError naming the first problem."""
+    if not isinstance(spec, dict):
+        raise SpecError(f"a study spec is a JSON object, not a {type(spec).__name__} "
+                        "(for the output of `python -m teaching.teach`, give its directory)")
+    slug = spec.get("slug")
+    if not isinstance(slug, str) or not slug:
+        raise SpecError("spec needs a 'slug'")
+    try:
+        validate_slug(slug)
+    except ValidationError:
+        raise SpecError(f"'slug' may hold only letters, digits, - and _, not {slug!r}") from None
+    conditions = spec.get("conditions")
+    if not isinstance(conditions, list) or not conditions:
         raise SpecError("spec needs a non-empty 'conditions' list")
+    for i, c in enumerate(conditions):
+        if not isinstance(c, dict):
+            raise SpecError(f"condition {i} must be an object with 'name' and 'env_ids'")
+        if not isinstance(c.get("env_ids", []), list) or not all(_is_int(e) for e in c.get("env_ids", [])):
+            raise SpecError(f"condition {c.get('name', i)!r}: 'env_ids' must be a list of environment ids")
+    tests = spec.get("test_set")
+    if tests is not None:
+        if not isinstance(tests, list):
+            raise SpecError("'test_set' must be a list of tests")
+        for j, t in enumerate(tests):
+            if not (isinstance(t, dict) and _is_int(t.get("env_id")) and isinstance(t.get("options"), list)
+                    and all(isinstance(o, dict) and _is_int(o.get("theta_index"))
+                            and isinstance(o.get("is_theta_star"), bool) for o in t["options"])):
+                raise SpecError(f"test {j} must be an object with an 'env_id' and 'options' "
+                                "[{'theta_index': int, 'is_theta_star': bool}, ...]")
+    for key in ("target_per_condition", "estimated_minutes"):
+        if key in spec and not (_is_int(spec[key]) and spec[key] > 0):
+            raise SpecError(f"'{key}' must be a positive whole number, not {spec[key]!r}")
+    for key in ("name", "completion_code", "recruitment", "table", "consent_text", "payment", "contact",
+                "ethics_reference"):
+        if key in spec and not isinstance(spec[key], str):
+            raise SpecError(f"'{key}' must be a string, not {spec[key]!r}")
+
+
+def _read_json(path: Path):
+    try:
+        return json.loads(path.read_text())
+    except FileNotFoundError:
+        raise SpecError(f"{path} is missing") from None
+    except (OSError, ValueError) as exc:
+        raise SpecError(f"cannot read {path}: {exc}") from None
+
+
+def spec_from_teach(teach_dir, table=None) -> dict:
+    """The table, conditions and test set of a spec from `python -m teaching.teach`'s output.
+
+    teach_dir: its output directory (or the sequences.json in it).  `table` overrides the table
+    path recorded in sequences.json (e.g. the table moved); its content hash must still match.
+    """
+    teach_dir = Path(teach_dir)
+    if teach_dir.is_file():
+        teach_dir = teach_dir.parent
+    sequences = _read_json(teach_dir / "sequences.json")
+    if not (isinstance(sequences, dict) and isinstance(sequences.get("conditions"), dict)
+            and isinstance(sequences.get("table"), dict)):
+        raise SpecError(f"{teach_dir / 'sequences.json'} is not an output of `python -m teaching.teach`")
+    tests = _read_json(teach_dir / "test_set.json")
+    if isinstance(tests, dict) and "error" in tests:
+        raise SpecError(f"the teach output in {teach_dir} has no test set: {tests['error']}")
+    conditions = []
+    for name, c in sequences["conditions"].items():
+        if not (isinstance(c, dict) and isinstance(c.get("env_ids"), list)):
+            raise SpecError(f"{teach_dir / 'sequences.json'}: condition {name!r} has no 'env_ids'")
+        conditions.append({"name": name, "env_ids": c["env_ids"]})
+    return {"table": str(table or sequences["table"].get("path", "")),
+            "table_hash": sequences["table"].get("content_hash"), "conditions": conditions, "test_set": tests}
+
+
+def _load_table(spec: dict):
+    from teaching.table import TableError, TrajectoryTable
+
+    try:
+        table = TrajectoryTable.load(spec["table"])
+    except (TableError, OSError, ValueError) as exc:
+        raise SpecError(f"cannot use the table at {spec['table']}: {exc}") from None
+    want = spec.get("table_hash")
+    if want and table.meta.get("content_hash") != want:
+        raise SpecError(f"the table at {spec['table']} (hash {str(table.meta.get('content_hash'))[:16]}) is not "
+                        f"the one the sequences were selected on (hash {str(want)[:16]})")
+    return table
+
+
+def _payloads(spec: dict):
+    check_spec_shape(spec)
+    conditions = spec["conditions"]
     names = [c.get("name") for c in conditions]
     if any(not n for n in names) or len(set(names)) != len(names):
         raise SpecError("every condition needs a unique, non-empty 'name'")
@@ -61,13 +158,14 @@ def _payloads(spec: dict):
         if not c.get("env_ids"):
             raise SpecError(f"condition {c['name']!r} needs a non-empty 'env_ids' list")
     if spec.get("table"):
-        from teaching.table import TrajectoryTable
-
         if not spec.get("test_set"):
             raise SpecError("a spec with a 'table' needs its 'test_set'")
-        table = TrajectoryTable.load(spec["table"])
-        training = {c["name"]: trajectories.training_from_table(table, c["env_ids"]) for c in conditions}
-        tests = trajectories.test_set_from_table(table, spec["test_set"])
+        table = _load_table(spec)
+        try:
+            training = {c["name"]: trajectories.training_from_table(table, c["env_ids"]) for c in conditions}
+            tests = trajectories.test_set_from_table(table, spec["test_set"])
+        except (ValueError, IndexError) as exc:
+            raise SpecError(str(exc)) from None
         source = {"kind": "table", "table": str(spec["table"]), "content_hash": table.meta.get("content_hash")}
     else:
         training = {c["name"]: trajectories.placeholder_training(c["env_ids"]) for c in conditions}
@@ -94,9 +192,8 @@ def build_study(spec: dict, replace: bool = False) -> Study:
     An existing study with the same slug is kept as is unless `replace`,
     which is refused once it has participants.
     """
-    slug = spec.get("slug")
-    if not slug:
-        raise SpecError("spec needs a 'slug'")
+    check_spec_shape(spec)
+    slug = spec["slug"]
     existing = Study.objects.filter(slug=slug).first()
     if existing and not replace:
         return existing

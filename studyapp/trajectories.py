@@ -115,6 +115,13 @@ def test_set_from_table(table, test_set) -> list[dict]:
         env = get_environments([int(test["env_id"])])
         star = table.theta_star_index
         payload = env_payload(env, table.states(i, star), table.other_car(i), table.strategy[i, star])
+        for o in test["options"]:
+            if not 0 <= int(o["theta_index"]) < table.n_thetas:
+                raise ValueError(f"test in environment {test['env_id']}: theta index {o['theta_index']} is not "
+                                 f"in the table (0..{table.n_thetas - 1})")
+            if bool(o["is_theta_star"]) != (int(o["theta_index"]) == star):
+                raise ValueError(f"test in environment {test['env_id']}: option theta {o['theta_index']} says "
+                                 f"is_theta_star={o['is_theta_star']}, but theta* is theta {star} in this table")
         payload["options"] = [
             option_payload(o["theta_index"], o["is_theta_star"], table.strategy[i, o["theta_index"]],
                            table.states(i, o["theta_index"]))

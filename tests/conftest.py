@@ -128,3 +128,24 @@ def require_service(ci):
             pytest.skip(f"{what} (allowed only outside CI)")
 
     return require
+
+
+# --- real tables ----------------------------------------------------------------------------
+@pytest.fixture(scope="session")
+def demo_table(tmp_path_factory):
+    """The `demo` preset built for real (1,200 environments × 200 θ, ~30 s), once per run."""
+    from teaching.build import PRESETS, build_table
+
+    out = tmp_path_factory.mktemp("demo-table")
+    build_table(PRESETS["demo"], out)
+    return out
+
+
+@pytest.fixture(scope="session")
+def demo_teach(demo_table, tmp_path_factory):
+    """`python -m teaching.teach` run on the demo table: sequences.json, test_set.json, ..."""
+    from teaching import teach
+
+    out = tmp_path_factory.mktemp("demo-teach")
+    assert teach.main(["--table", str(demo_table), "--out", str(out), "--no-progress"]) == 0
+    return out

@@ -1,6 +1,7 @@
 """Management commands: create_study from a JSON spec, setup_demo (idempotent, prints the links)."""
 import io
 import json
+import re
 
 import pytest
 from django.contrib.auth import get_user_model
@@ -74,8 +75,8 @@ def test_create_study_unreadable_file(tmp_path):
 def test_setup_demo_is_idempotent_and_prints_links(tmp_path, monkeypatch):
     monkeypatch.setenv("DEMO_TABLE", str(tmp_path / "no-table"))
     out = io.StringIO()
-    call_command("setup_demo", stdout=out)
-    call_command("setup_demo", stdout=io.StringIO())
+    call_command("setup_demo", "--demo-login", stdout=out)
+    call_command("setup_demo", "--demo-login", stdout=io.StringIO())
     text = out.getvalue()
     s = Study.objects.get(slug="demo")
     names = {c.name for c in s.conditions.all()}
@@ -177,3 +178,92 @@ def test_setup_demo_rebuilds_after_the_table_changes_but_never_under_participant
     study = Study.objects.get(slug="demo")
     assert study.source["content_hash"] == first and study.participants.count() == 1  # kept, data intact
     assert "already has participants" in out.getvalue()
+
+
+# --- from the output of `python -m teaching.teach` ----------------------------------------------
+@pytest.mark.slow
+def test_create_study_from_the_teach_output(demo_table, demo_teach):
+    sequences = json.loads((demo_teach / "sequences.json").read_text())
+    tests = json.loads((demo_teach / "test_set.json").read_text())
+    out = io.StringIO()
+    call_command("create_study", str(demo_teach), "--slug", "pilot", "--completion-code", "C1ABCDEF",
+                 "--recruitment", "prolific", "--target", "25", stdout=out)
+    s = Study.objects.get(slug="pilot")
+    assert s.source == {"kind": "table", "table": str(demo_table), "content_hash": sequences["table"]["content_hash"]}
+    assert {c.name: c.env_ids for c in s.conditions.all()} == {
+        name: c["env_ids"] for name, c in sequences["conditions"].items()}
+    assert [c.name for c in s.conditions.all()] == list(sequences["conditions"])  # in the teach output's order
+    assert [t["env_id"] for t in s.test_set] == [t["env_id"] for t in tests]
+    assert [[o["theta_index"] for o in t["options"]] for t in s.test_set] == [
+        [o["theta_index"] for o in t["options"]] for t in tests]
+    assert (s.recruitment, s.completion_code, s.target_per_condition, s.is_open) == ("prolific", "C1ABCDEF", 25, True)
+    assert "study pilot: 9 conditions" in out.getvalue()
+    # the sequences.json file itself (this was an AttributeError traceback), created closed
+    call_command("create_study", str(demo_teach / "sequences.json"), "--slug", "pilot-2", "--closed",
+                 stdout=io.StringIO())
+    assert not Study.objects.get(slug="pilot-2").is_open
+
+
+@pytest.mark.slow
+def test_teach_output_errors_are_one_line(demo_teach, tmp_path):
+    from teaching.synthetic import synthetic_table
+
+    other = tmp_path / "other-table"
+    synthetic_table(n_envs=16, n_thetas=8, seed=2).save(other)
+    broken = tmp_path / "broken"
+    broken.mkdir()
+    (broken / "sequences.json").write_text((demo_teach / "sequences.json").read_text())
+    (broken / "test_set.json").write_text(json.dumps({"error": "no test environment for cluster 'x'"}))
+    cases = [
+        ([str(demo_teach)], "needs a slug: give --slug"),
+        ([str(demo_teach), "--slug", "bad slug!"], "'slug' may hold only letters"),
+        ([str(demo_teach), "--slug", "x", "--table", str(other)], "is not the one the sequences were selected on"),
+        ([str(demo_teach), "--slug", "x", "--table", str(tmp_path / "nowhere")], "cannot use the table"),
+        ([str(broken), "--slug", "x"], "has no test set: no test environment for cluster 'x'"),
+        ([str(tmp_path), "--slug", "x"], "sequences.json is missing"),
+    ]
+    for args, message in cases:
+        with pytest.raises(CommandError) as exc:
+            call_command("create_study", *args, stdout=io.StringIO())
+        assert message in str(exc.value) and "\n" not in str(exc.value), (args, str(exc.value))
+    assert not Study.objects.exists()
+
+
+TABLE_TESTS = [{"env_id": 0, "options": [{"theta_index": k, "is_theta_star": k == 0} for k in range(4)]}]
+
+
+@pytest.mark.parametrize("spec, message", [
+    ([{"slug": "x"}], "a study spec is a JSON object, not a list"),
+    ({"slug": "x", "conditions": {"exact": [1]}}, "non-empty 'conditions' list"),
+    ({"slug": "x", "conditions": ["exact"]}, "condition 0 must be an object"),
+    ({"slug": "x", "conditions": [{"name": "a", "env_ids": ["12"]}]}, "'env_ids' must be a list of environment ids"),
+    ({"slug": "x", "conditions": [{"name": "a", "env_ids": [1]}], "target_per_condition": "ten"},
+     "'target_per_condition' must be a positive whole number"),
+    ({"slug": "x", "conditions": [{"name": "a", "env_ids": [1]}], "name": 5}, "'name' must be a string"),
+    ({"slug": "x", "conditions": [{"name": "a", "env_ids": [1]}], "test_set": [{"env_id": 3}]},
+     "test 0 must be an object with an 'env_id' and 'options'"),
+    ({"slug": "x", "conditions": [{"name": "a", "env_ids": [1]}], "test_set": {"env_id": 3}},
+     "'test_set' must be a list"),
+])
+def test_every_malformed_spec_is_a_one_line_error(tmp_path, spec, message):
+    with pytest.raises(CommandError) as exc:
+        call_command("create_study", str(write(tmp_path, spec)), stdout=io.StringIO())
+    assert message in str(exc.value) and "\n" not in str(exc.value)
+    assert not Study.objects.exists()
+
+
+def test_table_backed_test_options_are_checked(tmp_path):
+    from teaching.synthetic import synthetic_table
+
+    table = synthetic_table(n_envs=16, n_thetas=8, seed=2)
+    table.save(tmp_path / "table")
+    ids = [int(e) for e in table.env_ids]
+    base = {"slug": "t", "table": str(tmp_path / "table"), "conditions": [{"name": "exact", "env_ids": ids[:2]}]}
+    star_lie = [{"env_id": ids[5], "options": [{"theta_index": k, "is_theta_star": k == 1} for k in range(4)]}]
+    out_of_range = [{"env_id": ids[5], "options": [{"theta_index": k, "is_theta_star": k == 0} for k in (0, 1, 2, 8)]}]
+    negative = [{"env_id": ids[5], "options": [{"theta_index": k, "is_theta_star": k == 0} for k in (0, 1, 2, -1)]}]
+    for tests, message in ((star_lie, "but theta* is theta 0"), (out_of_range, "theta index 8 is not in the table"),
+                           (negative, "theta index -1 is not in the table")):
+        with pytest.raises(CommandError, match=re.escape(message)):
+            call_command("create_study", str(write(tmp_path, dict(base, test_set=tests))), stdout=io.StringIO())
+    assert not Study.objects.exists()

@@ -7,19 +7,19 @@ labeller's: "in a lane" = the car's centre within 3 ft (a quarter lane) of a lan
 import numpy as np
 import pytest
 
-from teaching.build import PRESETS, build_table
 from teaching.environments import BRAKING, MERGING, OTHER, TAILGATING
 from teaching.strategies import (BRAKE_CHANGE, BRAKE_STAY, CLASS_OF_CLUSTER, MERGE_AHEAD, MERGE_BEHIND,
                                  NO_STRATEGY, TAIL_CHANGE, TAIL_STAY)
+from teaching.table import TrajectoryTable
 
 pytestmark = pytest.mark.slow
 LANES = np.array([-12.0, 0.0, 12.0])
 
 
 @pytest.fixture(scope="module")
-def star(tmp_path_factory):
+def star(demo_table):
     """theta*'s states (M, T+1, 5), environment classes and goals, and labels, from the demo table."""
-    table = build_table(PRESETS["demo"], tmp_path_factory.mktemp("demo"))
+    table = TrajectoryTable.load(demo_table)
     envs = table.environments
     return table.states(slice(None), 0), table.env_class, envs.goal, np.asarray(table.strategy[:, 0])
 
