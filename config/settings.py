@@ -161,9 +161,12 @@ CELERY_WORKER_PREFETCH_MULTIPLIER = 1
 PRECOMPUTE_QUEUE = os.environ.get("PRECOMPUTE_QUEUE", "celery")
 
 # --- auth, i18n, static -------------------------------------------------------
+# Researcher passwords (manage.py create_researcher): accounts that can export every answer.
 AUTH_PASSWORD_VALIDATORS = [
     {"NAME": "django.contrib.auth.password_validation.UserAttributeSimilarityValidator"},
-    {"NAME": "django.contrib.auth.password_validation.MinimumLengthValidator"},
+    {"NAME": "django.contrib.auth.password_validation.MinimumLengthValidator", "OPTIONS": {"min_length": 10}},
+    {"NAME": "django.contrib.auth.password_validation.CommonPasswordValidator"},
+    {"NAME": "django.contrib.auth.password_validation.NumericPasswordValidator"},
 ]
 # Login throttling (django-axes): after LOGIN_FAILURE_LIMIT wrong passwords for one user name, or
 # from one address, further attempts are refused with 429 for LOGIN_COOLOFF_MINUTES.  Staff
@@ -176,9 +179,9 @@ AXES_LOCKOUT_PARAMETERS = ["ip_address", "username"]
 AXES_CLIENT_IP_CALLABLE = "studyapp.security.client_address"
 AXES_RESET_ON_SUCCESS = True
 AXES_VERBOSE = False
-LOGIN_URL = "admin:login"
+LOGIN_URL = "login"
 LOGIN_REDIRECT_URL = "dashboard"
-LOGOUT_REDIRECT_URL = "admin:login"
+LOGOUT_REDIRECT_URL = "login"
 
 LANGUAGE_CODE = "en-us"
 TIME_ZONE = "UTC"

@@ -5,12 +5,13 @@ from __future__ import annotations
 from datetime import timedelta
 
 from django.contrib import messages
-from django.contrib.admin.views.decorators import staff_member_required
 from django.db.models import Max
 from django.http import JsonResponse
 from django.shortcuts import get_object_or_404, redirect, render
 from django.utils import timezone
 from django.views.decorators.http import require_POST
+
+from studyapp.access import researcher_required
 
 from . import jobs
 from .models import Job
@@ -42,12 +43,12 @@ def job_context(job: Job) -> dict:
     }
 
 
-@staff_member_required
+@researcher_required
 def job_list(request):
     return render(request, "precompute/job_list.html", {"jobs": Job.objects.all()[:100]})
 
 
-@staff_member_required
+@researcher_required
 def job_detail(request, pk):
     job = get_object_or_404(Job, pk=pk)
     parts = job.parts.order_by("-finished_at")[:20]
@@ -55,12 +56,12 @@ def job_detail(request, pk):
                   {"job": job, "info": job_context(job), "parts": parts, "refresh": REFRESH_SECONDS})
 
 
-@staff_member_required
+@researcher_required
 def job_status(request, pk):
     return JsonResponse(job_context(get_object_or_404(Job, pk=pk)))
 
 
-@staff_member_required
+@researcher_required
 @require_POST
 def job_retry(request, pk):
     job = get_object_or_404(Job, pk=pk)

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 from django.contrib import messages
-from django.contrib.admin.views.decorators import staff_member_required
 from django.db.models import Count, Q
 from django.http import HttpResponse
 from django.shortcuts import get_object_or_404, redirect, render
@@ -10,6 +9,7 @@ from django.utils import timezone
 from django.views.decorators.http import require_POST
 
 from . import exports
+from .access import researcher_required
 from .assignment import counted_filter, preview_participant
 from .models import Answer, Condition, Participant, Study
 
@@ -38,7 +38,7 @@ def condition_stats(study: Study) -> list[dict]:
             for c in rows]
 
 
-@staff_member_required
+@researcher_required
 def index(request):
     studies = Study.objects.annotate(
         n_participants=Count("participants", filter=~Q(participants__platform=Participant.PREVIEW)))
@@ -55,7 +55,7 @@ def _progress_context(request, study):
             "refresh_seconds": REFRESH_SECONDS}
 
 
-@staff_member_required
+@researcher_required
 def detail(request, slug):
     study = get_object_or_404(Study, slug=slug)
     ctx = _progress_context(request, study)
@@ -65,14 +65,14 @@ def detail(request, slug):
     return render(request, "studyapp/dashboard/detail.html", ctx)
 
 
-@staff_member_required
+@researcher_required
 def progress(request, slug):
     """The auto-refreshed part of the dashboard (HTML fragment)."""
     study = get_object_or_404(Study, slug=slug)
     return render(request, "studyapp/dashboard/_progress.html", _progress_context(request, study))
 
 
-@staff_member_required
+@researcher_required
 @require_POST
 def toggle(request, slug):
     study = get_object_or_404(Study, slug=slug)
@@ -87,14 +87,14 @@ def toggle(request, slug):
     return redirect("dashboard_study", slug=slug)
 
 
-@staff_member_required
+@researcher_required
 @require_POST
 def preview(request, slug, condition_id):
     condition = get_object_or_404(Condition, pk=condition_id, study__slug=slug)
     return redirect(preview_participant(condition))
 
 
-@staff_member_required
+@researcher_required
 def export(request, slug, kind):
     study = get_object_or_404(Study, slug=slug)
     if kind == "long":

@@ -17,14 +17,13 @@ researcher-named Welch comparisons; ``?incomplete=1`` also analyses unfinished p
 from __future__ import annotations
 
 import hashlib
-
 import logging
 
-from django.contrib.admin.views.decorators import staff_member_required
 from django.core.cache import cache
 from django.http import HttpResponse, HttpResponseNotModified
 from django.shortcuts import get_object_or_404, render
 
+from ..access import researcher_required
 from ..models import Study
 from . import data as D
 from . import report as R
@@ -72,7 +71,7 @@ def _cached(call, *args):
         return None
 
 
-@staff_member_required
+@researcher_required
 def report(request, slug):
     study = get_object_or_404(Study, slug=slug)
     extra = parse_comparisons(request.GET.getlist("compare"))

@@ -34,7 +34,7 @@ def test_dashboard_live_progress(make_study, transactional_db, live_server, djan
         page = browser.new_page(viewport={"width": 1280, "height": 900})
         page.clock.install()
         page.goto(f"{live_server.url}/dashboard/{study.slug}/")
-        assert "/admin/login/" in page.url  # staff login first
+        assert "/login/" in page.url and "/admin/" not in page.url  # the researcher login first
         page.fill("#id_username", "res")
         page.fill("#id_password", "pw-dash-123")
         page.click("input[type=submit]")

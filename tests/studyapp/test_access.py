@@ -41,10 +41,10 @@ def test_researcher_pages_refuse_everyone_but_staff(study, django_user_model, wh
     gets, posts = staff_urls(study, job)
     for url in gets:
         r = c.get(url)
-        assert r.status_code == 302 and r["Location"].startswith("/admin/login/"), url
+        assert r.status_code == 302 and r["Location"].startswith("/login/"), url
     for url in posts:
         r = c.post(url, {"open": "0"})
-        assert r.status_code == 302 and r["Location"].startswith("/admin/login/"), url
+        assert r.status_code == 302 and r["Location"].startswith("/login/"), url
     job.refresh_from_db()
     assert Study.objects.get().is_open and not Participant.objects.exists() and job.attempts == 0
 
