@@ -32,7 +32,6 @@ import numpy as np
 
 from teaching import build
 from teaching.build import Preset, assemble, build_chunk, chunk_key, chunk_path, chunks_of, table_identity
-from teaching.candidates import sample_thetas
 from teaching.features import default_normalisers
 from teaching.table import TableError, TrajectoryTable
 
@@ -66,8 +65,8 @@ def host_id() -> str:
 
 
 @lru_cache(maxsize=8)
-def _thetas(n: int, sampler: str, seed: int) -> np.ndarray:
-    thetas = sample_thetas(n, sampler, seed)
+def _thetas(preset: Preset) -> np.ndarray:
+    thetas = preset.thetas()
     thetas.setflags(write=False)
     return thetas
 
@@ -86,7 +85,7 @@ def check_writable(out: Path) -> None:
 def table_spec(preset: Preset, out) -> dict:
     """Everything a worker needs to build any chunk of `preset`'s table in `out`."""
     out = Path(out).resolve()
-    thetas = _thetas(preset.n_thetas, preset.sampler, preset.seed)
+    thetas = _thetas(preset)
     normalisers = default_normalisers()
     env_ids = preset.env_ids()
     return {
@@ -107,7 +106,7 @@ def chunk_ids(spec: dict) -> list[list[int]]:
 
 def _context(spec: dict):
     preset = preset_of(spec)
-    thetas = _thetas(preset.n_thetas, preset.sampler, preset.seed)
+    thetas = _thetas(preset)
     normalisers = np.array(spec["normalisers"], dtype=np.float64)
     identity = table_identity(preset, thetas, normalisers)
     if spec.get("code", CODE_FINGERPRINT) != CODE_FINGERPRINT:

@@ -10,6 +10,7 @@ Spec (a JSON file for ``manage.py create_study``)::
       "consent_text": "...", "estimated_minutes": 15, "payment": "...", "contact": "...",
       "ethics_reference": "...",                   # optional: the consent page's texts
       "table": "data/tables/demo",                 # optional: a teaching TrajectoryTable
+      "theta_star": [-64, -0.1, -1, -0.1, -0.5],   # optional: refuse a table built for another theta*
       "conditions": [{"name": "exact", "env_ids": [12, 4031, ...]}, ...],
       "test_set": [{"env_id": 77, "options": [{"theta_index": 0, "is_theta_star": true}, ...]}, ...]
     }
@@ -91,6 +92,10 @@ def check_spec_shape(spec) -> None:
                             and isinstance(o.get("is_theta_star"), bool) for o in t["options"])):
                 raise SpecError(f"test {j} must be an object with an 'env_id' and 'options' "
                                 "[{'theta_index': int, 'is_theta_star': bool}, ...]")
+    star = spec.get("theta_star")
+    if star is not None and not (isinstance(star, list) and len(star) == 5
+                                 and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in star)):
+        raise SpecError(f"'theta_star' must be a list of 5 numbers, not {star!r}")
     for key in ("target_per_condition", "estimated_minutes"):
         if key in spec and not (_is_int(spec[key]) and spec[key] > 0):
             raise SpecError(f"'{key}' must be a positive whole number, not {spec[key]!r}")
@@ -141,6 +146,10 @@ def _load_table(spec: dict):
         table = TrajectoryTable.load(spec["table"])
     except (TableError, OSError, ValueError) as exc:
         raise SpecError(f"cannot use the table at {spec['table']}: {exc}") from None
+    star = spec.get("theta_star")
+    if star is not None and not np.array_equal(np.asarray(table.theta_star, float), np.asarray(star, float)):
+        raise SpecError(f"the table at {spec['table']} was built for theta* = {[float(v) for v in table.theta_star]}, "
+                        f"not the study's theta* = {[float(v) for v in star]}")
     want = spec.get("table_hash")
     if want and table.meta.get("content_hash") != want:
         raise SpecError(f"the table at {spec['table']} (hash {str(table.meta.get('content_hash'))[:16]}) is not "
@@ -166,7 +175,8 @@ def _payloads(spec: dict):
             tests = trajectories.test_set_from_table(table, spec["test_set"])
         except (ValueError, IndexError) as exc:
             raise SpecError(str(exc)) from None
-        source = {"kind": "table", "table": str(spec["table"]), "content_hash": table.meta.get("content_hash")}
+        source = {"kind": "table", "table": str(spec["table"]), "content_hash": table.meta.get("content_hash"),
+                  "theta_star": [float(v) for v in table.theta_star]}
     else:
         training = {c["name"]: trajectories.placeholder_training(c["env_ids"]) for c in conditions}
         used = {int(e) for c in conditions for e in c["env_ids"]}

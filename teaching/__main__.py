@@ -14,7 +14,8 @@ import time
 import numpy as np
 from tqdm import tqdm
 
-from .build import PRESETS, build_table, get_preset
+from .build import PRESETS, build_table, customised, get_preset
+from .candidates import SAMPLERS
 from .environments import CLASS_NAMES
 from .strategies import CLUSTER_NAMES
 from .table import TableError, TrajectoryTable
@@ -24,6 +25,7 @@ def summary(table: TrajectoryTable) -> str:
     lines = [
         f"table: preset={table.meta.get('preset')} envs={table.n_envs} thetas={table.n_thetas} "
         f"hash={table.meta.get('content_hash', '')[:16]}",
+        f"theta*: {[float(v) for v in table.thetas[0]]}",
         f"min d_reward: {float(table.d_reward().min()):.3g} (must be >= 0)",
         "theta* strategies per cluster:",
     ]
@@ -42,6 +44,10 @@ def main(argv=None) -> int:
     b.add_argument("--preset", required=True, help=f"one of: {', '.join(PRESETS)}")
     b.add_argument("--out", required=True, help="output directory")
     b.add_argument("--thetas", type=int, help="override the number of candidate thetas (>= 2)")
+    b.add_argument("--theta-star", help="the robot's objective theta*: 5 negative weights, written "
+                   "--theta-star=v1,v2,v3,v4,v5 (closeness, acceleration, speed, turning, goal; default: DESIGN §3's)")
+    b.add_argument("--sampler", choices=SAMPLERS, help="override how the other thetas are drawn")
+    b.add_argument("--seed", type=int, help="override the seed of the theta (and environment) sample")
     i = sub.add_parser("info", help="summarise a table")
     i.add_argument("path")
     s = sub.add_parser("sheet", help="contact sheet: every training example and test option, one PNG")
@@ -54,11 +60,13 @@ def main(argv=None) -> int:
     try:
         if args.command == "build":
             preset = get_preset(args.preset)
-            if args.thetas is not None:
-                if args.thetas < 2:
-                    raise ValueError(f"--thetas must be at least 2 (theta* and one other), got {args.thetas}")
-                from dataclasses import replace
-                preset = replace(preset, n_thetas=args.thetas)
+            if args.thetas is not None and args.thetas < 2:
+                raise ValueError(f"--thetas must be at least 2 (theta* and one other), got {args.thetas}")
+            try:
+                preset = customised(preset, n_thetas=args.thetas, theta_star=args.theta_star, sampler=args.sampler,
+                                    seed=args.seed)
+            except ValueError as exc:
+                raise ValueError(f"--theta-star: {exc}") from None
             n = preset.env_ids().size
             start = time.time()
             with tqdm(total=n, unit="env", desc=f"building {preset.name}") as bar:

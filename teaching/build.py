@@ -15,7 +15,7 @@ import os
 import secrets
 import socket
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -25,7 +25,24 @@ from .environments import N_ENVIRONMENTS, stratified_sample
 from .features import default_normalisers
 from .planner import PlannerSettings, plan_chunk, planner_identity
 from .table import TableError, TrajectoryTable
-from .world import WORLD, world_fingerprint
+from .world import THETA_STAR, WORLD, world_fingerprint
+
+
+def parse_theta_star(values) -> tuple[float, ...]:
+    """theta* from 5 numbers (a sequence, or "v1,v2,v3,v4,v5"): each finite and negative, since
+    all five features are costs (DESIGN §3).  Raises ValueError with a one-line message."""
+    if isinstance(values, str):
+        parts = [v for v in values.replace(" ", "").split(",") if v]
+        try:
+            values = [float(v) for v in parts]
+        except ValueError:
+            raise ValueError(f"theta* must be 5 numbers separated by commas, got {values!r}") from None
+    star = tuple(float(v) for v in values)
+    if len(star) != 5:
+        raise ValueError(f"theta* needs one weight per feature (5), got {len(star)}")
+    if not all(np.isfinite(v) and v < 0 for v in star):
+        raise ValueError(f"every weight of theta* must be a negative number (the features are costs), got {list(star)}")
+    return star
 
 
 @dataclass(frozen=True)
@@ -36,6 +53,14 @@ class Preset:
     sampler: str = "log-uniform"
     seed: int = 0
     chunk_size: int = 32
+    theta_star: tuple = tuple(float(v) for v in THETA_STAR)  # thetas[0]; in the identity via thetas_sha
+
+    def __post_init__(self):  # from JSON (a Celery job's spec) it arrives as a list
+        object.__setattr__(self, "theta_star", parse_theta_star(self.theta_star))
+
+    def thetas(self) -> np.ndarray:
+        """The candidate objectives Theta (n_thetas, 5), theta* first."""
+        return sample_thetas(self.n_thetas, self.sampler, self.seed, theta_star=self.theta_star)
 
     def env_ids(self) -> np.ndarray:
         if self.n_envs >= N_ENVIRONMENTS:
@@ -48,6 +73,24 @@ PRESETS = {
     "demo": Preset("demo", n_envs=1200, n_thetas=200),
     "paper": Preset("paper", n_envs=N_ENVIRONMENTS, n_thetas=1000),
 }
+
+
+def customised(preset: Preset, **changes) -> Preset:
+    """`preset` with some of n_envs, n_thetas, sampler, seed, theta_star changed (None: unchanged).
+
+    A changed environment set or Theta gets its own name (part of the table's identity and the
+    default output directory): ``demo-1200x200-log-uniform-s0`` plus ``-star<hash>`` for another theta*.
+    """
+    if changes.get("theta_star") is not None:
+        changes["theta_star"] = parse_theta_star(changes["theta_star"])
+    changes = {k: v for k, v in changes.items() if v is not None and v != getattr(preset, k)}
+    if not changes:
+        return preset
+    p = replace(preset, **changes)
+    name = f"{preset.name}-{p.n_envs}x{p.n_thetas}-{p.sampler}-s{p.seed}"
+    if p.theta_star != PRESETS.get(preset.name, preset).theta_star:
+        name += "-star" + hashlib.sha256(json.dumps(p.theta_star).encode()).hexdigest()[:6]
+    return replace(p, name=name)
 
 
 def get_preset(name: str) -> Preset:
@@ -115,7 +158,7 @@ def build_table(preset: Preset, out, progress=None) -> TrajectoryTable:
     """
     out = Path(out)
     check_writable(out)
-    thetas = sample_thetas(preset.n_thetas, preset.sampler, preset.seed)
+    thetas = preset.thetas()
     normalisers = default_normalisers()
     identity = table_identity(preset, thetas, normalisers)
     env_ids = preset.env_ids()

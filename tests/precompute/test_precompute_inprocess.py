@@ -238,3 +238,21 @@ def test_a_hung_broker_fails_the_launch_within_seconds(tmp_path):
     assert f"cannot send job 1 to the broker at {broker}" in out.stderr and "Traceback" not in out.stderr
     with sqlite3.connect(db) as conn:
         assert conn.execute("SELECT status FROM precompute_job").fetchall() == [("failed",)]
+
+
+def test_theta_star_travels_with_the_job_spec(tmp_path):
+    """A worker rebuilds the preset from the job's JSON spec: another θ* must survive the trip
+    and give another table identity (so its chunks never mix with the default θ*'s)."""
+    from precompute.management.commands.precompute_table import resolve_preset
+
+    star = (-32.0, -0.2, -1.0, -0.1, -0.5)
+    preset = resolve_preset("tiny", theta_star="-32,-0.2,-1,-0.1,-0.5")
+    assert preset.theta_star == star and preset.name.startswith("tiny-48x24-log-uniform-s0-star")
+    spec = json.loads(json.dumps(work.table_spec(preset, tmp_path / "t")))
+    assert work.preset_of(spec).theta_star == star
+    _, thetas, _, identity = work._context(spec)
+    assert tuple(thetas[0]) == star
+    default = work.table_spec(resolve_preset("tiny"), tmp_path / "d")["identity"]
+    assert identity["thetas_sha"] != default["thetas_sha"]
+    with pytest.raises(CommandError, match="--theta-star: every weight of theta\\* must be a negative number"):
+        resolve_preset("tiny", theta_star="-1,-1,-1,-1,1")

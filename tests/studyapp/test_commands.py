@@ -136,7 +136,8 @@ def test_setup_demo_uses_the_table_when_the_pipeline_works(tmp_path, monkeypatch
     out = io.StringIO()
     call_command("setup_demo", "--table", str(tmp_path / "table"), stdout=out)
     s = Study.objects.get(slug="demo")
-    assert s.source == {"kind": "table", "table": str(tmp_path / "table"), "content_hash": table.meta["content_hash"]}
+    assert s.source == {"kind": "table", "table": str(tmp_path / "table"), "content_hash": table.meta["content_hash"],
+                        "theta_star": [float(v) for v in table.thetas[0]]}
     assert calls == {"sequences": (table.meta["content_hash"], 0), "tests": [ids[:2], ids[2:5]]}
     assert {c.name: c.env_ids for c in s.conditions.all()} == {"exact": ids[:2], "det-euclidean": ids[2:5]}
     assert [o["is_theta_star"] for o in s.test_set[0]["options"]] == [False, True, False, False]
@@ -189,7 +190,8 @@ def test_create_study_from_the_teach_output(demo_table, demo_teach):
     call_command("create_study", str(demo_teach), "--slug", "pilot", "--completion-code", "C1ABCDEF",
                  "--recruitment", "prolific", "--target", "25", stdout=out)
     s = Study.objects.get(slug="pilot")
-    assert s.source == {"kind": "table", "table": str(demo_table), "content_hash": sequences["table"]["content_hash"]}
+    assert s.source == {"kind": "table", "table": str(demo_table), "content_hash": sequences["table"]["content_hash"],
+                        "theta_star": [-64.0, -0.1, -1.0, -0.1, -0.5]}
     assert {c.name: c.env_ids for c in s.conditions.all()} == {
         name: c["env_ids"] for name, c in sequences["conditions"].items()}
     assert [c.name for c in s.conditions.all()] == list(sequences["conditions"])  # in the teach output's order
@@ -267,3 +269,21 @@ def test_table_backed_test_options_are_checked(tmp_path):
         with pytest.raises(CommandError, match=re.escape(message)):
             call_command("create_study", str(write(tmp_path, dict(base, test_set=tests))), stdout=io.StringIO())
     assert not Study.objects.exists()
+
+
+def test_a_table_built_for_another_theta_star_is_refused(tmp_path):
+    from teaching.synthetic import synthetic_table
+
+    table = synthetic_table(n_envs=16, n_thetas=8, seed=2)
+    table.save(tmp_path / "table")
+    ids = [int(e) for e in table.env_ids]
+    tests = [{"env_id": ids[10], "options": [{"theta_index": k, "is_theta_star": k == 0} for k in range(4)]}]
+    spec = {"slug": "star", "table": str(tmp_path / "table"), "test_set": tests,
+            "conditions": [{"name": "exact", "env_ids": ids[:3]}], "theta_star": [-32, -0.2, -1, -0.1, -0.5]}
+    with pytest.raises(CommandError, match=re.escape("was built for theta* = [-64.0, -0.1, -1.0, -0.1, -0.5], "
+                                                     "not the study's theta* = [-32.0, -0.2, -1.0, -0.1, -0.5]")):
+        call_command("create_study", str(write(tmp_path, spec)), stdout=io.StringIO())
+    assert not Study.objects.exists()
+    spec["theta_star"] = [float(v) for v in table.thetas[0]]  # the table's own θ*: accepted, and recorded
+    call_command("create_study", str(write(tmp_path, spec)), stdout=io.StringIO())
+    assert Study.objects.get(slug="star").source["theta_star"] == spec["theta_star"]

@@ -1,11 +1,15 @@
 """`python -m teaching build|info` as a researcher runs it: summary on success, exit 2 and one
 'error: ...' line (no traceback) on bad input."""
+import json
 import os
 import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
+
+from teaching.table import TrajectoryTable
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -67,3 +71,32 @@ def test_info_on_a_missing_table(tmp_path):
 def test_info_on_an_altered_table(tmp_path):
     (tmp_path / "meta.json").write_text('{"world": "not this world"}')
     assert_clean_error(run("info", str(tmp_path)), "other world constants")
+
+
+@pytest.mark.slow
+def test_build_with_another_theta_star(tmp_path):
+    """θ* is a parameter of the build: stored as theta 0 and in the table's meta, the preset renamed."""
+    out = tmp_path / "star"
+    proc = run("build", "--preset", "tiny", "--out", str(out), "--thetas", "8", "--theta-star=-32,-0.2,-1,-0.1,-0.5")
+    assert proc.returncode == 0, proc.stderr
+    assert "theta*: [-32.0, -0.2, -1.0, -0.1, -0.5]" in proc.stdout
+    table = TrajectoryTable.load(out)
+    assert np.array_equal(table.thetas[0], [-32, -0.2, -1, -0.1, -0.5])
+    meta = json.loads((out / "meta.json").read_text())
+    assert meta["theta_star"] == [-32.0, -0.2, -1.0, -0.1, -0.5]
+    assert meta["preset"].startswith("tiny-48x8-log-uniform-s0-star")
+    # the other thetas are drawn around this θ* (log-uniform: within a decade of each weight)
+    ratio = np.asarray(table.thetas[1:]) / np.asarray(table.thetas[0])
+    assert ratio.min() >= 0.1 and ratio.max() <= 10
+
+
+@pytest.mark.parametrize("value, needle", [
+    ("-1,-2,-3", "needs one weight per feature (5), got 3"),
+    ("-64,-0.1,-1,-0.1,0", "must be a negative number"),
+    ("-64,-0.1,-1,-0.1,nan", "must be a negative number"),
+    ("-64,-0.1,x,-0.1,-0.5", "5 numbers separated by commas"),
+])
+def test_bad_theta_star(tmp_path, value, needle):
+    assert_clean_error(run("build", "--preset", "tiny", "--out", str(tmp_path / "t"), f"--theta-star={value}"),
+                       "--theta-star", needle)
+    assert not (tmp_path / "t").exists()

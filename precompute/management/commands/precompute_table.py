@@ -15,7 +15,7 @@ from pathlib import Path
 from django.conf import settings
 from django.core.management.base import BaseCommand, CommandError
 
-from teaching.build import PRESETS, get_preset
+from teaching.build import PRESETS, customised, get_preset
 from teaching.candidates import SAMPLERS
 from teaching.environments import N_ENVIRONMENTS
 
@@ -34,25 +34,22 @@ def positive(name):
     return parse
 
 
-def resolve_preset(name, envs=None, thetas=None, seed=None, sampler=None, chunk_size=None):
-    """The named preset, with overrides; a changed environment set or Θ gets its own name
-    (the name is part of the table's identity)."""
+def resolve_preset(name, envs=None, thetas=None, seed=None, sampler=None, chunk_size=None, theta_star=None):
+    """The named preset, with overrides (teaching.build.customised names a changed one)."""
     try:
         preset = get_preset(name)
     except ValueError as exc:
         raise CommandError(str(exc)) from None
-    changes = {k: v for k, v in dict(n_envs=envs, n_thetas=thetas, seed=seed, sampler=sampler).items()
-               if v is not None and v != getattr(preset, k)}
     if envs is not None and not 4 <= envs <= N_ENVIRONMENTS:
         raise CommandError(f"--envs must lie in [4, {N_ENVIRONMENTS}], got {envs}")
     if thetas is not None and thetas < 2:
         raise CommandError(f"--thetas must be at least 2 (theta* and one other), got {thetas}")
     if sampler is not None and sampler not in SAMPLERS:
         raise CommandError(f"unknown --sampler {sampler!r}; choose one of {', '.join(SAMPLERS)}")
-    if changes:
-        p = dataclasses.replace(preset, **changes)
-        name = f"{preset.name}-{p.n_envs}x{p.n_thetas}-{p.sampler}-s{p.seed}"
-        preset = dataclasses.replace(p, name=name)
+    try:
+        preset = customised(preset, n_envs=envs, n_thetas=thetas, seed=seed, sampler=sampler, theta_star=theta_star)
+    except ValueError as exc:
+        raise CommandError(f"--theta-star: {exc}") from None
     if chunk_size is not None:
         preset = dataclasses.replace(preset, chunk_size=chunk_size)
     return preset
@@ -69,6 +66,7 @@ class Command(BaseCommand):
         parser.add_argument("--thetas", type=positive("--thetas"), help="override the number of thetas")
         parser.add_argument("--seed", type=int, help="override the theta / environment sample seed")
         parser.add_argument("--sampler", help=f"override the theta sampler ({', '.join(SAMPLERS)})")
+        parser.add_argument("--theta-star", help="the robot's objective, 5 negative weights: v1,v2,v3,v4,v5")
         parser.add_argument("--chunk-size", type=positive("--chunk-size"), help="environments per task")
         parser.add_argument("--queue", help="Celery queue (default: settings.PRECOMPUTE_QUEUE)")
         parser.add_argument("--wait", action="store_true", help="block with a progress bar until it finishes")
@@ -80,7 +78,7 @@ class Command(BaseCommand):
         from precompute.work import ChunkError
 
         preset = resolve_preset(opts["preset"], opts["envs"], opts["thetas"], opts["seed"], opts["sampler"],
-                                opts["chunk_size"])
+                                opts["chunk_size"], opts["theta_star"])
         out = Path(opts["out"] or Path(settings.VAR_DIR) / "tables" / preset.name)
         try:
             job = jobs.create_table_job(preset, out, queue=opts["queue"])
