@@ -5,7 +5,9 @@ condition task freezes its training sequence on its Condition (the
 ``training`` JSON the participant pages read) and keeps the selection details
 (P(θ*) curve, τ / λ, whether the hyperparameter rule held) on its job Part;
 the final task picks the test set, disjoint from every training sequence,
-stores it on the Study and opens the study (unless asked not to).
+stores it on the Study and opens the study (unless asked not to).  Creating
+and freezing go through studyapp/studies.py (new_study, freeze_condition,
+freeze_test_set), the same functions `create_study` uses.
 """
 from __future__ import annotations
 
@@ -14,6 +16,7 @@ from pathlib import Path
 from celery import Signature, chord
 from django.db import transaction
 
+from studyapp.studies import SpecError, new_study
 from teaching.learners import make_model
 from teaching.selection import CONDITIONS
 from teaching.table import TrajectoryTable
@@ -43,8 +46,6 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int =
                      approx_star: str = "det-euclidean", hyperparameters: dict | None = None,
                      conditions=None, open_when_done: bool = True, replace: bool = False,
                      target_per_condition: int = 30, queue=None, start: bool = True) -> Job:
-    from studyapp.models import Condition, Study
-
     from .jobs import launch
 
     table_path = Path(table_path).resolve()
@@ -64,20 +65,15 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int =
         raise StudyJobError(str(exc)) from None
     if not slug:
         raise StudyJobError("a study needs a slug")
+    source = {"kind": "table", "table": str(table_path), "content_hash": table.meta.get("content_hash"),
+              "theta_star": [float(v) for v in table.theta_star], "seed": seed, "approx_star": approx_star,
+              "hyperparameters": hyperparameters}
     with transaction.atomic():
-        existing = Study.objects.filter(slug=slug).first()
-        if existing and not replace:
-            raise StudyJobError(f"study {slug!r} exists; pass --replace to rebuild it")
-        if existing and existing.participants.exists():
-            raise StudyJobError(f"study {slug!r} already has participants; refusing to replace it")
-        if existing:
-            existing.delete()
-        study = Study.objects.create(
-            slug=slug, name=name or slug, is_open=False, target_per_condition=target_per_condition,
-            source={"kind": "table", "table": str(table_path), "content_hash": table.meta.get("content_hash"),
-                    "seed": seed, "approx_star": approx_star, "hyperparameters": hyperparameters})
-        for i, c in enumerate(conditions):
-            Condition.objects.create(study=study, name=c, position=i, training=[])
+        try:  # the study app's own rules for a new study (studyapp/studies.py)
+            study = new_study(slug=slug, name=name, conditions=conditions, source=source, replace=replace,
+                              target_per_condition=target_per_condition)
+        except SpecError as exc:
+            raise StudyJobError(str(exc)) from None
         job = Job.objects.create(kind=Job.STUDY, chunks_total=len(conditions) + 1, params={
             "study_id": study.pk, "slug": slug, "table": str(table_path), "seed": seed,
             "approx_star": approx_star, "hyperparameters": hyperparameters, "conditions": conditions,

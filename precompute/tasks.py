@@ -173,6 +173,7 @@ def _table(path):
 def study_condition(self, job_id, params, name, index):
     """One condition: its teaching sequence, frozen on the study's Condition (training JSON)."""
     from studyapp.models import Condition
+    from studyapp.studies import freeze_condition
     from studyapp.trajectories import training_from_table
 
     from .models import Part
@@ -186,8 +187,7 @@ def study_condition(self, job_id, params, name, index):
     table = _table(params["table"])
     result = condition_sequence(table, name, seed=params["seed"], approx_star=params["approx_star"],
                                 hyperparameters=params["hyperparameters"])
-    condition.training = training_from_table(table, result["env_ids"])
-    condition.save(update_fields=["training"])
+    freeze_condition(condition, training_from_table(table, result["env_ids"]))
     record_part(job_id, name, index, True, time.perf_counter() - t0, result=result)
     return {"condition": name, "computed": True, "env_ids": result["env_ids"]}
 
@@ -196,6 +196,7 @@ def study_condition(self, job_id, params, name, index):
 def study_finish(self, job_id, params):
     """Chord callback: the test set (disjoint from every condition's training), then open the study."""
     from studyapp.models import Study
+    from studyapp.studies import freeze_test_set
     from studyapp.trajectories import test_set_from_table
     from teaching.testset import select_test_set
 
@@ -209,9 +210,7 @@ def study_finish(self, job_id, params):
     t0 = time.perf_counter()
     table = _table(params["table"])
     tests = select_test_set(table, [c.env_ids for c in conditions], seed=params["seed"])
-    study.test_set = test_set_from_table(table, tests)
-    study.is_open = params.get("open", True)
-    study.save(update_fields=["test_set", "is_open"])
+    freeze_test_set(study, test_set_from_table(table, tests), open_study=params.get("open", True))
     record_part(job_id, "test-set", len(conditions), True, time.perf_counter() - t0,
                 result={"env_ids": [t["env_id"] for t in tests]})
     summary = {"study_slug": study.slug, "study_id": study.pk, "test_env_ids": [t["env_id"] for t in tests],

@@ -186,46 +186,106 @@ def _payloads(spec: dict):
         else:
             tests = trajectories.placeholder_test_set(exclude=used, seed=spec.get("seed", 0))
         source = {"kind": "placeholder", "note": "synthesised trajectories, not the optimal ones (docs/study.md)"}
+    return conditions, training, tests, source
+
+
+# --- the one way a study is made: create it, freeze each condition, freeze the test set ---------
+# create_study (a JSON spec or a teach output), the Celery study job (precompute/study.py) and the
+# demo all go through these three, so one set of rules holds everywhere.
+def new_study(*, slug: str, conditions: list[str], source: dict, name: str | None = None, replace: bool = False,
+              **fields) -> Study:
+    """Create the study closed, with its conditions named and not yet frozen.
+
+    `fields`: target_per_condition, completion_code, recruitment and the consent page's texts.
+    Refuses a bad slug, duplicate condition names, an existing study unless `replace`, and
+    replacing a study that has participants.
+    """
+    try:
+        validate_slug(slug or "")
+    except ValidationError:
+        raise SpecError(f"'slug' may hold only letters, digits, - and _, not {slug!r}") from None
+    if not conditions or any(not c for c in conditions) or len(set(conditions)) != len(conditions):
+        raise SpecError("every condition needs a unique, non-empty 'name'")
+    if fields.get("recruitment", Study.LINK) not in dict(Study.RECRUITMENTS):
+        raise SpecError(f"'recruitment' must be one of {', '.join(dict(Study.RECRUITMENTS))}")
+    with transaction.atomic():
+        existing = Study.objects.select_for_update().filter(slug=slug).first()
+        if existing and not replace:
+            raise SpecError(f"study {slug!r} exists; pass --replace to rebuild it")
+        if existing and existing.participants.exists():
+            raise SpecError(f"study {slug!r} already has participants; refusing to replace it")
+        if existing:
+            existing.delete()
+        study = Study.objects.create(slug=slug, name=name or slug, source=source, is_open=False, test_set=[],
+                                     **fields)
+        for i, c in enumerate(conditions):
+            Condition.objects.create(study=study, name=c, position=i, training=[])
+    return study
+
+
+def _refuse_if_started(study: Study) -> None:
+    if study.participants.exists():
+        raise SpecError(f"study {study.slug!r} already has participants: its design can no longer change")
+
+
+def freeze_condition(condition: Condition, training: list[dict], target: int | None = None) -> None:
+    """Store a condition's training examples (with the trajectories to draw them)."""
+    _refuse_if_started(condition.study)
+    if not training:
+        raise SpecError(f"condition {condition.name!r} needs at least one training example")
+    condition.training, condition.target = training, target
+    condition.save(update_fields=["training", "target"])
+
+
+def freeze_test_set(study: Study, tests: list[dict], open_study: bool = True) -> None:
+    """Store the shared test set, disjoint from every condition's training, and open the study if
+    asked (and it may open: Study.opening_problems)."""
+    _refuse_if_started(study)
+    try:
+        trajectories.check_test_set(tests)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise SpecError(f"bad test set: {exc}") from None
+    conditions = list(study.conditions.all())
+    empty = [c.name for c in conditions if not c.training]
+    if empty:
+        raise SpecError(f"conditions without a training sequence: {', '.join(empty)}")
     # A test environment a participant already saw in training would measure recall, not
     # anticipation of a novel situation (DESIGN §6: the test set is disjoint from training).
-    seen = {int(e) for c in conditions for e in c["env_ids"]}
+    seen = {int(e) for c in conditions for e in c.env_ids}
     overlap = sorted(seen & {int(t["env_id"]) for t in tests})
     if overlap:
         raise SpecError(f"test environments {overlap} also appear in a training sequence; "
                         "the test set must be disjoint from every condition's training")
-    return conditions, training, tests, source
+    study.test_set = tests
+    study.is_open = open_study
+    problems = study.opening_problems() if open_study else []
+    if problems:
+        raise SpecError(problems[0])
+    study.save(update_fields=["test_set", "is_open"])
 
 
 def build_study(spec: dict, replace: bool = False) -> Study:
-    """Create the study described by `spec` (see module docstring).
+    """Create the study described by `spec` (see module docstring), all in one transaction.
 
     An existing study with the same slug is kept as is unless `replace`,
     which is refused once it has participants.
     """
     check_spec_shape(spec)
-    slug = spec["slug"]
-    existing = Study.objects.filter(slug=slug).first()
+    existing = Study.objects.filter(slug=spec["slug"]).first()
     if existing and not replace:
         return existing
-    if existing and existing.participants.exists():
-        raise SpecError(f"study {slug!r} already has participants; refusing to replace it")
-    if spec.get("recruitment", Study.LINK) not in dict(Study.RECRUITMENTS):
-        raise SpecError(f"'recruitment' must be one of {', '.join(dict(Study.RECRUITMENTS))}")
     conditions, training, tests, source = _payloads(spec)
     with transaction.atomic():
-        if existing:
-            existing.delete()
-        study = Study.objects.create(
-            slug=slug, name=spec.get("name", slug), test_set=tests, source=source,
-            target_per_condition=spec.get("target_per_condition", 30),
-            completion_code=spec.get("completion_code", ""), recruitment=spec.get("recruitment", Study.LINK),
-            is_open=spec.get("is_open", True), **{k: spec[k] for k in TEXT_FIELDS if k in spec})
-        problems = study.opening_problems()
-        if study.is_open and problems:
-            raise SpecError(problems[0])
-        for i, c in enumerate(conditions):
-            Condition.objects.create(study=study, name=c["name"], position=i, training=training[c["name"]],
-                                     target=c.get("target"))
+        study = new_study(slug=spec["slug"], name=spec.get("name"), conditions=[c["name"] for c in conditions],
+                          source=source, replace=replace,
+                          target_per_condition=spec.get("target_per_condition", 30),
+                          completion_code=spec.get("completion_code", ""),
+                          recruitment=spec.get("recruitment", Study.LINK),
+                          **{k: spec[k] for k in TEXT_FIELDS if k in spec})
+        for c in study.conditions.all():
+            spec_c = next(x for x in conditions if x["name"] == c.name)
+            freeze_condition(c, training[c.name], spec_c.get("target"))
+        freeze_test_set(study, tests, open_study=spec.get("is_open", True))
     return study
 
 

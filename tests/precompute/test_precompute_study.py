@@ -92,6 +92,7 @@ def test_build_study_subset_closed(inprocess_worker, transactional_db, table_pat
     (["--slug", "x", "--hyper", "psychic=1"], "unknown learner model 'psychic'"),
     (["--slug", "x", "--approx-star", "psychic"], "unknown learner model 'psychic'"),
     (["--slug", "x", "--target-per-condition", "0"], "--target-per-condition must be positive"),
+    (["--slug", "bad slug"], "'slug' may hold only letters, digits, - and _"),  # studyapp's rule, one place
 ])
 def test_build_study_rejects_bad_arguments(db, table_path, argv, message, settings, tmp_path):
     settings.VAR_DIR = tmp_path

@@ -287,3 +287,47 @@ def test_a_table_built_for_another_theta_star_is_refused(tmp_path):
     spec["theta_star"] = [float(v) for v in table.thetas[0]]  # the table's own θ*: accepted, and recorded
     call_command("create_study", str(write(tmp_path, spec)), stdout=io.StringIO())
     assert Study.objects.get(slug="star").source["theta_star"] == spec["theta_star"]
+
+
+def test_a_study_with_participants_cannot_change_its_design(study, complete):
+    """One set of rules for every way of making a study (studyapp/studies.py): once anyone has
+    started, no condition, test set or replacement may change what they see."""
+    from studyapp import assignment
+    from studyapp.studies import SpecError, freeze_condition, freeze_test_set, new_study
+
+    training, tests = study.conditions.first().training, study.test_set
+    assignment.assign(study, "prolific", "first-one")
+    with pytest.raises(SpecError, match="already has participants: its design can no longer change"):
+        freeze_condition(study.conditions.first(), training)
+    with pytest.raises(SpecError, match="already has participants: its design can no longer change"):
+        freeze_test_set(study, tests)
+    with pytest.raises(SpecError, match="already has participants; refusing to replace it"):
+        new_study(slug=study.slug, conditions=["exact"], source={}, replace=True)
+    study.refresh_from_db()
+    assert study.test_set == tests and study.conditions.first().training == training
+
+
+def test_freezing_checks_the_design(db):
+    from studyapp.studies import SpecError, freeze_condition, freeze_test_set, new_study
+    from studyapp.trajectories import placeholder_test_set, placeholder_training
+
+    s = new_study(slug="d1", conditions=["a", "b"], source={"kind": "placeholder"})
+    assert not s.is_open and [c.name for c in s.conditions.all()] == ["a", "b"]
+    with pytest.raises(SpecError, match="exists; pass --replace"):
+        new_study(slug="d1", conditions=["a"], source={})
+    with pytest.raises(SpecError, match="unique, non-empty"):
+        new_study(slug="d2", conditions=["a", "a"], source={})
+    a, b = s.conditions.all()
+    with pytest.raises(SpecError, match="needs at least one training example"):
+        freeze_condition(a, [])
+    freeze_condition(a, placeholder_training([10, 11]))
+    tests = placeholder_test_set(exclude={10, 11, 12}, seed=0)
+    with pytest.raises(SpecError, match="conditions without a training sequence: b"):
+        freeze_test_set(s, tests)
+    freeze_condition(b, placeholder_training([12]))
+    overlapping = [dict(tests[0], env_id=12)] + tests[1:]
+    with pytest.raises(SpecError, match=r"test environments \[12\] also appear in a training sequence"):
+        freeze_test_set(s, overlapping)
+    freeze_test_set(s, tests)
+    s.refresh_from_db()
+    assert s.is_open and len(s.test_set) == len(tests)
