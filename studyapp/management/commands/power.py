@@ -1,0 +1,56 @@
+"""How many participants per condition a study needs (studyapp/analysis/power.py).
+
+    python manage.py power                         # the paper's effects, alpha .05, power .8
+    python manage.py power --effect "my guess=0.4" --alpha 0.05 --power 0.9 --n 30
+    python manage.py power --study SLUG            # the power at that study's target per condition
+"""
+from django.core.management.base import BaseCommand, CommandError
+
+from studyapp.analysis.power import power_table
+from studyapp.models import Study
+
+
+def parse_effect(text: str) -> tuple[str, float]:
+    name, sep, value = text.rpartition("=")
+    try:
+        d = float(value)
+    except ValueError:
+        d = float("nan")
+    if not sep or not name.strip() or not d > 0:
+        raise CommandError(f"--effect expects NAME=D with a positive Cohen's d, got {text!r}")
+    return name.strip(), d
+
+
+class Command(BaseCommand):
+    help = "Participants per condition needed to detect the paper's effects (and yours), Welch/t-test power."
+
+    def add_arguments(self, parser):
+        parser.add_argument("--alpha", type=float, default=0.05)
+        parser.add_argument("--power", type=float, default=0.8)
+        parser.add_argument("--effect", action="append", default=[], metavar="NAME=D",
+                            help="another effect to plan for, as Cohen's d (repeatable)")
+        parser.add_argument("--n", type=int, help="also print the power at this many participants per condition")
+        parser.add_argument("--study", help="use this study's target per condition as --n")
+
+    def handle(self, alpha, power, effect, n, study, **options):
+        effects = dict(parse_effect(e) for e in effect)
+        if study:
+            found = Study.objects.filter(slug=study).first()
+            if found is None:
+                raise CommandError(f"no study {study!r}")
+            n = found.target_per_condition
+        if n is not None and n < 2:
+            raise CommandError(f"--n must be at least 2, got {n}")
+        try:
+            rows = power_table(alpha=alpha, power=power, n_per_condition=n, effects=effects)
+        except ValueError as exc:
+            raise CommandError(str(exc)) from None
+        head = f"{'comparison':32s} {'d':>6s} {'needed':>7s}" + (f" {'power@' + str(n):>9s}" if n else "")
+        self.stdout.write(f"two-sided t-test, alpha = {alpha:g}, power = {power:g}, equal groups "
+                          "(participants per condition)")
+        self.stdout.write(head)
+        for r in rows:
+            line = f"{r['comparison']:32s} {r['d']:6.3f} {r['needed']:7d}"
+            if n:
+                line += f" {r['power_at_n']:9.3f}"
+            self.stdout.write(f"{line}   {r['source']}")
