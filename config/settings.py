@@ -159,6 +159,8 @@ CELERY_TASK_ALWAYS_EAGER = _flag("CELERY_TASK_ALWAYS_EAGER", "0")
 # with reject_on_worker_lost, set on their base class; docs/scaling.md).
 CELERY_WORKER_PREFETCH_MULTIPLIER = 1
 PRECOMPUTE_QUEUE = os.environ.get("PRECOMPUTE_QUEUE", "celery")
+# Where the study designer looks for built tables (each a directory with meta.json).
+TABLES_DIR = Path(os.environ.get("TABLES_DIR", VAR_DIR / "tables"))
 
 # --- auth, i18n, static -------------------------------------------------------
 # Researcher passwords (manage.py create_researcher): accounts that can export every answer.

@@ -45,7 +45,11 @@ def study_canvas(job: Job, queue=None):
 def create_study_job(table_path, slug: str, name: str | None = None, seed: int = 0,
                      approx_star: str = "det-euclidean", hyperparameters: dict | None = None,
                      conditions=None, open_when_done: bool = True, replace: bool = False,
-                     target_per_condition: int = 30, queue=None, start: bool = True) -> Job:
+                     target_per_condition: int = 30, queue=None, start: bool = True, **study_fields) -> Job:
+    """A job that selects every condition's sequence and the test set on `table_path`.
+
+    `study_fields`: completion_code, recruitment and the consent page's texts (studyapp's new_study).
+    """
     from .jobs import launch
 
     table_path = Path(table_path).resolve()
@@ -71,7 +75,7 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int =
     with transaction.atomic():
         try:  # the study app's own rules for a new study (studyapp/studies.py)
             study = new_study(slug=slug, name=name, conditions=conditions, source=source, replace=replace,
-                              target_per_condition=target_per_condition)
+                              target_per_condition=target_per_condition, **study_fields)
         except SpecError as exc:
             raise StudyJobError(str(exc)) from None
         job = Job.objects.create(kind=Job.STUDY, chunks_total=len(conditions) + 1, params={

@@ -1,5 +1,6 @@
 """Job pages for staff: a list, and a job page that refreshes itself with progress,
-throughput, ETA and the error of a failed job, with a retry button (POST, staff only)."""
+throughput, ETA and the error of a failed job, with a retry button (POST, staff only); and the
+study designer, which starts a study job (precompute/design.py)."""
 from __future__ import annotations
 
 from datetime import timedelta
@@ -12,9 +13,12 @@ from django.utils import timezone
 from django.views.decorators.http import require_POST
 
 from studyapp.access import researcher_required
+from teaching.table import TableError
 
 from . import jobs
+from .design import StudyDesignForm, built_tables, tables_dir
 from .models import Job
+from .study import StudyJobError, create_study_job
 
 REFRESH_SECONDS = 3
 STALLED_AFTER = timedelta(minutes=5)  # no unit finished for this long: say so, offer Relaunch
@@ -72,3 +76,29 @@ def job_retry(request, pk):
     else:
         messages.success(request, f"Job {job.pk} relaunched: finished work is skipped.")
     return redirect(job.get_absolute_url())
+
+
+@researcher_required
+def design(request):
+    """The study designer: a built table, conditions and settings -> a study job on the workers."""
+    tables = built_tables()
+    form = StudyDesignForm(request.POST or None, tables=tables)
+    if request.method == "POST" and form.is_valid():
+        d = form.cleaned_data
+        try:
+            job = create_study_job(d["table"], d["slug"], name=d["name"] or None, seed=d["seed"],
+                                   approx_star=d["approx_star"], conditions=d["conditions"], open_when_done=False,
+                                   target_per_condition=d["target_per_condition"], start=False,
+                                   completion_code=d["completion_code"].strip(), recruitment=d["recruitment"])
+        except (StudyJobError, TableError) as exc:
+            form.add_error(None, str(exc))
+        else:
+            try:
+                jobs.launch(job)
+            except jobs.BrokerUnavailable as exc:  # the job is marked failed with this error; its page has Retry
+                messages.error(request, str(exc))
+            else:
+                messages.success(request, f"Building study {d['slug']!r} on the workers: when this job is done, "
+                                 "preview its conditions on the study's page, then open it.")
+            return redirect(job)
+    return render(request, "precompute/design.html", {"form": form, "tables": tables, "tables_dir": tables_dir()})
