@@ -203,11 +203,20 @@ if not DEBUG:
     SESSION_COOKIE_SECURE = _flag("SECURE_COOKIES", "1")
     CSRF_COOKIE_SECURE = _flag("SECURE_COOKIES", "1")
 
+# Everything goes to stderr (gunicorn, the worker and supervisord collect it), one line per event
+# with time, level and logger.  Our own loggers (studyapp: assignments, completions, rate limits,
+# outages; precompute: job events) at LOG_LEVEL; Django's and everything else at WARNING.  No
+# personal data is logged: participants appear by row id, never by platform id.
+_LOG_LEVEL = os.environ.get("LOG_LEVEL", "INFO").upper()
 LOGGING = {
     "version": 1,
     "disable_existing_loggers": False,
-    "handlers": {"console": {"class": "logging.StreamHandler"}},
-    "loggers": {"studyapp": {"handlers": ["console"], "level": os.environ.get("LOG_LEVEL", "INFO")}},
+    "formatters": {"line": {"format": "%(asctime)s %(levelname)s %(name)s: %(message)s"}},
+    "handlers": {"console": {"class": "logging.StreamHandler", "formatter": "line"}},
+    # one handler, on the root: the named loggers below only set levels and propagate to it
+    "root": {"handlers": ["console"], "level": "WARNING"},
+    "loggers": {"django": {"level": "WARNING"}, "studyapp": {"level": _LOG_LEVEL},
+                "precompute": {"level": _LOG_LEVEL}},
 }
 
 # --- production -----------------------------------------------------------------

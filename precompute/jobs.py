@@ -10,6 +10,7 @@ computed.
 """
 from __future__ import annotations
 
+import logging
 import time
 from pathlib import Path
 
@@ -23,6 +24,8 @@ from teaching.build import Preset
 
 from . import work
 from .models import Job, Part
+
+log = logging.getLogger(__name__)
 from .tasks import publish_table, table_chunk
 
 
@@ -90,6 +93,8 @@ def launch(job: Job) -> Job:
         raise error from None
     Job.objects.filter(pk=job.pk).update(canvas_id=result.id or "")
     job.canvas_id = result.id or ""
+    log.info("precompute: job %s (%s) launched, attempt %d, %d of %d parts already done", job.pk, job.label,
+             job.attempts, stored, job.chunks_total)
     return job
 
 

@@ -102,6 +102,7 @@ def finish_job(job_id, result=None, result_path=""):
     Job.objects.filter(pk=job_id).update(status=Job.SUCCEEDED, finished_at=timezone.now(), error="",
                                          error_detail="", result=result or {}, result_path=result_path,
                                          chunks_done=F("chunks_total"))
+    log.info("precompute: job %s succeeded%s", job_id, f" -> {result_path}" if result_path else "")
 
 
 def fail_job(job_id, exc, detail="", where=""):
@@ -110,6 +111,7 @@ def fail_job(job_id, exc, detail="", where=""):
     Job = _job_model()
     Job.objects.filter(pk=job_id).update(status=Job.FAILED, finished_at=timezone.now(),
                                          error=f"{where}{type(exc).__name__}: {exc}", error_detail=detail)
+    log.warning("precompute: job %s failed: %s%s: %s", job_id, where, type(exc).__name__, exc)
 
 
 def _where(task_name, args) -> str:

@@ -10,6 +10,7 @@ platform id gets its own participant back and never a second condition.
 """
 from __future__ import annotations
 
+import logging
 import random
 import secrets
 
@@ -18,6 +19,8 @@ from django.db.models import Count, Q
 from django.utils import timezone
 
 from .models import Condition, Participant, Study
+
+logger = logging.getLogger(__name__)
 
 _rng = random.SystemRandom()
 
@@ -85,9 +88,13 @@ def assign(study: Study, platform: str = Participant.ANONYMOUS, pid: str = "", *
                 raise StudyClosed(locked.slug)
             condition = pick_condition(locked)
             session = ids.get("platform_session_id", "")
-            return Participant.objects.create(
+            participant = Participant.objects.create(
                 study=locked, condition=condition, platform=platform, platform_pid=pid,
                 option_orders=option_orders(locked), platform_session_ids=[session] if session else [], **ids)
+        # row ids only: platform ids are personal data and stay out of the logs
+        logger.info("assigned participant %s (%s) to condition %r of study %r", participant.pk, platform,
+                    condition.name, study.slug)
+        return participant
     except IntegrityError:
         # Another arrival with the same platform id won the race: return theirs.
         existing = find_returning(study, platform, pid)

@@ -8,12 +8,15 @@ exactly once (a repeated identical POST is a no-op that succeeds).
 """
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 from django.db import IntegrityError, transaction
 from django.utils import timezone
 
 from .models import Answer, Participant
+
+logger = logging.getLogger(__name__)
 
 ATTENTION_CHOICES = [
     ("merge", "Merge into the right lane"),
@@ -215,6 +218,9 @@ def record(participant: Participant, step_index: int, post) -> Participant:
             locked.completed_at = now
             locked.completion_code = locked.study.completion_code or locked.completion_code or _code()
         locked.save()
+        if locked.completed_at == now:
+            logger.info("participant %s completed study %r (condition %r%s)", locked.pk, locked.study.slug,
+                        locked.condition.name, ", excluded by the attention check" if locked.excluded else "")
         return locked
 
 

@@ -1,6 +1,7 @@
 """Participant views: entry link, the current step, answers, completion."""
 from __future__ import annotations
 
+from functools import wraps
 from urllib.parse import urlsplit
 
 from django.http import Http404, JsonResponse
@@ -39,12 +40,12 @@ def participant_page(view):
     """Participant pages may be framed by Mechanical Turk (ExternalQuestion HITs show them in an
     iframe) but by nobody else: no X-Frame-Options, a CSP frame-ancestors list instead, in a policy
     that also allows only this site's own scripts (PARTICIPANT_CSP)."""
+    @wraps(view)
     def wrapped(request, *args, **kwargs):
         response = view(request, *args, **kwargs)
         response["Content-Security-Policy"] = PARTICIPANT_CSP
         return response
 
-    wrapped.__name__, wrapped.__doc__ = view.__name__, view.__doc__
     return xframe_options_exempt(never_cache(wrapped))
 
 

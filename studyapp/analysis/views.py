@@ -20,8 +20,9 @@ import hashlib
 import logging
 
 from django.core.cache import cache
-from django.http import HttpResponse, HttpResponseNotModified
+from django.http import HttpResponse
 from django.shortcuts import get_object_or_404, render
+from django.utils.cache import get_conditional_response
 
 from ..access import researcher_required
 from ..models import Study
@@ -79,8 +80,10 @@ def report(request, slug):
     fp = D.fingerprint(study, incomplete)
     etag = '"' + hashlib.sha1(_key(study, fp, extra, incomplete).encode()).hexdigest()[:20] + '"'
     if request.GET.get("fragment") == "1":
-        if request.headers.get("If-None-Match") == etag:
-            return HttpResponseNotModified(headers={"ETag": etag})
+        # Django's If-None-Match handling (lists of tags, weak comparison, "*"): 304 when unchanged
+        not_modified = get_conditional_response(request, etag=etag)
+        if not_modified is not None:
+            return not_modified
         response = HttpResponse(render_report(study, extra, incomplete, fp))
         response["ETag"] = etag
         response["Cache-Control"] = "no-cache"
