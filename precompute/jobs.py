@@ -24,9 +24,9 @@ from teaching.build import Preset
 
 from . import work
 from .models import Job, Part
+from .tasks import publish_table, table_chunk
 
 log = logging.getLogger(__name__)
-from .tasks import publish_table, table_chunk
 
 
 class BrokerUnavailable(RuntimeError):

@@ -214,11 +214,12 @@ def record(participant: Participant, step_index: int, post) -> Participant:
         locked.last_seen_at = now
         if step.kind == "attention":
             locked.excluded = not data["passed"]
-        if steps[locked.position].kind == "done":
+        finished = steps[locked.position].kind == "done"
+        if finished:
             locked.completed_at = now
             locked.completion_code = locked.study.completion_code or locked.completion_code or _code()
         locked.save()
-        if locked.completed_at == now:
+        if finished:
             logger.info("participant %s completed study %r (condition %r%s)", locked.pk, locked.study.slug,
                         locked.condition.name, ", excluded by the attention check" if locked.excluded else "")
         return locked

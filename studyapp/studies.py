@@ -62,6 +62,18 @@ def _is_int(v) -> bool:
     return isinstance(v, int) and not isinstance(v, bool)
 
 
+def _check_slug(slug) -> None:
+    try:
+        validate_slug(slug or "")
+    except ValidationError:
+        raise SpecError(f"'slug' may hold only letters, digits, - and _, not {slug!r}") from None
+
+
+def _check_condition_names(names) -> None:
+    if not names or any(not n for n in names) or len(set(names)) != len(names):
+        raise SpecError("every condition needs a unique, non-empty 'name'")
+
+
 def check_spec_shape(spec) -> None:
     """The spec's JSON types, before anything reads it: a SpecError naming the first problem."""
     if not isinstance(spec, dict):
@@ -70,10 +82,7 @@ def check_spec_shape(spec) -> None:
     slug = spec.get("slug")
     if not isinstance(slug, str) or not slug:
         raise SpecError("spec needs a 'slug'")
-    try:
-        validate_slug(slug)
-    except ValidationError:
-        raise SpecError(f"'slug' may hold only letters, digits, - and _, not {slug!r}") from None
+    _check_slug(slug)
     conditions = spec.get("conditions")
     if not isinstance(conditions, list) or not conditions:
         raise SpecError("spec needs a non-empty 'conditions' list")
@@ -158,11 +167,9 @@ def _load_table(spec: dict):
 
 
 def _payloads(spec: dict):
-    check_spec_shape(spec)
+    """Training and test payloads of a spec that passed check_spec_shape."""
     conditions = spec["conditions"]
-    names = [c.get("name") for c in conditions]
-    if any(not n for n in names) or len(set(names)) != len(names):
-        raise SpecError("every condition needs a unique, non-empty 'name'")
+    _check_condition_names([c.get("name") for c in conditions])  # before any table is read
     for c in conditions:
         if not c.get("env_ids"):
             raise SpecError(f"condition {c['name']!r} needs a non-empty 'env_ids' list")
@@ -200,12 +207,8 @@ def new_study(*, slug: str, conditions: list[str], source: dict, name: str | Non
     Refuses a bad slug, duplicate condition names, an existing study unless `replace`, and
     replacing a study that has participants.
     """
-    try:
-        validate_slug(slug or "")
-    except ValidationError:
-        raise SpecError(f"'slug' may hold only letters, digits, - and _, not {slug!r}") from None
-    if not conditions or any(not c for c in conditions) or len(set(conditions)) != len(conditions):
-        raise SpecError("every condition needs a unique, non-empty 'name'")
+    _check_slug(slug)
+    _check_condition_names(conditions)
     if fields.get("recruitment", Study.LINK) not in dict(Study.RECRUITMENTS):
         raise SpecError(f"'recruitment' must be one of {', '.join(dict(Study.RECRUITMENTS))}")
     with transaction.atomic():
@@ -229,12 +232,17 @@ def _refuse_if_started(study: Study) -> None:
 
 
 def freeze_condition(condition: Condition, training: list[dict], target: int | None = None) -> None:
-    """Store a condition's training examples (with the trajectories to draw them)."""
+    """Store a condition's training examples (with the trajectories to draw them), and its own
+    target of participants if one is given (else the study's target_per_condition applies)."""
     _refuse_if_started(condition.study)
     if not training:
         raise SpecError(f"condition {condition.name!r} needs at least one training example")
-    condition.training, condition.target = training, target
-    condition.save(update_fields=["training", "target"])
+    condition.training = training
+    fields = ["training"]
+    if target is not None:
+        condition.target = target
+        fields.append("target")
+    condition.save(update_fields=fields)
 
 
 def freeze_test_set(study: Study, tests: list[dict], open_study: bool = True) -> None:
@@ -282,9 +290,9 @@ def build_study(spec: dict, replace: bool = False) -> Study:
                           completion_code=spec.get("completion_code", ""),
                           recruitment=spec.get("recruitment", Study.LINK),
                           **{k: spec[k] for k in TEXT_FIELDS if k in spec})
+        targets = {c["name"]: c.get("target") for c in conditions}
         for c in study.conditions.all():
-            spec_c = next(x for x in conditions if x["name"] == c.name)
-            freeze_condition(c, training[c.name], spec_c.get("target"))
+            freeze_condition(c, training[c.name], targets[c.name])
         freeze_test_set(study, tests, open_study=spec.get("is_open", True))
     return study
 

@@ -58,7 +58,7 @@ class Command(BaseCommand):
                 if not data.get("slug"):
                     raise SpecError("the study needs a slug: give --slug NAME (letters, digits, - and _)")
             study = build_study(data, replace=replace)
-        except (SpecError, ValueError) as exc:  # SpecError is one; the trajectory builders raise ValueError
+        except ValueError as exc:  # SpecError, and the ValueErrors of the trajectory builders
             raise CommandError(str(exc)) from None
         names = ", ".join(c.name for c in study.conditions.all())
         self.stdout.write(f"study {study.slug}: {study.conditions.count()} conditions ({names}), "
