@@ -359,7 +359,7 @@ def demo_spec(table_path=None, log=lambda msg: None) -> dict:
             from teaching.testset import select_test_set
 
             table = TrajectoryTable.load(table_path)
-            sequences = build_sequences(table, 0)
+            sequences = build_sequences(table, seed=0)
             spec.update(table=str(table_path), conditions=[{"name": n, "env_ids": [int(e) for e in ids]}
                                                           for n, ids in sequences.items()],
                         test_set=select_test_set(table, list(sequences.values()), 0))

@@ -195,6 +195,23 @@ def make_model(name: str, value: float | None = None) -> LearnerModel:
     return _REGISTRY[name](value)
 
 
+def parse_hyperparameters(items) -> dict[str, float]:
+    """{model name: τ or λ} from "MODEL=VALUE" strings (a command line's repeated --hyper), each
+    checked by make_model.  Raises ValueError with a one-line message naming the bad item."""
+    out = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep:
+            raise ValueError(f"--hyper expects MODEL=VALUE, got {item!r}")
+        try:
+            v = float(value)
+        except ValueError:
+            raise ValueError(f"--hyper {item!r}: {value!r} is not a number") from None
+        make_model(name, v)
+        out[name] = v
+    return out
+
+
 def has_hyperparameter(model: LearnerModel) -> bool:
     """False for exact IRL and the strategy models (their distance is 0 or ∞, so τ/λ do nothing)."""
     return model.param is not None and getattr(model, "metric", None) != "strategy"

@@ -28,6 +28,25 @@ RANDOM_DRAWS, RANDOM_LENGTH = 1000, 8
 IMPROVEMENT_RTOL = 1e-6
 CONDITIONS = ("exact", "det-reward", "det-euclidean", "det-strategy", "prob-reward", "prob-euclidean",
               "random", "coverage-approx*", "coverage-random")
+# approx*: the model coverage-approx* augments (and coverage-random is scored under).  The paper
+# uses its best approximate learner, det-euclidean; every default in the project names this one.
+APPROX_STAR = "det-euclidean"
+
+
+@dataclass(frozen=True)
+class SelectionSettings:
+    """How the selectors search, shared by every condition of one run: the τ / λ grid the
+    hyperparameter rule sweeps, the coverage gain threshold ε, the longest sequence, and whether
+    an example may be shown twice.  One object instead of four parameters threaded through
+    teach -> fitted_model -> sweep -> greedy / coverage_augmented."""
+
+    grid: tuple[float, ...] = GRID
+    epsilon: float = COVERAGE_EPSILON
+    max_examples: int = MAX_EXAMPLES
+    allow_repeats: bool = True
+
+
+DEFAULT_SETTINGS = SelectionSettings()
 
 
 @dataclass
@@ -63,8 +82,8 @@ def _candidate_p(lik: np.ndarray, w: np.ndarray) -> np.ndarray:
         return np.where(score > 0, num / score, 0.0)
 
 
-def greedy(lik: np.ndarray, max_examples: int = MAX_EXAMPLES, allow_repeats: bool = True,
-           stop_gain: float = 0.0, *, eligible: np.ndarray | None = None) -> tuple[Sequence, np.ndarray]:
+def greedy(lik: np.ndarray, *, max_examples: int = MAX_EXAMPLES, allow_repeats: bool = True,
+           stop_gain: float = 0.0, eligible: np.ndarray | None = None) -> tuple[Sequence, np.ndarray]:
     """Greedy maximisation of P(θ* | ξ_{E_1:t}) (paper, "(Submodular) Example Selection").
 
     lik: (M, N) float32.  Adds the environment with the highest resulting
@@ -98,7 +117,7 @@ def greedy(lik: np.ndarray, max_examples: int = MAX_EXAMPLES, allow_repeats: boo
     return seq, w
 
 
-def coverage_augmented(lik: np.ndarray, clusters: np.ndarray, epsilon: float = COVERAGE_EPSILON,
+def coverage_augmented(lik: np.ndarray, clusters: np.ndarray, *, epsilon: float = COVERAGE_EPSILON,
                        max_examples: int = MAX_EXAMPLES, allow_repeats: bool = True) -> Sequence:
     """Greedy until the gain drops below ε, then one example per strategy cluster not yet shown.
 
@@ -110,7 +129,8 @@ def coverage_augmented(lik: np.ndarray, clusters: np.ndarray, epsilon: float = C
     never shown.
     """
     eligible = clusters < N_CLUSTERS
-    seq, w = greedy(lik, max_examples, allow_repeats, stop_gain=epsilon, eligible=eligible)
+    seq, w = greedy(lik, max_examples=max_examples, allow_repeats=allow_repeats, stop_gain=epsilon,
+                    eligible=eligible)
     missing = set(np.unique(clusters[eligible]).tolist()) - set(clusters[seq.envs].tolist())
     while missing:
         p = _candidate_p(lik, w)
@@ -137,15 +157,26 @@ class SweepRow:
         return p[-1] - p[0] if p else 0.0
 
 
-def sweep(model: LearnerModel, dist: Distances, grid=GRID, max_examples: int = MAX_EXAMPLES,
-          allow_repeats: bool = True, buffer: np.ndarray | None = None) -> list[SweepRow]:
-    """Greedy sequences of ``model`` for every τ / λ in ``grid`` (showable environments only)."""
+def sweep(model: LearnerModel, dist: Distances, settings: SelectionSettings = DEFAULT_SETTINGS, *,
+          buffer: np.ndarray | None = None) -> list[SweepRow]:
+    """Greedy sequences of ``model`` for every τ / λ in ``settings.grid`` (showable environments only).
+    buffer: an (M, N) float32 array to reuse for each likelihood matrix."""
     rows = []
     eligible = showable(dist.table)
-    for value in grid:
+    for value in settings.grid:
         lik = model.with_value(value).likelihood(dist, out=buffer)
-        rows.append(SweepRow(float(value), greedy(lik, max_examples, allow_repeats, eligible=eligible)[0]))
+        rows.append(SweepRow(float(value), _greedy(lik, settings, eligible)))
     return rows
+
+
+def _greedy(lik: np.ndarray, settings: SelectionSettings, eligible: np.ndarray) -> Sequence:
+    return greedy(lik, max_examples=settings.max_examples, allow_repeats=settings.allow_repeats,
+                  eligible=eligible)[0]
+
+
+def _coverage(lik: np.ndarray, table, settings: SelectionSettings) -> Sequence:
+    return coverage_augmented(lik, theta_star_clusters(table), epsilon=settings.epsilon,
+                              max_examples=settings.max_examples, allow_repeats=settings.allow_repeats)
 
 
 def choose_hyperparameter(rows: list[SweepRow], min_rise: float = MIN_RISE) -> tuple[float, bool]:
@@ -208,15 +239,15 @@ class TeachingResult:
     random_p: np.ndarray  # exact-IRL P(θ*) of the 1000 random draws
 
 
-def fitted_model(name: str, dist: Distances, hyperparameters: dict, grid=GRID, max_examples: int = MAX_EXAMPLES,
-                 allow_repeats: bool = True, buffer=None):
+def fitted_model(name: str, dist: Distances, hyperparameters: dict, settings: SelectionSettings = DEFAULT_SETTINGS,
+                 *, buffer=None):
     """The learner model `name` with its τ / λ: the value in `hyperparameters`, else the
     paper's sweep rule.  Returns (model, sweep rows, rule met); the last two are None
     when nothing was swept."""
     model = make_model(name, hyperparameters.get(name))
     if not has_hyperparameter(model) or name in hyperparameters:
         return model, None, None
-    rows = sweep(model, dist, grid, max_examples, allow_repeats, buffer)
+    rows = sweep(model, dist, settings, buffer=buffer)
     value, met = choose_hyperparameter(rows)
     return model.with_value(value), rows, met
 
@@ -229,9 +260,9 @@ def random_draws(table, dist: Distances, seed: int):
     return envs, coverage_random(theta_star_clusters(table), rng), random_p
 
 
-def condition_sequence(table, name: str, seed: int = 0, approx_star: str = "det-euclidean",
-                       hyperparameters: dict | None = None, grid=GRID, epsilon: float = COVERAGE_EPSILON,
-                       max_examples: int = MAX_EXAMPLES, allow_repeats: bool = True, dist: Distances | None = None):
+def condition_sequence(table, name: str, *, seed: int = 0, approx_star: str = APPROX_STAR,
+                       hyperparameters: dict | None = None, settings: SelectionSettings = DEFAULT_SETTINGS,
+                       dist: Distances | None = None):
     """One condition's sequence on its own (the unit of a worker's task): the same result as
     ``teach(...).sequences[name]``.  Returns (Sequence, its model, rule met or None)."""
     if name not in CONDITIONS:
@@ -241,7 +272,7 @@ def condition_sequence(table, name: str, seed: int = 0, approx_star: str = "det-
     buffer = np.empty(dist.shape, np.float32)
 
     def fit(model_name):
-        return fitted_model(model_name, dist, hyperparameters, grid, max_examples, allow_repeats, buffer)
+        return fitted_model(model_name, dist, hyperparameters, settings, buffer=buffer)
 
     if name in ("random", "coverage-random"):
         random_envs, coverage_envs, _ = random_draws(table, dist, seed)
@@ -250,17 +281,18 @@ def condition_sequence(table, name: str, seed: int = 0, approx_star: str = "det-
     model, _, met = fit(approx_star if name == "coverage-approx*" else name)
     lik = model.likelihood(dist, out=buffer)
     if name == "coverage-approx*":
-        return coverage_augmented(lik, theta_star_clusters(table), epsilon, max_examples, allow_repeats), model, met
-    return greedy(lik, max_examples, allow_repeats, eligible=showable(table))[0], model, met
+        return _coverage(lik, table, settings), model, met
+    return _greedy(lik, settings, showable(table)), model, met
 
 
-def teach(table, seed: int = 0, approx_star: str = "det-euclidean", hyperparameters: dict | None = None,
-          grid=GRID, epsilon: float = COVERAGE_EPSILON, max_examples: int = MAX_EXAMPLES,
-          allow_repeats: bool = True, progress: bool = False, dist: Distances | None = None) -> TeachingResult:
+def teach(table, *, seed: int = 0, approx_star: str = APPROX_STAR, hyperparameters: dict | None = None,
+          settings: SelectionSettings = DEFAULT_SETTINGS, progress: bool = False,
+          dist: Distances | None = None) -> TeachingResult:
     """Run every selector on ``table``: hyperparameter sweeps, the 7 model sequences,
     random, coverage-approx* and coverage-random.  Seeded and deterministic.
 
-    hyperparameters: {model name: τ or λ} fixes a value instead of sweeping.  Each model is
+    hyperparameters: {model name: τ or λ} fixes a value instead of sweeping.  settings: the
+    sweep grid, ε, the longest sequence and repeats (:class:`SelectionSettings`).  Each model is
     swept once and the random stream drawn once, so this is cheaper than calling
     :func:`condition_sequence` per condition, with the same results.
     """
@@ -277,15 +309,14 @@ def teach(table, seed: int = 0, approx_star: str = "det-euclidean", hyperparamet
     eligible = showable(table)
     bar = tqdm(total=len(names) + 1, desc="teaching", disable=not progress)
     for name in names:
-        model, rows, met = fitted_model(name, dist, hyperparameters, grid, max_examples, allow_repeats, buffer)
+        model, rows, met = fitted_model(name, dist, hyperparameters, settings, buffer=buffer)
         if rows is not None:
             sweeps[name], rule_met[name] = rows, met
         models[name] = model
         lik = model.likelihood(dist, out=buffer)
-        sequences[name] = greedy(lik, max_examples, allow_repeats, eligible=eligible)[0]
+        sequences[name] = _greedy(lik, settings, eligible)
         if name == approx_star:
-            sequences["coverage-approx*"] = coverage_augmented(
-                lik, theta_star_clusters(table), epsilon, max_examples, allow_repeats)
+            sequences["coverage-approx*"] = _coverage(lik, table, settings)
         bar.update()
     random_envs, coverage_envs, random_p = random_draws(table, dist, seed)
     sequences["random"] = _evaluated(random_envs, models["exact"], dist)
@@ -299,11 +330,11 @@ def _evaluated(envs: list[int], model, dist) -> Sequence:
     return Sequence(envs=list(envs), p=p_curve(model, dist, envs).tolist(), prior=1.0 / dist.shape[1])
 
 
-def build_sequences(table, seed: int = 0, approx_star: str = "det-euclidean", **kwargs) -> dict[str, list[int]]:
+def build_sequences(table, *, seed: int = 0, approx_star: str = APPROX_STAR, **kwargs) -> dict[str, list[int]]:
     """The study's conditions (CONDITIONS) -> environment *ids* in the order to show.
 
-    approx_star: the model that coverage-approx* augments (the paper's best,
-    det-euclidean, by default).  Other keyword arguments go to :func:`teach`.
+    approx_star: the model that coverage-approx* augments (APPROX_STAR, the paper's
+    best, by default).  Other keyword arguments go to :func:`teach`.
     """
     result = teach(table, seed=seed, approx_star=approx_star, **kwargs)
     ids = np.asarray(table.env_ids)

@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 
 from .evaluation import SEQUENCE_NAMES, USER_NAMES, examples_per_cluster, ideal_user_matrix
-from .learners import Distances, make_model, model_names
-from .selection import CONDITIONS, COVERAGE_EPSILON, teach, theta_star_clusters
+from .learners import Distances, model_names, parse_hyperparameters
+from .selection import APPROX_STAR, CONDITIONS, COVERAGE_EPSILON, SelectionSettings, teach, theta_star_clusters
 from .table import TableError, TrajectoryTable
 from .testset import MIN_OPTION_DISTANCE, MIN_REGRET, TestSetError, select_test_set
 from .world import THETA_STAR
@@ -41,7 +41,7 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--table", required=True, help="trajectory table directory")
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--approx-star", default="det-euclidean", help="model that coverage-approx* augments")
+    p.add_argument("--approx-star", default=APPROX_STAR, help="model that coverage-approx* augments")
     p.add_argument("--hyper", action="append", default=[], metavar="MODEL=VALUE",
                    help="fix τ or λ of a model instead of sweeping (repeatable)")
     p.add_argument("--epsilon", type=float, default=COVERAGE_EPSILON, help="coverage gain threshold ε")
@@ -52,21 +52,11 @@ def parse_args(argv=None) -> argparse.Namespace:
 
 
 def parse_hyper(items: list[str]) -> dict[str, float]:
-    out = {}
-    for item in items:
-        name, sep, value = item.partition("=")
-        if not sep:
-            raise InputError(f"--hyper expects MODEL=VALUE, got {item!r}")
-        try:
-            v = float(value)
-        except ValueError:
-            raise InputError(f"--hyper {item!r}: {value!r} is not a number") from None
-        try:
-            make_model(name, v)
-        except ValueError as exc:
-            raise InputError(str(exc)) from None
-        out[name] = v
-    return out
+    """--hyper MODEL=VALUE items (teaching.learners.parse_hyperparameters), bad ones as InputError."""
+    try:
+        return parse_hyperparameters(items)
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
 
 
 def check_table(table) -> None:
@@ -98,7 +88,7 @@ def run(args) -> dict:
 
     dist = Distances(table)
     result = teach(table, seed=args.seed, approx_star=args.approx_star, hyperparameters=hyper,
-                   epsilon=args.epsilon, progress=not args.no_progress, dist=dist)
+                   settings=SelectionSettings(epsilon=args.epsilon), progress=not args.no_progress, dist=dist)
     ids = np.asarray(table.env_ids)
     envs = {k: s.envs for k, s in result.sequences.items()}
     seq_json = {
