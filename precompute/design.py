@@ -13,8 +13,7 @@ from django import forms
 from django.conf import settings
 
 from studyapp.models import Study
-from teaching.learners import MODEL_NAMES
-from teaching.selection import CONDITIONS
+from teaching.api import APPROX_STAR, CONDITIONS, MODEL_NAMES
 
 
 def tables_dir() -> Path:
@@ -54,7 +53,7 @@ class StudyDesignForm(forms.Form):
     recruitment = forms.ChoiceField(choices=Study.RECRUITMENTS, initial=Study.LINK)
     completion_code = forms.CharField(max_length=64, required=False,
                                       help_text="Prolific's completion code (required for Prolific).")
-    approx_star = forms.ChoiceField(choices=[(m, m) for m in MODEL_NAMES], initial="det-euclidean",
+    approx_star = forms.ChoiceField(choices=[(m, m) for m in MODEL_NAMES], initial=APPROX_STAR,
                                     label="approx* (the model coverage-approx* augments)")
     seed = forms.IntegerField(min_value=0, initial=0, help_text="Seeds the random conditions and the test set.")
 

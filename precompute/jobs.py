@@ -1,8 +1,5 @@
-"""Creating and (re)launching jobs as Celery canvases.
-
-Table: ``chord([table_chunk × n_chunks], publish_table)``.  Study:
-``chord([study_condition × n_conditions], study_finish)`` (the test set must
-avoid every training environment, so it comes after the conditions).
+"""Creating table jobs, (re)launching any job as its Celery canvas (precompute/canvases.py),
+and waiting for one.
 
 Re-launching a job (retry) sends the whole canvas again: chunks already
 stored are skipped in a few milliseconds each, so only the missing ones are
@@ -14,39 +11,23 @@ import logging
 import time
 from pathlib import Path
 
-from celery import Signature, chord
 from kombu.exceptions import OperationalError
 from kombu.utils.url import maybe_sanitize_url
-from django.conf import settings
 from django.utils import timezone
+from tqdm import tqdm
 
-from teaching.build import Preset
+from teaching.api import Preset
 
 from . import work
+from .canvases import default_queue, study_canvas, table_canvas
 from .models import Job, Part
-from .tasks import publish_table, table_chunk
+from .tasks import fail_job
 
 log = logging.getLogger(__name__)
 
 
 class BrokerUnavailable(RuntimeError):
     """The canvas could not be sent: the broker is down or misconfigured."""
-
-
-def default_queue() -> str:
-    return getattr(settings, "PRECOMPUTE_QUEUE", None) or "celery"
-
-
-def table_canvas(job_id, spec, queue=None, app=None):
-    """chord(one table_chunk per chunk, publish_table).  `app`: send through another Celery
-    app (e.g. one pointed at another broker) than the project's."""
-    queue = queue or default_queue()
-
-    def sig(task, *args):
-        return Signature(task.name, args=args, immutable=True, options={"queue": queue}, app=app or task.app)
-
-    header = [sig(table_chunk, job_id, spec, i, ids) for i, ids in enumerate(work.chunk_ids(spec))]
-    return chord(header, sig(publish_table, job_id, spec), app=app or table_chunk.app)
 
 
 def create_table_job(preset: Preset, out, queue=None, start: bool = True) -> Job:
@@ -68,8 +49,6 @@ def launch(job: Job) -> Job:
         spec = work.table_spec(Preset(**job.params["preset"]), job.params["out"])
         canvas = table_canvas(job.pk, spec, queue)
     else:
-        from .study import study_canvas
-
         canvas = study_canvas(job, queue)
     # Parts recorded by earlier launches stay counted; a chunk stored without its Part row
     # (another job built it, or a worker died between storing and recording) is counted
@@ -84,8 +63,6 @@ def launch(job: Job) -> Job:
     try:
         result = canvas.apply_async()
     except OperationalError as exc:  # the broker is unreachable: say so on the job and to the caller
-        from .tasks import fail_job
-
         url = maybe_sanitize_url(canvas.app.conf.broker_url)
         error = BrokerUnavailable(f"cannot send job {job.pk} to the broker at {url}: {exc}")
         fail_job(job.pk, error)
@@ -124,8 +101,6 @@ def progress_text(job: Job) -> str:
 def wait(job: Job, progress: bool = True, poll: float = 0.5, timeout: float | None = None, stream=None,
          hint_after: float = 20.0) -> Job:
     """Block until the job finishes, with a tqdm bar: chunks done / total, trajectories/s, ETA."""
-    from tqdm import tqdm
-
     start = time.monotonic()
     job.refresh_from_db()
     unit = "chunk" if job.kind == Job.TABLE else "part"
@@ -153,4 +128,4 @@ def wait(job: Job, progress: bool = True, poll: float = 0.5, timeout: float | No
         bar.close()
 
 
-__all__ = ["create_table_job", "launch", "retry", "wait", "table_canvas", "Part"]
+__all__ = ["create_table_job", "launch", "retry", "wait", "default_queue", "table_canvas", "Part"]

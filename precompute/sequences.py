@@ -8,8 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from teaching.learners import has_hyperparameter
-from teaching.selection import condition_sequence as select
+from teaching.api import condition_sequence as select, has_hyperparameter
 
 
 def condition_sequence(table, name: str, **kwargs) -> dict:

@@ -13,45 +13,27 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from celery import Signature, chord
 from django.db import transaction
 
 from studyapp.studies import SpecError, new_study
-from teaching.learners import make_model
-from teaching.selection import CONDITIONS
-from teaching.table import TrajectoryTable
+from teaching.api import APPROX_STAR, CONDITIONS, TrajectoryTable, make_model
 
+from .jobs import launch
 from .models import Job
-from .tasks import study_condition, study_finish
 
 
 class StudyJobError(ValueError):
     """Bad input for a study job: reported in one line by the command."""
 
 
-def study_canvas(job: Job, queue=None):
-    from .jobs import default_queue
-
-    queue = queue or default_queue()
-    params = job.params
-
-    def sig(task, *args):
-        return Signature(task.name, args=args, immutable=True, options={"queue": queue}, app=task.app)
-
-    header = [sig(study_condition, job.pk, params, name, i) for i, name in enumerate(params["conditions"])]
-    return chord(header, sig(study_finish, job.pk, params), app=study_condition.app)
-
-
 def create_study_job(table_path, slug: str, name: str | None = None, seed: int = 0,
-                     approx_star: str = "det-euclidean", hyperparameters: dict | None = None,
+                     approx_star: str = APPROX_STAR, hyperparameters: dict | None = None,
                      conditions=None, open_when_done: bool = True, replace: bool = False,
                      target_per_condition: int = 30, queue=None, start: bool = True, **study_fields) -> Job:
     """A job that selects every condition's sequence and the test set on `table_path`.
 
     `study_fields`: completion_code, recruitment and the consent page's texts (studyapp's new_study).
     """
-    from .jobs import launch
-
     table_path = Path(table_path).resolve()
     table = TrajectoryTable.load(table_path)  # TableError: missing, altered, other world constants
     conditions = list(conditions or CONDITIONS)

@@ -26,13 +26,21 @@ import os
 import time
 import traceback
 
+import numba
 from celery import Task, shared_task
 from celery.signals import worker_init, worker_process_init
 from django.db import transaction
 from django.db.models import F
 from django.utils import timezone
 
+from studyapp.models import Condition, Study
+from studyapp.studies import freeze_condition, freeze_test_set
+from studyapp.trajectories import test_set_from_table, training_from_table
+from teaching.api import TrajectoryTable, select_test_set
+
 from . import work
+from .models import Job, Part
+from .sequences import condition_sequence
 
 log = logging.getLogger(__name__)
 
@@ -56,31 +64,21 @@ def _share_cores(sender=None, **_):
 @worker_process_init.connect
 def _limit_numba_threads(**_):
     """In each prefork child: start Numba's own thread pool with PRECOMPUTE_THREADS threads."""
-    import numba
-
     numba.set_num_threads(min(numba_threads(), numba.config.NUMBA_NUM_THREADS))
     log.info("precompute: worker process %d plans with %d Numba thread(s), threading layer %s",
              os.getpid(), numba.get_num_threads(), numba.threading_layer())
 
 
-def _job_model():
-    from .models import Job
-
-    return Job
-
-
 def mark_running(job_id):
     if job_id is None:
         return
-    _job_model().objects.filter(pk=job_id, status=_job_model().PENDING).update(status=_job_model().RUNNING)
+    Job.objects.filter(pk=job_id, status=Job.PENDING).update(status=Job.RUNNING)
 
 
 def record_part(job_id, key, index, computed, seconds=0.0, items=0, result=None):
     """Count one finished unit of the job, once per key (re-deliveries do not count twice)."""
     if job_id is None:
         return
-    from .models import Job, Part
-
     with transaction.atomic():
         if not Job.objects.filter(pk=job_id).exists():
             return
@@ -98,7 +96,6 @@ def record_part(job_id, key, index, computed, seconds=0.0, items=0, result=None)
 def finish_job(job_id, result=None, result_path=""):
     if job_id is None:
         return
-    Job = _job_model()
     Job.objects.filter(pk=job_id).update(status=Job.SUCCEEDED, finished_at=timezone.now(), error="",
                                          error_detail="", result=result or {}, result_path=result_path,
                                          chunks_done=F("chunks_total"))
@@ -108,7 +105,6 @@ def finish_job(job_id, result=None, result_path=""):
 def fail_job(job_id, exc, detail="", where=""):
     if job_id is None:
         return
-    Job = _job_model()
     Job.objects.filter(pk=job_id).update(status=Job.FAILED, finished_at=timezone.now(),
                                          error=f"{where}{type(exc).__name__}: {exc}", error_detail=detail)
     log.warning("precompute: job %s failed: %s%s: %s", job_id, where, type(exc).__name__, exc)
@@ -147,8 +143,6 @@ class JobTask(Task):
 @shared_task(base=JobTask, bind=True, name="precompute.table_chunk")
 def table_chunk(self, job_id, spec, index, env_ids):
     """One chunk of environments, all thetas (the cross-theta step stays inside the chunk)."""
-    import numba
-
     numba.set_num_threads(min(numba_threads(), numba.config.NUMBA_NUM_THREADS))
     mark_running(job_id)
     res = work.compute_chunk(spec, env_ids)
@@ -166,21 +160,12 @@ def publish_table(self, job_id, spec):
 
 # --- study sequences -----------------------------------------------------------------
 def _table(path):
-    from teaching.table import TrajectoryTable
-
     return TrajectoryTable.load(path)
 
 
 @shared_task(base=JobTask, bind=True, name="precompute.study_condition")
 def study_condition(self, job_id, params, name, index):
     """One condition: its teaching sequence, frozen on the study's Condition (training JSON)."""
-    from studyapp.models import Condition
-    from studyapp.studies import freeze_condition
-    from studyapp.trajectories import training_from_table
-
-    from .models import Part
-    from .sequences import condition_sequence
-
     mark_running(job_id)
     condition = Condition.objects.get(study_id=params["study_id"], name=name)
     if condition.training and Part.objects.filter(job_id=job_id, key=name).exists():
@@ -197,13 +182,6 @@ def study_condition(self, job_id, params, name, index):
 @shared_task(base=JobTask, bind=True, name="precompute.study_finish")
 def study_finish(self, job_id, params):
     """Chord callback: the test set (disjoint from every condition's training), then open the study."""
-    from studyapp.models import Study
-    from studyapp.studies import freeze_test_set
-    from studyapp.trajectories import test_set_from_table
-    from teaching.testset import select_test_set
-
-    from .models import Part
-
     study = Study.objects.get(pk=params["study_id"])
     conditions = list(study.conditions.all())
     empty = [c.name for c in conditions if not c.training]

@@ -13,7 +13,7 @@ from django.utils import timezone
 from django.views.decorators.http import require_POST
 
 from studyapp.access import researcher_required
-from teaching.table import TableError
+from teaching.api import TableError
 
 from . import jobs
 from .design import StudyDesignForm, built_tables, tables_dir

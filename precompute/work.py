@@ -3,8 +3,8 @@
 A table job is described by a JSON-able *spec* (preset fields, output
 directory, normalisers and the table identity computed by the launcher).
 Every worker recomputes the thetas from (n, sampler, seed) and checks that
-its identity matches the launcher's and that it runs the same planner code
-(a hash of the teaching modules it loaded), so a machine with other world
+its identity matches the launcher's and that it runs the same teaching code
+(a hash of every module of the package), so a machine with other world
 constants, another numpy or another commit cannot add chunks to the table.
 
 Chunk files are content-addressed (``<out>/chunks/<key>.npz``, key = hash of
@@ -19,7 +19,6 @@ nothing stored was ever computed twice.
 from __future__ import annotations
 
 import fcntl
-import hashlib
 import json
 import os
 import socket
@@ -30,30 +29,14 @@ from pathlib import Path
 
 import numpy as np
 
-from teaching import build
-from teaching.build import Preset, assemble, build_chunk, chunk_key, chunk_path, chunks_of, table_identity
-from teaching.features import default_normalisers
-from teaching.table import TableError, TrajectoryTable
+from teaching import api
+from teaching.api import (Preset, TableError, TrajectoryTable, assemble, build_chunk, chunk_key, chunk_path, chunks_of,
+                          code_fingerprint, default_normalisers, table_identity)
 
-
-# The modules whose code decides a chunk's bytes.  Their source is hashed once, when this
-# module is imported (i.e. the code this process actually runs), and every task checks it
-# against the launcher's: machines on different commits refuse instead of mixing chunks.
-PLANNER_MODULES = ("build", "candidates", "dynamics", "environments", "features", "kernels", "planner",
-                   "strategies", "table", "world")
-
-
-def _code_fingerprint() -> str:
-    import teaching
-
-    h = hashlib.sha256()
-    root = Path(teaching.__file__).resolve().parent
-    for name in PLANNER_MODULES:
-        h.update(name.encode() + b"\0" + (root / f"{name}.py").read_bytes())
-    return h.hexdigest()[:16]
-
-
-CODE_FINGERPRINT = _code_fingerprint()
+# Every teaching module's source, hashed once when this module is imported (i.e. the code this
+# process actually runs); every task checks it against the launcher's, so machines on different
+# commits refuse instead of mixing chunks.
+CODE_FINGERPRINT = code_fingerprint()
 
 
 class ChunkError(RuntimeError):
@@ -77,7 +60,7 @@ def preset_of(spec: dict) -> Preset:
 
 def check_writable(out: Path) -> None:
     try:
-        build.check_writable(out)
+        api.check_writable(out)
     except TableError as exc:  # a task error, not a table error, to the job page
         raise ChunkError(str(exc)) from None
 

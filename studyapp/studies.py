@@ -36,7 +36,8 @@ from django.core.exceptions import ValidationError
 from django.core.validators import validate_slug
 from django.db import transaction
 
-from teaching.selection import CONDITIONS
+from teaching.api import (CONDITIONS, TableError, TrajectoryTable, build_sequences, select_test_set,
+                          stratified_sample)
 
 from . import trajectories
 from .models import Condition, Study
@@ -149,8 +150,6 @@ def spec_from_teach(teach_dir, table=None) -> dict:
 
 
 def _load_table(spec: dict):
-    from teaching.table import TableError, TrajectoryTable
-
     try:
         table = TrajectoryTable.load(spec["table"])
     except (TableError, OSError, ValueError) as exc:
@@ -305,8 +304,6 @@ def placeholder_sequences(seed: int = 0) -> dict[str, list[int]]:
     using the placeholder trajectories' clusters; the others are random
     stratified draws of the lengths the paper's algorithms typically select.
     """
-    from teaching.environments import stratified_sample
-
     rng = np.random.default_rng(seed)
     pool = stratified_sample(400, seed=seed)
     clusters = {int(e): trajectories.placeholder_training([int(e)])[0]["cluster"] for e in pool}
@@ -354,17 +351,13 @@ def demo_spec(table_path=None, log=lambda msg: None) -> dict:
     table_path = demo_table_path(table_path)
     if (table_path / "meta.json").exists():
         try:
-            from teaching.selection import build_sequences
-            from teaching.table import TrajectoryTable
-            from teaching.testset import select_test_set
-
             table = TrajectoryTable.load(table_path)
             sequences = build_sequences(table, seed=0)
             spec.update(table=str(table_path), conditions=[{"name": n, "env_ids": [int(e) for e in ids]}
                                                           for n, ids in sequences.items()],
                         test_set=select_test_set(table, list(sequences.values()), 0))
             return spec
-        except (ImportError, ValueError) as exc:  # TableError and TestSetError are ValueErrors
+        except ValueError as exc:  # TableError and TestSetError are ValueErrors
             log(f"cannot use the table at {table_path} ({exc}); using PLACEHOLDER trajectories")
     else:
         log(f"no trajectory table at {table_path}; using PLACEHOLDER trajectories "

@@ -29,9 +29,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from teaching.environments import CLASS_NAMES, get_environments, other_car_states
-from teaching.strategies import CLUSTER_NAMES, strategy_labels
-from teaching.world import GOAL_NAMES, WORLD
+from teaching.api import (CLASS_NAMES, CLUSTER_NAMES, GOAL_NAMES, WORLD, environment_class, get_environments,
+                          other_car_states, strategy_labels)
 
 DECIMALS = 3
 
@@ -198,8 +197,6 @@ def placeholder_test_set(exclude=(), seed: int = 0) -> list[dict]:
     from the other cluster of the class.  theta_index is None for the
     synthesised alternatives (they come from no theta).
     """
-    from teaching.environments import environment_class
-
     rng = np.random.default_rng(seed)
     all_envs = get_environments()
     cls = environment_class(all_envs)

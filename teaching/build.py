@@ -28,6 +28,30 @@ from .table import TableError, TrajectoryTable
 from .world import THETA_STAR, WORLD, world_fingerprint
 
 
+PACKAGE_DIR = Path(__file__).resolve().parent
+
+
+def source_files(root: Path = PACKAGE_DIR) -> list[Path]:
+    """Every module (.py file) under `root`, the teaching package by default, sorted by relative path."""
+    root = Path(root)
+    # hidden names are editors' lock and swap files, never modules
+    files = (p for p in root.rglob("*.py") if "__pycache__" not in p.parts and not p.name.startswith("."))
+    return sorted(files, key=lambda p: p.relative_to(root).as_posix())
+
+
+def code_fingerprint(root: Path = PACKAGE_DIR) -> str:
+    """16 hex digits of sha256 over every module of the package (relative path and source).
+
+    The whole package, not a hand-kept list of the modules that decide a chunk's bytes: a
+    module added later is covered without anyone remembering to list it, at the price of
+    machines on commits that differ only outside the planner refusing to share a table."""
+    root = Path(root)
+    h = hashlib.sha256()
+    for path in source_files(root):
+        h.update(path.relative_to(root).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
+    return h.hexdigest()[:16]
+
+
 def parse_theta_star(values) -> tuple[float, ...]:
     """theta* from 5 numbers (a sequence, or "v1,v2,v3,v4,v5"): each finite and negative, since
     all five features are costs (DESIGN §3).  Raises ValueError with a one-line message."""

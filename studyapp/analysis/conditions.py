@@ -8,10 +8,9 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from teaching.selection import CONDITIONS
-from teaching.strategies import CLUSTER_NAMES, N_CLUSTERS
+from teaching.api import APPROX_STAR, CLUSTER_NAMES, CONDITIONS, N_CLUSTERS
 
-APPROX_STAR_DEFAULT = "det-euclidean"
+APPROX_STAR_DEFAULT = APPROX_STAR  # the analysis' default is the selectors' (teaching.selection)
 COVERAGE_APPROX = "coverage-approx*"
 COVERAGE_RANDOM = "coverage-random"
 PAPER_CONDITIONS = CONDITIONS  # the teaching selectors' names, in the paper's order

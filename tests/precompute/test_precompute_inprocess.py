@@ -196,6 +196,12 @@ def test_worker_with_other_planner_code_refuses(small_preset, tmp_path):
         work.compute_chunk(spec, work.chunk_ids(spec)[0])
 
 
+def test_the_code_fingerprint_is_the_whole_teaching_package():
+    from teaching.api import code_fingerprint
+
+    assert work.CODE_FINGERPRINT == code_fingerprint()
+
+
 def test_concurrent_publishers_do_not_interleave(small_preset, reference, tmp_path, assert_same_table):
     from concurrent.futures import ThreadPoolExecutor
 

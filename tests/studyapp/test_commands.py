@@ -112,9 +112,9 @@ def test_create_study_from_a_saved_table(tmp_path):
 
 
 def test_setup_demo_uses_the_table_when_the_pipeline_works(tmp_path, monkeypatch):
-    """With a table, the demo's conditions and tests come from teaching.selection / teaching.testset."""
-    import teaching.selection
-    import teaching.testset
+    """With a table, the demo's conditions and tests come from teaching.selection / teaching.testset
+    (through teaching.api, which studyapp.studies imports them from)."""
+    import studyapp.studies
     from teaching.synthetic import synthetic_table
 
     table = synthetic_table(n_envs=16, n_thetas=8, seed=3)
@@ -122,7 +122,7 @@ def test_setup_demo_uses_the_table_when_the_pipeline_works(tmp_path, monkeypatch
     ids = [int(e) for e in table.env_ids]
     calls = {}
 
-    def build_sequences(t, seed):
+    def build_sequences(t, *, seed):
         calls["sequences"] = (t.meta["content_hash"], seed)
         return {"exact": ids[:2], "det-euclidean": ids[2:5]}
 
@@ -131,8 +131,8 @@ def test_setup_demo_uses_the_table_when_the_pipeline_works(tmp_path, monkeypatch
         return [{"env_id": e, "options": [{"theta_index": k, "is_theta_star": k == 0} for k in (2, 0, 1, 3)]}
                 for e in ids[8:14]]
 
-    monkeypatch.setattr(teaching.selection, "build_sequences", build_sequences)
-    monkeypatch.setattr(teaching.testset, "select_test_set", select_test_set)
+    monkeypatch.setattr(studyapp.studies, "build_sequences", build_sequences)
+    monkeypatch.setattr(studyapp.studies, "select_test_set", select_test_set)
     out = io.StringIO()
     call_command("setup_demo", "--table", str(tmp_path / "table"), stdout=out)
     s = Study.objects.get(slug="demo")
@@ -146,8 +146,7 @@ def test_setup_demo_uses_the_table_when_the_pipeline_works(tmp_path, monkeypatch
 
 def test_setup_demo_rebuilds_after_the_table_changes_but_never_under_participants(tmp_path, monkeypatch):
     """A rebuilt demo table must not leave the demo serving stale trajectories, unless people have taken part."""
-    import teaching.selection
-    import teaching.testset
+    import studyapp.studies
     from studyapp.assignment import assign
     from teaching.synthetic import synthetic_table
 
@@ -155,8 +154,8 @@ def test_setup_demo_rebuilds_after_the_table_changes_but_never_under_participant
         table = synthetic_table(n_envs=16, n_thetas=8, seed=seed)
         table.save(tmp_path / "table")
         ids = [int(e) for e in table.env_ids]
-        monkeypatch.setattr(teaching.selection, "build_sequences", lambda t, s: {"exact": ids[:2]})
-        monkeypatch.setattr(teaching.testset, "select_test_set", lambda t, tr, s: [
+        monkeypatch.setattr(studyapp.studies, "build_sequences", lambda t, seed: {"exact": ids[:2]})
+        monkeypatch.setattr(studyapp.studies, "select_test_set", lambda t, tr, s: [
             {"env_id": e, "options": [{"theta_index": k, "is_theta_star": k == 0} for k in range(4)]}
             for e in ids[8:14]])
         return table.meta["content_hash"]

@@ -15,8 +15,9 @@ from pathlib import Path
 from django.conf import settings
 from django.core.management.base import BaseCommand, CommandError
 
-from teaching.selection import CONDITIONS
-from teaching.table import TableError
+from precompute import jobs
+from precompute.study import StudyJobError, create_study_job
+from teaching.api import APPROX_STAR, CONDITIONS, TableError, parse_hyperparameters
 
 from ._waiting import wait_for_job
 
@@ -32,7 +33,7 @@ class Command(BaseCommand):
         parser.add_argument("--slug", required=True, help="the study's slug (its URL)")
         parser.add_argument("--name", help="the study's title (default: the slug)")
         parser.add_argument("--seed", type=int, default=0, help="seed of the random conditions and the test set")
-        parser.add_argument("--approx-star", default="det-euclidean", help="model that coverage-approx* augments")
+        parser.add_argument("--approx-star", default=APPROX_STAR, help="model that coverage-approx* augments")
         parser.add_argument("--hyper", action="append", default=[], metavar="MODEL=VALUE",
                             help="fix τ or λ of a model instead of sweeping (repeatable)")
         parser.add_argument("--conditions", help=f"comma-separated subset of {','.join(CONDITIONS)} (default: all)")
@@ -45,14 +46,10 @@ class Command(BaseCommand):
         parser.add_argument("--timeout", type=float, help="with --wait: give up after this many seconds")
 
     def handle(self, *args, **opts):
-        from precompute import jobs
-        from precompute.study import StudyJobError, create_study_job
-        from teaching.teach import InputError, parse_hyper
-
         table = Path(opts["table"]) if opts["table"] else Path(settings.VAR_DIR) / "tables" / opts["preset"]
         try:
-            hyper = parse_hyper(opts["hyper"])
-        except (InputError, ValueError) as exc:
+            hyper = parse_hyperparameters(opts["hyper"])
+        except ValueError as exc:
             raise CommandError(str(exc)) from None
         conditions = [c.strip() for c in opts["conditions"].split(",") if c.strip()] if opts["conditions"] else None
         if opts["target_per_condition"] <= 0:

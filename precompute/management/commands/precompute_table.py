@@ -15,9 +15,9 @@ from pathlib import Path
 from django.conf import settings
 from django.core.management.base import BaseCommand, CommandError
 
-from teaching.build import PRESETS, customised, get_preset
-from teaching.candidates import SAMPLERS
-from teaching.environments import N_ENVIRONMENTS
+from precompute import jobs
+from precompute.work import ChunkError
+from teaching.api import N_ENVIRONMENTS, PRESETS, SAMPLERS, customised, get_preset
 
 from ._waiting import wait_for_job
 
@@ -74,9 +74,6 @@ class Command(BaseCommand):
         parser.add_argument("--timeout", type=float, help="with --wait: give up after this many seconds")
 
     def handle(self, *args, **opts):
-        from precompute import jobs
-        from precompute.work import ChunkError
-
         preset = resolve_preset(opts["preset"], opts["envs"], opts["thetas"], opts["seed"], opts["sampler"],
                                 opts["chunk_size"], opts["theta_star"])
         out = Path(opts["out"] or Path(settings.VAR_DIR) / "tables" / preset.name)

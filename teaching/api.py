@@ -1,0 +1,86 @@
+"""What the web side (``studyapp``) and the workers (``precompute``) use from ``teaching``.
+
+They import from here only, so the numeric core can move its modules around behind this list
+(tests may still reach into the modules).  Plain re-exports: every name below is the module's
+own object, documented here with its shapes and units.  Like the rest of the package this
+module never imports Django (tests/teaching/test_api.py checks it in a fresh interpreter).
+
+Units: positions in ft (x across the road, y along it, relative to the robot's start), speeds
+in ft/s, time in s (a drive is ``WORLD.horizon`` = 20 steps of ``WORLD.dt`` = 0.25 s).
+M environments, N candidate objectives θ (θ* is θ index 0), T+1 = 21 states per trajectory.
+
+World and environments
+    WORLD: World             lane_width, lane_centres (ft), car_length, car_width (ft), horizon,
+                             dt (s), road_half_width (ft), ...: the constants a drawing needs
+    GOAL_NAMES               ("merge right", "drive forward"), indexed by an environment's goal
+    N_ENVIRONMENTS           21,216: environment ids are 0 .. N_ENVIRONMENTS - 1
+    CLASS_NAMES              ("merging", "braking", "tailgating", "other"), indexed by class
+    get_environments(ids)    Environments: parallel (n,) arrays (goal, other_y0 ft, other_lane,
+                             other_v0 ft/s, accel_time s, v_final ft/s); all 21,216 without ids
+    environment_class(envs)  (n,) int8 class index into CLASS_NAMES
+    other_car_states(envs)   (n, T+1, 2) float64 other car's [x, y] in ft at every step
+    stratified_sample(n, seed=0)  (n,) int64 sorted environment ids, equal share per class
+
+Strategies (what a trajectory does; the paper's coverage clusters)
+    N_CLUSTERS, CLUSTER_NAMES  8 clusters, two per class (2k, 2k+1 belong to class k)
+    strategy_labels(states, envs)  states (n, T+1, 5) or (n, N, T+1, 5) [x, y, heading rad,
+                             v ft/s, steer rad] -> (n,) or (n, N) int8 cluster (8: no strategy)
+
+Tables (teaching.table: a directory of .npy arrays plus meta.json with its content hash)
+    TrajectoryTable          .load(path, verify=True, expected_hash=None); thetas (N, 5),
+                             env_ids (M,) int64, features (M, N, 5), strategy (M, N) int8,
+                             d_euclid (M, N) float32; .states(env_index, theta_index) ->
+                             (..., T+1, 5); .other_car(env_index) -> (..., T+1, 2);
+                             .meta["content_hash"] identifies the table
+    TableError               ValueError: a missing, altered or foreign table (one-line message)
+
+Building a table in chunks (teaching.build; precompute/work.py runs one chunk per task)
+    Preset, PRESETS, get_preset(name), customised(preset, n_envs=, n_thetas=, seed=, sampler=,
+                             theta_star=)  what to build (M environments x N thetas, seeded)
+    SAMPLERS                 the ways the other θs are drawn
+    default_normalisers()    (5,) float64 feature scales, part of a table's identity
+    table_identity(preset, thetas, normalisers)  dict naming the table chunks belong to
+    chunks_of(env_ids, size) list of (<= size,) int64 id arrays
+    chunk_key(identity, env_ids), chunk_path(out, key)  where a chunk is stored
+    build_chunk(out, identity, env_ids, thetas, normalisers)  plan and store one chunk
+    assemble(out, preset, identity, env_ids, thetas, normalisers)  publish the table
+    check_writable(out)      TableError unless chunks can be written under out
+    code_fingerprint()       16 hex digits over every module of this package
+
+Learners and selection (DESIGN §5-6)
+    MODEL_NAMES              the 7 learner models (the paper's ideal users)
+    make_model(name, value=None)  a learner; value is τ or λ (> 0), ValueError if bad
+    has_hyperparameter(model)  whether τ / λ changes that model's likelihoods
+    parse_hyperparameters(["MODEL=VALUE", ...])  {model: τ or λ}, ValueError if bad
+    CONDITIONS               the study's 9 conditions, in the paper's order
+    APPROX_STAR              "det-euclidean": the model coverage-approx* augments by default
+    SelectionSettings        frozen: grid (τ / λ values swept), epsilon, max_examples, allow_repeats
+    build_sequences(table, seed=0, ...)  {condition: environment ids in the order shown}
+    condition_sequence(table, name, seed=0, ...)  (Sequence of table row indices, with P(θ*)
+                             after each example; its model; whether the τ / λ rule held or None)
+    select_test_set(table, training_env_ids, seed=0)  6 dicts: env_id, env_index, cluster and
+                             4 options {theta_index, is_theta_star, cluster, regret}
+"""
+from __future__ import annotations
+
+from .build import (PRESETS, Preset, assemble, build_chunk, check_writable, chunk_key, chunk_path, chunks_of,
+                    code_fingerprint, customised, get_preset, table_identity)
+from .candidates import SAMPLERS
+from .environments import (CLASS_NAMES, N_ENVIRONMENTS, environment_class, get_environments, other_car_states,
+                           stratified_sample)
+from .features import default_normalisers
+from .learners import MODEL_NAMES, has_hyperparameter, make_model, parse_hyperparameters
+from .selection import APPROX_STAR, CONDITIONS, SelectionSettings, build_sequences, condition_sequence
+from .strategies import CLUSTER_NAMES, N_CLUSTERS, strategy_labels
+from .table import TableError, TrajectoryTable
+from .testset import select_test_set
+from .world import GOAL_NAMES, WORLD
+
+__all__ = [
+    "APPROX_STAR", "CLASS_NAMES", "CLUSTER_NAMES", "CONDITIONS", "GOAL_NAMES", "MODEL_NAMES", "N_CLUSTERS",
+    "N_ENVIRONMENTS", "PRESETS", "SAMPLERS", "WORLD", "Preset", "SelectionSettings", "TableError",
+    "TrajectoryTable", "assemble", "build_chunk", "build_sequences", "check_writable", "chunk_key", "chunk_path",
+    "chunks_of", "code_fingerprint", "condition_sequence", "customised", "default_normalisers",
+    "environment_class", "get_environments", "get_preset", "has_hyperparameter", "make_model", "other_car_states",
+    "parse_hyperparameters", "select_test_set", "strategy_labels", "stratified_sample", "table_identity",
+]
