@@ -33,6 +33,8 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int =
     """A job that selects every condition's sequence and the test set on `table_path`.
 
     `study_fields`: completion_code, recruitment and the consent page's texts (studyapp's new_study).
+    The table is verified here, once per job: its content hash goes into the job's params, and
+    the tasks check the table still records that hash instead of re-hashing it (tasks._table).
     """
     table_path = Path(table_path).resolve()
     table = TrajectoryTable.load(table_path)  # TableError: missing, altered, other world constants
@@ -61,8 +63,8 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int =
         except SpecError as exc:
             raise StudyJobError(str(exc)) from None
         job = Job.objects.create(kind=Job.STUDY, chunks_total=len(conditions) + 1, params={
-            "study_id": study.pk, "slug": slug, "table": str(table_path), "seed": seed,
-            "approx_star": approx_star, "hyperparameters": hyperparameters, "conditions": conditions,
+            "study_id": study.pk, "slug": slug, "table": str(table_path), "content_hash": source["content_hash"],
+            "seed": seed, "approx_star": approx_star, "hyperparameters": hyperparameters, "conditions": conditions,
             "open": open_when_done, "queue": queue})
     if start:
         launch(job)

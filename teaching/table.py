@@ -128,17 +128,26 @@ class TrajectoryTable:
         return meta["content_hash"]
 
     @classmethod
-    def load(cls, path, mmap: bool = True, verify: bool = True) -> "TrajectoryTable":
+    def load(cls, path, mmap: bool = True, verify: bool = True, expected_hash: str | None = None) -> "TrajectoryTable":
         """Load a saved table (arrays memory-mapped read-only by default).
 
         Raises TableError for a missing table, one built under other world
-        constants, or (verify=True) one whose bytes do not match its hash.
+        constants, (verify=True) one whose bytes do not match its hash, or one
+        whose recorded hash is not `expected_hash`.  ``verify=False,
+        expected_hash=h`` is the cheap load for a table someone verified as h
+        already (a study job's launcher): re-hashing a paper table reads 2.65 GB,
+        comparing meta.json's hash reads nothing, and a table rebuilt or replaced
+        since is still refused (its meta.json carries another hash).
         """
         path = Path(path)
         try:
             meta = json.loads((path / "meta.json").read_text())
         except FileNotFoundError:
             raise TableError(f"no trajectory table at {path} (meta.json missing)") from None
+        if expected_hash is not None and meta.get("content_hash") != expected_hash:
+            raise TableError(
+                f"table at {path} (hash {str(meta.get('content_hash'))[:16]}) is not the one that was verified "
+                f"(hash {str(expected_hash)[:16]}): it was rebuilt or replaced since")
         if meta.get("world") != world_fingerprint():
             raise TableError(
                 f"table at {path} was built with other world constants "

@@ -82,6 +82,35 @@ def test_build_study_subset_closed(inprocess_worker, transactional_db, table_pat
     assert [c.name for c in study.conditions.all()] == ["exact", "random"]
 
 
+def test_a_study_job_verifies_its_table_once(db, table_path, monkeypatch):
+    """create_study_job hashes the table; its tasks only compare the hash it recorded."""
+    import teaching.table
+    from precompute.study import create_study_job
+    from precompute.tasks import study_condition, study_finish
+    from studyapp.models import Study
+
+    real, hashed = teaching.table.content_hash, []
+    monkeypatch.setattr(teaching.table, "content_hash", lambda *a: hashed.append(1) or real(*a))
+    job = create_study_job(table_path, "once", conditions=["exact", "random"], open_when_done=False, start=False)
+    assert len(hashed) == 1
+    assert job.params["content_hash"] == Study.objects.get(slug="once").source["content_hash"]
+    for i, name in enumerate(job.params["conditions"]):
+        study_condition(job.pk, job.params, name, i)
+    study_finish(job.pk, job.params)
+    assert len(hashed) == 1  # no task re-read the table's bytes
+    assert len(Study.objects.get(slug="once").test_set) == 6
+
+
+def test_a_study_task_refuses_a_table_other_than_the_verified_one(db, table_path):
+    from precompute.study import create_study_job
+    from precompute.tasks import study_condition
+    from teaching.table import TableError
+
+    job = create_study_job(table_path, "other", conditions=["exact"], start=False)
+    with pytest.raises(TableError, match="is not the one that was verified"):
+        study_condition(job.pk, dict(job.params, content_hash="0" * 64), "exact", 0)
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--table", "/nonexistent/table", "--slug", "x"], "no trajectory table at /nonexistent/table"),
     (["--preset", "nope", "--slug", "x"], "build it first: manage.py precompute_table"),

@@ -95,6 +95,17 @@ def test_one_altered_byte_is_refused(built, tmp_path):
     assert t.features[-1, -1, -1] != built[1].features[-1, -1, -1]
 
 
+def test_a_table_verified_earlier_loads_by_its_recorded_hash(built, monkeypatch):
+    out, table = built
+    calls = []
+    monkeypatch.setattr("teaching.table.content_hash", lambda *a: calls.append(a) or content_hash(*a))
+    same = TrajectoryTable.load(out, verify=False, expected_hash=table.meta["content_hash"])
+    assert not calls  # no byte re-read
+    assert same.meta["content_hash"] == table.meta["content_hash"]
+    with pytest.raises(TableError, match="is not the one that was verified"):
+        TrajectoryTable.load(out, verify=False, expected_hash="0" * 64)
+
+
 def test_a_table_from_other_world_constants_is_refused(built, tmp_path):
     d = copy_of(built, tmp_path)
     meta = json.loads((d / "meta.json").read_text())
