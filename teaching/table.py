@@ -25,7 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
+from .dynamics import rollout_np
 from .environments import Environments, environment_class, get_environments, other_car_states
+from .features import reward
 from .world import world_fingerprint
 
 ARRAYS = ("thetas", "env_ids", "controls", "features", "strategy", "d_euclid")
@@ -71,20 +73,14 @@ class TrajectoryTable:
 
     def rewards(self) -> np.ndarray:
         """(M, N) reward of each theta's own trajectory under that theta."""
-        from .features import reward
-
         return reward(self.features, self.thetas)
 
     def d_reward(self) -> np.ndarray:
         """(M, N) theta.phi(xi^theta) - theta.phi(xi^theta*), >= 0 after the cross-theta step."""
-        from .features import reward
-
         return self.rewards() - reward(self.features[:, :1], self.thetas)
 
     def states(self, env_index, theta_index) -> np.ndarray:
         """Robot states (..., T+1, 5) of the stored trajectories (rolled out from the controls)."""
-        from .dynamics import rollout_np
-
         return rollout_np(self.controls[env_index, theta_index])
 
     def other_car(self, env_index) -> np.ndarray:

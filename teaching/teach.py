@@ -124,7 +124,7 @@ def run(args) -> dict:
     _write(out / "examples_per_cluster.json", {"layout": "grid[row][col]: col = class (merging, braking, "
                                                "tailgating, other), row = 1st/2nd strategy (cluster 2*col+row)",
                                                "grids": {n: g.tolist() for n, g in zip(ext_names, grids)}})
-    from .plots import plot_examples_shown, plot_ideal_users
+    from .plots import plot_examples_shown, plot_ideal_users  # matplotlib loads only when figures are drawn
 
     plot_ideal_users(matrix, SEQUENCE_NAMES, USER_NAMES, out / "sim_users.png")
     plot_examples_shown(grids[:len(SEQUENCE_NAMES)], SEQUENCE_NAMES, out / "examples_shown.png")
