@@ -15,7 +15,12 @@ a local optimiser alone is wrong.  For one chunk of environments:
 3. **cross-theta**: every theta takes the best, under theta, of all
    trajectories found for any theta' in that environment;
 4. **refine**: a theta that took another theta's trajectory is solved again
-   from it (it lies in a better basin), then step 3 is repeated.
+   from it (it lies in a better basin), then step 3 is repeated;
+5. **hops**: a trajectory that crosses lane lines three or more times (a
+   zigzag over lanes) is solved again from its own controls moved one knot
+   earlier and one later -- each timing of its moves is a basin of its own,
+   and Newton keeps the timing it starts with -- and steps 3-4 run again with
+   these as extra candidates.
 
 After step 3 every theta's stored trajectory is at least as good under theta as
 theta*'s, so d_reward >= 0 holds exactly on the stored (float32) trajectories.
@@ -34,10 +39,10 @@ from . import kernels
 from .dynamics import rollout_np
 from .environments import get_environments, other_car_states
 from .features import raw_features, reward
-from .strategies import strategy_labels
+from .strategies import lane_crossings, strategy_labels
 from .world import WORLD
 
-PLANNER_VERSION = 7  # bump whenever a change alters the trajectories it returns
+PLANNER_VERSION = 8  # bump whenever a change alters the trajectories it returns
 NEWTON_TOL = 1e-7  # max |projected gradient|, normalised reward units per unit of z (1e-9 changed no gap)
 REFINE_GAIN = 1e-6  # normalised reward units: exact IRL's tolerance (1e-7 and 1e-8 changed no measured gap)
 
@@ -49,6 +54,8 @@ class PlannerSettings:
     anchor_iters: int = 200
     warm_iters: int = 200  # a cap, not a budget: warm starts run until Newton converges (NEWTON_TOL)
     refine_rounds: int = 1
+    hop_min_crossings: int = 3  # lane-line crossings that make a trajectory a candidate for hops (step 5)
+    hop_shifts: tuple = (-1, 1)  # knots; adding +-2 doubled the hops' cost for no gain above 1e-4 (bench's 64 x 1,000)
 
 
 def planner_identity(settings: "PlannerSettings" = None) -> dict:
@@ -181,6 +188,9 @@ def plan_chunk(env_ids, thetas, normalisers, settings: PlannerSettings = Planner
             stats["at_cap"] = stats.get("at_cap", 0) + int((its >= iters - 1).sum())
         return _as_stored(z)
 
+    def objective(z, env_idx, theta_idx):  # F (penalties included) of (B, K, 2) controls, as they are
+        return solve(z, oxy[env_idx], envs.goal[env_idx], weights[theta_idx], 0)[1]
+
     def phi(z, env_idx):
         return raw_features(z, oxy[env_idx], envs.goal[env_idx]) / normalisers
 
@@ -210,34 +220,30 @@ def plan_chunk(env_ids, thetas, normalisers, settings: PlannerSettings = Planner
         size = done  # doubling
 
     # 3-4. cross-theta, then refine the thetas that moved to another basin
-    pool_z = np.concatenate([z, pool_z[0]], axis=1)
-    pool_phi = np.concatenate([feats, pool_phi[0]], axis=1)
-    own = np.broadcast_to(np.arange(N), (M, N))
-    for _ in range(settings.refine_rounds + 1):
-        pick, gain = _cross_theta(pool_phi, thetas, own)
-        # Only a real gain says the theta was in a worse basin; re-solving after a
-        # rounding-level gain would cost a solve and change nothing.
-        moved = np.argwhere(gain > REFINE_GAIN)
-        z = np.take_along_axis(pool_z, pick[..., None, None], 1)
-        feats = np.take_along_axis(pool_phi, pick[..., None], 1)
+    settle = functools.partial(_settle, thetas=thetas, rounds=settings.refine_rounds, batch=batch, phi=phi,
+                               iters=settings.warm_iters, stats=stats)
+    z, feats = settle(z, feats, pool_z[0], pool_phi[0])
+
+    # 5. hops: a trajectory that changes lane several times has a basin for every timing of its
+    #    moves, and Newton keeps the timing it started with; so such trajectories are solved
+    #    again from their controls moved one knot earlier and later, the results shared as in 3-4
+    #    A hop's answer is offered only where it beats, penalties included, the trajectory it came
+    #    from: from a start that breaks a constraint Newton can stop far off the road, and
+    #    cross-theta, which compares rewards alone, would take that.
+    hop = np.argwhere(lane_crossings(rollout_np(z)[..., 0]) >= settings.hop_min_crossings)
+    if len(hop):
+        eh, th = hop[:, 0], hop[:, 1]
+        own_F = objective(z[eh, th], eh, th)
+        found = [batch(eh, th, shift_in_time(z[eh, th], s), settings.warm_iters) for s in settings.hop_shifts]
+        better = [objective(f, eh, th) < own_F - REFINE_GAIN for f in found]
+        e_found = np.concatenate([eh[b] for b in better])
+        if len(e_found):
+            z_found = np.concatenate([f[b] for f, b in zip(found, better)])
+            extra_z, extra_phi = _per_environment(e_found, z_found, phi(z_found, e_found), z[:, 0], feats[:, 0])
+            z, feats = settle(z, feats, extra_z, extra_phi)
         if stats is not None:
-            stats["moved"] = stats.get("moved", 0) + int((pick != own).sum())
-            stats["refined"] = stats.get("refined", 0) + len(moved)
-        if not len(moved) or _ == settings.refine_rounds:
-            break
-        em, tm = moved[:, 0], moved[:, 1]
-        z_ref = batch(em, tm, z[em, tm], settings.warm_iters)
-        phi_ref = phi(z_ref, em)
-        # the refined solutions join the pool as extra candidates
-        extra = np.full((M, N, K, 2), np.nan)
-        extra_phi = np.full((M, N, 5), np.nan)
-        extra[em, tm], extra_phi[em, tm] = z_ref, phi_ref
-        # a theta with no refined solution offers a copy of its current one (no new information)
-        extra = np.where(np.isnan(extra), z, extra)
-        extra_phi = np.where(np.isnan(extra_phi), feats, extra_phi)
-        pool_z = np.concatenate([z, extra], axis=1)
-        pool_phi = np.concatenate([feats, extra_phi], axis=1)
-        own = np.broadcast_to(np.arange(N), (M, N))
+            stats["hopped"] = stats.get("hopped", 0) + len(hop)
+            stats["hops_better"] = stats.get("hops_better", 0) + len(e_found)
 
     # Guard in the table's own arithmetic: never worse under theta than theta*'s trajectory.
     worse = reward(feats, thetas) < reward(feats[:, :1], thetas)
@@ -253,6 +259,64 @@ def plan_chunk(env_ids, thetas, normalisers, settings: PlannerSettings = Planner
         "strategy": strategy_labels(states, envs, oxy),
         "d_euclid": euclidean_distance(states, states[:, :1]).astype(np.float32),
     }
+
+
+def _settle(z, feats, extra_z, extra_phi, *, thetas, rounds, batch, phi, iters, stats):
+    """Steps 3-4: every theta takes the best, under theta, of all thetas' trajectories and the extra
+    candidates of its environment; a theta that gained more than REFINE_GAIN (it was in a worse
+    basin) is solved again from its new start, the result offered to all, `rounds` times.
+
+    z (M, N, K, 2) and feats (M, N, 5) are each theta's own; extra_z (M, P, K, 2), extra_phi (M, P, 5).
+    Returns the settled (z, feats)."""
+    M, N = feats.shape[:2]
+    pool_z, pool_phi = np.concatenate([z, extra_z], axis=1), np.concatenate([feats, extra_phi], axis=1)
+    own = np.broadcast_to(np.arange(N), (M, N))
+    for r in range(rounds + 1):
+        pick, gain = _cross_theta(pool_phi, thetas, own)
+        # Only a real gain says the theta was in a worse basin; re-solving after a
+        # rounding-level gain would cost a solve and change nothing.
+        moved = np.argwhere(gain > REFINE_GAIN)
+        z = np.take_along_axis(pool_z, pick[..., None, None], 1)
+        feats = np.take_along_axis(pool_phi, pick[..., None], 1)
+        if stats is not None:
+            stats["moved"] = stats.get("moved", 0) + int((pick != own).sum())
+            stats["refined"] = stats.get("refined", 0) + len(moved)
+        if not len(moved) or r == rounds:
+            break
+        em, tm = moved[:, 0], moved[:, 1]
+        z_ref = batch(em, tm, z[em, tm], iters)
+        # the refined solutions join the pool as extra candidates; a theta with no refined
+        # solution offers a copy of its current one (no new information)
+        extra, extra_phi = z.copy(), feats.copy()
+        extra[em, tm], extra_phi[em, tm] = z_ref, phi(z_ref, em)
+        pool_z, pool_phi = np.concatenate([z, extra], axis=1), np.concatenate([feats, extra_phi], axis=1)
+    return z, feats
+
+
+def _per_environment(env_idx, cand_z, cand_phi, fill_z, fill_phi):
+    """Candidates (C, K, 2) / (C, 5) of environments env_idx (C,) as (M, P, K, 2) / (M, P, 5) per
+    environment, P the largest count, padded with that environment's fill_z (M, K, 2) / fill_phi (M, 5)
+    (a trajectory already in its pool, so padding offers nothing new)."""
+    M = len(fill_z)
+    counts = np.bincount(env_idx, minlength=M)
+    order = np.argsort(env_idx, kind="stable")
+    env = env_idx[order]
+    slot = np.arange(len(env)) - (np.cumsum(counts) - counts)[env]  # rank within its environment
+    out_z = np.repeat(fill_z[:, None], counts.max(), axis=1)
+    out_phi = np.repeat(fill_phi[:, None], counts.max(), axis=1)
+    out_z[env, slot], out_phi[env, slot] = cand_z[order], cand_phi[order]
+    return out_z, out_phi
+
+
+def shift_in_time(z: np.ndarray, knots: int) -> np.ndarray:
+    """Controls (..., K, 2) moved `knots` later (negative: earlier) along the knot axis, the knots
+    that open up held at zero (straight on, constant speed): the same moves, timed differently."""
+    out = np.zeros_like(z)
+    if knots >= 0:
+        out[..., knots:, :] = z[..., :z.shape[-2] - knots, :]
+    else:
+        out[..., :knots, :] = z[..., -knots:, :]
+    return out
 
 
 def euclidean_distance(states_a, states_b) -> np.ndarray:

@@ -55,6 +55,15 @@ def clean_lane_change(x: np.ndarray) -> np.ndarray:
     return (between <= MAX_STEPS_BETWEEN_LANES) & (np.minimum(back_left, back_right) <= MAX_TURN_BACK)
 
 
+def lane_crossings(x: np.ndarray) -> np.ndarray:
+    """(..., T+1) lateral positions (ft) -> (...) int: how many times the car's centre crosses a lane
+    line (one lane change: 1; over two lanes: 2; right, then left across two lanes: 3)."""
+    centres = np.asarray(WORLD.lane_centres)
+    lines = (centres[1:] + centres[:-1]) / 2
+    side = np.sign(x[..., None] - lines)  # (..., T+1, lines)
+    return (np.diff(side, axis=-2) != 0).sum((-2, -1))
+
+
 def strategy_labels(states: np.ndarray, envs: Environments, other_xy: np.ndarray | None = None) -> np.ndarray:
     """Cluster of each trajectory (0..7, or NO_STRATEGY).
 
