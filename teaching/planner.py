@@ -5,7 +5,9 @@ a local optimiser alone is wrong.  For one chunk of environments:
 
 1. **anchors**: a few thetas spread over Theta (farthest-point order in
    log|theta|, theta* first) are solved from every strategy seed (all of them
-   when Theta is small);
+   when Theta is small), and the next few in that order from the two straight
+   seeds at higher and lower speed (speeding up and dropping back in lane are
+   the basins warm starts from lane changes miss);
 2. **continuation over theta**: the thetas in the same farthest-point order,
    in rounds of doubling size (A, A, 2A, 4A, ... for A anchors); each starts from the best,
    under it, of everything solved so far in its environment (the anchors' seed
@@ -18,9 +20,9 @@ a local optimiser alone is wrong.  For one chunk of environments:
    from it (it lies in a better basin), then step 3 is repeated;
 5. **hops**: a trajectory that crosses lane lines three or more times (a
    zigzag over lanes) is solved again from its own controls moved one knot
-   earlier and one later -- each timing of its moves is a basin of its own,
-   and Newton keeps the timing it starts with -- and steps 3-4 run again with
-   these as extra candidates.
+   earlier -- each timing of its moves is a basin of its own, and Newton keeps
+   the timing it starts with -- and steps 3-4 run again, in the environments
+   where a hop did better, with these as extra candidates.
 
 After step 3 every theta's stored trajectory is at least as good under theta as
 theta*'s, so d_reward >= 0 holds exactly on the stored (float32) trajectories.
@@ -31,7 +33,8 @@ a forked worker as long as the parent process has not run it (docs/decisions.md)
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
+import json
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
@@ -49,21 +52,22 @@ REFINE_GAIN = 1e-6  # normalised reward units: exact IRL's tolerance (1e-7 and 1
 
 @dataclass(frozen=True)
 class PlannerSettings:
-    n_anchors: int = 2  # 4 and 8 found no more basins (continuation and cross-theta find the rest) at 1.07x, 1.3x the time
+    n_anchors: int = 2  # solved from every seed; 8 is as good as 2 + the straight anchors below, at 1.3x the time
+    straight_anchors: int = 8  # the next thetas in anchor order, solved from the straight seeds at higher and
+    straight_seeds: tuple = (1, 2)  # lower speed: warm starts missed those basins most (docs/decisions.md)
     all_anchors_below: int = 32  # with so few thetas the cross-theta step has little to share: multi-start all
     anchor_iters: int = 200
     warm_iters: int = 200  # a cap, not a budget: warm starts run until Newton converges (NEWTON_TOL)
     refine_rounds: int = 1
     hop_min_crossings: int = 3  # lane-line crossings that make a trajectory a candidate for hops (step 5)
-    hop_shifts: tuple = (-1, 1)  # knots; adding +-2 doubled the hops' cost for no gain above 1e-4 (bench's 64 x 1,000)
+    hop_shifts: tuple = (-1,)  # knots; (-1, +1) found 2 more pairs above 1e-4 in 128,000, at 1.17x the time
 
 
 def planner_identity(settings: "PlannerSettings" = None) -> dict:
-    """Everything about the planner that a stored chunk's content depends on."""
-    from dataclasses import asdict
-
-    return {"version": PLANNER_VERSION, "newton_tol": NEWTON_TOL, "refine_gain": REFINE_GAIN,
-            **asdict(settings or PlannerSettings())}
+    """Everything about the planner that a stored chunk's content depends on, as JSON would give it back
+    (tuples as lists), so an identity read from a job spec or meta.json compares equal."""
+    return json.loads(json.dumps({"version": PLANNER_VERSION, "newton_tol": NEWTON_TOL, "refine_gain": REFINE_GAIN,
+                                  **asdict(settings or PlannerSettings())}))
 
 
 def strategy_seeds() -> np.ndarray:
@@ -194,11 +198,15 @@ def plan_chunk(env_ids, thetas, normalisers, settings: PlannerSettings = Planner
     def phi(z, env_idx):
         return raw_features(z, oxy[env_idx], envs.goal[env_idx]) / normalisers
 
-    # 1. anchors from every seed: the pool starts with these (M, A*S) solutions
-    e1 = np.repeat(np.arange(M), A * S)
-    a1 = np.tile(np.repeat(anchors, S), M)
-    pool_z = [batch(e1, a1, np.tile(seeds, (M * A, 1, 1)), settings.anchor_iters).reshape(M, A * S, K, 2)]
-    pool_phi = [phi(pool_z[0].reshape(-1, K, 2), e1).reshape(M, A * S, 5)]
+    # 1. anchors from every seed, and the next thetas in the same order from the straight seeds:
+    #    the pool starts with these (M, P0) solutions
+    more = order[A:A + settings.straight_anchors]
+    th0 = np.concatenate([np.repeat(anchors, S), np.repeat(more, len(settings.straight_seeds))])
+    sd0 = np.concatenate([np.tile(np.arange(S), A), np.tile(settings.straight_seeds, len(more))])
+    P0 = len(th0)
+    e1, a1 = np.repeat(np.arange(M), P0), np.tile(th0, M)
+    pool_z = [batch(e1, a1, seeds[np.tile(sd0, M)], settings.anchor_iters).reshape(M, P0, K, 2)]
+    pool_phi = [phi(pool_z[0].reshape(-1, K, 2), e1).reshape(M, P0, 5)]
 
     # 2. continuation over theta: in farthest-point order, in rounds of doubling size, each
     #    theta starts from the best under theta of everything solved so far in its environment
@@ -226,7 +234,7 @@ def plan_chunk(env_ids, thetas, normalisers, settings: PlannerSettings = Planner
 
     # 5. hops: a trajectory that changes lane several times has a basin for every timing of its
     #    moves, and Newton keeps the timing it started with; so such trajectories are solved
-    #    again from their controls moved one knot earlier and later, the results shared as in 3-4
+    #    again from their controls moved in time (settings.hop_shifts), the results shared as in 3-4.
     #    A hop's answer is offered only where it beats, penalties included, the trajectory it came
     #    from: from a start that breaks a constraint Newton can stop far off the road, and
     #    cross-theta, which compares rewards alone, would take that.
@@ -237,10 +245,11 @@ def plan_chunk(env_ids, thetas, normalisers, settings: PlannerSettings = Planner
         found = [batch(eh, th, shift_in_time(z[eh, th], s), settings.warm_iters) for s in settings.hop_shifts]
         better = [objective(f, eh, th) < own_F - REFINE_GAIN for f in found]
         e_found = np.concatenate([eh[b] for b in better])
-        if len(e_found):
+        if len(e_found):  # steps 3-4 again, in the environments where a hop found something
             z_found = np.concatenate([f[b] for f, b in zip(found, better)])
-            extra_z, extra_phi = _per_environment(e_found, z_found, phi(z_found, e_found), z[:, 0], feats[:, 0])
-            z, feats = settle(z, feats, extra_z, extra_phi)
+            rows, e_row = np.unique(e_found, return_inverse=True)
+            extra_z, extra_phi = _per_environment(e_row, z_found, phi(z_found, e_found), z[rows, 0], feats[rows, 0])
+            z[rows], feats[rows] = settle(z[rows], feats[rows], extra_z, extra_phi, rows=rows)
         if stats is not None:
             stats["hopped"] = stats.get("hopped", 0) + len(hop)
             stats["hops_better"] = stats.get("hops_better", 0) + len(e_found)
@@ -261,14 +270,15 @@ def plan_chunk(env_ids, thetas, normalisers, settings: PlannerSettings = Planner
     }
 
 
-def _settle(z, feats, extra_z, extra_phi, *, thetas, rounds, batch, phi, iters, stats):
+def _settle(z, feats, extra_z, extra_phi, *, thetas, rounds, batch, phi, iters, stats, rows=None):
     """Steps 3-4: every theta takes the best, under theta, of all thetas' trajectories and the extra
     candidates of its environment; a theta that gained more than REFINE_GAIN (it was in a worse
     basin) is solved again from its new start, the result offered to all, `rounds` times.
 
-    z (M, N, K, 2) and feats (M, N, 5) are each theta's own; extra_z (M, P, K, 2), extra_phi (M, P, 5).
-    Returns the settled (z, feats)."""
+    z (M, N, K, 2) and feats (M, N, 5) are each theta's own; extra_z (M, P, K, 2), extra_phi (M, P, 5);
+    rows (M,) the chunk's environments these are (all of them if None).  Returns the settled (z, feats)."""
     M, N = feats.shape[:2]
+    rows = np.arange(M) if rows is None else rows
     pool_z, pool_phi = np.concatenate([z, extra_z], axis=1), np.concatenate([feats, extra_phi], axis=1)
     own = np.broadcast_to(np.arange(N), (M, N))
     for r in range(rounds + 1):
@@ -284,11 +294,11 @@ def _settle(z, feats, extra_z, extra_phi, *, thetas, rounds, batch, phi, iters, 
         if not len(moved) or r == rounds:
             break
         em, tm = moved[:, 0], moved[:, 1]
-        z_ref = batch(em, tm, z[em, tm], iters)
+        z_ref = batch(rows[em], tm, z[em, tm], iters)
         # the refined solutions join the pool as extra candidates; a theta with no refined
         # solution offers a copy of its current one (no new information)
         extra, extra_phi = z.copy(), feats.copy()
-        extra[em, tm], extra_phi[em, tm] = z_ref, phi(z_ref, em)
+        extra[em, tm], extra_phi[em, tm] = z_ref, phi(z_ref, rows[em])
         pool_z, pool_phi = np.concatenate([z, extra], axis=1), np.concatenate([feats, extra_phi], axis=1)
     return z, feats
 
