@@ -2,7 +2,7 @@
 PY := .venv/bin/python
 PIP := .venv/bin/pip
 
-.PHONY: demo test venv browser-deps serve-deps table bench clean serve load
+.PHONY: demo test lint venv browser-deps serve-deps table bench clean serve load
 
 venv: .venv/.installed
 .venv/.installed: requirements.txt
@@ -35,6 +35,10 @@ serve: venv serve-deps
 # PostgreSQL restarted in the middle (docs/operations.md); LOAD_ARGS adds options.
 load: venv serve-deps
 	$(PY) -m tests.load.run --participants 500 --window 60 $(LOAD_ARGS)
+
+# Ruff, configured in pyproject.toml; .ci/run runs it before the tests.
+lint: venv
+	.venv/bin/ruff check .
 
 # pytest exit 5 means "no tests collected": that is a failure here, never a pass.
 test: venv browser-deps serve-deps
