@@ -26,13 +26,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from teaching.build import PRESETS, assemble, chunk_key, chunks_of, table_identity  # noqa: E402
-from teaching.candidates import sample_thetas  # noqa: E402
-from teaching.environments import N_ENVIRONMENTS, get_environments, other_car_states  # noqa: E402
-from teaching.features import default_normalisers, raw_features, reward  # noqa: E402
-from teaching.planner import objective_weights, plan_chunk, strategy_seeds  # noqa: E402
-from teaching.reference import reference_gap, single_thread_blas, solve_scipy  # noqa: E402
-from teaching.table import TrajectoryTable  # noqa: E402
+from teaching.build import PRESETS, assemble, chunk_key, chunks_of, table_identity
+from teaching.candidates import sample_thetas
+from teaching.environments import N_ENVIRONMENTS, get_environments, other_car_states
+from teaching.features import default_normalisers, raw_features, reward
+from teaching.planner import objective_weights, plan_chunk, strategy_seeds
+from teaching.reference import reference_gap, single_thread_blas, solve_scipy
+from teaching.table import TrajectoryTable
 
 PAPER = N_ENVIRONMENTS * 1000
 THRESHOLDS = (1e-8, 1e-7, 1e-6, 1e-5, 1e-4, 1e-3)
@@ -62,7 +62,8 @@ def paper_assembly(out: Path) -> None:
                  d_euclid=rng.uniform(0, 5, (m, preset.n_thetas)).astype(np.float32))
     table = assemble(out, preset, identity, env_ids, thetas, norm)
     TrajectoryTable.load(out, verify=True)
-    print(f"{table.n_envs:,} x {table.n_thetas:,}, {sum(f.stat().st_size for f in out.glob('*.npy')) / 1e9:.2f} GB on disk")
+    size = sum(f.stat().st_size for f in out.glob('*.npy'))
+    print(f"{table.n_envs:,} x {table.n_thetas:,}, {size / 1e9:.2f} GB on disk")
 
 
 def bar(ok: bool) -> str:

@@ -6,14 +6,38 @@ import pytest
 from teaching import kernels
 from teaching.candidates import sample_thetas
 from teaching.dynamics import rollout_np
-from teaching.environments import (BRAKING, MERGING, TAILGATING, environment_class, environment_id,
-                                   get_environments, other_car_states, stratified_sample)
+from teaching.environments import (
+    BRAKING,
+    MERGING,
+    TAILGATING,
+    environment_class,
+    environment_id,
+    get_environments,
+    other_car_states,
+    stratified_sample,
+)
 from teaching.features import default_normalisers, raw_features
-from teaching.planner import (NEWTON_TOL, anchor_order, euclidean_distance, objective_weights, plan_chunk, solve,
-                              strategy_seeds)
+from teaching.planner import (
+    NEWTON_TOL,
+    anchor_order,
+    euclidean_distance,
+    objective_weights,
+    plan_chunk,
+    solve,
+    strategy_seeds,
+)
 from teaching.reference import reference_gap
-from teaching.strategies import (BRAKE_CHANGE, BRAKE_STAY, CLASS_OF_CLUSTER, MERGE_AHEAD, MERGE_BEHIND,
-                                 NO_STRATEGY, TAIL_CHANGE, TAIL_STAY, strategy_labels)
+from teaching.strategies import (
+    BRAKE_CHANGE,
+    BRAKE_STAY,
+    CLASS_OF_CLUSTER,
+    MERGE_AHEAD,
+    MERGE_BEHIND,
+    NO_STRATEGY,
+    TAIL_CHANGE,
+    TAIL_STAY,
+    strategy_labels,
+)
 from teaching.table import TrajectoryTable
 from teaching.world import THETA_STAR, WORLD
 
@@ -92,11 +116,11 @@ def test_cross_theta_every_theta_has_the_best_stored_trajectory_in_its_environme
 def test_planner_matches_the_eight_start_scipy_reference(chunk):
     table, _ = chunk
     rng = np.random.default_rng(11)
-    pairs = [(int(m), int(n)) for m, n in zip(rng.integers(0, M_ENVS, 12), rng.integers(0, N_THETAS, 12))]
+    pairs = [(int(m), int(n)) for m, n in zip(rng.integers(0, M_ENVS, 12), rng.integers(0, N_THETAS, 12), strict=True)]
     pairs[0] = (0, 0)  # theta* is always among them
     gaps = reference_gap(table, pairs)
     assert gaps.shape == (12,)
-    assert gaps.max() <= 1e-3, list(zip(pairs, gaps))
+    assert gaps.max() <= 1e-3, list(zip(pairs, gaps, strict=True))
 
 
 def _projected_gradient(z, oxy, goal, w):
@@ -180,7 +204,8 @@ def test_projected_newton_converges_on_merging_problems():
     e = np.repeat(np.arange(len(ids)), 16 * 8)
     t = np.tile(np.repeat(np.arange(16), 8), len(ids))
     s = np.tile(np.arange(8), len(ids) * 16)
-    _, _, its = solve(strategy_seeds()[s], oxy[e], envs.goal[e], objective_weights(thetas[t], default_normalisers()), 200)
+    w = objective_weights(thetas[t], default_normalisers())
+    _, _, its = solve(strategy_seeds()[s], oxy[e], envs.goal[e], w, 200)
     assert np.mean(its >= 199) <= 0.01, f"{np.sum(its >= 199)} of {len(its)} solves at the iteration cap"
 
 
