@@ -60,8 +60,8 @@ def lane_crossings(x: np.ndarray) -> np.ndarray:
     line (one lane change: 1; over two lanes: 2; right, then left across two lanes: 3)."""
     centres = np.asarray(WORLD.lane_centres)
     lines = (centres[1:] + centres[:-1]) / 2
-    side = np.sign(x[..., None] - lines)  # (..., T+1, lines)
-    return (np.diff(side, axis=-2) != 0).sum((-2, -1))
+    right_of = x[..., None] > lines  # (..., T+1, lines); on a line is not across it
+    return (right_of[..., 1:, :] != right_of[..., :-1, :]).sum((-2, -1))
 
 
 def strategy_labels(states: np.ndarray, envs: Environments, other_xy: np.ndarray | None = None) -> np.ndarray:
