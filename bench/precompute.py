@@ -36,7 +36,9 @@ import time
 import uuid
 from pathlib import Path
 
+import numba
 import numpy as np
+from celery import Celery, Signature, group
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -58,16 +60,12 @@ def parse_args(argv=None):
 
 
 def client(url):
-    from celery import Celery
-
     app = Celery("bench-precompute", broker=url, backend=url)
     app.conf.result_expires = 3600
     return app
 
 
 def chunk_group(app, spec, picks, queue):
-    from celery import Signature, group
-
     return group(Signature("precompute.table_chunk", args=(None, spec, i, ids), immutable=True,
                            options={"queue": queue}, app=app) for i, ids in picks)
 
@@ -123,8 +121,6 @@ def main(argv=None) -> int:
     print(f"machine: {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f} at start; preset {preset.name}: "
           f"{len(all_ids)} chunks of {preset.chunk_size} envs x {preset.n_thetas} thetas; timing {len(picks)} "
           f"chunks = {n_traj:,} trajectories per round, {args.rounds} rounds (planner, then celery, alternating)")
-
-    import numba
 
     _, thetas, normalisers, _ = work._context(spec)
     plan_chunk(np.asarray(picks[0][1][:2]), thetas[:8], normalisers)  # load the compiled kernels

@@ -17,10 +17,10 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from teaching.evaluation import ideal_user_matrix  # noqa: E402
-from teaching.learners import Distances  # noqa: E402
-from teaching.selection import teach  # noqa: E402
-from teaching.synthetic import synthetic_table  # noqa: E402
+from teaching.evaluation import ideal_user_matrix
+from teaching.learners import Distances
+from teaching.selection import teach
+from teaching.synthetic import synthetic_table
 
 
 def main() -> None:

@@ -33,7 +33,8 @@ def summary(table: TrajectoryTable) -> str:
     for c, name in enumerate(CLUSTER_NAMES):
         lines.append(f"  {name:32s} {int((star == c).sum()):6d}")
     cls = table.env_class
-    lines.append("environments per class: " + ", ".join(f"{n} {int((cls == i).sum())}" for i, n in enumerate(CLASS_NAMES)))
+    lines.append("environments per class: "
+                 + ", ".join(f"{n} {int((cls == i).sum())}" for i, n in enumerate(CLASS_NAMES)))
     return "\n".join(lines)
 
 
@@ -77,7 +78,8 @@ def main(argv=None) -> int:
             print(summary(table))
             print(f"built {n * preset.n_thetas:,} trajectories in {time.time() - start:.1f} s -> {args.out}")
         elif args.command == "sheet":
-            from .sheet import make_sheet
+            # matplotlib loads only for this command
+            from .sheet import make_sheet  # noqa: PLC0415
 
             if args.columns < 1 or args.dpi < 10:
                 raise ValueError(f"--columns must be >= 1 and --dpi >= 10, got {args.columns} and {args.dpi}")

@@ -63,11 +63,29 @@ Learners and selection (DESIGN §5-6)
 """
 from __future__ import annotations
 
-from .build import (PRESETS, Preset, assemble, build_chunk, check_writable, chunk_key, chunk_path, chunks_of,
-                    code_fingerprint, customised, get_preset, table_identity)
+from .build import (
+                    PRESETS,
+                    Preset,
+                    assemble,
+                    build_chunk,
+                    check_writable,
+                    chunk_key,
+                    chunk_path,
+                    chunks_of,
+                    code_fingerprint,
+                    customised,
+                    get_preset,
+                    table_identity,
+)
 from .candidates import SAMPLERS
-from .environments import (CLASS_NAMES, N_ENVIRONMENTS, environment_class, get_environments, other_car_states,
-                           stratified_sample)
+from .environments import (
+                    CLASS_NAMES,
+                    N_ENVIRONMENTS,
+                    environment_class,
+                    get_environments,
+                    other_car_states,
+                    stratified_sample,
+)
 from .features import default_normalisers
 from .learners import MODEL_NAMES, has_hyperparameter, make_model, parse_hyperparameters
 from .selection import APPROX_STAR, CONDITIONS, SelectionSettings, build_sequences, condition_sequence

@@ -27,7 +27,6 @@ from .planner import PlannerSettings, plan_chunk, planner_identity
 from .table import TableError, TrajectoryTable
 from .world import THETA_STAR, WORLD, world_fingerprint
 
-
 PACKAGE_DIR = Path(__file__).resolve().parent
 
 
@@ -147,7 +146,8 @@ def chunk_path(out, key: str) -> Path:
     return Path(out) / "chunks" / f"{key}.npz"
 
 
-def build_chunk(out: Path, identity: dict, env_ids, thetas, normalisers, settings=PlannerSettings()) -> tuple[str, bool]:
+def build_chunk(out: Path, identity: dict, env_ids, thetas, normalisers,
+                settings: PlannerSettings = PlannerSettings()) -> tuple[str, bool]:
     """Compute one chunk unless it is already stored.  Returns (key, computed)."""
     key = chunk_key(identity, env_ids)
     path = chunk_path(out, key)

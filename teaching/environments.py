@@ -55,7 +55,7 @@ class Environments:
     def env_class(self) -> np.ndarray:
         return environment_class(self)
 
-    def take(self, index) -> "Environments":
+    def take(self, index) -> Environments:
         return Environments(*(getattr(self, f)[index] for f in self.__dataclass_fields__))
 
 

@@ -368,7 +368,7 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol):
     F = objective_grad_hess(z, ox, oy, goal, w, g, H, True)
     damping = 0.0
     it = 0
-    for it in range(maxiter):
+    for it in range(maxiter):  # noqa: B007  (returned: the iterations taken)
         # epsilon-active set (Bertsekas): a variable within eps of a bound whose
         # gradient points outward is fixed, else a Newton step for it would be
         # clipped at the bound and could go uphill.  eps shrinks with the
@@ -390,8 +390,8 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol):
         for i in range(NV):
             scale = max(scale, abs(H[i, i]))
         mu = damping
-        for rounds in range(NV):
-            for attempt in range(30):
+        for _rounds in range(NV):
+            for _attempt in range(30):
                 for i in range(NV):
                     for j in range(NV):
                         Hf[i, j] = H[i, j] if (free[i] and free[j]) else 0.0
@@ -417,7 +417,7 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol):
         alpha = 1.0
         accepted = False
         Fn = F
-        for ls in range(30):
+        for _ls in range(30):
             dec = 0.0
             for i in range(NV):
                 zn[i] = min(1.0, max(-1.0, zf[i] + alpha * p[i]))

@@ -19,9 +19,9 @@ To add a model, subclass :class:`LearnerModel` (implement ``likelihood``) and
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from functools import cached_property
-from typing import Callable
 
 import numpy as np
 from scipy.special import logsumexp
@@ -100,7 +100,7 @@ class LearnerModel:
         """(R, N) float32 in [0, 1] for environments ``rows`` (all M when None)."""
         raise NotImplementedError
 
-    def with_value(self, value: float) -> "LearnerModel":
+    def with_value(self, value: float) -> LearnerModel:
         """The same model with another hyperparameter value."""
         if self.param is None:
             return self

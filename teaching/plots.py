@@ -5,11 +5,11 @@ import matplotlib
 
 matplotlib.use("Agg")  # figures are written to files; no display on servers
 
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from .environments import CLASS_NAMES  # noqa: E402
-from .strategies import CLUSTER_NAMES  # noqa: E402
+from .environments import CLASS_NAMES
+from .strategies import CLUSTER_NAMES
 
 
 def _ink(value: float, vmax: float) -> str:

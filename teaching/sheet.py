@@ -22,15 +22,16 @@ import matplotlib
 
 matplotlib.use("Agg")  # figures are written to files; no display on servers
 
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.colors import to_rgba  # noqa: E402
-from matplotlib.lines import Line2D  # noqa: E402
-from matplotlib.patches import Patch, Polygon, Rectangle  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.colors import to_rgba
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch, Polygon, Rectangle
 
-from .environments import CLASS_NAMES  # noqa: E402
-from .strategies import CLUSTER_NAMES  # noqa: E402
-from .world import GOAL_MERGE, GOAL_NAMES, WORLD  # noqa: E402
+from .environments import CLASS_NAMES
+from .strategies import CLUSTER_NAMES
+from .table import TrajectoryTable
+from .world import GOAL_MERGE, GOAL_NAMES, WORLD
 
 COLORS = {"grass": "#dfe9d8", "road": "#5b6068", "line": "#f4f4f4", "goal": "#2563eb",
           "robot": "#f5c518", "other": "#c9ccd1", "outline": "#1f2328", "trail": "#ff7a1a"}
@@ -130,7 +131,7 @@ def sheet_rows(*, table, conditions, tests, columns: int) -> list[tuple[str, lis
     for j, t in enumerate(tests or []):
         m = row_of[int(t["env_id"])]
         panels = []
-        for letter, o in zip(OPTION_LETTERS, t["options"]):
+        for letter, o in zip(OPTION_LETTERS, t["options"], strict=False):
             th = int(o["theta_index"])
             who = "θ* (θ0)" if th == 0 else f"θ{th}"
             regret = f" · regret {o['regret']:.3g}" if "regret" in o and th != 0 else ""
@@ -272,8 +273,6 @@ def make_sheet(*, table_dir, teach_dir, out, **kwargs) -> tuple[int, str | None]
     Returns (panels drawn, why the teach output has no tests or None).  Raises SheetError
     (or teaching.table.TableError) for unusable inputs or an unwritable `out`.
     """
-    from .table import TrajectoryTable
-
     table = TrajectoryTable.load(table_dir)
     conditions, tests, no_tests = load_teach(teach_dir=teach_dir, table=table)
     out = Path(out)

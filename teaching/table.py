@@ -124,7 +124,7 @@ class TrajectoryTable:
         return meta["content_hash"]
 
     @classmethod
-    def load(cls, path, mmap: bool = True, verify: bool = True, expected_hash: str | None = None) -> "TrajectoryTable":
+    def load(cls, path, mmap: bool = True, verify: bool = True, expected_hash: str | None = None) -> TrajectoryTable:
         """Load a saved table (arrays memory-mapped read-only by default).
 
         Raises TableError for a missing table, one built under other world

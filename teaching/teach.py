@@ -67,8 +67,8 @@ def check_table(table) -> None:
         raise InputError("the table has no candidate objectives θ (it must contain θ* as theta 0)")
     expected = np.asarray(table.meta.get("theta_star", THETA_STAR), np.float64)
     if not np.allclose(np.asarray(table.thetas[0]), expected):
-        raise InputError(f"the table does not contain θ* as theta 0: thetas[0] = {np.asarray(table.thetas[0]).tolist()}, "
-                         f"θ* = {expected.tolist()}")
+        raise InputError(f"the table does not contain θ* as theta 0: "
+                         f"thetas[0] = {np.asarray(table.thetas[0]).tolist()}, θ* = {expected.tolist()}")
 
 
 def run(args) -> dict:
@@ -123,8 +123,9 @@ def run(args) -> dict:
     grids = examples_per_cluster(theta_star_clusters(table), envs, ext_names)
     _write(out / "examples_per_cluster.json", {"layout": "grid[row][col]: col = class (merging, braking, "
                                                "tailgating, other), row = 1st/2nd strategy (cluster 2*col+row)",
-                                               "grids": {n: g.tolist() for n, g in zip(ext_names, grids)}})
-    from .plots import plot_examples_shown, plot_ideal_users  # matplotlib loads only when figures are drawn
+                                               "grids": {n: g.tolist() for n, g in zip(ext_names, grids, strict=True)}})
+    # matplotlib loads only when figures are drawn
+    from .plots import plot_examples_shown, plot_ideal_users  # noqa: PLC0415
 
     plot_ideal_users(matrix, SEQUENCE_NAMES, USER_NAMES, out / "sim_users.png")
     plot_examples_shown(grids[:len(SEQUENCE_NAMES)], SEQUENCE_NAMES, out / "examples_shown.png")

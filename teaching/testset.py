@@ -28,8 +28,8 @@ from __future__ import annotations
 import numpy as np
 
 from .environments import CLASS_NAMES
-from .strategies import CLASS_OF_CLUSTER, CLUSTER_NAMES
 from .planner import euclidean_distance
+from .strategies import CLASS_OF_CLUSTER, CLUSTER_NAMES
 
 MIN_REGRET = 1e-3  # θ*-reward units; on the demo table |θ*·φ(ξ^θ*)| has median 0.039 (see docs/teaching.md)
 MIN_OPTION_DISTANCE = 0.5  # scaled state units: ~6 ft average lateral separation, or its equivalent
