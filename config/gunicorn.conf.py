@@ -14,6 +14,7 @@ Environment (all optional):
 """
 import multiprocessing
 import os
+import time
 
 bind = os.environ.get("GUNICORN_BIND", "127.0.0.1:8000")
 
@@ -53,13 +54,12 @@ def post_worker_init(worker):
     """Import every view (the URLconf pulls in the analysis stack: ~1.5 s of CPU) and compile the
     participant templates before this worker takes its first request, so that no participant
     waits for it after a deploy, a restart or a max_requests recycle."""
-    import time
-
-    from django.template.loader import get_template
-    from django.urls import get_resolver
+    # Django loads in the worker, not when gunicorn reads this file
+    from django.template.loader import get_template  # noqa: PLC0415
+    from django.urls import get_resolver  # noqa: PLC0415
 
     start = time.monotonic()
-    get_resolver().url_patterns
+    get_resolver().url_patterns  # noqa: B018  (the access loads the URLconf)
     for kind in ("consent", "instructions", "training", "test", "attention", "demographics", "done"):
         get_template(f"studyapp/step_{kind}.html")
     worker.log.info("worker %s warm in %.1f s", worker.pid, time.monotonic() - start)

@@ -11,9 +11,9 @@ import logging
 import time
 from pathlib import Path
 
+from django.utils import timezone
 from kombu.exceptions import OperationalError
 from kombu.utils.url import maybe_sanitize_url
-from django.utils import timezone
 from tqdm import tqdm
 
 from teaching.api import Preset

@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from teaching.api import condition_sequence as select, has_hyperparameter
+from teaching.api import condition_sequence as select
+from teaching.api import has_hyperparameter
 
 
 def condition_sequence(table, name: str, **kwargs) -> dict:

@@ -12,8 +12,8 @@ on a threading layer (OpenMP or workqueue) that is not fork-safe once used,
 but the prefork parent never runs a kernel: it only imports them, and each
 child starts its own thread pool after the fork.  Each child uses
 ``PRECOMPUTE_THREADS`` Numba threads (default: cores // concurrency, so ``-c 2``
-on 2 cores gives 1 thread per child and ``-c 1`` gives 2); the ``threads`` pool is not safe with Numba's workqueue layer and is
-not supported.  See docs/scaling.md.
+on 2 cores gives 1 thread per child and ``-c 1`` gives 2); the ``threads`` pool is not safe with Numba's
+workqueue layer and is not supported.  See docs/scaling.md.
 
 ``job_id`` may be None: the task then touches no database (used by the
 benchmark and by the real-worker tests, whose worker process has no access

@@ -30,8 +30,19 @@ from pathlib import Path
 import numpy as np
 
 from teaching import api
-from teaching.api import (Preset, TableError, TrajectoryTable, assemble, build_chunk, chunk_key, chunk_path, chunks_of,
-                          code_fingerprint, default_normalisers, table_identity)
+from teaching.api import (
+    Preset,
+    TableError,
+    TrajectoryTable,
+    assemble,
+    build_chunk,
+    chunk_key,
+    chunk_path,
+    chunks_of,
+    code_fingerprint,
+    default_normalisers,
+    table_identity,
+)
 
 # Every teaching module's source, hashed once when this module is imported (i.e. the code this
 # process actually runs); every task checks it against the launcher's, so machines on different

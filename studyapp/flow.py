@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from django.db import IntegrityError, transaction
 from django.utils import timezone
 
-from .models import Answer, Participant
+from .models import Answer, Participant, new_code
 
 logger = logging.getLogger(__name__)
 
@@ -226,6 +226,4 @@ def record(participant: Participant, step_index: int, post) -> Participant:
 
 
 def _code() -> str:
-    from .models import new_code
-
     return new_code()

@@ -126,7 +126,8 @@ class Condition(models.Model):
 
 class Participant(models.Model):
     PROLIFIC, MTURK, ANONYMOUS, PREVIEW = "prolific", "mturk", "anonymous", "preview"
-    PLATFORMS = [(PROLIFIC, "Prolific"), (MTURK, "Mechanical Turk"), (ANONYMOUS, "anonymous"), (PREVIEW, "staff preview")]
+    PLATFORMS = [(PROLIFIC, "Prolific"), (MTURK, "Mechanical Turk"), (ANONYMOUS, "anonymous"),
+                 (PREVIEW, "staff preview")]
 
     study = models.ForeignKey(Study, models.CASCADE, related_name="participants")
     condition = models.ForeignKey(Condition, models.PROTECT, related_name="participants")

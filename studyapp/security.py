@@ -21,8 +21,7 @@ from urllib.parse import urlsplit
 
 from django.conf import settings
 from django.core.cache import caches
-from django.core.exceptions import (BadRequest, DisallowedHost, RequestDataTooBig, TooManyFieldsSent,
-                                    TooManyFilesSent)
+from django.core.exceptions import BadRequest, DisallowedHost, RequestDataTooBig, TooManyFieldsSent, TooManyFilesSent
 from django.http import HttpResponse, JsonResponse
 from django.http.multipartparser import MultiPartParserError
 from django.middleware.csrf import CsrfViewMiddleware
@@ -122,7 +121,7 @@ def hit(key: str, limit: int, window: int) -> int:
         count = cache.incr(full_key)
     except ValueError:  # evicted between add and incr: count this request as the first
         return 0
-    except Exception as exc:  # noqa: BLE001 - any backend error (connection refused, timeout)
+    except Exception as exc:  # any backend error (connection refused, timeout)
         _cache_outage(exc)
         return 0
     return max(1, math.ceil(start + window - now)) if count > limit else 0
@@ -180,12 +179,12 @@ class RequestLimitsMiddleware:
         # Django's limits (too many fields, a chunked body over DATA_UPLOAD_MAX_MEMORY_SIZE) and
         # unparsable bodies end as a generic 400 page (a traceback page under DEBUG).
         try:
-            request.GET
+            request.GET  # noqa: B018  (the access parses the query)
             if request.method == "POST":
                 incomplete = _incomplete_body(request)
                 if incomplete:
                     return refuse(request, 400, incomplete)
-                request.POST
+                request.POST  # noqa: B018  (the access parses the body)
         except OSError:  # the client went away mid-body: whatever arrived is not an answer
             return refuse(request, 400, "The request arrived incomplete, so nothing was saved. Please answer again.")
         except BODY_ERRORS as exc:

@@ -36,8 +36,7 @@ from django.core.exceptions import ValidationError
 from django.core.validators import validate_slug
 from django.db import transaction
 
-from teaching.api import (CONDITIONS, TableError, TrajectoryTable, build_sequences, select_test_set,
-                          stratified_sample)
+from teaching.api import CONDITIONS, TableError, TrajectoryTable, build_sequences, select_test_set, stratified_sample
 
 from . import trajectories
 from .models import Condition, Study

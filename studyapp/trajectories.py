@@ -29,8 +29,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from teaching.api import (CLASS_NAMES, CLUSTER_NAMES, GOAL_NAMES, WORLD, environment_class, get_environments,
-                          other_car_states, strategy_labels)
+from teaching.api import (
+    CLASS_NAMES,
+    CLUSTER_NAMES,
+    GOAL_NAMES,
+    WORLD,
+    environment_class,
+    get_environments,
+    other_car_states,
+    strategy_labels,
+)
 
 DECIMALS = 3
 

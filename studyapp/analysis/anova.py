@@ -53,8 +53,9 @@ def factorial_anova(data: pd.DataFrame, factors: tuple[str, str], dv: str = "mea
     ``expect_cells``: the (level_a, level_b) cells the design should have; a missing or
     too-small cell yields ``ok=False`` with a message instead of numbers.
     """
-    import statsmodels.formula.api as smf
-    from statsmodels.stats.anova import anova_lm
+    # a heavy import (1-2.5 s): loaded when an analysis runs, not by every web worker (the URLconf imports this module)
+    import statsmodels.formula.api as smf  # noqa: PLC0415
+    from statsmodels.stats.anova import anova_lm  # noqa: PLC0415
 
     a, b = factors
     d = data[[a, b, dv]].dropna().copy()
@@ -70,7 +71,8 @@ def factorial_anova(data: pd.DataFrame, factors: tuple[str, str], dv: str = "mea
                            f"cell(s) {'; '.join(missing)} (need at least {min_per_cell} in every cell).")
             return res
     elif (cells["n"] < min_per_cell).any() or d[a].nunique() < 2 or d[b].nunique() < 2:
-        res.message = f"{name or 'ANOVA'} not computed: need two levels of each factor and {min_per_cell}+ participants per cell."
+        res.message = (f"{name or 'ANOVA'} not computed: need two levels of each factor and {min_per_cell}+ "
+                       "participants per cell.")
         return res
     n_par = len(cells) if interaction else d[a].nunique() + d[b].nunique() - 1
     if len(d) - n_par < 1:

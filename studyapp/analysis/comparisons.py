@@ -4,8 +4,15 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from .conditions import (APPROX_STAR_DEFAULT, COVERAGE_APPROX, COVERAGE_RANDOM, MIN_PER_GROUP, canonical, label,
-                         negligible_spread)
+from .conditions import (
+    APPROX_STAR_DEFAULT,
+    COVERAGE_APPROX,
+    COVERAGE_RANDOM,
+    MIN_PER_GROUP,
+    canonical,
+    label,
+    negligible_spread,
+)
 from .tables import included
 
 
@@ -17,8 +24,9 @@ def default_comparisons(approx_star: str = APPROX_STAR_DEFAULT) -> list[tuple[st
 
 def welch(x, y) -> dict:
     """Welch's t-test of x vs y: t, df, p, 95 % CI of mean(x) - mean(y), Cohen's d (pooled SD)."""
-    from scipy import stats
-    import pingouin as pg
+    # a heavy import (1-2.5 s): loaded when an analysis runs, not by every web worker (the URLconf imports this module)
+    import pingouin as pg  # noqa: PLC0415
+    from scipy import stats  # noqa: PLC0415
 
     x = np.asarray(x, float)
     y = np.asarray(y, float)
@@ -37,7 +45,8 @@ def welch_tests(table: pd.DataFrame, comparisons=None, approx_star: str = APPROX
     Returns the table (one row per comparison; untestable ones carry a ``note`` and no numbers)
     and a list of messages.
     """
-    from statsmodels.stats.multitest import multipletests
+    # a heavy import (1-2.5 s): loaded when an analysis runs, not by every web worker (the URLconf imports this module)
+    from statsmodels.stats.multitest import multipletests  # noqa: PLC0415
 
     comparisons = list(comparisons) if comparisons is not None else default_comparisons(approx_star)
     comparisons = [(canonical(a), canonical(b)) for a, b in comparisons]

@@ -31,7 +31,8 @@ class Correlation:
 
 
 def pearson(x, y) -> dict:
-    from scipy import stats
+    # a heavy import (1-2.5 s): loaded when an analysis runs, not by every web worker (the URLconf imports this module)
+    from scipy import stats  # noqa: PLC0415
     r = stats.pearsonr(np.asarray(x, float), np.asarray(y, float))
     ci = r.confidence_interval(0.95)
     return {"r": float(r.statistic), "p": float(r.pvalue), "ci_low": float(ci.low), "ci_high": float(ci.high)}
@@ -84,7 +85,7 @@ def per_test_frame(table: pd.DataFrame, answers: pd.DataFrame, training: pd.Data
     a["participant_id"] = a["participant_id"].astype(str)
     a = a.merge(inc, on="participant_id", how="inner")
     counts = examples_per_cluster(training, conditions=sorted(set(a["condition"])))
-    a["helpful"] = [helpful_examples(counts, c, t) for c, t in zip(a["condition"], a["test_cluster"])]
+    a["helpful"] = [helpful_examples(counts, c, t) for c, t in zip(a["condition"], a["test_cluster"], strict=True)]
     return a
 
 

@@ -92,4 +92,5 @@ def fingerprint(study: Study, include_incomplete: bool = False) -> str:
     np_ = Participant.objects.filter(study=study).aggregate(
         n=Count("pk"), ex=Count("pk", filter=Q(excluded=True)), done=Count("pk", filter=Q(completed_at__isnull=False)))
     conds = Condition.objects.filter(study=study).aggregate(n=Count("pk"), last=Max("pk"))
-    return f"{study.pk}-{agg['n']}-{agg['last']}-{np_['n']}-{np_['ex']}-{np_['done']}-{conds['n']}-{conds['last']}-{int(include_incomplete)}"
+    return (f"{study.pk}-{agg['n']}-{agg['last']}-{np_['n']}-{np_['ex']}-{np_['done']}-{conds['n']}-{conds['last']}-"
+            f"{int(include_incomplete)}")

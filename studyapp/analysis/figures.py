@@ -15,10 +15,11 @@ import io
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.patches import Patch
 
-from . import stats as S  # noqa: E402
+from . import stats as S
 
 COLORS = {"exact": "#9e9e9e", "approximate": "#4c72b0", "random": "#dd8452", "other": "#8c8c8c"}
 STAR_COLOR = "#222222"
@@ -72,7 +73,7 @@ def _layout(analysis, conds):
         if not members:
             continue
         offs = [0.0] if len(members) == 1 else [-0.21, 0.21]
-        for c, o in zip(members, offs):
+        for c, o in zip(members, offs, strict=False):
             pos[c] = g + o
         ticks.append(g)
         labels.append(dist + (" (approx*: det)" if analysis.approx_star in members else ""))
@@ -95,7 +96,7 @@ def scores_figure(analysis: S.Analysis):
     top_all = float(np.nanmax((summ["mean"] + summ["se"].fillna(0)).to_numpy(float))) if len(summ) else 1.0
     low_all = float(np.nanmin((summ["mean"] - summ["se"].fillna(0)).to_numpy(float))) if len(summ) else 0.0
     step = max(0.35, 0.08 * (top_all - min(low_all, 0) + 1))
-    for ax, (title, conds) in zip(axes[0], panels):
+    for ax, (title, conds) in zip(axes[0], panels, strict=True):
         x, width, ticks, tick_labels = _layout(analysis, conds)
         means = summ.loc[conds, "mean"].to_numpy(float)
         ses = summ.loc[conds, "se"].to_numpy(float)
@@ -104,15 +105,14 @@ def scores_figure(analysis: S.Analysis):
         bars = ax.bar(x, means, width=width, yerr=np.nan_to_num(ses), capsize=4,
                       color=[_color(analysis, c) for c in conds], edgecolor="black", linewidth=0.6,
                       error_kw={"elinewidth": 1})
-        for bar, h in zip(bars, hatches):
+        for bar, h in zip(bars, hatches, strict=True):
             bar.set_hatch(h)
         ax.axhline(0, color="black", linewidth=0.8)
         ax.set_xticks(ticks, tick_labels, rotation=30, ha="right", fontsize=8)
-        for xi, c in zip(x, conds):  # participant counts along the bottom edge
+        for xi, c in zip(x, conds, strict=True):  # participant counts along the bottom edge
             ax.text(xi, 0.01, f"n={int(summ.loc[c, 'n'])}", ha="center", va="bottom", fontsize=7, color="#444",
                     transform=ax.get_xaxis_transform())
         if any(hatches):
-            from matplotlib.patches import Patch
             ax.legend(handles=[Patch(facecolor="white", edgecolor="black", label="deterministic"),
                                Patch(facecolor="white", edgecolor="black", hatch="//", label="probabilistic")],
                       fontsize=7, loc="upper right", frameon=False)
@@ -123,8 +123,9 @@ def scores_figure(analysis: S.Analysis):
                 i, j = sorted((x[conds.index(w["a"])], x[conds.index(w["b"])]))
                 ax.plot([i, i, j, j], [level - step * 0.25, level, level, level - step * 0.25], color=STAR_COLOR,
                         linewidth=0.9)
-                ax.text((i + j) / 2, level + 0.02, f"{stars(w['p_holm'])} (p {'' if w['p'] < 0.001 else '= '}{S.fmt_p(w['p'])})", ha="center",
-                        va="bottom", fontsize=7)
+                ax.text((i + j) / 2, level + 0.02,
+                        f"{stars(w['p_holm'])} (p {'' if w['p'] < 0.001 else '= '}{S.fmt_p(w['p'])})",
+                        ha="center", va="bottom", fontsize=7)
                 level += step
         ax.set_ylim(min(low_all, 0) - 2 * step - 0.4, max(level + step * 0.3, top_all + step))
         ax.spines[["top", "right"]].set_visible(False)
@@ -139,7 +140,7 @@ def correlation_figure(analysis: S.Analysis):
              cors.get(("helpful examples vs per-test score", "condition x test"))]
     fig, axes = plt.subplots(1, 2, figsize=(9, 3.8))
     xlabels = ["number of training examples in the condition", "helpful training examples for the test"]
-    for ax, c, xl in zip(axes, picks, xlabels):
+    for ax, c, xl in zip(axes, picks, xlabels, strict=True):
         ax.set_xlabel(xl)
         ax.set_ylabel("mean confidence score on the test")
         if c is None or c.data is None or not len(c.data):

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from django.template.loader import render_to_string
 
 from . import figures as FIG
 from . import stats as S
@@ -70,7 +71,8 @@ def context(analysis: S.Analysis, title: str = "Study analysis", figures: dict |
         if a.ok:
             item["type2"] = _anova_rows(a.type2)
             item["type3"] = _anova_rows(a.type3)
-            item["apa"] = [(typ, "; ".join(f"{r['effect']}: {r['apa']}, partial η² = {r['eta']}" for r in rows if r["apa"]))
+            item["apa"] = [(typ, "; ".join(f"{r['effect']}: {r['apa']}, partial η² = {r['eta']}"
+                                           for r in rows if r["apa"]))
                            for typ, rows in (("type II", item["type2"]), ("type III", item["type3"]))]
         anovas.append(item)
     welch = []
@@ -144,12 +146,10 @@ def headline(analysis: S.Analysis) -> list[str]:
 
 
 def render_fragment(analysis: S.Analysis, title: str = "Study analysis", figures: dict | None = None) -> str:
-    from django.template.loader import render_to_string
     return render_to_string("studyapp/analysis/report.html", context(analysis, title, figures))
 
 
 def render_page(analysis: S.Analysis, title: str = "Study analysis", figures: dict | None = None) -> str:
-    from django.template.loader import render_to_string
     ctx = context(analysis, title, figures)
     ctx["fragment"] = render_to_string("studyapp/analysis/report.html", ctx)
     return render_to_string("studyapp/analysis/report_page.html", ctx)

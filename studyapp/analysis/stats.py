@@ -75,15 +75,36 @@ import pandas as pd
 
 # The implementation lives in the modules below; this module stays the public entry point, so
 # ``from studyapp.analysis import stats as S; S.<name>`` keeps working for every name it had.
-from .anova import (AnovaResult, coverage_model_anova, coverage_model_frame,
-                    distance_determinism_anovas, factorial_anova)
+from .anova import AnovaResult, coverage_model_anova, coverage_model_frame, distance_determinism_anovas, factorial_anova
 from .comparisons import default_comparisons, welch, welch_tests
-from .conditions import (ALIASES, APPROX_CONDITIONS, APPROX_STAR_DEFAULT, COVERAGE_APPROX,
-                         COVERAGE_RANDOM, DETERMINISM, DISTANCES, MIN_PEARSON, MIN_PER_GROUP,
-                         PAPER_CONDITIONS, canonical, canonicalize, cluster_names, condition_factors,
-                         label, n_clusters, partner_cluster)
-from .correlations import (Correlation, correlation, correlations, examples_per_cluster,
-                           helpful_examples, pearson, per_test_frame)
+from .conditions import (
+    ALIASES,
+    APPROX_CONDITIONS,
+    APPROX_STAR_DEFAULT,
+    COVERAGE_APPROX,
+    COVERAGE_RANDOM,
+    DETERMINISM,
+    DISTANCES,
+    MIN_PEARSON,
+    MIN_PER_GROUP,
+    PAPER_CONDITIONS,
+    canonical,
+    canonicalize,
+    cluster_names,
+    condition_factors,
+    label,
+    n_clusters,
+    partner_cluster,
+)
+from .correlations import (
+    Correlation,
+    correlation,
+    correlations,
+    examples_per_cluster,
+    helpful_examples,
+    pearson,
+    per_test_frame,
+)
 from .tables import condition_summary, included, participant_table
 
 __all__ = [

@@ -31,7 +31,8 @@ def participant_table(participants: pd.DataFrame, answers: pd.DataFrame, trainin
         p["excluded"] = ~p["attention_ok"]
     p["excluded"] = p["excluded"].astype(bool)
     if "exclusion_reason" not in p.columns:
-        p["exclusion_reason"] = np.where(p["excluded"], np.where(p["attention_ok"], "excluded", "failed attention check"), "")
+        p["exclusion_reason"] = np.where(p["excluded"],
+                                         np.where(p["attention_ok"], "excluded", "failed attention check"), "")
     factors = pd.DataFrame([condition_factors(c, approx_star) for c in p["condition"]], index=p.index,
                            columns=["model", "distance", "determinism", "coverage"])
     factors["coverage"] = factors["coverage"].astype(bool)

@@ -67,7 +67,7 @@ def _cached(call, *args):
     afresh instead of failing, as the rate limits fail open (studyapp/security.py)."""
     try:
         return call(*args)
-    except Exception as exc:  # noqa: BLE001 - any backend error (connection refused, timeout)
+    except Exception as exc:  # any backend error (connection refused, timeout)
         logger.warning("analysis report cache unavailable (%s: %s); computing without it", type(exc).__name__, exc)
         return None
 

@@ -2,8 +2,9 @@
 
 import django.db.models.deletion
 import django.utils.timezone
-import studyapp.models
 from django.db import migrations, models
+
+import studyapp.models
 
 
 class Migration(migrations.Migration):

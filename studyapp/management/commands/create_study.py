@@ -50,8 +50,9 @@ class Command(BaseCommand):
         try:
             data = read_spec(spec, options["table"])
             if isinstance(data, dict):
-                overrides = {"slug": options["slug"], "name": options["name"], "target_per_condition": options["target"],
-                             "completion_code": options["completion_code"], "recruitment": options["recruitment"]}
+                overrides = {"slug": options["slug"], "name": options["name"],
+                             "target_per_condition": options["target"], "completion_code": options["completion_code"],
+                             "recruitment": options["recruitment"]}
                 data.update({k: v for k, v in overrides.items() if v is not None})
                 if options["closed"]:
                     data["is_open"] = False

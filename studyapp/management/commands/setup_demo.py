@@ -14,6 +14,7 @@ from django.contrib.auth import get_user_model
 from django.core.management import call_command
 from django.core.management.base import BaseCommand
 
+from studyapp.models import Study
 from studyapp.studies import build_study, demo_is_stale, demo_spec
 
 DEFAULT_USER = "researcher"
@@ -28,7 +29,8 @@ class Command(BaseCommand):
         parser.add_argument("--addrport", default="127.0.0.1:8000")
         parser.add_argument("--demo-login", action="store_true", help="Also create the staff login researcher / "
                             "demo-password (make demo only: a public password must never reach a real server).")
-        parser.add_argument("--replace", action="store_true", help="Rebuild the demo study (if it has no participants).")
+        parser.add_argument("--replace", action="store_true",
+                            help="Rebuild the demo study (if it has no participants).")
         parser.add_argument("--table", default=None, help="Trajectory table directory (default $DEMO_TABLE or "
                             "var/tables/demo); without one the demo uses PLACEHOLDER trajectories.")
 
@@ -47,7 +49,6 @@ class Command(BaseCommand):
             login = f"login: {username} / {password}"
         else:
             login = "log in with an account from `manage.py create_researcher NAME`"
-        from studyapp.models import Study
 
         study = Study.objects.filter(slug="demo").first()
         stale = study is not None and demo_is_stale(study, table)
@@ -63,7 +64,8 @@ class Command(BaseCommand):
         self.stdout.write(f"Demo study '{study.slug}': {study.conditions.count()} conditions, "
                           f"{len(study.test_set)} tests (trajectories: {source})")
         self.stdout.write(f"Participant link: {base}{study.get_absolute_url()}")
-        self.stdout.write(f"  as Prolific:    {base}{study.get_absolute_url()}?PROLIFIC_PID=demo1&STUDY_ID=s&SESSION_ID=x")
+        self.stdout.write(f"  as Prolific:    {base}{study.get_absolute_url()}"
+                          "?PROLIFIC_PID=demo1&STUDY_ID=s&SESSION_ID=x")
         self.stdout.write(f"Dashboard:        {base}/dashboard/{study.slug}/  ({login})")
         if serve:
             call_command("runserver", addrport, use_reloader=False)
