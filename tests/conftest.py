@@ -4,7 +4,13 @@ every Django import here happens inside a fixture so they stay Django-free.
 """
 from __future__ import annotations
 
+import os
+import sys
+
 import pytest
+
+from teaching import teach
+from teaching.build import PRESETS, build_table
 
 SMALL_SEQUENCES = {"alpha": [100, 5000, 12000], "beta": [7000, 15000], "gamma": [300, 20000]}
 
@@ -14,8 +20,6 @@ def _fresh_rate_limits():
     """Every test starts with fresh rate-limit counters (the limits stay on): the suite sends
     thousands of requests from 127.0.0.1 within minutes, which no participant does.  Only when
     studyapp.security is loaded, so the teaching tests stay Django-free."""
-    import sys
-
     security = sys.modules.get("studyapp.security")
     if security is not None:
         security.reset_rate_limits()
@@ -24,7 +28,8 @@ def _fresh_rate_limits():
 @pytest.fixture
 def make_study(db):
     """Factory: a placeholder-trajectory study with the given conditions (default: 3 short ones)."""
-    from studyapp.studies import build_study
+    # Django only in fixtures: the teaching tests stay Django-free
+    from studyapp.studies import build_study  # noqa: PLC0415
 
     def make(slug="s1", sequences=None, **extra):
         sequences = sequences or SMALL_SEQUENCES
@@ -57,7 +62,8 @@ def answer_payload(participant, step):
     if step.kind == "training":
         return {"played": ["1"]}
     if step.kind == "test":  # options go by the letters the participant sees (flow.option_letters)
-        from studyapp.flow import option_letters
+        # Django only in fixtures: the teaching tests stay Django-free
+        from studyapp.flow import option_letters  # noqa: PLC0415
 
         options = participant.study.test_set[step.item]["options"]
         shown = option_letters(participant, step.item)
@@ -83,9 +89,10 @@ def complete_flow(participant, choices=None, attentive=True, stop_before=None):
     choices: the option picked in each test (default theta*'s); attentive=False fails the
     attention check (only one of the two goals); stop_before: a step kind to stop at.
     """
-    from django.http import QueryDict
+    # Django only in fixtures: the teaching tests stay Django-free
+    from django.http import QueryDict  # noqa: PLC0415
 
-    from studyapp import flow
+    from studyapp import flow  # noqa: PLC0415
 
     for step in flow.steps_for(participant)[:-1]:
         if stop_before and step.kind == stop_before:
@@ -112,8 +119,6 @@ def complete():
 def ci() -> bool:
     """CI sets CI=true; a service a test needs (PostgreSQL, Redis) must then be there: the
     test fails instead of skipping.  One definition, so no test reads the variable differently."""
-    import os
-
     return os.environ.get("CI", "").strip().lower() in ("1", "true", "yes")
 
 
@@ -134,8 +139,6 @@ def require_service(ci):
 @pytest.fixture(scope="session")
 def demo_table(tmp_path_factory):
     """The `demo` preset built for real (1,200 environments × 200 θ, ~30 s), once per run."""
-    from teaching.build import PRESETS, build_table
-
     out = tmp_path_factory.mktemp("demo-table")
     build_table(PRESETS["demo"], out)
     return out
@@ -144,8 +147,6 @@ def demo_table(tmp_path_factory):
 @pytest.fixture(scope="session")
 def demo_teach(demo_table, tmp_path_factory):
     """`python -m teaching.teach` run on the demo table: sequences.json, test_set.json, ..."""
-    from teaching import teach
-
     out = tmp_path_factory.mktemp("demo-teach")
     assert teach.main(["--table", str(demo_table), "--out", str(out), "--no-progress"]) == 0
     return out

@@ -10,12 +10,13 @@ import socket
 import threading
 from contextlib import contextmanager
 
+import psycopg
+import redis
+
 PG_URL = os.environ.get("POSTGRES_TEST_URL", "postgres://postgres@127.0.0.1:5432/test")
 
 
 def postgres_reachable(url: str = PG_URL) -> bool:
-    import psycopg
-
     try:
         psycopg.connect(url.replace("postgres://", "postgresql://", 1), connect_timeout=5).close()
         return True
@@ -24,8 +25,6 @@ def postgres_reachable(url: str = PG_URL) -> bool:
 
 
 def redis_reachable(url: str) -> bool:
-    import redis
-
     try:
         return bool(redis.Redis.from_url(url, socket_connect_timeout=2).ping())
     except redis.exceptions.ConnectionError:

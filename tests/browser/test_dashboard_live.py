@@ -9,6 +9,11 @@ import os
 from pathlib import Path
 
 import pytest
+from django.db import connections
+from playwright.sync_api import expect, sync_playwright
+
+from studyapp.assignment import assign
+from studyapp.models import Participant
 
 CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 OUT = Path(__file__).resolve().parents[2] / "test-output"
@@ -17,12 +22,6 @@ pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
 
 def test_dashboard_live_progress(make_study, transactional_db, live_server, django_user_model, monkeypatch):
-    from django.db import connections
-    from playwright.sync_api import expect, sync_playwright
-
-    from studyapp.assignment import assign
-    from studyapp.models import Participant
-
     # ORM calls below run beside Playwright's loop; undone after the test, so no later
     # subprocess (manage.py check --deploy) inherits it
     monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")

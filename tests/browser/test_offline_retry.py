@@ -32,6 +32,7 @@ import time
 from pathlib import Path
 
 import pytest
+from playwright.sync_api import expect, sync_playwright
 
 CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 ROOT = Path(__file__).resolve().parents[2]
@@ -96,8 +97,6 @@ def stored_answers(db: Path, token: str) -> list[tuple[int, str, int | None, dic
 
 
 def test_answers_survive_a_server_outage(server, tmp_path):
-    from playwright.sync_api import expect, sync_playwright
-
     OUT.mkdir(exist_ok=True)
     base = f"http://127.0.0.1:{server.port}"
     with sync_playwright() as pw:
@@ -191,7 +190,7 @@ def test_answers_survive_a_server_outage(server, tmp_path):
                     calls = []
 
                     def refuse(route):
-                        calls.append(route.request.url)
+                        calls.append(route.request.url)  # noqa: B023  (runs in this iteration: times=1)
                         route.fulfill(status=400, content_type="application/json",
                                       body=json.dumps({"ok": False, "error": "That answer looks odd."}))
 

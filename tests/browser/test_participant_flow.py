@@ -15,6 +15,12 @@ import os
 from pathlib import Path
 
 import pytest
+from django.db import connections
+from playwright.sync_api import expect, sync_playwright
+
+from studyapp import flow
+from studyapp.models import Answer, Participant
+from studyapp.studies import build_study, demo_spec
 
 CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 OUT = Path(__file__).resolve().parents[2] / "test-output"
@@ -25,8 +31,6 @@ pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
 @pytest.fixture
 def demo_study(transactional_db, tmp_path, monkeypatch):
-    from studyapp.studies import build_study, demo_spec
-
     monkeypatch.setenv("DEMO_TABLE", str(tmp_path / "none"))  # the placeholder demo: fast and fixed
     return build_study(demo_spec())
 
@@ -76,14 +80,9 @@ def answer_test_by_keyboard(page, choose_label="A", rating=5):
 
 
 def test_participant_flow_in_chromium(demo_study, live_server, monkeypatch):  # db first: torn down after the server
-    from playwright.sync_api import expect, sync_playwright
 
-    from django.db import connections
-
-    from studyapp import flow
-    from studyapp.models import Answer, Participant
-
-    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")  # ORM checks below run beside Playwright's loop (undone after)
+    # ORM checks below run beside Playwright's loop (undone after)
+    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")
     OUT.mkdir(exist_ok=True)
     entry = f"{live_server.url}/s/{demo_study.slug}/?PROLIFIC_PID={PID}&STUDY_ID={STUDY_ID}&SESSION_ID={SESSION_ID}"
     with sync_playwright() as pw:
@@ -186,7 +185,7 @@ def test_participant_flow_in_chromium(demo_study, live_server, monkeypatch):  # 
         tab.screenshot(path=str(OUT / "test_phone.png"), full_page=True)
         tab.close()
 
-        for j, label in zip(range(2, 6), "CDAB"):
+        for j, label in zip(range(2, 6), "CDAB", strict=True):
             answer_test_by_keyboard(page, choose_label=label, rating=3 + j % 3)
         expect(page.locator("h1")).to_have_text("One more question")
         page.get_by_label("Merge into the right lane").check()
@@ -211,7 +210,7 @@ def test_participant_flow_in_chromium(demo_study, live_server, monkeypatch):  # 
     assert p.completed_at is not None and p.completion_code == code and not p.excluded
     answers = {(a.kind, a.item): a for a in Answer.objects.filter(participant=p)}
     assert len(answers) == len(flow.steps_for(p)) - 1
-    for j, (label, rating) in enumerate(zip("ABCDAB", [6, 4, 5, 3, 4, 5])):
+    for j, (label, rating) in enumerate(zip("ABCDAB", [6, 4, 5, 3, 4, 5], strict=True)):
         a = answers[("test", j)]
         shown = p.option_orders[j]
         chosen = shown["ABCD".index(label)]

@@ -13,9 +13,13 @@ import os
 from pathlib import Path
 
 import pytest
+from django.contrib.auth.models import User
+from django.db import connections
 from django.urls import reverse
+from playwright.sync_api import sync_playwright
 
 from studyapp.analysis import views as analysis_views
+from studyapp.analysis.simulate import make_study, run_participant, simulate
 
 CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 OUT = Path(__file__).resolve().parents[2] / "test-output"
@@ -25,17 +29,12 @@ pytestmark = pytest.mark.browser
 
 @pytest.fixture
 def staff_cookie(transactional_db, client):
-    from django.contrib.auth.models import User
     user = User.objects.create_user("researcher", password="pw-analysis-1", is_staff=True)
     client.force_login(user)
     return client.cookies["sessionid"].value
 
 
 def test_report_renders_in_chromium_and_updates_live(staff_cookie, live_server, monkeypatch):  # db first
-    from django.db import connections
-    from playwright.sync_api import sync_playwright
-
-    from studyapp.analysis.simulate import make_study, run_participant, simulate
 
     assert Path(CHROMIUM).exists(), f"Chromium not installed at {CHROMIUM} (apt-get install chromium)"
     study = make_study("browser")

@@ -9,6 +9,13 @@ import os
 from pathlib import Path
 
 import pytest
+from playwright.sync_api import sync_playwright
+
+from studyapp.studies import build_study, demo_spec
+from studyapp.trajectories import drawn_scene
+from teaching.build import PRESETS, build_table
+from teaching.table import TrajectoryTable
+from tests.studyapp.test_stimuli import real_spec
 
 CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 OUT = Path(__file__).resolve().parents[2] / "test-output"
@@ -39,7 +46,7 @@ CHECK = """async ({stimuli, widths}) => {
     canvas.remove();
   }
   return out;
-}""" % INTERACTION_FT
+}""" % INTERACTION_FT  # noqa: UP031  (%-format: the JavaScript braces stay single)
 
 
 GRID = """async (stimuli) => {
@@ -65,8 +72,6 @@ GRID = """async (stimuli) => {
 
 def stimuli_of(study) -> list[dict]:
     """Every training example of every condition and every test option, as the pages get them."""
-    from studyapp.trajectories import drawn_scene
-
     out = []
     for c in study.conditions.all():
         for i, env in enumerate(c.training):
@@ -81,11 +86,6 @@ def stimuli_of(study) -> list[dict]:
 
 @pytest.fixture
 def studies(transactional_db, tmp_path, monkeypatch):
-    from studyapp.studies import build_study, demo_spec
-    from teaching.build import PRESETS, build_table
-    from teaching.table import TrajectoryTable
-    from tests.studyapp.test_stimuli import real_spec
-
     monkeypatch.setenv("DEMO_TABLE", str(tmp_path / "none"))
     demo = build_study(demo_spec())
     build_table(PRESETS["tiny"], tmp_path / "tiny")
@@ -94,8 +94,6 @@ def studies(transactional_db, tmp_path, monkeypatch):
 
 
 def test_both_cars_are_on_the_canvas_whenever_they_interact(studies, live_server):
-    from playwright.sync_api import sync_playwright
-
     stimuli = [s for study in studies for s in stimuli_of(study)]
     real_tests = [s for s in stimuli_of(studies[1]) if s["name"].startswith("test")]
     assert len(stimuli) > 40

@@ -8,6 +8,12 @@ import os
 from pathlib import Path
 
 import pytest
+from playwright.sync_api import expect, sync_playwright
+
+from studyapp import flow
+from studyapp.assignment import assign
+from studyapp.models import Answer
+from tests.conftest import complete_flow
 
 CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 OUT = Path(__file__).resolve().parents[2] / "test-output"
@@ -19,10 +25,6 @@ pytestmark = [pytest.mark.browser, pytest.mark.slow]
 @pytest.fixture
 def on_a_test(transactional_db, tmp_path, monkeypatch, make_study):
     """A participant standing on the first test of a study (answers recorded server-side)."""
-    from studyapp import flow
-    from studyapp.assignment import assign
-    from tests.conftest import complete_flow
-
     study = make_study("layout")
     p = assign(study, "prolific", "layout-1", platform_study_id="S", platform_session_id="X")
     p = complete_flow(p, stop_before="test")
@@ -37,8 +39,6 @@ def sizes(page, selector):
 
 @pytest.mark.parametrize("name, width, height", [("phone", 390, 844), ("laptop", 1280, 800)])
 def test_four_options_compared_without_scrolling_and_44px_targets(on_a_test, live_server, name, width, height):
-    from playwright.sync_api import expect, sync_playwright
-
     url = f"{live_server.url}{on_a_test.get_absolute_url()}"
     with sync_playwright() as pw:
         browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
@@ -91,11 +91,6 @@ def answer_test(page, letter="B", rating="5"):
 def test_a_stale_tab_recovers_by_itself(on_a_test, live_server):
     """The same question open in two tabs, answered in the first: the second tab's answer is
     refused (the step moved on), and that tab goes to the current step, saying why."""
-    from playwright.sync_api import expect, sync_playwright
-
-    from studyapp import flow
-    from studyapp.models import Answer
-
     url = f"{live_server.url}{on_a_test.get_absolute_url()}"
     with sync_playwright() as pw:
         browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)

@@ -176,7 +176,7 @@ class Participant:
                 else:
                     self.stats.record(endpoint, start, seconds, r.status)
                     return r, body, first
-            except (aiohttp.ClientError, asyncio.TimeoutError, ConnectionError) as exc:
+            except (TimeoutError, aiohttp.ClientError, ConnectionError) as exc:
                 kind = "timeout" if isinstance(exc, asyncio.TimeoutError) else type(exc).__name__
                 self.stats.record(endpoint, start, time.monotonic() - start, 0, kind=kind)
             delay = delay if delay is not None else self.backoff(attempt)

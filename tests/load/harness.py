@@ -238,7 +238,7 @@ def check_database(db_url: str, slug: str, stats) -> dict:
     data = {(token, step): (kind, d if isinstance(d, dict) else json.loads(d)) for token, step, kind, d in rows}
     acked = Counter((token, step) for token, step, _, _ in stats.acked)
     mismatched = []
-    for (token, step), (kind, d) in data.items():
+    for kind, d in data.values():
         if kind == "test":  # what the participant saw: option letters in their display order
             d["shown_choice"] = "ABCDEFGH"[d["order"].index(d["choice"])]
             d["shown_ratings"] = {"ABCDEFGH"[pos]: d["ratings"][k] for pos, k in enumerate(d["order"])}

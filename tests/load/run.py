@@ -143,7 +143,8 @@ def report(result: dict) -> str:
                  f"p95 {sv['p95']:.1f}, p99 {sv['p99']:.1f}, max {sv['max']:.1f}")
     lines.append("errors by kind (every attempt): " + (", ".join(f"{k} x{n}" for k, n in result["errors"].items())
                                                       or "none"))
-    lines.append("5xx / no response outside the fault: " + (str(result["errors_outside_fault"]) if result["errors_outside_fault"] else "none"))
+    lines.append("5xx / no response outside the fault: "
+                 + (str(result["errors_outside_fault"]) if result["errors_outside_fault"] else "none"))
     lines.append(f"server status codes (access log): {dict(sorted(result['server_statuses'].items()))}")
     lines.append(f"database: {db['answers_acked']} answers acknowledged, {db['answers_stored']} stored; "
                  f"lost {len(db['lost'])}, duplicated {len(db['duplicated'])}, mismatched {len(db['mismatched'])}, "

@@ -15,6 +15,7 @@ tests/precompute/test_precompute_real_worker.py::test_killed_worker_is_replaced_
 from __future__ import annotations
 
 import pytest
+from django.db import connections
 
 from tests.load import harness, run
 from tests.services import PG_URL, postgres_reachable, redis_reachable
@@ -22,8 +23,6 @@ from tests.services import PG_URL, postgres_reachable, redis_reachable
 pytestmark = [pytest.mark.slow, pytest.mark.postgres, pytest.mark.redis]
 
 def test_load_with_a_postgres_restart(tmp_path, require_service):
-    from django.db import connections
-
     require_service(postgres_reachable(), f"PostgreSQL at {PG_URL} is unreachable")
     require_service(redis_reachable(harness.REDIS_URL), f"Redis at {harness.REDIS_URL} is unreachable")
     require_service(harness.local_cluster() is not None, "no local PostgreSQL cluster to restart (pg_lsclusters)")

@@ -7,7 +7,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from celery.contrib.testing.worker import start_worker
 
+from config.celery import app
 from teaching.build import Preset, build_table
 from teaching.table import ARRAYS, TrajectoryTable
 from tests.services import redis_reachable
@@ -58,8 +60,6 @@ def _forget_connections(app):
 @pytest.fixture
 def celery_app_with():
     """Switch the project's Celery app to other settings for one test, and back."""
-    from config.celery import app
-
     saved = {}
 
     def switch(**conf):
@@ -85,8 +85,6 @@ def celery_app_inprocess(celery_app_with):
 
 @pytest.fixture
 def inprocess_worker(celery_app_inprocess):
-    from celery.contrib.testing.worker import start_worker
-
     with start_worker(celery_app_inprocess, pool="solo", perform_ping_check=False, loglevel="WARNING",
                       shutdown_timeout=60) as worker:
         yield worker

@@ -15,15 +15,20 @@ import sqlite3
 import subprocess
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
+from datetime import timedelta
 from pathlib import Path
 
 import pytest
 from django.core.management import CommandError, call_command
+from django.utils import timezone
 
 import teaching.build
 from precompute import jobs, work
+from precompute.management.commands.precompute_table import resolve_preset
 from precompute.models import Job
 from precompute.tasks import table_chunk
+from teaching.api import code_fingerprint
 from tests.services import blackhole
 
 pytestmark = pytest.mark.slow
@@ -80,7 +85,8 @@ def test_redelivered_chunk_task_skips_and_counts_once(transactional_db, small_pr
     job.refresh_from_db()
     assert job.chunks_done == 1 and job.chunks_computed == 1 and job.parts.count() == 1
     assert [e["event"] for e in work.read_journal(out)] == ["start", "stored", "skipped"]
-    assert sorted(p.name for p in (out / "chunks").glob("*.npz") if not p.name.startswith(".")) == [f"{first['key']}.npz"]
+    stored = sorted(p.name for p in (out / "chunks").glob("*.npz") if not p.name.startswith("."))
+    assert stored == [f"{first['key']}.npz"]
 
 
 def test_worker_with_other_identity_refuses(small_preset, tmp_path):
@@ -101,7 +107,7 @@ def test_failure_is_shown_and_retried_from_the_dashboard(
     def flaky(env_ids, *args, **kwargs):
         calls["n"] += 1
         if calls["n"] == 2:
-            raise FloatingPointError("planner diverged in environment %d" % env_ids[0])
+            raise FloatingPointError(f"planner diverged in environment {int(env_ids[0])}")
         return real(env_ids, *args, **kwargs)
 
     monkeypatch.setattr(teaching.build, "plan_chunk", flaky)
@@ -148,10 +154,6 @@ def test_running_job_page_refreshes_itself(db, client, django_user_model, small_
     assert 'http-equiv="refresh"' in page and "1 / 4" in page and "Relaunch (if stalled)" in page
     assert "job-stalled" not in page  # it was launched just now
 
-    from datetime import timedelta
-
-    from django.utils import timezone
-
     Job.objects.filter(pk=job.pk).update(started_at=timezone.now() - timedelta(minutes=12))
     page = client.get(job.get_absolute_url()).content.decode()
     assert "No chunk has finished for 12 minutes" in page
@@ -197,14 +199,10 @@ def test_worker_with_other_planner_code_refuses(small_preset, tmp_path):
 
 
 def test_the_code_fingerprint_is_the_whole_teaching_package():
-    from teaching.api import code_fingerprint
-
     assert work.CODE_FINGERPRINT == code_fingerprint()
 
 
 def test_concurrent_publishers_do_not_interleave(small_preset, reference, tmp_path, assert_same_table):
-    from concurrent.futures import ThreadPoolExecutor
-
     spec = work.table_spec(small_preset, tmp_path / "t")
     for ids in work.chunk_ids(spec):
         work.compute_chunk(spec, ids)
@@ -249,8 +247,6 @@ def test_a_hung_broker_fails_the_launch_within_seconds(tmp_path):
 def test_theta_star_travels_with_the_job_spec(tmp_path):
     """A worker rebuilds the preset from the job's JSON spec: another θ* must survive the trip
     and give another table identity (so its chunks never mix with the default θ*'s)."""
-    from precompute.management.commands.precompute_table import resolve_preset
-
     star = (-32.0, -0.2, -1.0, -0.1, -0.5)
     preset = resolve_preset("tiny", theta_star="-32,-0.2,-1,-0.1,-0.5")
     assert preset.theta_star == star and preset.name.startswith("tiny-48x24-log-uniform-s0-star")

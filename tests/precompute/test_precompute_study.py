@@ -6,12 +6,16 @@ import io
 import pytest
 from django.core.management import CommandError, call_command
 
+import teaching.table
 from precompute import jobs
 from precompute.models import Job
 from precompute.sequences import condition_sequence
+from precompute.study import create_study_job
+from precompute.tasks import study_condition, study_finish
+from studyapp.models import Study
 from teaching.selection import CONDITIONS, build_sequences
 from teaching.synthetic import synthetic_table
-from teaching.table import TrajectoryTable
+from teaching.table import TableError, TrajectoryTable
 from teaching.testset import select_test_set
 
 
@@ -45,8 +49,6 @@ def test_each_condition_alone_equals_the_whole_teaching_run(table_path, hyper):
 @pytest.mark.slow
 def test_build_study_command_stores_sequences_on_the_conditions(
         inprocess_worker, transactional_db, table_path, expected):
-    from studyapp.models import Study
-
     seqs, tests = expected
     out, err = io.StringIO(), io.StringIO()
     call_command("build_study", "--table", str(table_path), "--slug", "syn", "--name", "Synthetic",
@@ -73,8 +75,6 @@ def test_build_study_command_stores_sequences_on_the_conditions(
 
 @pytest.mark.slow
 def test_build_study_subset_closed(inprocess_worker, transactional_db, table_path, expected):
-    from studyapp.models import Study
-
     call_command("build_study", "--table", str(table_path), "--slug", "two", "--conditions", "exact,random",
                  "--closed", "--wait", "--no-progress", "--timeout", "180", stdout=io.StringIO())
     study = Study.objects.get(slug="two")
@@ -84,11 +84,6 @@ def test_build_study_subset_closed(inprocess_worker, transactional_db, table_pat
 
 def test_a_study_job_verifies_its_table_once(db, table_path, monkeypatch):
     """create_study_job hashes the table; its tasks only compare the hash it recorded."""
-    import teaching.table
-    from precompute.study import create_study_job
-    from precompute.tasks import study_condition, study_finish
-    from studyapp.models import Study
-
     real, hashed = teaching.table.content_hash, []
     monkeypatch.setattr(teaching.table, "content_hash", lambda *a: hashed.append(1) or real(*a))
     job = create_study_job(table_path, "once", conditions=["exact", "random"], open_when_done=False, start=False)
@@ -102,10 +97,6 @@ def test_a_study_job_verifies_its_table_once(db, table_path, monkeypatch):
 
 
 def test_a_study_task_refuses_a_table_other_than_the_verified_one(db, table_path):
-    from precompute.study import create_study_job
-    from precompute.tasks import study_condition
-    from teaching.table import TableError
-
     job = create_study_job(table_path, "other", conditions=["exact"], start=False)
     with pytest.raises(TableError, match="is not the one that was verified"):
         study_condition(job.pk, dict(job.params, content_hash="0" * 64), "exact", 0)

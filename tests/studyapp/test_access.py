@@ -83,7 +83,7 @@ def test_participant_text_is_escaped_on_every_page(client, admin_client, study, 
     turk = complete(Participant.objects.get(), stop_before="demographics")
     turk = record(turk, turk.position, age="30", gender="other", gender_text=XSS)
     prolific = complete(assignment.assign(study, "prolific", XSS, platform_study_id=XSS, platform_session_id=XSS))
-    escaped = "&lt;script&gt;alert(&quot;x&quot;)&lt;/script&gt;&#x27;&quot;&amp;".encode()
+    escaped = b"&lt;script&gt;alert(&quot;x&quot;)&lt;/script&gt;&#x27;&quot;&amp;"
     shown = {  # page -> must it show the text (escaped)?
         step_url(turk): True,  # the MTurk completion form carries assignmentId
         step_url(prolific): False,

@@ -9,11 +9,13 @@ attention check (they answer the opposite way, so keeping them would hide the ef
 from __future__ import annotations
 
 import io
+import random
 import re
 
 import numpy as np
 import pandas as pd
 import pytest
+from django.contrib.auth.models import User
 from django.core.management import call_command
 from django.core.management.base import CommandError
 from django.test import RequestFactory
@@ -21,8 +23,8 @@ from django.test import RequestFactory
 from studyapp import assignment, studies
 from studyapp.analysis import data as D
 from studyapp.analysis import stats as S
-from studyapp.analysis.simulate import make_study, run_participant, simulate
 from studyapp.analysis import views as V
+from studyapp.analysis.simulate import make_study, run_participant, simulate
 from studyapp.models import Participant
 
 pytestmark = pytest.mark.django_db
@@ -32,7 +34,6 @@ pytestmark = pytest.mark.django_db
 def seeded_assignment(monkeypatch):
     """The app breaks assignment ties with SystemRandom; seed it so the simulated data are
     reproducible (the effect sizes are chosen so the assertions hold for almost any draw)."""
-    import random
     monkeypatch.setattr(assignment, "_rng", random.Random(20261122), raising=False)
 
 
@@ -156,7 +157,6 @@ def test_live_report_is_cached_until_a_response_arrives(monkeypatch):
     assert "Analysis of Synthetic study" in second and "Type II sums of squares" in second
 
     # the view: full page, then the fragment with an ETag, then 304 while nothing changes
-    from django.contrib.auth.models import User
     staff = User.objects.create_user("r", password="x", is_staff=True)
     rf = RequestFactory()
     req = rf.get("/dashboard/live/analysis/")

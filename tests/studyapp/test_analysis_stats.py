@@ -15,6 +15,7 @@ import pytest
 from scipy import special
 
 from studyapp.analysis import stats as S
+from studyapp.analysis.conditions import negligible_spread
 
 TOL = 1e-6
 
@@ -116,7 +117,8 @@ APPROX_CELLS = {
     "det-reward": [[(True, 5), (False, 2)], [(True, 3), (True, 4)], [(False, 6), (True, 1)]],
     "det-euclidean": [[(True, 7), (True, 6)], [(True, 5), (False, 1)], [(True, 6), (True, 3)],
                       [(True, 4), (True, 7)], [(False, 2), (True, 6)]],
-    "prob-reward": [[(False, 4), (False, 3)], [(True, 2), (False, 5)], [(True, 6), (False, 1)], [(False, 7), (True, 3)]],
+    "prob-reward": [[(False, 4), (False, 3)], [(True, 2), (False, 5)], [(True, 6), (False, 1)],
+                    [(False, 7), (True, 3)]],
     "prob-euclidean": [[(True, 3), (True, 2)], [(False, 1), (True, 5)]],
     "det-strategy": [[(True, 2), (False, 3)], [(True, 6), (True, 6)], [(False, 1), (False, 4)]],
 }
@@ -244,7 +246,7 @@ def test_welch_planned_comparisons_holm_and_named_pair_by_hand():
     means = by_hand_means(COVERAGE_CELLS)
     pairs = [("det-euclidean", "exact"), ("det-euclidean", "random"), ("coverage-approx*", "random"),
              ("coverage-random", "random"), ("coverage-approx*", "coverage-random")]
-    assert list(zip(w["a"], w["b"])) == pairs
+    assert list(zip(w["a"], w["b"], strict=True)) == pairs
     exp = [hand_welch(means[a], means[b]) for a, b in pairs]
     holm = hand_holm([e["p"] for e in exp])
     for i, e in enumerate(exp):
@@ -383,8 +385,6 @@ def test_constant_cells_with_different_means_are_a_message_not_an_f():
 
 
 def test_negligible_spread_is_relative_to_the_scores_size():
-    from studyapp.analysis.conditions import negligible_spread
-
     assert negligible_spread(0.0, [])
     assert negligible_spread(0.0, [0.0, 0.0])
     assert negligible_spread(1e-16, [0.5, 1.5])

@@ -3,6 +3,7 @@ from collections import Counter
 from datetime import timedelta
 
 import pytest
+from django.db import IntegrityError, transaction
 from django.utils import timezone
 
 from studyapp import assignment
@@ -82,8 +83,6 @@ def test_closed_study_raises(study):
 
 
 def test_unique_constraint_backs_up_the_lock(study):
-    from django.db import IntegrityError, transaction
-
     p = assignment.assign(study, "prolific", "dup")
     with pytest.raises(IntegrityError), transaction.atomic():
         Participant.objects.create(study=study, condition=p.condition, platform="prolific", platform_pid="dup")

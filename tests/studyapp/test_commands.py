@@ -8,7 +8,13 @@ from django.contrib.auth import get_user_model
 from django.core.management import call_command
 from django.core.management.base import CommandError
 
+import studyapp.studies
+from studyapp import assignment
+from studyapp.assignment import assign
 from studyapp.models import Condition, Participant, Study
+from studyapp.studies import SpecError, freeze_condition, freeze_test_set, new_study
+from studyapp.trajectories import placeholder_test_set, placeholder_training
+from teaching.synthetic import synthetic_table
 
 pytestmark = pytest.mark.django_db
 
@@ -89,8 +95,6 @@ def test_setup_demo_is_idempotent_and_prints_links(tmp_path, monkeypatch):
 
 
 def test_create_study_from_a_saved_table(tmp_path):
-    from teaching.synthetic import synthetic_table
-
     table = synthetic_table(n_envs=16, n_thetas=8, seed=2)
     table.save(tmp_path / "table")
     ids = [int(e) for e in table.env_ids]
@@ -114,9 +118,6 @@ def test_create_study_from_a_saved_table(tmp_path):
 def test_setup_demo_uses_the_table_when_the_pipeline_works(tmp_path, monkeypatch):
     """With a table, the demo's conditions and tests come from teaching.selection / teaching.testset
     (through teaching.api, which studyapp.studies imports them from)."""
-    import studyapp.studies
-    from teaching.synthetic import synthetic_table
-
     table = synthetic_table(n_envs=16, n_thetas=8, seed=3)
     table.save(tmp_path / "table")
     ids = [int(e) for e in table.env_ids]
@@ -146,10 +147,6 @@ def test_setup_demo_uses_the_table_when_the_pipeline_works(tmp_path, monkeypatch
 
 def test_setup_demo_rebuilds_after_the_table_changes_but_never_under_participants(tmp_path, monkeypatch):
     """A rebuilt demo table must not leave the demo serving stale trajectories, unless people have taken part."""
-    import studyapp.studies
-    from studyapp.assignment import assign
-    from teaching.synthetic import synthetic_table
-
     def use(seed):
         table = synthetic_table(n_envs=16, n_thetas=8, seed=seed)
         table.save(tmp_path / "table")
@@ -207,8 +204,6 @@ def test_create_study_from_the_teach_output(demo_table, demo_teach):
 
 @pytest.mark.slow
 def test_teach_output_errors_are_one_line(demo_teach, tmp_path):
-    from teaching.synthetic import synthetic_table
-
     other = tmp_path / "other-table"
     synthetic_table(n_envs=16, n_thetas=8, seed=2).save(other)
     broken = tmp_path / "broken"
@@ -254,8 +249,6 @@ def test_every_malformed_spec_is_a_one_line_error(tmp_path, spec, message):
 
 
 def test_table_backed_test_options_are_checked(tmp_path):
-    from teaching.synthetic import synthetic_table
-
     table = synthetic_table(n_envs=16, n_thetas=8, seed=2)
     table.save(tmp_path / "table")
     ids = [int(e) for e in table.env_ids]
@@ -271,8 +264,6 @@ def test_table_backed_test_options_are_checked(tmp_path):
 
 
 def test_a_table_built_for_another_theta_star_is_refused(tmp_path):
-    from teaching.synthetic import synthetic_table
-
     table = synthetic_table(n_envs=16, n_thetas=8, seed=2)
     table.save(tmp_path / "table")
     ids = [int(e) for e in table.env_ids]
@@ -291,9 +282,6 @@ def test_a_table_built_for_another_theta_star_is_refused(tmp_path):
 def test_a_study_with_participants_cannot_change_its_design(study, complete):
     """One set of rules for every way of making a study (studyapp/studies.py): once anyone has
     started, no condition, test set or replacement may change what they see."""
-    from studyapp import assignment
-    from studyapp.studies import SpecError, freeze_condition, freeze_test_set, new_study
-
     training, tests = study.conditions.first().training, study.test_set
     assignment.assign(study, "prolific", "first-one")
     with pytest.raises(SpecError, match="already has participants: its design can no longer change"):
@@ -307,9 +295,6 @@ def test_a_study_with_participants_cannot_change_its_design(study, complete):
 
 
 def test_freezing_checks_the_design(db):
-    from studyapp.studies import SpecError, freeze_condition, freeze_test_set, new_study
-    from studyapp.trajectories import placeholder_test_set, placeholder_training
-
     s = new_study(slug="d1", conditions=["a", "b"], source={"kind": "placeholder"})
     assert not s.is_open and [c.name for c in s.conditions.all()] == ["a", "b"]
     with pytest.raises(SpecError, match="exists; pass --replace"):

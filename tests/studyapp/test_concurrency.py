@@ -25,7 +25,10 @@ from pathlib import Path
 
 import pytest
 from django.conf import settings
+from django.db import connections
+from django.test import Client
 
+from studyapp.models import Participant
 from tests.services import PG_URL, postgres_reachable
 
 ON_POSTGRES = settings.DATABASES["default"]["ENGINE"] == "django.db.backends.postgresql"
@@ -38,11 +41,6 @@ if ON_POSTGRES:
     @pytest.mark.postgres
     @pytest.mark.django_db(transaction=True)
     def test_concurrent_arrivals_are_balanced(make_study):
-        from django.db import connections
-        from django.test import Client
-
-        from studyapp.models import Participant
-
         study = make_study("race", sequences={"a": [100], "b": [200], "c": [300], "d": [400]})
         barrier = threading.Barrier(N_THREADS)
         results, errors = [None] * N_THREADS, []
@@ -56,7 +54,7 @@ if ON_POSTGRES:
                 addr = "10.0.0.1" if i < N_SAME_ID else f"10.0.1.{i}"
                 r = Client(REMOTE_ADDR=addr).get(f"/s/{study.slug}/", {"PROLIFIC_PID": pid})
                 results[i] = (pid, r.status_code, r["Location"])
-            except Exception as exc:  # noqa: BLE001 - reported below
+            except Exception as exc:  # reported below
                 errors.append(repr(exc))
             finally:
                 connections.close_all()

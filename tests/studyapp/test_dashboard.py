@@ -108,7 +108,8 @@ def test_exports_download(staff_client, study, complete):
         assert f'{study.slug}-' in r["Content-Disposition"]
     wide = staff_client.get(reverse("dashboard_export", args=[study.slug, "wide"])).content.decode()
     (row,) = csv.DictReader(io.StringIO(wide))
-    assert row["platform_pid"] == "exp" and row["condition"] == p.condition.name and row["mean_confidence_score"] == "6.0"
+    assert row["platform_pid"] == "exp" and row["condition"] == p.condition.name
+    assert row["mean_confidence_score"] == "6.0"
 
 
 @pytest.mark.parametrize("model", ["study", "condition", "participant", "answer"])

@@ -1,5 +1,6 @@
 """The entry link: platform ids captured, MTurk preview, anonymous entry, returning participants, closed studies."""
 import pytest
+from django.test import Client
 from django.urls import reverse
 
 from studyapp.models import Participant
@@ -44,16 +45,12 @@ def test_anonymous_entry_and_same_browser_resumes(client, study):
 
 
 def test_anonymous_entries_from_different_browsers_are_different_people(client, study):
-    from django.test import Client
-
     entry(client, study)
     entry(Client(), study)
     assert Participant.objects.count() == 2
 
 
 def test_returning_platform_id_gets_its_own_participant_back(client, study):
-    from django.test import Client
-
     entry(client, study, PROLIFIC_PID="back")
     p = Participant.objects.get()
     for _ in range(5):  # other browsers, same Prolific id
@@ -73,7 +70,6 @@ def test_closed_study_refuses_new_but_not_returning(client, study):
     entry(client, study, PROLIFIC_PID="early")
     study.is_open = False
     study.save()
-    from django.test import Client
 
     r = entry(Client(), study, PROLIFIC_PID="late")
     assert r.status_code == 403 and b"closed" in r.content
@@ -127,7 +123,5 @@ def test_unknown_study_is_404(client, db):
 
 
 def test_home_page(client, study, staff_client):
-    from django.test import Client
-
     assert Client().get("/").status_code == 200
     assert staff_client.get("/")["Location"] == reverse("dashboard")

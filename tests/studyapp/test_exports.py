@@ -45,7 +45,8 @@ def test_wide_export_one_row_per_participant(study, complete):
     assert set(out) == {"W1", "W2", "W3"}
     assert list(out["W1"].keys()) == [c for c, _ in exports.WIDE_COLUMNS]
     w1 = out["W1"]
-    assert (w1["mean_confidence_score"], w1["n_correct"], w1["attention_passed"], w1["excluded"]) == ("6.0", "6", "1", "0")
+    assert ((w1["mean_confidence_score"], w1["n_correct"], w1["attention_passed"], w1["excluded"])
+            == ("6.0", "6", "1", "0"))
     assert (w1["age"], w1["gender"], w1["test5_confidence_score"]) == ("34", "female", "6")
     assert (out["W2"]["attention_passed"], out["W2"]["excluded"], out["W2"]["attention_goals"]) == ("0", "1", "forward")
     assert out["W3"]["completed_at"] == "" and out["W3"]["n_tests_answered"] == "0"

@@ -18,7 +18,8 @@ from django.db import transaction
 from django.http import QueryDict
 from django.test import Client
 from django.urls import reverse
-from hypothesis import HealthCheck, given, settings, strategies as st
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from studyapp import assignment, flow, security
 from studyapp.models import Participant
@@ -53,7 +54,8 @@ entry_names = st.one_of(st.sampled_from(ENTRY_FIELDS), text)
 submit_to = st.builds(  # an address on an MTurk host or not, of ordinary or excessive length, or junk
     lambda kind, host, path, long_path, junk: {"url": f"https://{host}/{path}", "long": f"https://{host}/{long_path}",
                                                "junk": junk}[kind],
-    st.sampled_from(["url", "long", "junk"]), st.sampled_from(["www.mturk.com", "workersandbox.mturk.com", "evil.example"]),
+    st.sampled_from(["url", "long", "junk"]),
+    st.sampled_from(["www.mturk.com", "workersandbox.mturk.com", "evil.example"]),
     text, st.text(min_size=280, max_size=400), values)
 entry_links = st.one_of(  # a Prolific link, an MTurk link, or any mix of the fields
     st.fixed_dictionaries({"PROLIFIC_PID": values}, optional={"STUDY_ID": values, "SESSION_ID": values}),

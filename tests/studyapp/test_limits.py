@@ -1,15 +1,19 @@
 """Rate limits on the entry and answer endpoints and caps on request sizes: refusals are clean
 4xx (429, 413, 400), never a 500, and write nothing (docs/decisions.md, "Security")."""
 import logging
+import socket
 import time
+from urllib.parse import urlsplit
 
 import numpy as np
 import pytest
+import redis
 from django.test import Client, override_settings
 from django.urls import reverse
 
+from config import settings as cfg
 from config.settings import _cache
-from studyapp import assignment, security
+from studyapp import assignment, flow, security
 from studyapp.models import Answer, Participant, Study
 from tests.services import blackhole
 from tests.studyapp.helpers import answer_url, snapshot
@@ -107,7 +111,8 @@ def test_a_hung_cache_costs_one_timeout_not_one_per_request(study, settings):
         hung = answer_seconds("x")
     rise = np.percentile(hung, 95) - np.percentile(healthy, 95)
     print(f"answer p95 {np.percentile(healthy, 95) * 1000:.0f} ms with a working cache, "
-          f"{np.percentile(hung, 95) * 1000:.0f} ms with a hung one (rise {rise * 1000:.0f} ms); slowest {hung.max():.2f} s")
+          f"{np.percentile(hung, 95) * 1000:.0f} ms with a hung one (rise {rise * 1000:.0f} ms); "
+          f"slowest {hung.max():.2f} s")
     assert rise < 0.100
     assert (hung >= 0.4).sum() == 1  # exactly one request waited on the hung cache: the breaker opened
     assert Answer.objects.filter(participant__platform_pid__startswith="x").count() == 40
@@ -130,8 +135,6 @@ def test_client_address(rf, settings):
 
 @pytest.mark.redis
 def test_counters_in_redis(settings, require_service):
-    import redis
-
     try:
         up = bool(redis.Redis(socket_connect_timeout=1).ping())
     except redis.exceptions.ConnectionError:
@@ -147,8 +150,6 @@ def test_counters_in_redis(settings, require_service):
 
 
 def test_settings_parse_limits_and_cache_urls(monkeypatch):
-    from config import settings as cfg
-
     monkeypatch.setenv("RATE_LIMIT_X", "5/10")
     assert cfg._rate("RATE_LIMIT_X", "1/1") == (5, 10)
     monkeypatch.setenv("RATE_LIMIT_X", "off")
@@ -221,9 +222,6 @@ def test_nul_characters_and_overlong_ids_are_refused_not_500(client, participant
 def _raw_post(base_url: str, path: str, body: bytes, declared: int, close_early: bool) -> bytes:
     """POST over a plain socket: `declared` as Content-Length, `body` sent, then (close_early) the
     client shuts its sending side, as a dropped connection or a slow client's proxy timeout does."""
-    import socket
-    from urllib.parse import urlsplit
-
     u = urlsplit(base_url)
     with socket.create_connection((u.hostname, u.port), timeout=10) as s:
         s.sendall((f"POST {path} HTTP/1.1\r\nHost: {u.netloc}\r\nOrigin: {base_url}\r\n"
@@ -241,8 +239,6 @@ def _raw_post(base_url: str, path: str, body: bytes, declared: int, close_early:
 def test_a_body_shorter_than_its_content_length_is_refused_not_stored(live_server, participant, complete):
     """Issue 12, item 3: `goals=merge` of `goals=merge&goals=forward` arrived, was stored as a failed
     attention check and excluded the participant; the retry then got 409."""
-    from studyapp import flow
-
     p = complete(participant, stop_before="attention")
     step = next(s for s in flow.steps_for(p) if s.kind == "attention")
     full = b"goals=merge&goals=forward"

@@ -13,7 +13,11 @@ import sys
 from pathlib import Path
 
 import pytest
+from django.contrib.sessions.backends.db import SessionStore
 from django.db import InterfaceError, OperationalError
+from django.test import Client
+
+from studyapp import views
 
 ROOT = Path(__file__).resolve().parents[2]
 # The variables a deployment sets (docs/operations.md); everything else is left to its default.
@@ -87,8 +91,6 @@ def assert_unavailable(response, as_json):
 @pytest.mark.parametrize("error", [OperationalError("server closed the connection unexpectedly"),
                                    InterfaceError("connection already closed")])
 def test_database_error_in_a_view_is_a_503(study, client, monkeypatch, error):
-    from studyapp import views
-
     def down(*args, **kwargs):
         raise error
 
@@ -102,9 +104,6 @@ def test_database_error_in_a_view_is_a_503(study, client, monkeypatch, error):
 
 def test_database_error_outside_the_view_is_a_503(study, monkeypatch):
     """The session is saved by its middleware after the view: handler500 turns that into a 503."""
-    from django.contrib.sessions.backends.db import SessionStore
-    from django.test import Client
-
     def down(self, *args, **kwargs):
         raise OperationalError("the database system is shutting down")
 
@@ -114,10 +113,6 @@ def test_database_error_outside_the_view_is_a_503(study, monkeypatch):
 
 
 def test_other_errors_stay_500(study, monkeypatch):
-    from django.test import Client
-
-    from studyapp import views
-
     def broken(*args, **kwargs):
         raise RuntimeError("a bug")
 

@@ -5,6 +5,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from config import settings
+
 ROOT = Path(__file__).resolve().parents[2]
 
 PROBE = """
@@ -68,8 +70,6 @@ def test_debug_is_off_unless_asked_for(tmp_path):
 
 
 def test_the_public_dev_key_is_refused_without_debug(tmp_path):
-    from config import settings
-
     out = probe(tmp_path, DEBUG="0", SECRET_KEY=settings._DEV_KEY)
     assert out.returncode != 0 and "not the public dev key" in out.stderr
 

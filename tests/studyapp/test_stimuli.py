@@ -109,7 +109,7 @@ def test_no_test_page_tells_theta_stars_option_apart(tiny_table):
                 blocks = pattern.findall(html)
                 assert len(blocks) == 4
                 masked = {re.sub(rf"(?<![A-Za-z]){letter}(?![A-Za-z])", "X", b)
-                          for b, (letter, _) in zip(blocks, shown)}
+                          for b, (letter, _) in zip(blocks, shown, strict=True)}
                 assert len(masked) == 1, masked
             # the posted values are letters too: no option index anywhere in the form
             assert not re.search(r'name="(choice|played)" value="\d', html)

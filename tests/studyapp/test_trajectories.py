@@ -5,6 +5,7 @@ import pytest
 from studyapp import trajectories as tj
 from teaching.environments import environment_class, get_environments, other_car_states
 from teaching.strategies import strategy_labels
+from teaching.synthetic import synthetic_table
 
 
 def check_env(payload):
@@ -55,8 +56,6 @@ def test_synth_states_are_kinematically_consistent():
 
 
 def test_from_a_real_table():
-    from teaching.synthetic import synthetic_table
-
     table = synthetic_table(n_envs=16, n_thetas=8, seed=1)
     ids = [int(e) for e in table.env_ids[:3]]
     training = tj.training_from_table(table, ids)

@@ -4,8 +4,18 @@ import itertools
 import numpy as np
 import pytest
 
-from teaching.environments import (BRAKING, MERGING, N_ENVIRONMENTS, OTHER, TAILGATING, environment_class,
-                                   environment_id, get_environments, other_car_states, stratified_sample)
+from teaching.environments import (
+    BRAKING,
+    MERGING,
+    N_ENVIRONMENTS,
+    OTHER,
+    TAILGATING,
+    environment_class,
+    environment_id,
+    get_environments,
+    other_car_states,
+    stratified_sample,
+)
 
 # The grid of DESIGN §2, written out here independently of the module.
 GOALS = (0, 1)  # merge right, drive forward
@@ -33,7 +43,7 @@ def test_there_are_exactly_21216_distinct_environments(envs):
     assert len(envs) == 21216
     np.testing.assert_array_equal(envs.ids, np.arange(21216))
     tuples = set(zip(envs.goal.tolist(), envs.other_y0.tolist(), envs.other_lane.tolist(), envs.other_v0.tolist(),
-                     envs.accel_time.tolist(), envs.v_final.tolist()))
+                     envs.accel_time.tolist(), envs.v_final.tolist(), strict=True))
     assert len(tuples) == 21216
     # and they are exactly the hand-written grid (v_f == v0 for a constant-speed car)
     grid = {(g, float(d), lane, float(v), ta, float(v) if vf is None else vf)

@@ -3,8 +3,14 @@ import matplotlib.image as mpimg
 import numpy as np
 import pytest
 
-from teaching.evaluation import (SEQUENCE_NAMES, USER_NAMES, cluster_counts, cluster_grid, examples_per_cluster,
-                                 ideal_user_matrix)
+from teaching.evaluation import (
+    SEQUENCE_NAMES,
+    USER_NAMES,
+    cluster_counts,
+    cluster_grid,
+    examples_per_cluster,
+    ideal_user_matrix,
+)
 from teaching.learners import Distances, make_model
 from teaching.plots import plot_examples_shown, plot_ideal_users
 from teaching.selection import teach, theta_star_clusters

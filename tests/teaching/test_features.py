@@ -8,8 +8,7 @@ import pytest
 from teaching import kernels
 from teaching.dynamics import rollout_np
 from teaching.environments import environment_id, get_environments, other_car_states
-from teaching.features import (calibrate_normalisers, calibration_controls, default_normalisers,
-                               raw_features, reward)
+from teaching.features import calibrate_normalisers, calibration_controls, default_normalisers, raw_features, reward
 from teaching.planner import objective_weights
 from teaching.world import THETA_STAR, WORLD
 

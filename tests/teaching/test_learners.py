@@ -4,8 +4,19 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from teaching.learners import (MODEL_NAMES, Distances, LearnerModel, check_value, make_model, model_names,
-                               p_curve, p_theta_star, posterior, register_model)
+from teaching import learners
+from teaching.learners import (
+    MODEL_NAMES,
+    Distances,
+    LearnerModel,
+    check_value,
+    make_model,
+    model_names,
+    p_curve,
+    p_theta_star,
+    posterior,
+    register_model,
+)
 from teaching.selection import greedy
 from teaching.synthetic import hand_table, synthetic_table
 
@@ -134,5 +145,4 @@ def test_a_new_model_plugs_into_the_selectors_without_touching_them():
         assert seq.envs[0] == 0
         assert p_theta_star(model, dist, [0]) == pytest.approx(1 / 3)
     finally:
-        from teaching import learners
         learners._REGISTRY.pop("forgetful")

@@ -9,9 +9,23 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from teaching.learners import MODEL_NAMES, Distances, make_model, p_theta_star
-from teaching.selection import (CONDITIONS, GRID, Sequence, SweepRow, build_sequences, choose_hyperparameter,
-                                condition_sequence, coverage_augmented, coverage_random, greedy, random_baseline,
-                                sweep, teach, theta_star_clusters)
+from teaching.selection import (
+    CONDITIONS,
+    GRID,
+    Sequence,
+    SweepRow,
+    build_sequences,
+    choose_hyperparameter,
+    condition_sequence,
+    coverage_augmented,
+    coverage_random,
+    greedy,
+    random_baseline,
+    sweep,
+    teach,
+    theta_star_clusters,
+)
+from teaching.strategies import NO_STRATEGY
 from teaching.synthetic import hand_table, synthetic_table
 
 DETERMINISTIC = ("exact", "det-reward", "det-euclidean", "det-strategy", "prob-strategy")
@@ -264,8 +278,6 @@ def test_each_condition_alone_equals_the_whole_teaching_run(hyper):
 def test_environments_where_theta_star_shows_no_strategy_are_never_shown():
     """A table where the most informative environments are ones in which θ*'s trajectory is labelled
     NO_STRATEGY (e.g. a merge along the lane line): no condition, sweep value or random draw shows them."""
-    from teaching.strategies import NO_STRATEGY
-
     table = synthetic_table(90, 40, n_candidates=5, seed=5)
     best = teach(table, seed=4)
     hidden = sorted({e for name in CONDITIONS for e in best.sequences[name].envs})

@@ -6,9 +6,21 @@ import numpy as np
 import pytest
 
 from teaching.environments import BRAKING, MERGING, OTHER, TAILGATING, environment_id, get_environments
-from teaching.strategies import (BRAKE_CHANGE, BRAKE_STAY, CLASS_OF_CLUSTER, CLUSTER_NAMES, MERGE_AHEAD,
-                                 MERGE_BEHIND, N_CLUSTERS, NO_STRATEGY, OTHER_FORWARD, OTHER_MERGE, TAIL_CHANGE,
-                                 TAIL_STAY, strategy_labels)
+from teaching.strategies import (
+    BRAKE_CHANGE,
+    BRAKE_STAY,
+    CLASS_OF_CLUSTER,
+    CLUSTER_NAMES,
+    MERGE_AHEAD,
+    MERGE_BEHIND,
+    N_CLUSTERS,
+    NO_STRATEGY,
+    OTHER_FORWARD,
+    OTHER_MERGE,
+    TAIL_CHANGE,
+    TAIL_STAY,
+    strategy_labels,
+)
 
 T = 20
 t = np.arange(T + 1)

@@ -1,7 +1,11 @@
 """Trajectory table persistence (DESIGN §4): bit-exact round trip, content hash, refusal of altered or
 foreign tables, resumable content-addressed chunks, unwritable outputs."""
 import json
+import os
 import shutil
+import subprocess
+import sys
+from dataclasses import fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +17,7 @@ from teaching.candidates import sample_thetas
 from teaching.environments import stratified_sample
 from teaching.features import default_normalisers
 from teaching.table import ARRAYS, TableError, TrajectoryTable, content_hash
-from teaching.world import THETA_STAR, world_fingerprint
+from teaching.world import THETA_STAR, WORLD, world_fingerprint
 
 TINY = PRESETS["tiny"]
 
@@ -204,10 +208,6 @@ def test_unwritable_output_raises_table_error(built, tmp_path):
 def test_every_world_constant_is_in_the_fingerprint():
     """A table is refused when built under other world constants only because the fingerprint
     it stores differs: so changing any one constant must change the fingerprint."""
-    from dataclasses import fields, replace
-
-    from teaching.world import WORLD
-
     base = world_fingerprint()
     for f in fields(WORLD):
         value = getattr(WORLD, f.name)
@@ -221,10 +221,6 @@ def test_the_same_preset_gives_the_same_hash_on_a_generic_cpu(tmp_path):
     """Reproducible builds: the kernels compiled for this machine's CPU and for a generic x86-64 CPU
     (no FMA or wider vector units) give a bit-identical table, so the content hash a researcher
     quotes identifies the table on any x86-64 machine."""
-    import os
-    import subprocess
-    import sys
-
     hashes = []
     for name, extra in (("host", {}), ("generic", {"NUMBA_CPU_NAME": "generic"})):
         env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / f"numba-{name}"), **extra}

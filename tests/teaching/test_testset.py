@@ -5,9 +5,18 @@ import numpy as np
 import pytest
 
 from teaching.selection import build_sequences
+from teaching.strategies import NO_STRATEGY
 from teaching.synthetic import synthetic_table
-from teaching.testset import (MIN_OPTION_DISTANCE, MIN_REGRET, TestSetError, _distinct, pairwise_distance,
-                              select_test_set, sibling, theta_star_regret)
+from teaching.testset import (
+    MIN_OPTION_DISTANCE,
+    MIN_REGRET,
+    TestSetError,
+    _distinct,
+    pairwise_distance,
+    select_test_set,
+    sibling,
+    theta_star_regret,
+)
 
 
 @pytest.fixture(scope="module")
@@ -84,8 +93,6 @@ def test_distinct_keeps_one_theta_per_trajectory(table):
 def test_relaxed_options_only_when_no_environment_has_the_other_strategy(table, training):
     """Where no θ in Θ ever takes the other strategy in cluster 0's environments (as merging on the demo
     table), the alternatives come from the class's strategies, never from trajectories showing none."""
-    from teaching.strategies import NO_STRATEGY
-
     strategy = np.array(table.strategy)
     rows = np.flatnonzero(strategy[:, 0] == 0)
     block = strategy[rows]

@@ -8,8 +8,16 @@ import numpy as np
 import pytest
 
 from teaching.environments import BRAKING, MERGING, OTHER, TAILGATING
-from teaching.strategies import (BRAKE_CHANGE, BRAKE_STAY, CLASS_OF_CLUSTER, MERGE_AHEAD, MERGE_BEHIND,
-                                 NO_STRATEGY, TAIL_CHANGE, TAIL_STAY)
+from teaching.strategies import (
+    BRAKE_CHANGE,
+    BRAKE_STAY,
+    CLASS_OF_CLUSTER,
+    MERGE_AHEAD,
+    MERGE_BEHIND,
+    NO_STRATEGY,
+    TAIL_CHANGE,
+    TAIL_STAY,
+)
 from teaching.table import TrajectoryTable
 
 pytestmark = pytest.mark.slow
