@@ -58,8 +58,10 @@ def post_worker_init(worker):
     from django.template.loader import get_template  # noqa: PLC0415
     from django.urls import get_resolver  # noqa: PLC0415
 
+    from studyapp.models import StepKind  # noqa: PLC0415
+
     start = time.monotonic()
     get_resolver().url_patterns  # noqa: B018  (the access loads the URLconf)
-    for kind in ("consent", "instructions", "training", "test", "attention", "demographics", "done"):
+    for kind in StepKind:
         get_template(f"studyapp/step_{kind}.html")
     worker.log.info("worker %s warm in %.1f s", worker.pid, time.monotonic() - start)

@@ -9,7 +9,7 @@ import csv
 import io
 import json
 
-from .models import Answer, Participant, Study
+from .models import Answer, Participant, StepKind, Study
 
 # (column, description) — the data dictionary; the same text is in docs/study.md.
 PARTICIPANT_COLUMNS = [
@@ -99,7 +99,7 @@ def long_rows(study: Study):
             row = dict(base, step=a.step, kind=a.kind, item="" if a.item is None else a.item,
                        env_id=a.data.get("env_id", ""), answer_json=json.dumps(a.data, sort_keys=True),
                        answered_at=a.created_at.isoformat())
-            if a.kind == "test":
+            if a.kind == StepKind.TEST:
                 row.update(_test_fields(study, a))
             yield row
 
@@ -108,9 +108,9 @@ def wide_rows(study: Study):
     for p in _participants(study):
         row = _participant_fields(p)
         answers = {(a.kind, a.item): a for a in p.answers.all()}
-        attention = answers.get(("attention", None))
-        demo = answers.get(("demographics", None))
-        tests = sorted((a for a in answers.values() if a.kind == "test"), key=lambda a: a.item)
+        attention = answers.get((StepKind.ATTENTION, None))
+        demo = answers.get((StepKind.DEMOGRAPHICS, None))
+        tests = sorted((a for a in answers.values() if a.kind == StepKind.TEST), key=lambda a: a.item)
         scores = [a.confidence_score for a in tests]
         row.update(
             attention_passed="" if attention is None else int(attention.data["passed"]),

@@ -1,4 +1,4 @@
-"""The participant's path through a study and the validation of each answer.
+"""The participant's path through a study and the recording of each answer (validated by studyapp.forms).
 
 Steps, in order: consent, instructions, one per training environment, one
 per test, attention check, demographics, then ``done``.  A participant's
@@ -14,35 +14,18 @@ from dataclasses import dataclass
 from django.db import IntegrityError, transaction
 from django.utils import timezone
 
-from .models import Answer, Participant, new_code
+from .forms import STEP_FORMS, TestForm
+from .models import Answer, Participant, StepKind, new_code
 
 logger = logging.getLogger(__name__)
 
-ATTENTION_CHOICES = [
-    ("merge", "Merge into the right lane"),
-    ("forward", "Drive forward"),
-    ("park", "Park on the shoulder"),
-    ("left", "Turn into the left lane and stop"),
-    ("exit", "Take the next exit"),
-    ("overtake", "Overtake every car it meets"),
-]
-ATTENTION_CORRECT = frozenset({"merge", "forward"})
-GENDER_CHOICES = [
-    ("female", "Female"),
-    ("male", "Male"),
-    ("non-binary", "Non-binary"),
-    ("other", "Prefer to self-describe"),
-    ("undisclosed", "Prefer not to say"),
-]
-AGE_MIN, AGE_MAX = 18, 120
-RATING_MIN, RATING_MAX = 1, 7
 LETTERS = "ABCDEFGH"  # options as the participant sees them
 
 
 @dataclass(frozen=True)
 class Step:
     index: int
-    kind: str  # consent, instructions, training, test, attention, demographics, done
+    kind: StepKind
     item: int | None = None
 
 
@@ -62,10 +45,10 @@ MOVED_ON = ("That page was out of date (perhaps answered in another tab or windo
 
 
 def steps_for(participant: Participant) -> list[Step]:
-    kinds = [("consent", None), ("instructions", None)]
-    kinds += [("training", i) for i in range(len(participant.condition.training))]
-    kinds += [("test", j) for j in range(len(participant.study.test_set))]
-    kinds += [("attention", None), ("demographics", None), ("done", None)]
+    kinds = [(StepKind.CONSENT, None), (StepKind.INSTRUCTIONS, None)]
+    kinds += [(StepKind.TRAINING, i) for i in range(len(participant.condition.training))]
+    kinds += [(StepKind.TEST, j) for j in range(len(participant.study.test_set))]
+    kinds += [(StepKind.ATTENTION, None), (StepKind.DEMOGRAPHICS, None), (StepKind.DONE, None)]
     return [Step(i, kind, item) for i, (kind, item) in enumerate(kinds)]
 
 
@@ -74,57 +57,18 @@ def current_step(participant: Participant) -> Step:
     return steps[min(participant.position, len(steps) - 1)]
 
 
-# --- validation: POST data -> the JSON stored in Answer.data -----------------
-# Every message is in the participant's words: the page calls things "Option B", "your age".
-def _one(post, name: str, missing: str) -> str:
-    values = post.getlist(name)
-    if len(values) != 1 or not values[0].strip():
-        raise AnswerError(missing)
-    return values[0].strip()
-
-
-def _int(post, name: str, low: int, high: int, missing: str, what: str) -> int:
-    raw = _one(post, name, missing)
-    try:
-        value = int(raw)
-    except ValueError:
-        raise AnswerError(f"{what} must be a whole number from {low} to {high}.") from None
-    if not low <= value <= high:
-        raise AnswerError(f"{what} must be a whole number from {low} to {high}.")
-    return value
-
-
+# --- validation: POST data -> the JSON stored in Answer.data (studyapp.forms) ---------
 def clean_answer(participant: Participant, step: Step, post) -> dict:
-    if step.kind == "consent":
-        if _one(post, "consent", "Please say whether you agree to take part.") != "yes":
-            raise AnswerError("You can only continue if you agree to take part.")
-        return {"consent": True}
-    if step.kind == "instructions":
-        _one(post, "ack", "Please confirm that you have read the instructions.")
-        return {"ack": True}
-    if step.kind == "training":
-        if post.get("played") != "1":
-            raise AnswerError("Please watch the whole animation before you continue.")
-        return {"env_id": participant.condition.training[step.item]["env_id"]}
-    if step.kind == "test":
-        return clean_test(participant, step.item, post)
-    if step.kind == "attention":
-        goals = post.getlist("goals")
-        known = {key for key, _ in ATTENTION_CHOICES}
-        if not goals:
-            raise AnswerError("Please tick the goals you saw.")
-        if set(goals) - known:
-            raise AnswerError("Please tick only goals from the list.")
-        return {"goals": sorted(set(goals)), "passed": set(goals) == ATTENTION_CORRECT}
-    if step.kind == "demographics":
-        gender = _one(post, "gender", "Please choose an answer for gender (or 'Prefer not to say').")
-        if gender not in {key for key, _ in GENDER_CHOICES}:
-            raise AnswerError("Please choose an answer for gender from the list.")
-        data = {"age": _int(post, "age", AGE_MIN, AGE_MAX, "Please enter your age.", "Your age"), "gender": gender}
-        if gender == "other":
-            data["gender_text"] = post.get("gender_text", "").strip()[:100]
-        return data
-    raise AnswerError("This page takes no answer.", status=409)
+    form_class = STEP_FORMS.get(step.kind)
+    if form_class is None:
+        raise AnswerError("This page takes no answer.", status=409)
+    if form_class is TestForm:
+        form = TestForm(post, participant, step, shown=option_letters(participant, step.item))
+    else:
+        form = form_class(post, participant, step)
+    if not form.is_valid():
+        raise AnswerError(form.first_error())
+    return form.answer()
 
 
 def option_letters(participant: Participant, j: int) -> list[tuple[str, int]]:
@@ -133,35 +77,6 @@ def option_letters(participant: Participant, j: int) -> list[tuple[str, int]]:
     The page names options only by these letters, so nothing in it tells theta*'s option
     apart (the option indices, where theta*'s may sit first, stay on the server)."""
     return [(LETTERS[pos], k) for pos, k in enumerate(participant.option_orders[j])]
-
-
-def clean_test(participant: Participant, j: int, post) -> dict:
-    shown = option_letters(participant, j)
-    letters = [letter for letter, _ in shown]
-    listed = ", ".join(letters)
-    played = set(post.getlist("played"))
-    if not played <= set(letters):
-        raise AnswerError(f"This question has options {listed} only; please reload the page.")
-    unplayed = [letter for letter in letters if letter not in played]
-    if unplayed:
-        raise AnswerError(f"Please play option {', '.join(unplayed)} before you continue.")
-    chosen = _one(post, "choice", "Please choose the option that matches the car's driving style.")
-    if chosen not in letters:
-        raise AnswerError(f"This question has options {listed} only; please choose one of them.")
-    extra = sorted(key for key in post if key.startswith("rating_") and key[len("rating_"):] not in letters)
-    if extra:
-        raise AnswerError(f"This question has options {listed} only; please reload the page.")
-    ratings = [0] * len(shown)
-    for letter, k in shown:
-        ratings[k] = _int(post, f"rating_{letter}", RATING_MIN, RATING_MAX,
-                          f"Please rate how well option {letter} matches (1 = not at all, 7 = exactly).",
-                          f"The rating of option {letter}")
-    return {
-        "env_id": participant.study.test_set[j]["env_id"],
-        "choice": dict(shown)[chosen],
-        "ratings": ratings,
-        "order": participant.option_orders[j],
-    }
 
 
 def score_test(participant: Participant, j: int, data: dict) -> tuple[bool, int]:
@@ -201,7 +116,7 @@ def record(participant: Participant, step_index: int, post) -> Participant:
             raise AnswerError(f"You are on step {locked.position + 1}, not step {step_index + 1}.", status=409,
                               moved=True)
         answer = Answer(participant=locked, step=step_index, kind=step.kind, item=step.item, data=data)
-        if step.kind == "test":
+        if step.kind == StepKind.TEST:
             answer.chosen_option = data["choice"]
             answer.correct, answer.confidence_score = score_test(locked, step.item, data)
         try:
@@ -212,9 +127,9 @@ def record(participant: Participant, step_index: int, post) -> Participant:
         now = timezone.now()
         locked.position = step_index + 1
         locked.last_seen_at = now
-        if step.kind == "attention":
+        if step.kind == StepKind.ATTENTION:
             locked.excluded = not data["passed"]
-        finished = steps[locked.position].kind == "done"
+        finished = steps[locked.position].kind == StepKind.DONE
         if finished:
             locked.completed_at = now
             locked.completion_code = locked.study.completion_code or locked.completion_code or _code()

@@ -167,12 +167,26 @@ class Participant(models.Model):
         return reverse("step", args=[self.study.slug, self.token])
 
 
+class StepKind(models.TextChoices):
+    """The kinds of step in a participant's flow (studyapp.flow), in order.  The values are what
+    Answer.kind stores and the exports carry, and name the step's template (step_<kind>.html):
+    never change one.  DONE is the completion page, which takes no answer."""
+
+    CONSENT = "consent"
+    INSTRUCTIONS = "instructions"
+    TRAINING = "training"
+    TEST = "test"
+    ATTENTION = "attention"
+    DEMOGRAPHICS = "demographics"
+    DONE = "done"
+
+
 class Answer(models.Model):
     """One row per answered step; the unique constraint makes answers write-once."""
 
     participant = models.ForeignKey(Participant, models.CASCADE, related_name="answers")
     step = models.PositiveIntegerField(help_text="Index of the step in the participant's flow.")
-    kind = models.CharField(max_length=20)  # consent, instructions, training, test, attention, demographics
+    kind = models.CharField(max_length=20, choices=StepKind.choices)
     item = models.IntegerField(null=True, blank=True, help_text="Training or test index within its kind.")
     data = models.JSONField(default=dict)
     # Tests: derived exactly from data + the study's test set, stored for convenience.

@@ -12,9 +12,9 @@ from django.views.decorators.clickjacking import xframe_options_exempt
 from django.views.decorators.csrf import csrf_exempt
 from django.views.decorators.http import require_GET, require_POST
 
-from . import flow, security
+from . import flow, forms, security
 from .assignment import StudyClosed, assign
-from .models import Participant, Study
+from .models import Participant, StepKind, Study
 from .trajectories import drawn_scene
 
 MTURK_PREVIEW = "ASSIGNMENT_ID_NOT_AVAILABLE"
@@ -154,12 +154,12 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
     }
     # The page gets what it draws and nothing else (drawn_scene): no theta, cluster or option
     # index, and no reference trajectory, so its source cannot tell theta*'s option apart.
-    if current.kind == "training":
+    if current.kind == StepKind.TRAINING:
         payload = participant.condition.training[current.item]
         ctx["goal_name"] = payload["goal_name"]
         ctx["env"] = drawn_scene(payload, robot=True)
         ctx["number"] = current.item + 1
-    elif current.kind == "test":
+    elif current.kind == StepKind.TEST:
         test = participant.study.test_set[current.item]
         shown = flow.option_letters(participant, current.item)
         ctx["number"] = current.item + 1
@@ -167,13 +167,13 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
         ctx["scene"] = drawn_scene(test, robot=False)
         ctx["options"] = [letter for letter, _ in shown]
         ctx["option_robots"] = {letter: test["options"][k]["robot"] for letter, k in shown}
-        ctx["ratings"] = range(flow.RATING_MIN, flow.RATING_MAX + 1)
-    elif current.kind == "attention":
-        ctx["choices"] = flow.ATTENTION_CHOICES
-    elif current.kind == "demographics":
-        ctx["genders"] = flow.GENDER_CHOICES
-        ctx["age_min"], ctx["age_max"] = flow.AGE_MIN, flow.AGE_MAX
-    elif current.kind == "done":
+        ctx["ratings"] = range(forms.RATING_MIN, forms.RATING_MAX + 1)
+    elif current.kind == StepKind.ATTENTION:
+        ctx["choices"] = forms.ATTENTION_CHOICES
+    elif current.kind == StepKind.DEMOGRAPHICS:
+        ctx["genders"] = forms.GENDER_CHOICES
+        ctx["age_min"], ctx["age_max"] = forms.AGE_MIN, forms.AGE_MAX
+    elif current.kind == StepKind.DONE:
         ctx.update(completion_target(participant))
     return ctx
 
@@ -208,7 +208,7 @@ def completion_target(participant: Participant) -> dict:
 def answer(request, slug, token, step_index):
     participant = _participant(slug, token)
     steps = flow.steps_for(participant)
-    if (0 <= step_index < len(steps) and steps[step_index].kind == "consent"
+    if (0 <= step_index < len(steps) and steps[step_index].kind == StepKind.CONSENT
             and request.POST.get("consent") == "no" and participant.position == step_index):
         return render(request, "studyapp/declined.html", {"study": participant.study})
     try:

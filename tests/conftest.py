@@ -55,25 +55,26 @@ def staff_client(client, django_user_model):
 
 def answer_payload(participant, step):
     """A valid POST body (dict of lists) for `step` of `participant` (theta*'s option chosen, rated 6)."""
-    if step.kind == "consent":
-        return {"consent": ["yes"]}
-    if step.kind == "instructions":
-        return {"ack": ["1"]}
-    if step.kind == "training":
-        return {"played": ["1"]}
-    if step.kind == "test":  # options go by the letters the participant sees (flow.option_letters)
-        # Django only in fixtures: the teaching tests stay Django-free
-        from studyapp.flow import option_letters  # noqa: PLC0415
+    # Django only when called: the teaching tests stay Django-free
+    from studyapp.flow import option_letters  # noqa: PLC0415
+    from studyapp.models import StepKind  # noqa: PLC0415
 
+    if step.kind == StepKind.CONSENT:
+        return {"consent": ["yes"]}
+    if step.kind == StepKind.INSTRUCTIONS:
+        return {"ack": ["1"]}
+    if step.kind == StepKind.TRAINING:
+        return {"played": ["1"]}
+    if step.kind == StepKind.TEST:  # options go by the letters the participant sees (flow.option_letters)
         options = participant.study.test_set[step.item]["options"]
         shown = option_letters(participant, step.item)
         star = next(letter for letter, k in shown if options[k]["is_theta_star"])
         body = {"choice": [star], "played": [letter for letter, _ in shown]}
         body.update({f"rating_{letter}": ["6" if letter == star else "2"] for letter, _ in shown})
         return body
-    if step.kind == "attention":
+    if step.kind == StepKind.ATTENTION:
         return {"goals": ["merge", "forward"]}
-    if step.kind == "demographics":
+    if step.kind == StepKind.DEMOGRAPHICS:
         return {"age": ["34"], "gender": ["female"]}
     raise ValueError(step.kind)
 
@@ -93,15 +94,16 @@ def complete_flow(participant, choices=None, attentive=True, stop_before=None):
     from django.http import QueryDict  # noqa: PLC0415
 
     from studyapp import flow  # noqa: PLC0415
+    from studyapp.models import StepKind  # noqa: PLC0415
 
     for step in flow.steps_for(participant)[:-1]:
         if stop_before and step.kind == stop_before:
             break
         body = answer_payload(participant, step)
-        if step.kind == "test" and choices:  # choices are option indices; the page posts letters
+        if step.kind == StepKind.TEST and choices:  # choices are option indices; the page posts letters
             body["choice"] = [letter for letter, k in flow.option_letters(participant, step.item)
                               if k == choices[step.item]]
-        if step.kind == "attention" and not attentive:
+        if step.kind == StepKind.ATTENTION and not attentive:
             body = {"goals": ["forward"]}
         q = QueryDict(mutable=True)
         for k, v in body.items():

@@ -14,7 +14,7 @@ from __future__ import annotations
 import pandas as pd
 from django.db.models import Count, Max, Q
 
-from ..models import Answer, Condition, Participant, Study
+from ..models import Answer, Condition, Participant, StepKind, Study
 from . import stats as S
 
 PARTICIPANT_COLUMNS = ["participant_id", "condition", "attention_ok", "excluded", "exclusion_reason", "age",
@@ -44,15 +44,16 @@ def frames(study: Study, include_incomplete: bool = False) -> tuple[pd.DataFrame
     """(participants, answers, training) DataFrames for :func:`stats.analyze`."""
     people = list(_participants(study, include_incomplete))
     ids = [p["pk"] for p in people]
-    answers = (Answer.objects.filter(participant_id__in=ids, kind__in=["test", "attention", "demographics"])
+    kinds = [StepKind.TEST, StepKind.ATTENTION, StepKind.DEMOGRAPHICS]
+    answers = (Answer.objects.filter(participant_id__in=ids, kind__in=kinds)
                .values("participant_id", "kind", "item", "data", "correct", "confidence_score"))
     tests = study.test_set or []
     attention, demo, arows = {}, {}, []
     for a in answers:
         pid = a["participant_id"]
-        if a["kind"] == "attention":
+        if a["kind"] == StepKind.ATTENTION:
             attention[pid] = bool((a["data"] or {}).get("passed"))
-        elif a["kind"] == "demographics":
+        elif a["kind"] == StepKind.DEMOGRAPHICS:
             demo[pid] = a["data"] or {}
         elif a["confidence_score"] is not None and a["item"] is not None:
             j = int(a["item"])

@@ -13,6 +13,7 @@ import numpy as np
 from django.http import QueryDict
 
 from .. import assignment, flow, studies
+from ..models import StepKind
 
 EFFECT = {"coverage-approx*": 0.95, "det-euclid": 0.95, "det-euclidean": 0.95}
 BASE = 0.35
@@ -40,13 +41,13 @@ def run_participant(study, rng, attentive: bool = True, effect: dict | None = No
     if not attentive:
         p_star = 1 - p_star
     for step in flow.steps_for(p):
-        if step.kind == "consent":
+        if step.kind == StepKind.CONSENT:
             data = post(consent="yes")
-        elif step.kind == "instructions":
+        elif step.kind == StepKind.INSTRUCTIONS:
             data = post(ack="1")
-        elif step.kind == "training":
+        elif step.kind == StepKind.TRAINING:
             data = post(played="1")
-        elif step.kind == "test":
+        elif step.kind == StepKind.TEST:
             options = study.test_set[step.item]["options"]
             star = [k for k, o in enumerate(options) if o["is_theta_star"]][0]
             others = [k for k in range(len(options)) if k != star]
@@ -55,9 +56,9 @@ def run_participant(study, rng, attentive: bool = True, effect: dict | None = No
             ratings = {f"rating_{letter[k]}": int(rng.integers(1, 4)) for k in range(len(options))}
             ratings[f"rating_{letter[choice]}"] = int(rng.integers(5, 8))
             data = post(choice=letter[choice], played=list(letter.values()), **ratings)
-        elif step.kind == "attention":
+        elif step.kind == StepKind.ATTENTION:
             data = post(goals=["merge", "forward"] if attentive else ["park", "merge"])
-        elif step.kind == "demographics":
+        elif step.kind == StepKind.DEMOGRAPHICS:
             data = post(age=int(rng.integers(20, 60)), gender="female")
         else:
             break

@@ -11,7 +11,7 @@ from django.urls import reverse
 
 from precompute.models import Job
 from studyapp import assignment, exports
-from studyapp.models import Answer, Participant, Study
+from studyapp.models import Answer, Participant, StepKind, Study
 from tests.studyapp.helpers import answer_url, record, snapshot, step_url
 
 pytestmark = pytest.mark.django_db
@@ -80,7 +80,7 @@ def test_a_token_reaches_only_its_own_participant(client, make_study, complete):
 def test_participant_text_is_escaped_on_every_page(client, admin_client, study, complete):
     q = {"workerId": XSS, "assignmentId": XSS, "hitId": XSS, "turkSubmitTo": "https://www.mturk.com"}
     assert client.get(reverse("entry", args=[study.slug]), q).status_code == 302
-    turk = complete(Participant.objects.get(), stop_before="demographics")
+    turk = complete(Participant.objects.get(), stop_before=StepKind.DEMOGRAPHICS)
     turk = record(turk, turk.position, age="30", gender="other", gender_text=XSS)
     prolific = complete(assignment.assign(study, "prolific", XSS, platform_study_id=XSS, platform_session_id=XSS))
     escaped = b"&lt;script&gt;alert(&quot;x&quot;)&lt;/script&gt;&#x27;&quot;&amp;"
@@ -96,7 +96,7 @@ def test_participant_text_is_escaped_on_every_page(client, admin_client, study, 
         reverse("admin:studyapp_participant_change", args=[turk.pk]): True,
         reverse("admin:studyapp_answer_changelist"): True,
         reverse("admin:studyapp_answer_change", args=[Answer.objects.get(participant=turk,
-                                                                          kind="demographics").pk]): False,
+                                                                          kind=StepKind.DEMOGRAPHICS).pk]): False,
     }
     for url, must_show in shown.items():
         r = (client if "/p/" in url else admin_client).get(url)
@@ -105,14 +105,14 @@ def test_participant_text_is_escaped_on_every_page(client, admin_client, study, 
         if must_show:
             assert escaped in r.content, url
     demo = admin_client.get(reverse("admin:studyapp_answer_change", args=[
-        Answer.objects.get(participant=turk, kind="demographics").pk])).content
+        Answer.objects.get(participant=turk, kind=StepKind.DEMOGRAPHICS).pk])).content
     assert b"&lt;script&gt;alert(" in demo  # gender_text inside the stored JSON, escaped
 
 
 def test_exports_neutralise_formulas_but_not_numbers(staff_client, study, complete):
     wrong = [next(k for k, o in enumerate(t["options"]) if not o["is_theta_star"]) for t in study.test_set]
     p = complete(assignment.assign(study, "prolific", "=HYPERLINK(\"http://x\")", platform_study_id="+1",
-                                   platform_session_id="-2"), choices=wrong, stop_before="demographics")
+                                   platform_session_id="-2"), choices=wrong, stop_before=StepKind.DEMOGRAPHICS)
     record(p, p.position, age="30", gender="other", gender_text="@SUM(A1)")
     complete(assignment.assign(study, "prolific", "\tTAB", platform_session_id="\rCR"))
     wide = list(csv.DictReader(io.StringIO(

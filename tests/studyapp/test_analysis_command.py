@@ -25,7 +25,7 @@ from studyapp.analysis import data as D
 from studyapp.analysis import stats as S
 from studyapp.analysis import views as V
 from studyapp.analysis.simulate import make_study, run_participant, simulate
-from studyapp.models import Participant
+from studyapp.models import Participant, StepKind
 
 pytestmark = pytest.mark.django_db
 
@@ -66,7 +66,7 @@ def test_synthetic_study_analyze_finds_the_effect(tmp_path):
     assert len(ans) == 6 * (81 - n_failed)  # only included participants' answers
     # the mean score of a participant equals the mean of the app's stored confidence scores
     p0 = real.filter(excluded=False).first()
-    stored = [a.confidence_score for a in p0.answers.filter(kind="test")]
+    stored = [a.confidence_score for a in p0.answers.filter(kind=StepKind.TEST)]
     assert parts.set_index("participant_id").loc[p0.pk, "mean_score"] == pytest.approx(np.mean(stored))
 
     # the effect

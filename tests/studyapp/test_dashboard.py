@@ -9,7 +9,7 @@ from django.urls import reverse
 from django.utils import timezone
 
 from studyapp import assignment
-from studyapp.models import Answer, Participant, Study
+from studyapp.models import Answer, Participant, StepKind, Study
 
 pytestmark = pytest.mark.django_db
 
@@ -51,7 +51,7 @@ def test_detail_counts(staff_client, study, complete):
     # failed the attention check, then left before the demographics: excluded but not completed
     complete(Participant.objects.create(study=study, condition=a, platform="prolific", platform_pid="3",
                                         option_orders=assignment.option_orders(study)),
-             attentive=False, stop_before="demographics")
+             attentive=False, stop_before=StepKind.DEMOGRAPHICS)
     Participant.objects.create(study=study, condition=b, last_seen_at=timezone.now() - timedelta(hours=3))
     Participant.objects.create(study=study, condition=c)
     assignment.preview_participant(c)

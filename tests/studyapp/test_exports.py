@@ -5,7 +5,7 @@ import io
 import pytest
 
 from studyapp import assignment, exports, flow
-from studyapp.models import Participant
+from studyapp.models import Participant, StepKind
 
 pytestmark = pytest.mark.django_db
 
@@ -20,7 +20,7 @@ def test_long_export_one_row_per_answer(study, complete):
     out = rows(exports.long_csv(study))
     assert len(out) == p.answers.count() == len(flow.steps_for(p)) - 1
     assert list(out[0].keys()) == [c for c, _ in exports.LONG_COLUMNS]
-    tests = [r for r in out if r["kind"] == "test"]
+    tests = [r for r in out if r["kind"] == StepKind.TEST]
     assert len(tests) == 6
     for r in tests:
         j = int(r["item"])
@@ -39,7 +39,7 @@ def test_long_export_one_row_per_answer(study, complete):
 def test_wide_export_one_row_per_participant(study, complete):
     complete(assignment.assign(study, "prolific", "W1"))  # all theta*, rated 6
     complete(assignment.assign(study, "prolific", "W2"), attentive=False)
-    complete(assignment.assign(study, "prolific", "W3"), stop_before="test")  # unfinished
+    complete(assignment.assign(study, "prolific", "W3"), stop_before=StepKind.TEST)  # unfinished
     assignment.preview_participant(study.conditions.first())
     out = {r["platform_pid"]: r for r in rows(exports.wide_csv(study))}
     assert set(out) == {"W1", "W2", "W3"}
@@ -61,7 +61,7 @@ def test_data_dictionary_covers_every_column():
 
 def test_confidence_score_is_derivable_from_the_raw_answer(study, complete):
     p = complete(assignment.assign(study, "prolific", "D1"), choices=[1, 2, 3, 0, 1, 2])
-    for a in p.answers.filter(kind="test"):
+    for a in p.answers.filter(kind=StepKind.TEST):
         options = study.test_set[a.item]["options"]
         rating = a.data["ratings"][a.data["choice"]]
         expected = rating if options[a.data["choice"]]["is_theta_star"] else -rating

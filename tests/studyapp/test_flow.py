@@ -4,7 +4,7 @@ from django.test import Client
 from django.urls import reverse
 
 from studyapp import flow
-from studyapp.models import Answer, Participant
+from studyapp.models import Answer, Participant, StepKind
 from tests.studyapp.helpers import snapshot
 
 pytestmark = pytest.mark.django_db
@@ -42,18 +42,18 @@ def test_every_step_renders_in_order(client, participant, answer_for):
         assert r.status_code == 200
         assert r["Cache-Control"].count("no-store") == 1  # back/reload always refetches the current step
         seen.append(step.kind)
-        if step.kind == "done":
+        if step.kind == StepKind.DONE:
             break
         assert client.post(url(p, step.index), answer_for(p, step)).status_code == 302
         p.refresh_from_db()
     n_train = len(p.condition.training)
-    assert seen == ["consent", "instructions"] + ["training"] * n_train + ["test"] * 6 + [
-        "attention", "demographics", "done"]
+    assert seen == [StepKind.CONSENT, StepKind.INSTRUCTIONS] + [StepKind.TRAINING] * n_train + [StepKind.TEST] * 6 + [
+        StepKind.ATTENTION, StepKind.DEMOGRAPHICS, StepKind.DONE]
     assert Answer.objects.filter(participant=p).count() == len(seen) - 1
 
 
 def test_training_page_carries_the_trajectory(client, participant, answer_for):
-    advance(client, participant, answer_for, "training")
+    advance(client, participant, answer_for, StepKind.TRAINING)
     r = client.get(url(participant))
     env = participant.condition.training[0]
     # what the page draws, and nothing else: no environment id, class or strategy cluster
@@ -66,7 +66,7 @@ def test_training_page_carries_the_trajectory(client, participant, answer_for):
 
 
 def test_test_page_shows_options_in_the_participants_order(client, participant, answer_for):
-    step = advance(client, participant, answer_for, "test")
+    step = advance(client, participant, answer_for, StepKind.TEST)
     r = client.get(url(participant))
     order = participant.option_orders[step.item]
     assert r.context["options"] == ["A", "B", "C", "D"]
@@ -76,7 +76,7 @@ def test_test_page_shows_options_in_the_participants_order(client, participant, 
 
 
 def test_test_answer_is_scored(client, participant, answer_for):
-    step = advance(client, participant, answer_for, "test")
+    step = advance(client, participant, answer_for, StepKind.TEST)
     options = participant.study.test_set[step.item]["options"]
     star = next(k for k, o in enumerate(options) if o["is_theta_star"])
     wrong = (star + 1) % 4
@@ -85,17 +85,17 @@ def test_test_answer_is_scored(client, participant, answer_for):
     body.update(choice=[letter], **{f"rating_{letter}": ["5"]})
     assert client.post(url(participant, step.index), body).status_code == 302
     a = Answer.objects.get(participant=participant, step=step.index)
-    assert (a.kind, a.item, a.chosen_option, a.correct, a.confidence_score) == ("test", 0, wrong, False, -5)
+    assert (a.kind, a.item, a.chosen_option, a.correct, a.confidence_score) == (StepKind.TEST, 0, wrong, False, -5)
     assert a.data["order"] == participant.option_orders[0] and a.data["ratings"][wrong] == 5
     # the next test, answered right with confidence 6
-    step = advance(client, participant, answer_for, "test")
+    step = advance(client, participant, answer_for, StepKind.TEST)
     client.post(url(participant, step.index), answer_for(participant, step))
     a = Answer.objects.get(participant=participant, step=step.index)
     assert (a.correct, a.confidence_score) == (True, 6)
 
 
 def test_repeated_post_is_idempotent(client, participant, answer_for):
-    step = advance(client, participant, answer_for, "test")
+    step = advance(client, participant, answer_for, StepKind.TEST)
     body = answer_for(participant, step)
     assert client.post(url(participant, step.index), body).status_code == 302
     before = snapshot()
@@ -107,7 +107,7 @@ def test_repeated_post_is_idempotent(client, participant, answer_for):
 
 
 def test_back_button_cannot_reanswer(client, participant, answer_for):
-    step = advance(client, participant, answer_for, "test")
+    step = advance(client, participant, answer_for, StepKind.TEST)
     client.post(url(participant, step.index), answer_for(participant, step))
     before = snapshot()
     changed = answer_for(participant, step)
@@ -126,7 +126,7 @@ def test_back_button_cannot_reanswer(client, participant, answer_for):
 
 
 def test_answer_for_a_future_step_is_409(client, participant, answer_for):
-    step = advance(client, participant, answer_for, "training")
+    step = advance(client, participant, answer_for, StepKind.TRAINING)
     before = snapshot()
     r = client.post(url(participant, step.index + 1), {"played": ["1"]})
     assert r.status_code == 302 and r["Location"] == url(participant) + "?moved=1"
@@ -177,7 +177,7 @@ def _bad(body, **changes):
     ({"played": ["A", "B", "C", "D", "0"]}, b"This question has options A, B, C, D only"),
 ])
 def test_bad_test_answers_are_400_and_write_nothing(client, participant, answer_for, changes, message):
-    step = advance(client, participant, answer_for, "test")
+    step = advance(client, participant, answer_for, StepKind.TEST)
     before = snapshot()
     r = client.post(url(participant, step.index), _bad(answer_for(participant, step), **changes))
     assert r.status_code == 400 and message in r.content
@@ -188,19 +188,19 @@ def test_bad_test_answers_are_400_and_write_nothing(client, participant, answer_
 
 
 @pytest.mark.parametrize("kind, body, message", [  # no field names: what the participant can act on
-    ("consent", {}, b"Please say whether you agree to take part."),
-    ("consent", {"consent": "maybe"}, b"You can only continue if you agree to take part."),
-    ("instructions", {}, b"Please confirm that you have read the instructions."),
-    ("training", {"played": "0"}, b"Please watch the whole animation before you continue."),
-    ("training", {}, b"Please watch the whole animation before you continue."),
-    ("attention", {}, b"Please tick the goals you saw."),
-    ("attention", {"goals": ["merge", "fly"]}, b"Please tick only goals from the list."),
-    ("demographics", {"age": "17", "gender": "female"}, b"Your age must be a whole number from 18 to 120."),
-    ("demographics", {"age": "121", "gender": "female"}, b"Your age must be a whole number from 18 to 120."),
-    ("demographics", {"age": "thirty", "gender": "female"}, b"Your age must be a whole number from 18 to 120."),
-    ("demographics", {"age": "30", "gender": "robot"}, b"Please choose an answer for gender from the list."),
-    ("demographics", {"age": "30"}, b"Please choose an answer for gender (or &#x27;Prefer not to say&#x27;)."),
-    ("demographics", {"gender": "female"}, b"Please enter your age."),
+    (StepKind.CONSENT, {}, b"Please say whether you agree to take part."),
+    (StepKind.CONSENT, {"consent": "maybe"}, b"You can only continue if you agree to take part."),
+    (StepKind.INSTRUCTIONS, {}, b"Please confirm that you have read the instructions."),
+    (StepKind.TRAINING, {"played": "0"}, b"Please watch the whole animation before you continue."),
+    (StepKind.TRAINING, {}, b"Please watch the whole animation before you continue."),
+    (StepKind.ATTENTION, {}, b"Please tick the goals you saw."),
+    (StepKind.ATTENTION, {"goals": ["merge", "fly"]}, b"Please tick only goals from the list."),
+    (StepKind.DEMOGRAPHICS, {"age": "17", "gender": "female"}, b"Your age must be a whole number from 18 to 120."),
+    (StepKind.DEMOGRAPHICS, {"age": "121", "gender": "female"}, b"Your age must be a whole number from 18 to 120."),
+    (StepKind.DEMOGRAPHICS, {"age": "thirty", "gender": "female"}, b"Your age must be a whole number from 18 to 120."),
+    (StepKind.DEMOGRAPHICS, {"age": "30", "gender": "robot"}, b"Please choose an answer for gender from the list."),
+    (StepKind.DEMOGRAPHICS, {"age": "30"}, b"Please choose an answer for gender (or &#x27;Prefer not to say&#x27;)."),
+    (StepKind.DEMOGRAPHICS, {"gender": "female"}, b"Please enter your age."),
 ])
 def test_bad_answers_on_other_steps(client, participant, answer_for, kind, body, message):
     step = advance(client, participant, answer_for, kind)
@@ -217,32 +217,32 @@ def test_declining_consent_writes_nothing(client, participant):
 
 
 def test_attention_check_failure_excludes_but_keeps(client, participant, answer_for):
-    step = advance(client, participant, answer_for, "attention")
+    step = advance(client, participant, answer_for, StepKind.ATTENTION)
     client.post(url(participant, step.index), {"goals": ["merge", "park"]})
     participant.refresh_from_db()
-    a = Answer.objects.get(participant=participant, kind="attention")
+    a = Answer.objects.get(participant=participant, kind=StepKind.ATTENTION)
     assert participant.excluded and a.data == {"goals": ["merge", "park"], "passed": False}
-    advance(client, participant, answer_for, "done")
+    advance(client, participant, answer_for, StepKind.DONE)
     participant.refresh_from_db()
     assert participant.completed_at is not None and participant.excluded
 
 
 def test_attention_check_pass(client, participant, answer_for):
-    step = advance(client, participant, answer_for, "attention")
+    step = advance(client, participant, answer_for, StepKind.ATTENTION)
     client.post(url(participant, step.index), {"goals": ["forward", "merge"]})
     participant.refresh_from_db()
     assert not participant.excluded
-    assert Answer.objects.get(participant=participant, kind="attention").data["passed"] is True
+    assert Answer.objects.get(participant=participant, kind=StepKind.ATTENTION).data["passed"] is True
 
 
 def test_completion_redirect_only_after_last_answer(client, participant, answer_for):
-    step = advance(client, participant, answer_for, "demographics")
+    step = advance(client, participant, answer_for, StepKind.DEMOGRAPHICS)
     r = client.get(url(participant))
     assert b"prolific.com" not in r.content and participant.completed_at is None
     client.post(url(participant, step.index), {"age": "40", "gender": "other", "gender_text": "x"})
     participant.refresh_from_db()
     assert participant.completed_at is not None and participant.completion_code
-    demo = Answer.objects.get(participant=participant, kind="demographics")
+    demo = Answer.objects.get(participant=participant, kind=StepKind.DEMOGRAPHICS)
     assert demo.data == {"age": 40, "gender": "other", "gender_text": "x"}
     r = client.get(url(participant))
     target = f"https://app.prolific.com/submissions/complete?cc={participant.completion_code}"
@@ -256,7 +256,7 @@ def test_study_wide_completion_code(client, make_study, answer_for):
     s = make_study("coded", completion_code="C0DE123")
     client.get(reverse("entry", args=[s.slug]), {"PROLIFIC_PID": "z"})
     p = Participant.objects.get(study=s)
-    advance(client, p, answer_for, "done")
+    advance(client, p, answer_for, StepKind.DONE)
     p.refresh_from_db()
     assert p.completion_code == "C0DE123"
 
@@ -265,7 +265,7 @@ def test_mturk_completion_posts_back_to_turk(client, study, answer_for):
     client.get(reverse("entry", args=[study.slug]), {"workerId": "W9", "assignmentId": "A9", "hitId": "H9",
                                                      "turkSubmitTo": "https://workersandbox.mturk.com"})
     p = Participant.objects.get()
-    advance(client, p, answer_for, "done")
+    advance(client, p, answer_for, StepKind.DONE)
     r = client.get(url(p))
     assert b'action="https://workersandbox.mturk.com/mturk/externalSubmit"' in r.content
     assert b'name="assignmentId" value="A9"' in r.content
@@ -275,7 +275,7 @@ def test_a_stored_turk_submit_to_is_checked_again_before_it_becomes_a_form_actio
     client.get(reverse("entry", args=[study.slug]), {"workerId": "W8", "assignmentId": "A8", "hitId": "H8"})
     Participant.objects.update(turk_submit_to="javascript://www.mturk.com/%0Aalert(document.domain)")  # legacy row
     p = Participant.objects.get()
-    advance(client, p, answer_for, "done")
+    advance(client, p, answer_for, StepKind.DONE)
     r = client.get(url(p))
     assert b"javascript:" not in r.content
     assert f'action="{study.mturk_submit_url}"'.encode() in r.content
@@ -285,7 +285,7 @@ def test_anonymous_completion_shows_code_without_redirect(study, answer_for):
     c = Client()
     c.get(reverse("entry", args=[study.slug]))
     p = Participant.objects.get()
-    advance(c, p, answer_for, "done")
+    advance(c, p, answer_for, StepKind.DONE)
     r = c.get(url(p))
     p.refresh_from_db()
     assert p.completion_code.encode() in r.content and "redirect_url" not in r.context

@@ -22,7 +22,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from studyapp import assignment, flow, security
-from studyapp.models import Participant
+from studyapp.models import Participant, StepKind
 from tests.studyapp.helpers import snapshot
 
 pytestmark = pytest.mark.django_db
@@ -68,9 +68,9 @@ entry_links = st.one_of(  # a Prolific link, an MTurk link, or any mix of the fi
 def valid_pairs(p, answer_for) -> list[tuple[str, str]]:
     """A valid answer for the participant's current step, as (field, value) pairs."""
     step = flow.current_step(p)
-    if step.kind == "done":
+    if step.kind == StepKind.DONE:
         return []
-    if step.kind == "demographics":  # the one free-text field, so that mutations reach it
+    if step.kind == StepKind.DEMOGRAPHICS:  # the one free-text field, so that mutations reach it
         return [("age", "34"), ("gender", "other"), ("gender_text", "self-described")]
     return [(k, v) for k, vs in answer_for(p, step).items() for v in vs]
 

@@ -14,7 +14,7 @@ from django.urls import reverse
 from config import settings as cfg
 from config.settings import _cache
 from studyapp import assignment, flow, security
-from studyapp.models import Answer, Participant, Study
+from studyapp.models import Answer, Participant, StepKind, Study
 from tests.services import blackhole
 from tests.studyapp.helpers import answer_url, snapshot
 
@@ -239,8 +239,8 @@ def _raw_post(base_url: str, path: str, body: bytes, declared: int, close_early:
 def test_a_body_shorter_than_its_content_length_is_refused_not_stored(live_server, participant, complete):
     """Issue 12, item 3: `goals=merge` of `goals=merge&goals=forward` arrived, was stored as a failed
     attention check and excluded the participant; the retry then got 409."""
-    p = complete(participant, stop_before="attention")
-    step = next(s for s in flow.steps_for(p) if s.kind == "attention")
+    p = complete(participant, stop_before=StepKind.ATTENTION)
+    step = next(s for s in flow.steps_for(p) if s.kind == StepKind.ATTENTION)
     full = b"goals=merge&goals=forward"
     before = snapshot()
     reply = _raw_post(live_server.url, answer_url(p, step.index), full[:11], len(full), close_early=True)

@@ -10,7 +10,7 @@ from django.test import Client
 from django.urls import reverse
 
 from studyapp import flow
-from studyapp.models import Participant
+from studyapp.models import Participant, StepKind
 from studyapp.studies import build_study
 from teaching.build import PRESETS, build_table
 from teaching.selection import showable
@@ -69,7 +69,7 @@ def walk(client, study, pid):
         step = flow.current_step(p)
         html = client.get(reverse("step", args=[study.slug, p.token])).content.decode()
         yield p, step, html
-        if step.kind == "done":
+        if step.kind == StepKind.DONE:
             return
         r = client.post(reverse("answer", args=[study.slug, p.token, step.index]), answer_payload(p, step))
         assert r.status_code == 302, r.content[:300]
@@ -86,10 +86,10 @@ def test_no_test_page_tells_theta_stars_option_apart(tiny_table):
             for word in FORBIDDEN:
                 assert word.lower() not in low, (step.kind, word)
             data = embedded(html)
-            if step.kind == "training":
+            if step.kind == StepKind.TRAINING:
                 payload = p.condition.training[step.item]
                 assert data == {"env-data": {k: payload[k] for k in ("goal", "dt", "other", "robot")}}
-            if step.kind != "test":
+            if step.kind != StepKind.TEST:
                 continue
             test = study.test_set[step.item]
             shown = flow.option_letters(p, step.item)

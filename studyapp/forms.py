@@ -1,0 +1,191 @@
+"""One form per step kind: what each step of the participant's flow accepts (studyapp.flow).
+
+The pages are written by hand (templates/studyapp/step_<kind>.html), so these forms only validate:
+`StepForm.answer()` gives the JSON stored in Answer.data, `first_error()` the one message the
+participant sees.  Every message is in the participant's words: the page calls things "Option B",
+"your age".
+"""
+from __future__ import annotations
+
+import re
+
+from django import forms
+from django.core.exceptions import ValidationError
+
+from .models import StepKind
+
+ATTENTION_CHOICES = [
+    ("merge", "Merge into the right lane"),
+    ("forward", "Drive forward"),
+    ("park", "Park on the shoulder"),
+    ("left", "Turn into the left lane and stop"),
+    ("exit", "Take the next exit"),
+    ("overtake", "Overtake every car it meets"),
+]
+ATTENTION_CORRECT = frozenset({"merge", "forward"})
+GENDER_CHOICES = [
+    ("female", "Female"),
+    ("male", "Male"),
+    ("non-binary", "Non-binary"),
+    ("other", "Prefer to self-describe"),
+    ("undisclosed", "Prefer not to say"),
+]
+AGE_MIN, AGE_MAX = 18, 120
+RATING_MIN, RATING_MAX = 1, 7
+GENDER_TEXT_MAX = 100
+
+
+class OneValue(forms.TextInput):
+    """Exactly one value, stripped: a field sent twice counts as missing instead of Django's
+    usual last-one-wins, so a tampered or doubled post is refused rather than half-read."""
+
+    def value_from_datadict(self, data, files, name):
+        values = data.getlist(name) if hasattr(data, "getlist") else [data.get(name)]
+        return values[0].strip() if len(values) == 1 and isinstance(values[0], str) else None
+
+
+class OneChoiceField(forms.ChoiceField):
+    widget = OneValue
+
+
+class WholeNumberField(forms.IntegerField):
+    """IntegerField without Django's leniency for "6.0": the pages send whole numbers, and
+    nothing else was ever accepted."""
+
+    widget = OneValue
+    re_decimal = re.compile(r"(?!)")  # matches nothing, so "6.0" stays invalid
+
+
+def _whole_number(low: int, high: int, missing: str, what: str) -> WholeNumberField:
+    bad = f"{what} must be a whole number from {low} to {high}."
+    return WholeNumberField(min_value=low, max_value=high, error_messages={
+        "required": missing, "invalid": bad, "min_value": bad, "max_value": bad})
+
+
+class StepForm(forms.Form):
+    """A step's form, bound to the POST data and to the participant's step it answers."""
+
+    def __init__(self, data, participant, step):
+        super().__init__(data)
+        self.participant, self.step = participant, step
+
+    def first_error(self) -> str:
+        """The message shown: the first failing field in the form's order (the page's order)."""
+        return next(message for messages in self.errors.values() for message in messages)
+
+    def answer(self) -> dict:
+        raise NotImplementedError
+
+
+class ConsentForm(StepForm):
+    # Only "yes" gets here with a stored answer: the view answers "no" with the declined page.
+    consent = OneChoiceField(choices=[("yes", "I agree")], error_messages={
+        "required": "Please say whether you agree to take part.",
+        "invalid_choice": "You can only continue if you agree to take part."})
+
+    def answer(self) -> dict:
+        return {"consent": True}
+
+
+class InstructionsForm(StepForm):
+    ack = forms.CharField(widget=OneValue, error_messages={
+        "required": "Please confirm that you have read the instructions."})
+
+    def answer(self) -> dict:
+        return {"ack": True}
+
+
+class TrainingForm(StepForm):
+    # The page's script sets played=1 when the animation ends.
+    played = forms.ChoiceField(choices=[("1", "played")], error_messages={
+        "required": "Please watch the whole animation before you continue.",
+        "invalid_choice": "Please watch the whole animation before you continue."})
+
+    def answer(self) -> dict:
+        return {"env_id": self.participant.condition.training[self.step.item]["env_id"]}
+
+
+class AttentionForm(StepForm):
+    goals = forms.MultipleChoiceField(choices=ATTENTION_CHOICES, error_messages={
+        "required": "Please tick the goals you saw.",
+        "invalid_choice": "Please tick only goals from the list.",
+        "invalid_list": "Please tick only goals from the list."})
+
+    def answer(self) -> dict:
+        goals = set(self.cleaned_data["goals"])
+        return {"goals": sorted(goals), "passed": goals == ATTENTION_CORRECT}
+
+
+class DemographicsForm(StepForm):
+    gender = OneChoiceField(choices=GENDER_CHOICES, error_messages={
+        "required": "Please choose an answer for gender (or 'Prefer not to say').",
+        "invalid_choice": "Please choose an answer for gender from the list."})
+    age = _whole_number(AGE_MIN, AGE_MAX, "Please enter your age.", "Your age")
+    # Optional free text, cut rather than refused: a long self-description is not an error.
+    gender_text = forms.CharField(required=False)
+
+    def answer(self) -> dict:
+        data = {"age": self.cleaned_data["age"], "gender": self.cleaned_data["gender"]}
+        if data["gender"] == "other":
+            data["gender_text"] = self.cleaned_data["gender_text"][:GENDER_TEXT_MAX]
+        return data
+
+
+class TestForm(StepForm):
+    """Test step.item: every option played, one chosen, each rated; options go by the letters the
+    participant sees (`shown`: (letter, option index), top to bottom; flow.option_letters)."""
+
+    __test__ = False  # a study's test step, not a pytest class
+
+    def __init__(self, data, participant, step, shown: list[tuple[str, int]]):
+        super().__init__(data, participant, step)
+        self.shown = shown
+        letters = [(letter, letter) for letter, _ in shown]
+        listed = ", ".join(letter for letter, _ in shown)
+        self.reload = f"This question has options {listed} only; please reload the page."
+        self.fields["played"] = forms.MultipleChoiceField(choices=letters, required=False, error_messages={
+            "invalid_choice": self.reload, "invalid_list": self.reload})
+        self.fields["choice"] = OneChoiceField(choices=letters, error_messages={
+            "required": "Please choose the option that matches the car's driving style.",
+            "invalid_choice": f"This question has options {listed} only; please choose one of them."})
+        for letter, _ in shown:
+            self.fields[f"rating_{letter}"] = _whole_number(
+                RATING_MIN, RATING_MAX, f"Please rate how well option {letter} matches (1 = not at all, 7 = exactly).",
+                f"The rating of option {letter}")
+
+    def clean_played(self):
+        played = set(self.cleaned_data["played"])
+        unplayed = [letter for letter, _ in self.shown if letter not in played]
+        if unplayed:
+            raise ValidationError(f"Please play option {', '.join(unplayed)} before you continue.")
+        return played
+
+    def clean_choice(self):
+        # A rating for an option this page does not have means a stale or tampered page.  Checked
+        # here, after the choice and before the ratings, so that it is the message shown first.
+        if any(key.startswith("rating_") and key not in self.fields for key in self.data):
+            raise ValidationError(self.reload)
+        return self.cleaned_data["choice"]
+
+    def answer(self) -> dict:
+        j, order = self.step.item, self.participant.option_orders[self.step.item]
+        ratings = [0] * len(self.shown)
+        for letter, k in self.shown:
+            ratings[k] = self.cleaned_data[f"rating_{letter}"]
+        return {
+            "env_id": self.participant.study.test_set[j]["env_id"],
+            "choice": dict(self.shown)[self.cleaned_data["choice"]],
+            "ratings": ratings,
+            "order": order,
+        }
+
+
+# Every kind that takes an answer; DONE takes none.  TestForm also needs the option letters.
+STEP_FORMS: dict[StepKind, type[StepForm]] = {
+    StepKind.CONSENT: ConsentForm,
+    StepKind.INSTRUCTIONS: InstructionsForm,
+    StepKind.TRAINING: TrainingForm,
+    StepKind.TEST: TestForm,
+    StepKind.ATTENTION: AttentionForm,
+    StepKind.DEMOGRAPHICS: DemographicsForm,
+}
