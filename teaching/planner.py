@@ -60,7 +60,7 @@ class PlannerSettings:
     warm_iters: int = 200  # a cap, not a budget: warm starts run until Newton converges (NEWTON_TOL)
     refine_rounds: int = 1
     hop_min_crossings: int = 5  # lane-line crossings that make a trajectory hop (step 5): across all three lanes
-    #                             and back; 3 (one lane, then two back) found 7 more of 128,000 pairs at 1.08x the time
+    #                             and back; 3 (one lane, then two back) found 7 more of 128,000 pairs at 1.07x the time
     hop_shifts: tuple = (-1,)  # knots; (-1, +1) found 2 more pairs above 1e-4 in 128,000, at 1.17x the time
 
 
