@@ -33,7 +33,7 @@ serve: venv serve-deps
 
 # Launch-day load: 500 simulated participants within 60 s against a fresh PostgreSQL database,
 # PostgreSQL restarted in the middle (docs/operations.md); LOAD_ARGS adds options.
-load: venv serve-deps
+load: venv serve-deps table
 	$(PY) -m tests.load.run --participants 500 --window 60 $(LOAD_ARGS)
 
 # Ruff, configured in pyproject.toml; .ci/run runs it before the tests.

@@ -81,6 +81,9 @@ class Study(models.Model):
 
     def opening_problems(self) -> list[str]:
         """Why this study may not accept participants yet (empty: it may)."""
+        if (self.source or {}).get("kind") != "table":  # e.g. an early version's synthesised placeholder
+            return ["Its trajectories do not come from a trajectory table, so they say nothing about "
+                    "theta*: rebuild the study from a table (create_study or the study designer)."]
         if self.recruitment == self.PROLIFIC and not self.completion_code.strip():
             return ["Prolific only accepts its study's own completion code: set the completion code "
                     "(Prolific's study page, 'Completion paths') before opening."]

@@ -9,16 +9,17 @@ Spec (a JSON file for ``manage.py create_study``)::
       "recruitment": "prolific",                   # optional: link (default), prolific, mturk
       "consent_text": "...", "estimated_minutes": 15, "payment": "...", "contact": "...",
       "ethics_reference": "...",                   # optional: the consent page's texts
-      "table": "data/tables/demo",                 # optional: a teaching TrajectoryTable
+      "table": "var/tables/demo",                  # a teaching TrajectoryTable (required)
       "theta_star": [-64, -0.1, -1, -0.1, -0.5],   # optional: refuse a table built for another theta*
       "conditions": [{"name": "exact", "env_ids": [12, 4031, ...]}, ...],
       "test_set": [{"env_id": 77, "options": [{"theta_index": 0, "is_theta_star": true}, ...]}, ...]
     }
 
-With ``table`` the trajectories are read from the table (``test_set`` is
-then required, as produced by ``teaching.testset.select_test_set``).
-Without it the PLACEHOLDER synthesiser of ``studyapp.trajectories`` draws
-them (and builds its own test set when ``test_set`` is absent).
+Every trajectory a participant sees is read from the table: theta*'s optimal
+trajectory in each training environment, and each test option's (the ``test_set``
+as produced by ``teaching.testset.select_test_set``).  A spec without a table is
+refused: nothing else could say what theta* does.  ``table_spec`` runs the whole
+pipeline (selection and test set) on a table, for the demo and the tests.
 
 ``spec_from_teach`` turns the output directory of ``python -m teaching.teach``
 (sequences.json + test_set.json) into the table, conditions and test set of a
@@ -36,7 +37,7 @@ from django.core.exceptions import ValidationError
 from django.core.validators import validate_slug
 from django.db import transaction
 
-from teaching.api import CONDITIONS, TableError, TrajectoryTable, build_sequences, select_test_set, stratified_sample
+from teaching.api import CONDITIONS, TableError, TrajectoryTable, build_sequences, select_test_set
 
 from . import trajectories
 from .models import Condition, Study
@@ -171,26 +172,19 @@ def _payloads(spec: dict):
     for c in conditions:
         if not c.get("env_ids"):
             raise SpecError(f"condition {c['name']!r} needs a non-empty 'env_ids' list")
-    if spec.get("table"):
-        if not spec.get("test_set"):
-            raise SpecError("a spec with a 'table' needs its 'test_set'")
-        table = _load_table(spec)
-        try:
-            training = {c["name"]: trajectories.training_from_table(table, c["env_ids"]) for c in conditions}
-            tests = trajectories.test_set_from_table(table, spec["test_set"])
-        except (ValueError, IndexError) as exc:
-            raise SpecError(str(exc)) from None
-        source = {"kind": "table", "table": str(spec["table"]), "content_hash": table.meta.get("content_hash"),
-                  "theta_star": [float(v) for v in table.theta_star]}
-    else:
-        training = {c["name"]: trajectories.placeholder_training(c["env_ids"]) for c in conditions}
-        used = {int(e) for c in conditions for e in c["env_ids"]}
-        if spec.get("test_set"):
-            tests = spec["test_set"]
-            trajectories.check_test_set(tests)
-        else:
-            tests = trajectories.placeholder_test_set(exclude=used, seed=spec.get("seed", 0))
-        source = {"kind": "placeholder", "note": "synthesised trajectories, not the optimal ones (docs/study.md)"}
+    if not spec.get("table"):
+        raise SpecError("a spec needs a 'table': the trajectory table its trajectories come from "
+                        "(build one with `python -m teaching build --preset demo`)")
+    if not spec.get("test_set"):
+        raise SpecError("a spec with a 'table' needs its 'test_set'")
+    table = _load_table(spec)
+    try:
+        training = {c["name"]: trajectories.training_from_table(table, c["env_ids"]) for c in conditions}
+        tests = trajectories.test_set_from_table(table, spec["test_set"])
+    except (ValueError, IndexError) as exc:
+        raise SpecError(str(exc)) from None
+    source = {"kind": "table", "table": str(spec["table"]), "content_hash": table.meta.get("content_hash"),
+              "theta_star": [float(v) for v in table.theta_star]}
     return conditions, training, tests, source
 
 
@@ -295,27 +289,25 @@ def build_study(spec: dict, replace: bool = False) -> Study:
     return study
 
 
-# --- demo ------------------------------------------------------------------
-def placeholder_sequences(seed: int = 0) -> dict[str, list[int]]:
-    """PLACEHOLDER sequences for the paper's conditions (seeded random picks, not teaching output).
+# --- a whole study from a table, and the demo ------------------------------------------------------
+def table_spec(table_path, *, slug: str, sequences: dict | None = None, seed: int = 0, **test_set_kw) -> dict:
+    """A spec whose conditions and test set come from the real pipeline on the table at `table_path`.
 
-    coverage-random follows the paper's recipe (one environment per cluster)
-    using the placeholder trajectories' clusters; the others are random
-    stratified draws of the lengths the paper's algorithms typically select.
+    sequences: {condition: env_ids}; by default ``teaching.selection.build_sequences`` (the paper's
+    nine conditions).  The test set is ``teaching.testset.select_test_set`` (its thresholds in
+    `test_set_kw`: min_regret, min_distance), disjoint from every sequence.  A table that cannot
+    give a test set is a SpecError naming why.
     """
-    rng = np.random.default_rng(seed)
-    pool = stratified_sample(400, seed=seed)
-    clusters = {int(e): trajectories.placeholder_training([int(e)])[0]["cluster"] for e in pool}
-    lengths = {"exact": 3, "det-reward": 5, "det-euclidean": 6, "det-strategy": 4, "prob-reward": 5,
-               "prob-euclidean": 6, "random": 8, "coverage-approx*": 8}
-    out = {name: [int(e) for e in rng.choice(pool, size=n, replace=False)] for name, n in lengths.items()}
-    cover = []
-    for cluster in range(8):
-        members = [e for e, c in clusters.items() if c == cluster]
-        if members:
-            cover.append(int(rng.choice(members)))
-    out["coverage-random"] = cover
-    return {name: out[name] for name in PAPER_CONDITIONS}
+    try:
+        table = TrajectoryTable.load(table_path)
+        if sequences is None:
+            sequences = build_sequences(table, seed=seed)
+        sequences = {name: [int(e) for e in ids] for name, ids in sequences.items()}
+        tests = select_test_set(table, list(sequences.values()), seed, **test_set_kw)
+    except (OSError, ValueError) as exc:  # TableError and TestSetError are ValueErrors
+        raise SpecError(f"cannot use the table at {table_path}: {exc}") from None
+    return {"slug": slug, "table": str(table_path),
+            "conditions": [{"name": n, "env_ids": ids} for n, ids in sequences.items()], "test_set": tests}
 
 
 def demo_table_path(table_path=None) -> Path:
@@ -325,8 +317,8 @@ def demo_table_path(table_path=None) -> Path:
 def demo_is_stale(study: Study, table_path=None) -> bool:
     """Was `study` built from something other than the demo table now on disk?
 
-    True when the table was rebuilt (another content hash) or appeared since a
-    placeholder study was built.  A missing table never makes a study stale.
+    True when the table was rebuilt (another content hash).  A missing table never makes a
+    study stale.
     """
     meta = demo_table_path(table_path) / "meta.json"
     try:
@@ -336,30 +328,16 @@ def demo_is_stale(study: Study, table_path=None) -> bool:
     return (study.source or {}).get("content_hash") != current
 
 
-def demo_spec(table_path=None, log=lambda msg: None) -> dict:
-    """The demo study: all of the paper's conditions on the demo table.
-
-    Uses the real pipeline (``teaching.selection.build_sequences`` and
-    ``teaching.testset.select_test_set`` on the table at `table_path`,
-    $DEMO_TABLE or var/tables/demo) when that table exists and loads;
-    otherwise the PLACEHOLDER trajectories (and says why through `log`).
-    """
-    spec = {"slug": DEMO_SLUG, "name": "Demo: how does the autonomous car drive?", "target_per_condition": 20,
-            "completion_code": DEMO_COMPLETION_CODE, "estimated_minutes": 12,
-            "contact": "The research team (demo: no real contact)"}
+def demo_spec(table_path=None) -> dict:
+    """The demo study: all of the paper's conditions, selected on the demo table (`table_path`,
+    $DEMO_TABLE or var/tables/demo) by the real pipeline.  No table: a SpecError saying how to
+    build one."""
     table_path = demo_table_path(table_path)
-    if (table_path / "meta.json").exists():
-        try:
-            table = TrajectoryTable.load(table_path)
-            sequences = build_sequences(table, seed=0)
-            spec.update(table=str(table_path), conditions=[{"name": n, "env_ids": [int(e) for e in ids]}
-                                                          for n, ids in sequences.items()],
-                        test_set=select_test_set(table, list(sequences.values()), 0))
-            return spec
-        except ValueError as exc:  # TableError and TestSetError are ValueErrors
-            log(f"cannot use the table at {table_path} ({exc}); using PLACEHOLDER trajectories")
-    else:
-        log(f"no trajectory table at {table_path}; using PLACEHOLDER trajectories "
-            "(build one with `python -m teaching build --preset demo --out var/tables/demo`)")
-    spec["conditions"] = [{"name": n, "env_ids": ids} for n, ids in placeholder_sequences().items()]
+    if not (table_path / "meta.json").exists():
+        raise SpecError(f"no trajectory table at {table_path}: build the demo's with "
+                        f"`python -m teaching build --preset demo --out {table_path}` (or run `make demo`)")
+    spec = table_spec(table_path, slug=DEMO_SLUG)
+    spec.update(name="Demo: how does the autonomous car drive?", target_per_condition=20,
+                completion_code=DEMO_COMPLETION_CODE, estimated_minutes=12,
+                contact="The research team (demo: no real contact)")
     return spec

@@ -12,7 +12,21 @@ import pytest
 from teaching import teach
 from teaching.build import PRESETS, build_table
 
-SMALL_SEQUENCES = {"alpha": [100, 5000, 12000], "beta": [7000, 15000], "gamma": [300, 20000]}
+# Environments of the `tiny` table (48 environments × 24 θ, built once per run by `tiny_table`).
+SMALL_SEQUENCES = {"alpha": [500, 5780, 12165], "beta": [7107, 15245], "gamma": [586, 20132]}
+# The paper's nine condition names over environments of the tiny table (fixed picks: the analysis
+# tests need the names and real trajectories, not what selection would choose on 24 θ).
+PAPER_SEQUENCES = {
+    "exact": [500, 11271, 9857], "det-reward": [586, 15655, 5780, 14251, 7157],
+    "det-euclidean": [18151, 15655, 1149, 586, 12825, 13520], "det-strategy": [16137, 1149, 5780, 20293],
+    "prob-reward": [13520, 16137, 7107, 11271, 14251], "prob-euclidean": [5780, 16137, 11271, 1149, 20278, 12825],
+    "random": [20293, 16137, 9857, 15655, 7107, 20278, 18151, 14251],
+    "coverage-approx*": [1149, 500, 7107, 16137, 13520, 12825, 5780, 586],
+    "coverage-random": [1149, 14251, 586, 20293, 12825, 16137]}
+# The test set's thresholds on the tiny table: with 24 θ few environments have three alternatives
+# 0.5 apart (the study default), so the app's tests accept options 0.1 apart; the selection itself
+# is the real one (teaching.testset.select_test_set).
+TINY_TEST_SET = {"min_distance": 0.1}
 
 
 @pytest.fixture(autouse=True)
@@ -25,17 +39,26 @@ def _fresh_rate_limits():
         security.reset_rate_limits()
 
 
+@pytest.fixture(scope="session")
+def tiny_table(tmp_path_factory):
+    """The `tiny` preset built for real (48 environments × 24 θ, a few seconds), once per run:
+    every study the app's tests make draws its trajectories from it."""
+    out = tmp_path_factory.mktemp("tiny-table")
+    build_table(PRESETS["tiny"], out)
+    return out
+
+
 @pytest.fixture
-def make_study(db):
-    """Factory: a placeholder-trajectory study with the given conditions (default: 3 short ones)."""
+def make_study(db, tiny_table):
+    """Factory: a study on the tiny table with the given conditions (default: 3 short ones), its
+    trajectories and test set from the real pipeline (studies.table_spec)."""
     # Django only in fixtures: the teaching tests stay Django-free
-    from studyapp.studies import build_study  # noqa: PLC0415
+    from studyapp.studies import build_study, table_spec  # noqa: PLC0415
 
     def make(slug="s1", sequences=None, **extra):
-        sequences = sequences or SMALL_SEQUENCES
         extra.setdefault("completion_code", "TEST2026")  # Prolific arrivals need one (views.entry)
-        spec = {"slug": slug, "name": f"Study {slug}", "target_per_condition": 10,
-                "conditions": [{"name": n, "env_ids": ids} for n, ids in sequences.items()], **extra}
+        spec = table_spec(tiny_table, slug=slug, sequences=sequences or SMALL_SEQUENCES, **TINY_TEST_SET)
+        spec.update({"name": f"Study {slug}", "target_per_condition": 10, **extra})
         return build_study(spec)
 
     return make

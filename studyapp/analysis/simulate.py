@@ -19,11 +19,12 @@ EFFECT = {"coverage-approx*": 0.95, "det-euclid": 0.95, "det-euclidean": 0.95}
 BASE = 0.35
 
 
-def make_study(slug: str = "synth", sequences: dict | None = None, name: str = "Synthetic study"):
-    """A study with the paper's conditions on the placeholder trajectories (or the given sequences)."""
-    sequences = sequences or studies.placeholder_sequences(0)
-    spec = {"slug": slug, "name": name, "seed": 0, "target_per_condition": 100,
-            "conditions": [{"name": n, "env_ids": ids} for n, ids in sequences.items()]}
+def make_study(table, slug: str = "synth", sequences: dict | None = None, name: str = "Synthetic study",
+               **test_set_kw):
+    """A study on the trajectory table at `table`: the paper's conditions selected on it (or the
+    given sequences) and its test set (``studies.table_spec``; `test_set_kw` its thresholds)."""
+    spec = studies.table_spec(table, slug=slug, sequences=sequences, **test_set_kw)
+    spec.update(name=name, target_per_condition=100)
     return studies.build_study(spec)
 
 

@@ -75,8 +75,8 @@ class Server:
 
 
 @pytest.fixture
-def server(tmp_path):
-    env = {**os.environ, "DATABASE_URL": f"sqlite:///{tmp_path / 'db.sqlite3'}", "DEMO_TABLE": str(tmp_path / "none"),
+def server(tmp_path, demo_table):
+    env = {**os.environ, "DATABASE_URL": f"sqlite:///{tmp_path / 'db.sqlite3'}", "DEMO_TABLE": str(demo_table),
            "VAR_DIR": str(tmp_path / "var"), "DEBUG": "1", "PYTHONUNBUFFERED": "1"}
     subprocess.run([sys.executable, "manage.py", "setup_demo"], cwd=ROOT, env=env, check=True,
                    capture_output=True, timeout=60)

@@ -30,8 +30,8 @@ pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
 
 @pytest.fixture
-def demo_study(transactional_db, tmp_path, monkeypatch):
-    monkeypatch.setenv("DEMO_TABLE", str(tmp_path / "none"))  # the placeholder demo: fast and fixed
+def demo_study(transactional_db, demo_table, monkeypatch):
+    monkeypatch.setenv("DEMO_TABLE", str(demo_table))  # the demo exactly as `make demo` serves it
     return build_study(demo_spec())
 
 

@@ -20,6 +20,7 @@ from playwright.sync_api import sync_playwright
 
 from studyapp.analysis import views as analysis_views
 from studyapp.analysis.simulate import make_study, run_participant, simulate
+from tests.conftest import PAPER_SEQUENCES, TINY_TEST_SET
 
 CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 OUT = Path(__file__).resolve().parents[2] / "test-output"
@@ -34,10 +35,10 @@ def staff_cookie(transactional_db, client):
     return client.cookies["sessionid"].value
 
 
-def test_report_renders_in_chromium_and_updates_live(staff_cookie, live_server, monkeypatch):  # db first
+def test_report_renders_in_chromium_and_updates_live(staff_cookie, live_server, monkeypatch, tiny_table):  # db first
 
     assert Path(CHROMIUM).exists(), f"Chromium not installed at {CHROMIUM} (apt-get install chromium)"
-    study = make_study("browser")
+    study = make_study(tiny_table, "browser", PAPER_SEQUENCES, **TINY_TEST_SET)
     rng = simulate(study, n_per_condition=5, seed=4)
     monkeypatch.setattr(analysis_views, "REFRESH_SECONDS", 1)
     OUT.mkdir(exist_ok=True)

@@ -13,7 +13,6 @@ from playwright.sync_api import sync_playwright
 
 from studyapp.studies import build_study, demo_spec
 from studyapp.trajectories import drawn_scene
-from teaching.build import PRESETS, build_table
 from teaching.table import TrajectoryTable
 from tests.studyapp.test_stimuli import real_spec
 
@@ -85,11 +84,10 @@ def stimuli_of(study) -> list[dict]:
 
 
 @pytest.fixture
-def studies(transactional_db, tmp_path, monkeypatch):
-    monkeypatch.setenv("DEMO_TABLE", str(tmp_path / "none"))
+def studies(transactional_db, demo_table, tiny_table, monkeypatch):
+    monkeypatch.setenv("DEMO_TABLE", str(demo_table))
     demo = build_study(demo_spec())
-    build_table(PRESETS["tiny"], tmp_path / "tiny")
-    real = build_study(real_spec(TrajectoryTable.load(tmp_path / "tiny"), tmp_path / "tiny"))
+    real = build_study(real_spec(TrajectoryTable.load(tiny_table), tiny_table))
     return [demo, real]
 
 

@@ -106,7 +106,7 @@ class Server:
     """scripts/serve.sh on a fresh database and a free port; a context manager."""
 
     def __init__(self, workdir: Path, pg_url: str = PG_URL, redis_url: str = REDIS_URL,
-                 workers: int | None = None, threads: int | None = None):
+                 workers: int | None = None, threads: int | None = None, demo_table=None):
         self.workdir = Path(workdir)
         self.workdir.mkdir(parents=True, exist_ok=True)
         self.db_name = f"load_{os.getpid()}_{secrets.token_hex(3)}"
@@ -122,7 +122,7 @@ class Server:
             CACHE_URL=redis_url, DEBUG="0", SECRET_KEY=secrets.token_urlsafe(50), ALLOWED_HOSTS="127.0.0.1",
             BIND=f"127.0.0.1:{self.port}", GUNICORN_ACCESS_LOG=str(self.access_log),
             VAR_DIR=str(self.workdir / "var"), PRECOMPUTE_QUEUE=f"load-{self.db_name}",
-            DEMO_TABLE=str(self.workdir / "no-table"),  # the placeholder demo: quick to build
+            DEMO_TABLE=str(demo_table or os.environ.get("DEMO_TABLE") or ROOT / "var/tables/demo"),
             DJANGO_SETTINGS_MODULE="config.settings", PYTHONUNBUFFERED="1", CELERY_LOG_LEVEL="INFO")
         self.env.pop("DATABASE_TEST_NAME", None)
         if workers:

@@ -36,8 +36,9 @@ def percentile(values, q):
 
 
 def run_load(participants=100, window=20.0, pace=0.05, fault_at=None, workdir=None, workers=None, threads=None,
-             seed=0) -> dict:
-    """Run the whole test; returns the figures and the database checks (see summarise)."""
+             seed=0, demo_table=None) -> dict:
+    """Run the whole test; returns the figures and the database checks (see summarise).
+    demo_table: the table the demo study is built on (default $DEMO_TABLE or var/tables/demo)."""
     cluster = None
     if fault_at is not None:
         cluster = harness.local_cluster()
@@ -47,7 +48,7 @@ def run_load(participants=100, window=20.0, pace=0.05, fault_at=None, workdir=No
     workdir = Path(workdir or tempfile.mkdtemp(prefix="load-"))
     load_before = os.getloadavg()[0]
     try:
-        with harness.Server(workdir, workers=workers, threads=threads) as server:
+        with harness.Server(workdir, workers=workers, threads=threads, demo_table=demo_table) as server:
             cfg = client.Config(base_url=server.base_url, slug=server.study[0], participants=participants,
                                 window=window, pace=pace, run_id=f"load{os.getpid()}", seed=seed)
             stats = client.Stats()

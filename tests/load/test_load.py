@@ -22,14 +22,15 @@ from tests.services import PG_URL, postgres_reachable, redis_reachable
 
 pytestmark = [pytest.mark.slow, pytest.mark.postgres, pytest.mark.redis]
 
-def test_load_with_a_postgres_restart(tmp_path, require_service):
+def test_load_with_a_postgres_restart(tmp_path, require_service, demo_table):
     require_service(postgres_reachable(), f"PostgreSQL at {PG_URL} is unreachable")
     require_service(redis_reachable(harness.REDIS_URL), f"Redis at {harness.REDIS_URL} is unreachable")
     require_service(harness.local_cluster() is not None, "no local PostgreSQL cluster to restart (pg_lsclusters)")
     # This process's own connections (a suite run on PostgreSQL) would not survive the restart.
     connections.close_all()
     try:
-        result = run.run_load(participants=100, window=20, pace=0.03, fault_at=8, workdir=tmp_path)
+        result = run.run_load(participants=100, window=20, pace=0.03, fault_at=8, workdir=tmp_path,
+                              demo_table=demo_table)
     finally:
         connections.close_all()
     print(run.report(result))

@@ -92,10 +92,10 @@ def timed_get(url: str) -> float:
     return time.monotonic() - start
 
 
-def test_slow_clients_from_one_address_leave_the_site_responsive(tmp_path, require_service):
+def test_slow_clients_from_one_address_leave_the_site_responsive(tmp_path, require_service, demo_table):
     require_service(postgres_reachable(), f"PostgreSQL at {PG_URL} is unreachable")
     require_service(redis_reachable(harness.REDIS_URL), f"Redis at {harness.REDIS_URL} is unreachable")
-    with harness.Server(tmp_path) as server:
+    with harness.Server(tmp_path, demo_table=demo_table) as server:
         url = server.base_url + "/"
         assert timed_get(url) < P95_BAR
         slow = Trickler(server.port)

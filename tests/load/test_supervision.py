@@ -59,11 +59,12 @@ def wait_until(predicate, timeout: float, what: str, poll: float = 0.05):
     raise AssertionError(f"{what} not within {timeout:.0f} s")
 
 
-def test_a_killed_worker_comes_back_and_its_job_resumes_while_participants_carry_on(tmp_path, require_service):
+def test_a_killed_worker_comes_back_and_its_job_resumes_while_participants_carry_on(tmp_path, require_service,
+                                                                                    demo_table):
     require_service(postgres_reachable(), f"PostgreSQL at {PG_URL} is unreachable")
     require_service(redis_reachable(harness.REDIS_URL), f"Redis at {harness.REDIS_URL} is unreachable")
     events: dict = {}
-    with harness.Server(tmp_path) as server:
+    with harness.Server(tmp_path, demo_table=demo_table) as server:
         web_pid, worker_pid = program_pid(server, "web"), program_pid(server, "worker")
         assert web_pid and worker_pid
         out = tmp_path / "table"

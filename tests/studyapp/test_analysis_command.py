@@ -20,12 +20,13 @@ from django.core.management import call_command
 from django.core.management.base import CommandError
 from django.test import RequestFactory
 
-from studyapp import assignment, studies
+from studyapp import assignment
 from studyapp.analysis import data as D
 from studyapp.analysis import stats as S
 from studyapp.analysis import views as V
 from studyapp.analysis.simulate import make_study, run_participant, simulate
 from studyapp.models import Participant, StepKind
+from tests.conftest import PAPER_SEQUENCES, TINY_TEST_SET
 
 pytestmark = pytest.mark.django_db
 
@@ -37,8 +38,17 @@ def seeded_assignment(monkeypatch):
     monkeypatch.setattr(assignment, "_rng", random.Random(20261122), raising=False)
 
 
-def test_synthetic_study_analyze_finds_the_effect(tmp_path):
-    study = make_study()
+@pytest.fixture
+def paper_study(tiny_table):
+    """paper_study(slug, keep): a study on the tiny table with some of the paper's conditions."""
+    def make(slug="synth", keep=None):
+        seqs = {k: v for k, v in PAPER_SEQUENCES.items() if keep is None or S.canonical(k) in keep}
+        return make_study(tiny_table, slug, seqs, **TINY_TEST_SET)
+    return make
+
+
+def test_synthetic_study_analyze_finds_the_effect(tmp_path, paper_study):
+    study = paper_study()
     simulate(study)
     assignment.preview_participant(study.conditions.get(name="exact"))  # staff preview: never analysed
     out = tmp_path / "report"
@@ -89,8 +99,8 @@ def test_synthetic_study_analyze_finds_the_effect(tmp_path):
     assert "Welch coverage-approx* vs random" in text and "Report:" in text
 
 
-def test_exclusions_matter_and_unknown_study_errors(tmp_path):
-    study = make_study("synth2")
+def test_exclusions_matter_and_unknown_study_errors(tmp_path, paper_study):
+    study = paper_study("synth2")
     simulate(study, n_per_condition=3, seed=2)
     analysis = D.analyze_study(study)
     # same data with the exclusion flags ignored: the excluded participants' reversed answers move the means
@@ -102,10 +112,8 @@ def test_exclusions_matter_and_unknown_study_errors(tmp_path):
         call_command("analyze", "nope", "--out", str(tmp_path))
 
 
-def test_too_few_participants_reported_not_nan(tmp_path):
-    seqs = studies.placeholder_sequences(0)
-    keep = ("exact", "det-euclidean", "random", "coverage-random")
-    study = make_study("tiny", {k: v for k, v in seqs.items() if S.canonical(k) in keep})
+def test_too_few_participants_reported_not_nan(tmp_path, paper_study):
+    study = paper_study("tiny", ("exact", "det-euclidean", "random", "coverage-random"))
     buf = io.StringIO()
     call_command("analyze", "tiny", "--out", str(tmp_path / "empty"), stdout=buf)  # nobody yet: no crash
     assert "0 participants" in buf.getvalue() and (tmp_path / "empty" / "index.html").exists()
@@ -122,9 +130,8 @@ def test_too_few_participants_reported_not_nan(tmp_path):
     assert "Not every test could be run" in html and not re.search(r"\bnan\b", html.lower())
 
 
-def test_report_is_computed_when_the_cache_is_down(monkeypatch):
-    seqs = studies.placeholder_sequences(0)
-    study = make_study("nocache", {k: v for k, v in seqs.items() if S.canonical(k) in ("exact", "random")})
+def test_report_is_computed_when_the_cache_is_down(monkeypatch, paper_study):
+    study = paper_study("nocache", ("exact", "random"))
     simulate(study, n_per_condition=3, seed=4)
 
     def down(*args, **kwargs):
@@ -136,10 +143,8 @@ def test_report_is_computed_when_the_cache_is_down(monkeypatch):
     assert "Analysis of Synthetic study" in html
 
 
-def test_live_report_is_cached_until_a_response_arrives(monkeypatch):
-    seqs = studies.placeholder_sequences(0)
-    keep = ("exact", "det-euclidean", "random", "coverage-random", "coverage-approx*")
-    study = make_study("live", {k: v for k, v in seqs.items() if S.canonical(k) in keep})
+def test_live_report_is_cached_until_a_response_arrives(monkeypatch, paper_study):
+    study = paper_study("live", ("exact", "det-euclidean", "random", "coverage-random", "coverage-approx*"))
     rng = simulate(study, n_per_condition=3, seed=3)
     calls = []
     real = D.analyze_study

@@ -56,7 +56,7 @@ def test_completed_count_but_excluded_and_previews_do_not(study):
 
 
 def test_targets_weight_the_fill(make_study):
-    s = make_study("weighted", sequences={"big": [100], "small": [200]})
+    s = make_study("weighted", sequences={"big": [500], "small": [5780]})
     big = s.conditions.get(name="big")
     big.target = 30
     big.save()

@@ -3,6 +3,7 @@ import io
 import json
 import re
 
+import numpy as np
 import pytest
 from django.contrib.auth import get_user_model
 from django.core.management import call_command
@@ -10,11 +11,13 @@ from django.core.management.base import CommandError
 
 import studyapp.studies
 from studyapp import assignment
+from studyapp import trajectories as tj
 from studyapp.assignment import assign
 from studyapp.models import Condition, Participant, Study
-from studyapp.studies import SpecError, freeze_condition, freeze_test_set, new_study
-from studyapp.trajectories import placeholder_test_set, placeholder_training
+from studyapp.studies import SpecError, freeze_condition, freeze_test_set, new_study, table_spec
+from teaching.api import TrajectoryTable, select_test_set
 from teaching.synthetic import synthetic_table
+from tests.conftest import TINY_TEST_SET
 
 pytestmark = pytest.mark.django_db
 
@@ -25,28 +28,55 @@ def write(tmp_path, spec):
     return path
 
 
-SPEC = {"slug": "cmd", "name": "From a spec", "target_per_condition": 12,
-        "conditions": [{"name": "exact", "env_ids": [100, 200]}, {"name": "random", "env_ids": [300, 400, 500]}]}
+SEQUENCES = {"exact": [500, 586], "random": [1149, 1473, 1945]}  # environments of the tiny table
 
 
-def test_create_study_from_spec(tmp_path):
+@pytest.fixture
+def spec(tiny_table):
+    """A spec on the tiny table: its conditions, and a test set from teaching.testset."""
+    return dict(table_spec(tiny_table, slug="cmd", sequences=SEQUENCES, **TINY_TEST_SET),
+                name="From a spec", target_per_condition=12)
+
+
+def test_create_study_from_spec(tmp_path, spec, tiny_table):
     out = io.StringIO()
-    call_command("create_study", str(write(tmp_path, SPEC)), stdout=out)
+    call_command("create_study", str(write(tmp_path, spec)), stdout=out)
     s = Study.objects.get(slug="cmd")
-    assert s.target_per_condition == 12 and s.source["kind"] == "placeholder"
+    table = TrajectoryTable.load(tiny_table)
+    assert s.target_per_condition == 12 and s.source["kind"] == "table"
+    assert s.source["content_hash"] == table.meta["content_hash"]
     assert [c.name for c in s.conditions.all()] == ["exact", "random"]
-    assert s.conditions.get(name="random").env_ids == [300, 400, 500]
+    assert s.conditions.get(name="random").env_ids == [1149, 1473, 1945]
     assert len(s.test_set) == 6 and "/s/cmd/" in out.getvalue()
-    training_ids = {100, 200, 300, 400, 500}
+    training_ids = {500, 586, 1149, 1473, 1945}
     assert not training_ids & {t["env_id"] for t in s.test_set}  # tests disjoint from training
+    # what a participant is shown is the table's own trajectory: theta*'s, bit for bit (to 3 decimals)
+    i = int(np.flatnonzero(table.env_ids == 1473)[0])
+    shown = s.conditions.get(name="random").training[1]["robot"]
+    assert np.allclose(shown, table.states(i, table.theta_star_index), atol=5e-4)
 
 
-def test_create_study_is_idempotent_and_replace_is_guarded(tmp_path):
-    path = write(tmp_path, SPEC)
+def test_a_spec_without_a_table_is_refused(tmp_path, spec):
+    """No trajectory may come from anywhere but a table: nothing else says what theta* does."""
+    del spec["table"]
+    with pytest.raises(CommandError, match=re.escape("a spec needs a 'table'")):
+        call_command("create_study", str(write(tmp_path, spec)), stdout=io.StringIO())
+    assert not Study.objects.exists()
+
+
+def test_an_environment_not_in_the_table_is_refused(tmp_path, spec):
+    spec["conditions"][0]["env_ids"] = [99999999]
+    with pytest.raises(CommandError, match="environment 99999999 is not in the table"):
+        call_command("create_study", str(write(tmp_path, spec)), stdout=io.StringIO())
+    assert not Study.objects.exists()
+
+
+def test_create_study_is_idempotent_and_replace_is_guarded(tmp_path, spec):
+    path = write(tmp_path, spec)
     call_command("create_study", str(path), stdout=io.StringIO())
     call_command("create_study", str(path), stdout=io.StringIO())
     assert Study.objects.count() == 1 and Condition.objects.count() == 2
-    changed = dict(SPEC, conditions=[{"name": "only", "env_ids": [7]}])
+    changed = dict(spec, conditions=[{"name": "only", "env_ids": [500]}])
     call_command("create_study", str(write(tmp_path, changed)), "--replace", stdout=io.StringIO())
     assert [c.name for c in Study.objects.get().conditions.all()] == ["only"]
     s = Study.objects.get()
@@ -60,7 +90,7 @@ def test_create_study_is_idempotent_and_replace_is_guarded(tmp_path):
     ({"slug": "x", "conditions": []}, "conditions"),
     ({"slug": "x", "conditions": [{"name": "a", "env_ids": [1]}, {"name": "a", "env_ids": [2]}]}, "unique"),
     ({"slug": "x", "conditions": [{"name": "a", "env_ids": []}]}, "env_ids"),
-    ({"slug": "x", "conditions": [{"name": "a", "env_ids": [99999999]}]}, "environment ids"),
+    ({"slug": "x", "conditions": [{"name": "a", "env_ids": [1]}]}, "needs a 'table'"),
     ({"slug": "x", "table": "/nonexistent", "conditions": [{"name": "a", "env_ids": [1]}]}, "test_set"),
 ])
 def test_create_study_rejects_bad_specs(tmp_path, spec, message):
@@ -78,8 +108,20 @@ def test_create_study_unreadable_file(tmp_path):
         call_command("create_study", str(tmp_path / "missing.json"))
 
 
-def test_setup_demo_is_idempotent_and_prints_links(tmp_path, monkeypatch):
+def test_setup_demo_without_a_table_says_how_to_build_one(tmp_path, monkeypatch):
     monkeypatch.setenv("DEMO_TABLE", str(tmp_path / "no-table"))
+    with pytest.raises(CommandError) as exc:
+        call_command("setup_demo", stdout=io.StringIO())
+    assert str(exc.value) == (f"no trajectory table at {tmp_path / 'no-table'}: build the demo's with "
+                              f"`python -m teaching build --preset demo --out {tmp_path / 'no-table'}` "
+                              "(or run `make demo`)")
+    assert not Study.objects.exists()
+
+
+@pytest.mark.slow
+def test_setup_demo_is_idempotent_and_prints_links(demo_table, monkeypatch):
+    """The demo on the real demo table, through the real pipeline (selection and test set)."""
+    monkeypatch.setenv("DEMO_TABLE", str(demo_table))
     out = io.StringIO()
     call_command("setup_demo", "--demo-login", stdout=out)
     call_command("setup_demo", "--demo-login", stdout=io.StringIO())
@@ -88,7 +130,9 @@ def test_setup_demo_is_idempotent_and_prints_links(tmp_path, monkeypatch):
     names = {c.name for c in s.conditions.all()}
     assert len(names) == 9 and {"exact", "random", "coverage-approx*", "coverage-random"} <= names
     assert "http://127.0.0.1:8000/s/demo/" in text and "/dashboard/demo/" in text
-    assert "researcher / demo-password" in text and "PLACEHOLDER" in text
+    assert "researcher / demo-password" in text and "trajectories: table" in text
+    assert s.source["content_hash"] == TrajectoryTable.load(demo_table).meta["content_hash"]
+    assert len(s.test_set) == 6 and s.is_open
     user = get_user_model().objects.get(username="researcher")
     assert user.is_staff and user.check_password("demo-password")
     assert get_user_model().objects.count() == 1 and Study.objects.count() == 1
@@ -142,7 +186,7 @@ def test_setup_demo_uses_the_table_when_the_pipeline_works(tmp_path, monkeypatch
     assert calls == {"sequences": (table.meta["content_hash"], 0), "tests": [ids[:2], ids[2:5]]}
     assert {c.name: c.env_ids for c in s.conditions.all()} == {"exact": ids[:2], "det-euclidean": ids[2:5]}
     assert [o["is_theta_star"] for o in s.test_set[0]["options"]] == [False, True, False, False]
-    assert "trajectories: table" in out.getvalue() and "PLACEHOLDER" not in out.getvalue()
+    assert "trajectories: table" in out.getvalue()
 
 
 def test_setup_demo_rebuilds_after_the_table_changes_but_never_under_participants(tmp_path, monkeypatch):
@@ -158,8 +202,9 @@ def test_setup_demo_rebuilds_after_the_table_changes_but_never_under_participant
         return table.meta["content_hash"]
 
     monkeypatch.setenv("DEMO_TABLE", str(tmp_path / "table"))
-    call_command("setup_demo", stdout=io.StringIO())
-    assert Study.objects.get(slug="demo").source["kind"] == "placeholder"  # no table yet
+    with pytest.raises(CommandError, match="no trajectory table"):
+        call_command("setup_demo", stdout=io.StringIO())
+    assert not Study.objects.exists()  # no table yet: no demo
 
     first = use(3)
     call_command("setup_demo", stdout=io.StringIO())
@@ -294,8 +339,9 @@ def test_a_study_with_participants_cannot_change_its_design(study, complete):
     assert study.test_set == tests and study.conditions.first().training == training
 
 
-def test_freezing_checks_the_design(db):
-    s = new_study(slug="d1", conditions=["a", "b"], source={"kind": "placeholder"})
+def test_freezing_checks_the_design(db, tiny_table):
+    table = TrajectoryTable.load(tiny_table)
+    s = new_study(slug="d1", conditions=["a", "b"], source={"kind": "table"})
     assert not s.is_open and [c.name for c in s.conditions.all()] == ["a", "b"]
     with pytest.raises(SpecError, match="exists; pass --replace"):
         new_study(slug="d1", conditions=["a"], source={})
@@ -304,14 +350,24 @@ def test_freezing_checks_the_design(db):
     a, b = s.conditions.all()
     with pytest.raises(SpecError, match="needs at least one training example"):
         freeze_condition(a, [])
-    freeze_condition(a, placeholder_training([10, 11]))
-    tests = placeholder_test_set(exclude={10, 11, 12}, seed=0)
+    freeze_condition(a, tj.training_from_table(table, [500, 586]))
+    tests = tj.test_set_from_table(table, select_test_set(table, [[500, 586, 1149]], 0, **TINY_TEST_SET))
     with pytest.raises(SpecError, match="conditions without a training sequence: b"):
         freeze_test_set(s, tests)
-    freeze_condition(b, placeholder_training([12]))
-    overlapping = [dict(tests[0], env_id=12)] + tests[1:]
-    with pytest.raises(SpecError, match=r"test environments \[12\] also appear in a training sequence"):
+    freeze_condition(b, tj.training_from_table(table, [1149]))
+    overlapping = [dict(tests[0], env_id=1149)] + tests[1:]
+    with pytest.raises(SpecError, match=r"test environments \[1149\] also appear in a training sequence"):
         freeze_test_set(s, overlapping)
     freeze_test_set(s, tests)
     s.refresh_from_db()
     assert s.is_open and len(s.test_set) == len(tests)
+
+
+def test_a_study_whose_trajectories_come_from_no_table_cannot_open(study):
+    """A study stored by an early version with synthesised placeholder trajectories stays closed."""
+    study.is_open = False
+    study.source = {"kind": "placeholder"}
+    study.save()
+    with pytest.raises(SpecError, match="do not come from a trajectory table"):
+        freeze_test_set(study, study.test_set)
+    assert not Study.objects.get(pk=study.pk).is_open

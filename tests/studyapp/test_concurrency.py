@@ -16,6 +16,7 @@ share one Prolific id (a participant double-clicking the link in several tabs).
 """
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -29,6 +30,7 @@ from django.db import connections
 from django.test import Client
 
 from studyapp.models import Participant
+from tests.conftest import TINY_TEST_SET
 from tests.services import PG_URL, postgres_reachable
 
 ON_POSTGRES = settings.DATABASES["default"]["ENGINE"] == "django.db.backends.postgresql"
@@ -41,7 +43,7 @@ if ON_POSTGRES:
     @pytest.mark.postgres
     @pytest.mark.django_db(transaction=True)
     def test_concurrent_arrivals_are_balanced(make_study):
-        study = make_study("race", sequences={"a": [100], "b": [200], "c": [300], "d": [400]})
+        study = make_study("race", sequences={"a": [500], "b": [5780], "c": [12165], "d": [7107]})
         barrier = threading.Barrier(N_THREADS)
         results, errors = [None] * N_THREADS, []
 
@@ -101,10 +103,12 @@ django.setup()
 from django.core.management import call_command
 from django.db import connections
 call_command("migrate", verbosity=0)
-from studyapp.studies import build_study
+import json, os
+from studyapp.studies import build_study, table_spec
 from studyapp.assignment import assign
 from studyapp.models import Participant
-study = build_study({"slug": "race", "conditions": [{"name": n, "env_ids": [i + 1]} for i, n in enumerate("abc")]})
+study = build_study(table_spec(os.environ["TINY_TABLE"], slug="race", sequences={"a": [500], "b": [5780], "c": [12165]},
+                               **json.loads(os.environ["TINY_TEST_SET"])))
 N = 30
 barrier = threading.Barrier(N)
 errors = []
@@ -128,10 +132,11 @@ assert max(counts.values()) - min(counts.values()) <= 1, counts
 
 
 @pytest.mark.slow
-def test_concurrent_arrivals_on_sqlite_file(tmp_path):
+def test_concurrent_arrivals_on_sqlite_file(tmp_path, tiny_table):
     """The embedded default: BEGIN IMMEDIATE serialises the assignment transaction (docs/study.md)."""
     env = {k: v for k, v in os.environ.items() if k != "DATABASE_URL"}
-    env.update(DJANGO_SETTINGS_MODULE="config.settings", VAR_DIR=str(tmp_path / "var"))
+    env.update(DJANGO_SETTINGS_MODULE="config.settings", VAR_DIR=str(tmp_path / "var"), TINY_TABLE=str(tiny_table),
+               TINY_TEST_SET=json.dumps(TINY_TEST_SET))
     proc = subprocess.run([sys.executable, "-c", SQLITE_SCRIPT], cwd=ROOT, env=env, capture_output=True,
                           text=True, timeout=240)
     assert proc.returncode == 0, (proc.stdout + proc.stderr)[-4000:]

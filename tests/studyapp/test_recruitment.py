@@ -85,6 +85,7 @@ def test_consent_page_defaults(client, make_study):
     assert "Payment" not in page and "Ethics approval" not in page  # nothing shown that was not set
 
 
-def test_the_demo_study_sets_a_completion_code(tmp_path):
-    spec = studies.demo_spec(tmp_path / "no-table")
+@pytest.mark.slow
+def test_the_demo_study_sets_a_completion_code(demo_table):
+    spec = studies.demo_spec(demo_table)
     assert spec["completion_code"] == studies.DEMO_COMPLETION_CODE

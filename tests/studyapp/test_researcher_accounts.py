@@ -41,9 +41,10 @@ def test_weak_passwords_are_refused(monkeypatch, username, password, message):
     assert not get_user_model().objects.exists()
 
 
-def test_setup_demo_creates_the_fixed_demo_password_only_when_asked(tmp_path, monkeypatch):
+@pytest.mark.slow
+def test_setup_demo_creates_the_fixed_demo_password_only_when_asked(demo_table, monkeypatch):
     """Only `make demo` asks (scripts/demo.sh passes --demo-login)."""
-    monkeypatch.setenv("DEMO_TABLE", str(tmp_path / "no-table"))
+    monkeypatch.setenv("DEMO_TABLE", str(demo_table))
     out = io.StringIO()
     call_command("setup_demo", stdout=out)
     assert not get_user_model().objects.exists()

@@ -1,8 +1,9 @@
-"""The adapter from the numeric core to the stored JSON, for real tables and for the placeholder."""
+"""The adapter from the numeric core to the stored JSON: every trajectory comes from a table."""
 import numpy as np
 import pytest
 
 from studyapp import trajectories as tj
+from teaching.api import TrajectoryTable
 from teaching.environments import environment_class, get_environments, other_car_states
 from teaching.strategies import strategy_labels
 from teaching.synthetic import synthetic_table
@@ -15,44 +16,6 @@ def check_env(payload):
     env = get_environments([payload["env_id"]])
     assert payload["goal"] == int(env.goal[0]) and payload["other_lane"] == int(env.other_lane[0])
     np.testing.assert_allclose(payload["other"], other_car_states(env)[0], atol=1e-3)
-
-
-def test_placeholder_training_payload():
-    out = tj.placeholder_training([0, 5000, 20000])
-    assert [p["env_id"] for p in out] == [0, 5000, 20000]
-    for p in out:
-        check_env(p)
-        robot = np.array(p["robot"])
-        env = get_environments([p["env_id"]])
-        assert p["cluster"] == int(strategy_labels(robot[None], env)[0])  # the real h(xi)
-
-
-def test_placeholder_test_set_matches_the_design():
-    tests = tj.placeholder_test_set(exclude=[], seed=0)
-    assert [t["cluster"] for t in tests] == [0, 1, 2, 3, 4, 5]  # one per informative cluster
-    for t in tests:
-        check_env(t)
-        assert len(t["options"]) == 4 and sum(o["is_theta_star"] for o in t["options"]) == 1
-        star = next(o for o in t["options"] if o["is_theta_star"])
-        assert star["robot"] == t["robot"] and star["cluster"] == t["cluster"]
-        same = sum(o["cluster"] == t["cluster"] for o in t["options"])
-        assert same == 2  # theta*'s, one more from its cluster, two from the other
-        robots = [np.array(o["robot"]) for o in t["options"]]
-        assert all(np.abs(a - b).max() > 1 for i, a in enumerate(robots) for b in robots[i + 1:])
-
-
-def test_placeholder_test_set_avoids_training_envs():
-    first = tj.placeholder_test_set(seed=0)
-    used = [t["env_id"] for t in first]
-    again = tj.placeholder_test_set(exclude=used, seed=0)
-    assert not set(used) & {t["env_id"] for t in again}
-
-
-def test_synth_states_are_kinematically_consistent():
-    s = tj.synth_states(12, 0.5, 2.0, 4.0)
-    assert s.shape == (21, 5)
-    assert s[-1, 0] == pytest.approx(12) and s[0, 3] == 50 and s[-1, 3] == pytest.approx(70)
-    assert np.all(np.diff(s[:, 1]) > 0)
 
 
 def test_from_a_real_table():
@@ -76,5 +39,20 @@ def test_from_a_real_table():
 
 
 def test_env_class_recorded():
-    (p,) = tj.placeholder_training([12870])
-    assert p["env_class"] == int(environment_class(get_environments([12870]))[0])
+    table = synthetic_table(n_envs=16, n_thetas=8, seed=1)
+    ids = [int(e) for e in table.env_ids]
+    for p in tj.training_from_table(table, ids):
+        assert p["env_class"] == int(environment_class(get_environments([p["env_id"]]))[0])
+
+
+def test_training_is_theta_stars_optimal_trajectory_in_a_built_table(tiny_table):
+    """On a table the planner built, a training payload is theta*'s trajectory from the table and
+    its cluster the one the real labeller h(xi) gives it."""
+    table = TrajectoryTable.load(tiny_table)
+    ids = [int(e) for e in table.env_ids[::8]]
+    for i, p in zip(range(0, table.n_envs, 8), tj.training_from_table(table, ids), strict=True):
+        check_env(p)
+        robot = np.asarray(p["robot"])
+        np.testing.assert_allclose(robot, table.states(i, table.theta_star_index), atol=5e-4)
+        env = get_environments([p["env_id"]])
+        assert p["cluster"] == int(strategy_labels(robot[None], env)[0]) == int(table.strategy[i, 0])

@@ -12,10 +12,10 @@ import os
 
 from django.contrib.auth import get_user_model
 from django.core.management import call_command
-from django.core.management.base import BaseCommand
+from django.core.management.base import BaseCommand, CommandError
 
 from studyapp.models import Study
-from studyapp.studies import build_study, demo_is_stale, demo_spec
+from studyapp.studies import SpecError, build_study, demo_is_stale, demo_spec
 
 DEFAULT_USER = "researcher"
 DEFAULT_PASSWORD = "demo-password"
@@ -32,7 +32,7 @@ class Command(BaseCommand):
         parser.add_argument("--replace", action="store_true",
                             help="Rebuild the demo study (if it has no participants).")
         parser.add_argument("--table", default=None, help="Trajectory table directory (default $DEMO_TABLE or "
-                            "var/tables/demo); without one the demo uses PLACEHOLDER trajectories.")
+                            "var/tables/demo; `make demo` builds it).")
 
     def handle(self, serve, addrport, replace, table, demo_login, **options):
         call_command("migrate", interactive=False, verbosity=0)
@@ -57,7 +57,10 @@ class Command(BaseCommand):
                 "The demo table has changed since the demo study was built, but the study already has "
                 "participants, so it is kept as it is (export its data, then run with --replace)."))
         elif replace or study is None or stale:
-            study = build_study(demo_spec(table, log=lambda m: self.stdout.write(m)), replace=study is not None)
+            try:
+                study = build_study(demo_spec(table), replace=study is not None)
+            except SpecError as exc:
+                raise CommandError(str(exc)) from None
         host = addrport if ":" in addrport else f"127.0.0.1:{addrport}"
         base = f"http://{host.replace('0.0.0.0', '127.0.0.1')}"
         source = study.source.get("kind")
