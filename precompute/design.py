@@ -13,7 +13,17 @@ from django import forms
 from django.conf import settings
 
 from studyapp.models import Study
-from teaching.api import APPROX_STAR, CONDITIONS, MODEL_NAMES
+from studyapp.studies import TEXT_FIELDS
+from teaching.api import (
+    APPROX_STAR,
+    CONDITIONS,
+    MIN_OPTION_DISTANCE,
+    MIN_REGRET,
+    MODEL_NAMES,
+    TableError,
+    TrajectoryTable,
+    parse_hyperparameters,
+)
 
 
 def tables_dir() -> Path:
@@ -48,7 +58,7 @@ class StudyDesignForm(forms.Form):
     slug = forms.SlugField(max_length=50, help_text="The study's URL: /s/SLUG/.")
     name = forms.CharField(max_length=200, required=False, help_text="Title for researchers (default: the slug).")
     conditions = forms.MultipleChoiceField(choices=[(c, c) for c in CONDITIONS], initial=list(CONDITIONS),
-                                           widget=forms.CheckboxSelectMultiple)
+                                           widget=forms.CheckboxSelectMultiple, required=False)
     target_per_condition = forms.IntegerField(min_value=2, max_value=100_000, initial=30)
     recruitment = forms.ChoiceField(choices=Study.RECRUITMENTS, initial=Study.LINK)
     completion_code = forms.CharField(max_length=64, required=False,
@@ -56,10 +66,41 @@ class StudyDesignForm(forms.Form):
     approx_star = forms.ChoiceField(choices=[(m, m) for m in MODEL_NAMES], initial=APPROX_STAR,
                                     label="approx* (the model coverage-approx* augments)")
     seed = forms.IntegerField(min_value=0, initial=0, help_text="Seeds the random conditions and the test set.")
+    hyperparameters = forms.CharField(
+        required=False, label="Fixed τ / λ (optional)",
+        help_text="MODEL=VALUE, comma-separated, e.g. det-euclidean=0.5, prob-reward=2: these models use the "
+                  "value given instead of the paper's rule (the largest τ, or smallest λ, that still teaches θ*).")
+    hand_picked_name = forms.SlugField(required=False, max_length=40, initial="hand-picked",
+                                       label="Hand-picked condition: name")
+    hand_picked_env_ids = forms.CharField(
+        required=False, label="Hand-picked condition: environment ids",
+        help_text="Optional: environment ids of the table, comma-separated, shown in this order as one more "
+                  "condition.")
+    min_regret = forms.FloatField(min_value=0, initial=MIN_REGRET, label="Test set: minimum θ*-regret",
+                                  help_text="Each wrong option is at least this much worse for θ* (reward units).")
+    min_distance = forms.FloatField(min_value=0, initial=MIN_OPTION_DISTANCE, label="Test set: minimum distance",
+                                    help_text="The four options are at least this far apart (scaled state units; "
+                                              "0.5 is about 6 ft on average).")
 
     def __init__(self, *args, tables: list[dict], **kwargs):
         super().__init__(*args, **kwargs)
         self.fields["table"].choices = [(t["path"], table_label(t)) for t in tables]
+        # The consent page's texts, declared once on the Study model.
+        self.fields.update(forms.fields_for_model(Study, fields=TEXT_FIELDS))
+
+    def clean_hyperparameters(self):
+        text = self.cleaned_data["hyperparameters"].strip()
+        try:
+            return parse_hyperparameters([t.strip() for t in text.split(",") if t.strip()])
+        except ValueError as exc:
+            raise forms.ValidationError(str(exc)) from None
+
+    def clean_hand_picked_env_ids(self):
+        text = self.cleaned_data["hand_picked_env_ids"].strip()
+        try:
+            return [int(t) for t in text.replace(",", " ").split()]
+        except ValueError:
+            raise forms.ValidationError("Give whole environment ids, separated by commas.") from None
 
     def clean_slug(self):
         slug = self.cleaned_data["slug"]
@@ -71,4 +112,25 @@ class StudyDesignForm(forms.Form):
         data = super().clean()
         if data.get("recruitment") == Study.PROLIFIC and not (data.get("completion_code") or "").strip():
             self.add_error("completion_code", "Prolific only accepts its study's own completion code: enter it.")
+        ids = data.get("hand_picked_env_ids")
+        if ids:
+            name = data.get("hand_picked_name") or "hand-picked"
+            data["hand_picked_name"] = name
+            if name in (data.get("conditions") or []):
+                self.add_error("hand_picked_name", f"{name!r} is already one of the chosen conditions.")
+            elif data.get("table"):
+                self._check_in_table(data["table"], ids)
+        elif not data.get("conditions") and "conditions" not in self.errors:
+            self.add_error("conditions", "Choose at least one condition, or give a hand-picked one.")
         return data
+
+    def _check_in_table(self, table_path: str, ids: list[int]) -> None:
+        try:
+            table = TrajectoryTable.load(table_path, verify=False)
+        except (TableError, OSError, ValueError) as exc:
+            self.add_error("table", f"Cannot read this table: {exc}")
+            return
+        missing = sorted(set(ids) - {int(e) for e in table.env_ids})
+        if missing:
+            self.add_error("hand_picked_env_ids", f"Not in this table: {', '.join(map(str, missing[:10]))}"
+                           f"{' ...' if len(missing) > 10 else ''} (it has {table.n_envs:,} environments).")

@@ -29,21 +29,38 @@ class StudyJobError(ValueError):
 def create_study_job(table_path, slug: str, name: str | None = None, seed: int = 0,
                      approx_star: str = APPROX_STAR, hyperparameters: dict | None = None,
                      conditions=None, open_when_done: bool = True, replace: bool = False,
-                     target_per_condition: int = 30, queue=None, start: bool = True, **study_fields) -> Job:
+                     target_per_condition: int = 30, queue=None, start: bool = True,
+                     hand_picked: dict | None = None, test_set_thresholds: dict | None = None,
+                     **study_fields) -> Job:
     """A job that selects every condition's sequence and the test set on `table_path`.
 
-    `study_fields`: completion_code, recruitment and the consent page's texts (studyapp's new_study).
+    `hand_picked`: {condition name: environment ids}, conditions shown in the given order (after
+    the selected ones).  `test_set_thresholds`: min_regret and/or min_distance for
+    ``select_test_set``.  `study_fields`: completion_code, recruitment and the consent page's
+    texts (studyapp's new_study).
     The table is verified here, once per job: its content hash goes into the job's params, and
     the tasks check the table still records that hash instead of re-hashing it (tasks._table).
     """
     table_path = Path(table_path).resolve()
     table = TrajectoryTable.load(table_path)  # TableError: missing, altered, other world constants
-    conditions = list(conditions or CONDITIONS)
+    conditions = list(conditions or ([] if hand_picked else CONDITIONS))
     unknown = [c for c in conditions if c not in CONDITIONS]
     if unknown:
         raise StudyJobError(f"unknown condition(s) {', '.join(unknown)}; choose from {', '.join(CONDITIONS)}")
+    hand_picked = {str(k): [int(e) for e in v] for k, v in (hand_picked or {}).items()}
+    in_table = {int(e) for e in table.env_ids}
+    for name, ids in hand_picked.items():
+        missing = sorted(set(ids) - in_table)
+        if not ids or missing:
+            raise StudyJobError(f"hand-picked condition {name!r}: " + (
+                f"environments {missing[:10]} are not in the table" if missing else "no environment ids given"))
+    conditions += list(hand_picked)
     if len(set(conditions)) != len(conditions):
         raise StudyJobError("a condition is listed twice")
+    thresholds = {k: float(v) for k, v in (test_set_thresholds or {}).items()}
+    unknown = set(thresholds) - {"min_regret", "min_distance"}
+    if unknown or any(v < 0 for v in thresholds.values()):
+        raise StudyJobError("test-set thresholds are min_regret and min_distance, each >= 0")
     hyperparameters = {k: float(v) for k, v in (hyperparameters or {}).items()}
     try:
         make_model(approx_star)
@@ -55,7 +72,7 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int =
         raise StudyJobError("a study needs a slug")
     source = {"kind": "table", "table": str(table_path), "content_hash": table.meta.get("content_hash"),
               "theta_star": [float(v) for v in table.theta_star], "seed": seed, "approx_star": approx_star,
-              "hyperparameters": hyperparameters}
+              "hyperparameters": hyperparameters, "hand_picked": hand_picked, "test_set_thresholds": thresholds}
     with transaction.atomic():
         try:  # the study app's own rules for a new study (studyapp/studies.py)
             study = new_study(slug=slug, name=name, conditions=conditions, source=source, replace=replace,
@@ -65,7 +82,7 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int =
         job = Job.objects.create(kind=Job.STUDY, chunks_total=len(conditions) + 1, params={
             "study_id": study.pk, "slug": slug, "table": str(table_path), "content_hash": source["content_hash"],
             "seed": seed, "approx_star": approx_star, "hyperparameters": hyperparameters, "conditions": conditions,
-            "open": open_when_done, "queue": queue})
+            "open": open_when_done, "queue": queue, "hand_picked": hand_picked, "test_set_thresholds": thresholds})
     if start:
         launch(job)
     return job

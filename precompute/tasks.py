@@ -179,8 +179,12 @@ def study_condition(self, job_id, params, name, index):
         return {"condition": name, "computed": False}  # a re-delivery: already stored
     t0 = time.perf_counter()
     table = _table(params)
-    result = condition_sequence(table, name, seed=params["seed"], approx_star=params["approx_star"],
-                                hyperparameters=params["hyperparameters"])
+    hand_picked = params.get("hand_picked") or {}
+    if name in hand_picked:  # the researcher's own list: shown as given, no selection
+        result = {"condition": name, "env_ids": hand_picked[name], "model": "hand-picked", "value": None}
+    else:
+        result = condition_sequence(table, name, seed=params["seed"], approx_star=params["approx_star"],
+                                    hyperparameters=params["hyperparameters"])
     freeze_condition(condition, training_from_table(table, result["env_ids"]))
     record_part(job_id, name, index, True, time.perf_counter() - t0, result=result)
     return {"condition": name, "computed": True, "env_ids": result["env_ids"]}
@@ -196,7 +200,8 @@ def study_finish(self, job_id, params):
         raise RuntimeError(f"conditions without a training sequence: {', '.join(empty)}; retry the job")
     t0 = time.perf_counter()
     table = _table(params)
-    tests = select_test_set(table, [c.env_ids for c in conditions], seed=params["seed"])
+    tests = select_test_set(table, [c.env_ids for c in conditions], seed=params["seed"],
+                            **params.get("test_set_thresholds", {}))
     freeze_test_set(study, test_set_from_table(table, tests), open_study=params.get("open", True))
     record_part(job_id, "test-set", len(conditions), True, time.perf_counter() - t0,
                 result={"env_ids": [t["env_id"] for t in tests]})

@@ -58,8 +58,10 @@ Learners and selection (DESIGN §5-6)
     build_sequences(table, seed=0, ...)  {condition: environment ids in the order shown}
     condition_sequence(table, name, seed=0, ...)  (Sequence of table row indices, with P(θ*)
                              after each example; its model; whether the τ / λ rule held or None)
-    select_test_set(table, training_env_ids, seed=0)  6 dicts: env_id, env_index, cluster and
-                             4 options {theta_index, is_theta_star, cluster, regret}
+    select_test_set(table, training_env_ids, seed=0, min_regret=, min_distance=)  6 dicts: env_id,
+                             env_index, cluster and 4 options {theta_index, is_theta_star, cluster, regret}
+    MIN_REGRET, MIN_OPTION_DISTANCE  the test set's default thresholds: θ*-reward units (1e-3), and
+                             scaled state units between options (0.5)
 """
 from __future__ import annotations
 
@@ -91,11 +93,12 @@ from .learners import MODEL_NAMES, has_hyperparameter, make_model, parse_hyperpa
 from .selection import APPROX_STAR, CONDITIONS, SelectionSettings, build_sequences, condition_sequence
 from .strategies import CLUSTER_NAMES, N_CLUSTERS, strategy_labels
 from .table import TableError, TrajectoryTable
-from .testset import select_test_set
+from .testset import MIN_OPTION_DISTANCE, MIN_REGRET, select_test_set
 from .world import GOAL_NAMES, WORLD
 
 __all__ = [
-    "APPROX_STAR", "CLASS_NAMES", "CLUSTER_NAMES", "CONDITIONS", "GOAL_NAMES", "MODEL_NAMES", "N_CLUSTERS",
+    "APPROX_STAR", "CLASS_NAMES", "CLUSTER_NAMES", "CONDITIONS", "GOAL_NAMES", "MIN_OPTION_DISTANCE", "MIN_REGRET",
+    "MODEL_NAMES", "N_CLUSTERS",
     "N_ENVIRONMENTS", "PRESETS", "SAMPLERS", "WORLD", "Preset", "SelectionSettings", "TableError",
     "TrajectoryTable", "assemble", "build_chunk", "build_sequences", "check_writable", "chunk_key", "chunk_path",
     "chunks_of", "code_fingerprint", "condition_sequence", "customised", "default_normalisers",

@@ -10,12 +10,13 @@ import pytest
 from precompute import jobs
 from precompute.models import Job
 from studyapp.models import Study
-from teaching.table import TrajectoryTable
+from teaching.api import TrajectoryTable, select_test_set
 
 pytestmark = pytest.mark.slow
 FORM = {"slug": "designed", "name": "Designed", "conditions": ["exact", "random", "coverage-random"],
         "target_per_condition": "20", "recruitment": "prolific", "completion_code": "C0DE1234",
-        "approx_star": "det-euclidean", "seed": "0"}
+        "approx_star": "det-euclidean", "seed": "0", "min_regret": "0.001", "min_distance": "0.5",
+        "estimated_minutes": "15"}  # what the browser sends: every field, the initial values unchanged
 
 
 @pytest.fixture
@@ -55,13 +56,58 @@ def test_design_build_on_a_worker_then_preview(inprocess_worker, transactional_d
     assert Study.objects.get(slug="designed").is_open
 
 
+def test_design_with_fixed_tau_a_hand_picked_condition_thresholds_and_texts(inprocess_worker, transactional_db,
+                                                                           tables, staff_client):
+    """Every choice of the designer reaches the study: a fixed τ instead of the paper's rule, a
+    condition of the researcher's own environments in their order, the test set's thresholds and
+    the consent page's texts."""
+    table = TrajectoryTable.load(tables)
+    picked = [int(e) for e in table.env_ids[[7, 3, 250]]]
+    form = dict(FORM, slug="own", conditions=["det-euclidean"], hyperparameters="det-euclidean=0.5",
+                hand_picked_name="mine", hand_picked_env_ids=", ".join(map(str, picked)), min_regret="0.002",
+                min_distance="0.5", consent_text="Our own consent text.", estimated_minutes="9",
+                payment="£1.50", contact="lab@example.org", ethics_reference="ERB-42", table=str(tables))
+    r = staff_client.post("/precompute/design/", form)
+    assert r.status_code == 302, r.content.decode()[:2000]
+    job = jobs.wait(Job.objects.get(kind=Job.STUDY), progress=False, timeout=180)
+    assert job.status == Job.SUCCEEDED, job.error
+    study = Study.objects.get(slug="own")
+    assert [c.name for c in study.conditions.all()] == ["det-euclidean", "mine"]
+    assert study.conditions.get(name="mine").env_ids == picked  # as given, in the order given
+    assert job.result["conditions"]["det-euclidean"]["value"] == 0.5  # fixed, not the rule's
+    assert job.result["conditions"]["mine"]["value"] is None
+    assert job.params["test_set_thresholds"] == {"min_regret": 0.002, "min_distance": 0.5}
+    assert all(o["regret"] >= 0.002 for t in select_again(table, study, job) for o in t["options"]
+               if not o["is_theta_star"])
+    assert (study.consent_text, study.estimated_minutes, study.payment, study.contact, study.ethics_reference) == (
+        "Our own consent text.", 9, "£1.50", "lab@example.org", "ERB-42")
+    assert not {e for c in study.conditions.all() for e in c.env_ids} & {t["env_id"] for t in study.test_set}
+
+
+def select_again(table, study, job):
+    """The test set the job chose, re-selected with the job's own seed and thresholds (the study
+    stores its options' trajectories, not their regrets)."""
+    tests = select_test_set(table, [c.env_ids for c in study.conditions.all()], seed=job.params["seed"],
+                            **job.params["test_set_thresholds"])
+    assert [t["env_id"] for t in tests] == [t["env_id"] for t in study.test_set]
+    assert all(t["min_option_distance"] >= 0.5 for t in tests)
+    return tests
+
+
 def test_design_form_errors(db, tables, staff_client, make_study):
     make_study(slug="taken")
     cases = [
         (dict(FORM, slug="taken"), "exists already"),
         (dict(FORM, slug="bad slug"), "Enter a valid"),
         (dict(FORM, completion_code=""), "Prolific only accepts its study"),
-        (dict(FORM, conditions=[]), "This field is required"),
+        (dict(FORM, conditions=[]), "Choose at least one condition, or give a hand-picked one."),
+        (dict(FORM, hyperparameters="det-euclidean=abc"), "det-euclidean=abc"),
+        (dict(FORM, hyperparameters="nobody=1"), "nobody"),
+        (dict(FORM, hand_picked_env_ids="12, x"), "Give whole environment ids"),
+        (dict(FORM, hand_picked_env_ids="999999"), "Not in this table: 999999"),
+        (dict(FORM, hand_picked_env_ids="1", hand_picked_name="random"), "already one of the chosen conditions"),
+        (dict(FORM, min_distance="-1"), "greater than or equal to 0"),
+        (dict(FORM, estimated_minutes="ten"), "Enter a whole number"),
         (dict(FORM, target_per_condition="1"), "greater than or equal to 2"),
         (dict(FORM, table="/nowhere"), "Select a valid choice"),
     ]
