@@ -20,10 +20,15 @@ from teaching.api import (
     MIN_OPTION_DISTANCE,
     MIN_REGRET,
     MODEL_NAMES,
+    N_ENVIRONMENTS,
+    PRESETS,
+    SAMPLERS,
     TableError,
     TrajectoryTable,
     parse_hyperparameters,
 )
+
+from .jobs import table_preset
 
 
 def tables_dir() -> Path:
@@ -134,3 +139,27 @@ class StudyDesignForm(forms.Form):
         if missing:
             self.add_error("hand_picked_env_ids", f"Not in this table: {', '.join(map(str, missing[:10]))}"
                            f"{' ...' if len(missing) > 10 else ''} (it has {table.n_envs:,} environments).")
+
+
+class TableBuildForm(forms.Form):
+    """A table to build on the workers: a preset, optionally changed (its own name then)."""
+    preset = forms.ChoiceField(choices=[(n, f"{n}: {p.n_envs:,} environments × {p.n_thetas:,} θ")
+                                        for n, p in PRESETS.items()], initial="demo")
+    envs = forms.IntegerField(required=False, min_value=4, max_value=N_ENVIRONMENTS, label="Environments (optional)")
+    thetas = forms.IntegerField(required=False, min_value=2, label="Number of θ (optional)")
+    theta_star = forms.CharField(required=False, label="θ* (optional)",
+                                 help_text="5 negative weights, v1,v2,v3,v4,v5 (default: the paper's).")
+    sampler = forms.ChoiceField(required=False, choices=[("", "the preset's")] + [(s, s) for s in SAMPLERS])
+    seed = forms.IntegerField(required=False, min_value=0, label="Seed (optional)")
+
+    def clean(self):
+        data = super().clean()
+        if self.errors:
+            return data
+        try:
+            data["built"] = table_preset(data["preset"], envs=data.get("envs"), thetas=data.get("thetas"),
+                                         seed=data.get("seed"), sampler=data.get("sampler") or None,
+                                         theta_star=data.get("theta_star") or None)
+        except ValueError as exc:
+            raise forms.ValidationError(str(exc)) from None
+        return data

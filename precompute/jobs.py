@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import logging
 import time
+from dataclasses import replace
 from pathlib import Path
 
 from django.utils import timezone
@@ -16,7 +17,7 @@ from kombu.exceptions import OperationalError
 from kombu.utils.url import maybe_sanitize_url
 from tqdm import tqdm
 
-from teaching.api import Preset
+from teaching.api import N_ENVIRONMENTS, SAMPLERS, Preset, customised, get_preset
 
 from . import work
 from .canvases import default_queue, study_canvas, table_canvas
@@ -28,6 +29,27 @@ log = logging.getLogger(__name__)
 
 class BrokerUnavailable(RuntimeError):
     """The canvas could not be sent: the broker is down or misconfigured."""
+
+
+def table_preset(name: str, *, envs=None, thetas=None, seed=None, sampler=None, theta_star=None,
+                 chunk_size=None) -> Preset:
+    """The named preset with overrides (None: unchanged; teaching's `customised` names a changed
+    one).  ValueError with a one-line message for a bad value: the command and the designer's
+    table form share these rules."""
+    preset = get_preset(name)
+    if envs is not None and not 4 <= envs <= N_ENVIRONMENTS:
+        raise ValueError(f"the number of environments must lie in [4, {N_ENVIRONMENTS}], got {envs}")
+    if thetas is not None and thetas < 2:
+        raise ValueError(f"the number of thetas must be at least 2 (theta* and one other), got {thetas}")
+    if sampler is not None and sampler not in SAMPLERS:
+        raise ValueError(f"unknown sampler {sampler!r}; choose one of {', '.join(SAMPLERS)}")
+    try:
+        preset = customised(preset, n_envs=envs, n_thetas=thetas, seed=seed, sampler=sampler, theta_star=theta_star)
+    except ValueError as exc:
+        raise ValueError(f"theta*: {exc}") from None
+    if chunk_size is not None:
+        preset = replace(preset, chunk_size=chunk_size)
+    return preset
 
 
 def create_table_job(preset: Preset, out, queue=None, start: bool = True) -> Job:

@@ -6,6 +6,7 @@ app_name = "precompute"
 urlpatterns = [
     path("", views.job_list, name="jobs"),
     path("design/", views.design, name="design"),
+    path("design/table/", views.design_table, name="design_table"),
     path("jobs/<int:pk>/", views.job_detail, name="job"),
     path("jobs/<int:pk>/status.json", views.job_status, name="job_status"),
     path("jobs/<int:pk>/retry/", views.job_retry, name="job_retry"),

@@ -17,9 +17,10 @@ from studyapp.studies import TEXT_FIELDS
 from teaching.api import TableError
 
 from . import jobs
-from .design import StudyDesignForm, built_tables, tables_dir
+from .design import StudyDesignForm, TableBuildForm, built_tables, tables_dir
 from .models import Job
 from .study import StudyJobError, create_study_job
+from .work import ChunkError
 
 REFRESH_SECONDS = 3
 STALLED_AFTER = timedelta(minutes=5)  # no unit finished for this long: say so, offer Relaunch
@@ -106,4 +107,37 @@ def design(request):
                 messages.success(request, f"Building study {d['slug']!r} on the workers: when this job is done, "
                                  "preview its conditions on the study's page, then open it.")
             return redirect(job)
-    return render(request, "precompute/design.html", {"form": form, "tables": tables, "tables_dir": tables_dir()})
+    return render(request, "precompute/design.html", design_context(form=form, tables=tables))
+
+
+def design_context(**ctx) -> dict:
+    """The designer page: the study form, the table-build form and the table jobs under way."""
+    ctx.setdefault("tables", built_tables())
+    ctx.setdefault("form", StudyDesignForm(tables=ctx["tables"]))
+    ctx.setdefault("table_form", TableBuildForm())
+    ctx["table_jobs"] = Job.objects.filter(kind=Job.TABLE).exclude(status__in=(Job.SUCCEEDED,))[:10]
+    ctx["tables_dir"] = tables_dir()
+    return ctx
+
+
+@researcher_required
+@require_POST
+def design_table(request):
+    """Start a table build on the workers; its job page shows the progress, and the designer lists
+    the table once it is published."""
+    form = TableBuildForm(request.POST)
+    if not form.is_valid():
+        return render(request, "precompute/design.html", design_context(table_form=form), status=400)
+    preset = form.cleaned_data["built"]
+    try:
+        job = jobs.create_table_job(preset, tables_dir() / preset.name, start=False)
+        jobs.launch(job)
+    except ChunkError as exc:
+        form.add_error(None, str(exc))
+        return render(request, "precompute/design.html", design_context(table_form=form), status=400)
+    except jobs.BrokerUnavailable as exc:  # the job is marked failed with this error; its page has Retry
+        messages.error(request, str(exc))
+    else:
+        messages.success(request, f"Building table {preset.name!r} on the workers: when this job is done, "
+                         "the designer lists it.")
+    return redirect(job)

@@ -129,3 +129,44 @@ def test_no_table_yet_says_how_to_build_one(db, settings, tmp_path, staff_client
     settings.TABLES_DIR = tmp_path
     page = staff_client.get("/precompute/design/").content.decode()
     assert "No trajectory table is built" in page and "python -m teaching build --preset demo" in page
+
+
+def test_build_a_table_from_the_designer_with_progress(inprocess_worker, transactional_db, settings, tmp_path,
+                                                       staff_client):
+    """No table yet: the researcher starts one on the workers, follows it on the job page, and the
+    designer lists it, with its identity, once it is published."""
+    settings.TABLES_DIR = tmp_path
+    page = staff_client.get("/precompute/design/").content.decode()
+    assert "No trajectory table is built" in page and "Build table" in page
+    r = staff_client.post("/precompute/design/table/", {"preset": "tiny", "theta_star": "-32,-0.2,-1,-0.1,-0.5"})
+    job = Job.objects.get(kind=Job.TABLE)
+    assert r.status_code == 302 and r["Location"] == job.get_absolute_url()
+    assert job.params["out"] == str(tmp_path / job.params["preset"]["name"])
+    status = staff_client.get(f"/precompute/jobs/{job.pk}/status.json").json()  # what the job page polls
+    assert status["chunks_total"] == 3 and status["kind"] == Job.TABLE
+    job = jobs.wait(job, progress=False, timeout=180)
+    assert job.status == Job.SUCCEEDED, job.error
+    page = staff_client.get("/precompute/design/").content.decode()
+    assert "48 environments × 24 θ" in page and "θ* = (-32, -0.2, -1, -0.1, -0.5)" in page
+    assert TrajectoryTable.load(job.params["out"]).meta["theta_star"] == [-32, -0.2, -1, -0.1, -0.5]
+
+
+@pytest.mark.parametrize("data, message", [
+    ({"preset": "huge"}, "Select a valid choice"),
+    ({"preset": "tiny", "envs": "2"}, "greater than or equal to 4"),
+    ({"preset": "tiny", "thetas": "1"}, "greater than or equal to 2"),
+    ({"preset": "tiny", "theta_star": "-1,-1"}, "theta*: theta* needs one weight per feature (5), got 2"),
+    ({"preset": "tiny", "theta_star": "-1,-1,-1,-1,1"}, "must be a negative number"),
+    ({"preset": "tiny", "sampler": "gauss"}, "Select a valid choice"),
+])
+def test_table_form_errors(db, settings, tmp_path, staff_client, data, message):
+    settings.TABLES_DIR = tmp_path
+    r = staff_client.post("/precompute/design/table/", data)
+    assert r.status_code == 400 and message in r.content.decode(), r.content.decode()[-3000:]
+    assert not Job.objects.exists()
+
+
+def test_table_builds_are_for_researchers_only(db, client):
+    r = client.post("/precompute/design/table/", {"preset": "tiny"})
+    assert r.status_code == 302 and r["Location"].startswith("/login/")
+    assert not Job.objects.exists()

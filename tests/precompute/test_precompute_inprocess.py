@@ -171,11 +171,11 @@ def test_command_waits_with_a_progress_bar(inprocess_worker, transactional_db, t
 
 @pytest.mark.parametrize("argv, message", [
     (["--preset", "huge"], "unknown preset 'huge'; choose one of tiny, demo, paper"),
-    (["--preset", "tiny", "--envs", "2"], "--envs must lie in [4, 21216]"),
-    (["--preset", "tiny", "--thetas", "1"], "--thetas must be at least 2"),
+    (["--preset", "tiny", "--envs", "2"], "the number of environments must lie in [4, 21216]"),
+    (["--preset", "tiny", "--thetas", "1"], "the number of thetas must be at least 2"),
     (["--preset", "tiny", "--chunk-size", "0"], "--chunk-size must be positive"),
     (["--preset", "tiny", "--chunk-size", "x"], "--chunk-size must be a whole number"),
-    (["--preset", "tiny", "--sampler", "gauss"], "unknown --sampler 'gauss'"),
+    (["--preset", "tiny", "--sampler", "gauss"], "unknown sampler 'gauss'"),
 ])
 def test_command_rejects_bad_arguments(db, argv, message):
     with pytest.raises(CommandError) as info:
@@ -256,5 +256,5 @@ def test_theta_star_travels_with_the_job_spec(tmp_path):
     assert tuple(thetas[0]) == star
     default = work.table_spec(resolve_preset("tiny"), tmp_path / "d")["identity"]
     assert identity["thetas_sha"] != default["thetas_sha"]
-    with pytest.raises(CommandError, match="--theta-star: every weight of theta\\* must be a negative number"):
+    with pytest.raises(CommandError, match="theta\\*: every weight of theta\\* must be a negative number"):
         resolve_preset("tiny", theta_star="-1,-1,-1,-1,1")

@@ -9,7 +9,6 @@ Chunks already stored in --out are skipped, so running it again resumes.
 """
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 
 from django.conf import settings
@@ -17,7 +16,7 @@ from django.core.management.base import BaseCommand, CommandError
 
 from precompute import jobs
 from precompute.work import ChunkError
-from teaching.api import N_ENVIRONMENTS, PRESETS, SAMPLERS, customised, get_preset
+from teaching.api import PRESETS, SAMPLERS
 
 from ._waiting import wait_for_job
 
@@ -35,24 +34,12 @@ def positive(name):
 
 
 def resolve_preset(name, envs=None, thetas=None, seed=None, sampler=None, chunk_size=None, theta_star=None):
-    """The named preset, with overrides (teaching.build.customised names a changed one)."""
+    """The named preset, with overrides (jobs.table_preset's rules, shared with the designer)."""
     try:
-        preset = get_preset(name)
+        return jobs.table_preset(name, envs=envs, thetas=thetas, seed=seed, sampler=sampler,
+                                 theta_star=theta_star, chunk_size=chunk_size)
     except ValueError as exc:
         raise CommandError(str(exc)) from None
-    if envs is not None and not 4 <= envs <= N_ENVIRONMENTS:
-        raise CommandError(f"--envs must lie in [4, {N_ENVIRONMENTS}], got {envs}")
-    if thetas is not None and thetas < 2:
-        raise CommandError(f"--thetas must be at least 2 (theta* and one other), got {thetas}")
-    if sampler is not None and sampler not in SAMPLERS:
-        raise CommandError(f"unknown --sampler {sampler!r}; choose one of {', '.join(SAMPLERS)}")
-    try:
-        preset = customised(preset, n_envs=envs, n_thetas=thetas, seed=seed, sampler=sampler, theta_star=theta_star)
-    except ValueError as exc:
-        raise CommandError(f"--theta-star: {exc}") from None
-    if chunk_size is not None:
-        preset = dataclasses.replace(preset, chunk_size=chunk_size)
-    return preset
 
 
 class Command(BaseCommand):
