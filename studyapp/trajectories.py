@@ -9,7 +9,12 @@ Payload of one environment::
 
     {"env_id": 123, "goal": 0, "goal_name": "merge right", "other_lane": 2,
      "env_class": 0, "class_name": "merging", "cluster": 1, "dt": 0.25,
-     "robot": [[x, y, heading, v, steer] * (T+1)], "other": [[x, y] * (T+1)]}
+     "robot": [[x, y, heading, v, steer] * (T+1)], "other": [[x, y] * (T+1)],
+     "world": {"lane_width": 12.0, "lane_centres": [-12.0, 0.0, 12.0], "road_half_width": 18.0,
+               "car_length": 15.0, "car_width": 6.0}}
+
+``world`` is :func:`scene_sizes`: the sizes the page draws the road and the cars with, from
+teaching's ``WORLD`` (static/studyapp/scene.js has no sizes of its own).
 
 A test adds ``options``: ``[{"theta_index", "is_theta_star", "cluster", "robot"}] * 4``
 in canonical order (the display order is drawn per participant).
@@ -38,6 +43,18 @@ def _rows(array) -> list:
     return np.round(np.asarray(array, dtype=float), DECIMALS).tolist()
 
 
+def scene_sizes() -> dict:
+    """The world's sizes a scene is drawn with (ft): lane width and centres (left to right), the
+    road's half-width, the cars' length and width.  Taken from ``WORLD``, their one source."""
+    return {
+        "lane_width": float(WORLD.lane_width),
+        "lane_centres": [float(x) for x in WORLD.lane_centres],
+        "road_half_width": float(WORLD.road_half_width),
+        "car_length": float(WORLD.car_length),
+        "car_width": float(WORLD.car_width),
+    }
+
+
 def env_payload(env, robot, other, cluster) -> dict:
     """JSON for one environment; `env` is a one-element teaching Environments."""
     goal, cls = int(env.goal[0]), int(env.env_class[0])
@@ -53,18 +70,23 @@ def env_payload(env, robot, other, cluster) -> dict:
         "dt": WORLD.dt,
         "robot": _rows(robot),
         "other": _rows(other),
+        "world": scene_sizes(),
     }
 
 
 def drawn_scene(payload: dict, *, robot: bool) -> dict:
     """What a participant's page may carry of an environment payload: what it draws.
 
-    The goal (lane highlight), the time step and the other car's path; with `robot`, the
-    yellow car's path too (a training example).  A test page draws four options, sent
-    separately under their display letters; everything else in a payload (environment and
-    theta ids, classes, strategy clusters, theta*'s own trajectory) stays on the server."""
+    The goal (lane highlight), the time step, the other car's path and the world's sizes (road,
+    lanes, cars); with `robot`, the yellow car's path too (a training example).  A test page
+    draws four options, sent separately under their display letters; everything else in a
+    payload (environment and theta ids, classes, strategy clusters, theta*'s own trajectory)
+    stays on the server.  A payload stored before payloads carried ``world`` is drawn with
+    today's :func:`scene_sizes`."""
     keys = ("goal", "dt", "other") + (("robot",) if robot else ())
-    return {k: payload[k] for k in keys}
+    scene = {k: payload[k] for k in keys}
+    scene["world"] = payload.get("world") or scene_sizes()
+    return scene
 
 
 def option_payload(theta_index, is_theta_star, cluster, robot) -> dict:

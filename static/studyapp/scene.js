@@ -1,14 +1,13 @@
 // Drawing and animating one driving scene on a canvas (plain ES module, no build step).
 //
-// World units are feet: x grows to the right, y forward (drawn upwards). Lanes are
-// centred at x = -12, 0, 12 and 12 ft wide. Robot states are [x, y, heading, v, steer]
+// World units are feet: x grows to the right, y forward (drawn upwards). The world's sizes
+// (lane width and centres, left to right; the road's half-width; the cars' length and width)
+// come with the scene data as env.world (studyapp.trajectories.scene_sizes, from teaching's
+// WORLD), so this file holds none of its own. Robot states are [x, y, heading, v, steer]
 // rows every `dt` seconds; the other car's rows are [x, y]. Playback interpolates between
 // rows at the display's frame rate (requestAnimationFrame), so it is smooth at 60 fps.
 
-const LANE_W = 12;
-const ROAD_HALF = 18;
 const VIEW_W_FT = 60;         // feet shown across the canvas
-const CAR_L = 15, CAR_W = 6;
 // The other car within this distance along the road counts as interacting: the camera frames
 // both cars while it is (and at their closest approach in any case), so the participant sees
 // the merge ahead of or behind it, or the pass, instead of an edge marker.
@@ -47,9 +46,11 @@ export function sample(rows, t, dt) {
 export class Scene {
   constructor(canvas, env, robot) {
     this.canvas = canvas;
-    this.env = env;          // {goal, other: [[x, y]...], dt, goal_name}
+    this.env = env;          // {goal, other: [[x, y]...], dt, world}
+    if (!env.world) throw new Error("scene data without the world's sizes (env.world)");
+    this.world = env.world;  // {lane_width, lane_centres, road_half_width, car_length, car_width} in ft
     this.robot = robot;      // [[x, y, heading, v, steer]...]
-    this.dt = env.dt || 0.25;
+    this.dt = env.dt;        // s per row (WORLD.dt)
     this.duration = (robot.length - 1) * this.dt;
     this.mode = "frame";     // "frame" | "trail"
     this.t = 0;
@@ -75,27 +76,34 @@ export class Scene {
     return [this.w / 2 + x * cam.xs, this.h * cam.anchor - (y - cam.cy) * cam.ys];
   }
 
+  // Centre (ft) of the lane the drive starts in and the forward goal keeps: the middle one.
+  centreLane() {
+    const lanes = this.world.lane_centres;
+    return lanes[Math.floor(lanes.length / 2)];
+  }
+
   drawRoad(cam) {
     const ctx = this.ctx, s = cam.xs;
+    const { lane_width: laneW, lane_centres: lanes, road_half_width: roadHalf } = this.world;
     ctx.fillStyle = colors().grass;
     ctx.fillRect(0, 0, this.w, this.h);
-    const [left] = this.toScreen(cam, -ROAD_HALF, 0);
+    const [left] = this.toScreen(cam, -roadHalf, 0);
     ctx.fillStyle = colors().road;
-    ctx.fillRect(left, 0, 2 * ROAD_HALF * s, this.h);
+    ctx.fillRect(left, 0, 2 * roadHalf * s, this.h);
     // goal: the right lane (merge) or the centre lane straight ahead (forward), in blue
     ctx.fillStyle = colors().goal;
     if (this.env.goal === 0) {
-      const [gx] = this.toScreen(cam, LANE_W / 2, 0);
-      ctx.fillRect(gx, 0, LANE_W * s, this.h);
+      const [gx] = this.toScreen(cam, lanes[lanes.length - 1] - laneW / 2, 0);
+      ctx.fillRect(gx, 0, laneW * s, this.h);
     } else {
-      const [gx, gy] = this.toScreen(cam, -LANE_W / 2, 0);
-      ctx.fillRect(gx, 0, LANE_W * s, Math.max(0, gy));
+      const [gx, gy] = this.toScreen(cam, this.centreLane() - laneW / 2, 0);
+      ctx.fillRect(gx, 0, laneW * s, Math.max(0, gy));
       this.arrow(cam);
     }
-    // lane markings: solid edges, dashed separators scrolling with the world
+    // lane markings: solid edges, dashed separators (halfway between lane centres) scrolling with the world
     ctx.strokeStyle = colors().line;
     ctx.lineWidth = Math.max(1, 0.5 * s);
-    for (const x of [-ROAD_HALF + 0.5, ROAD_HALF - 0.5]) {
+    for (const x of [-roadHalf + 0.5, roadHalf - 0.5]) {
       const [sx] = this.toScreen(cam, x, 0);
       ctx.setLineDash([]);
       ctx.beginPath(); ctx.moveTo(sx, 0); ctx.lineTo(sx, this.h); ctx.stroke();
@@ -104,7 +112,7 @@ export class Scene {
     const [, y0] = this.toScreen(cam, 0, 0);
     ctx.setLineDash([dash, gap]);
     ctx.lineDashOffset = -(y0 % (dash + gap));
-    for (const x of [-LANE_W / 2, LANE_W / 2]) {
+    for (const x of lanes.slice(1).map((c, i) => (lanes[i] + c) / 2)) {
       const [sx] = this.toScreen(cam, x, 0);
       ctx.beginPath(); ctx.moveTo(sx, 0); ctx.lineTo(sx, this.h); ctx.stroke();
     }
@@ -113,7 +121,7 @@ export class Scene {
 
   arrow(cam) {
     const ctx = this.ctx, s = cam.xs;
-    const [ax] = this.toScreen(cam, 0, 0);
+    const [ax] = this.toScreen(cam, this.centreLane(), 0);
     const top = 6, size = 4 * s;
     ctx.fillStyle = colors().goalEdge;
     ctx.beginPath();
@@ -124,7 +132,7 @@ export class Scene {
   car(cam, x, y, heading, color, alpha = 1) {
     const ctx = this.ctx;
     const [sx, sy] = this.toScreen(cam, x, y);
-    let len = CAR_L * cam.ys, wid = CAR_W * cam.xs;
+    let len = this.world.car_length * cam.ys, wid = this.world.car_width * cam.xs;
     if (cam.xs !== cam.ys) { len = Math.max(len, 14); wid = Math.min(wid, 0.45 * len); }
     if (sy < -len || sy > this.h + len) return false;
     ctx.save();
@@ -180,7 +188,7 @@ export class Scene {
   camera(r, o) {
     const base = this.w / VIEW_W_FT;
     const usable = this.h - 36;  // room for the goal arrow above and the time label below
-    const ys = Math.min(base, usable / (this.span + CAR_L + 2 * MARGIN_FT));
+    const ys = Math.min(base, usable / (this.span + this.world.car_length + 2 * MARGIN_FT));
     const xs = Math.min(base, MAX_SQUEEZE * ys);
     const dy = Math.max(-this.span, Math.min(this.span, o.y - r.y));
     return { cy: r.y + dy / 2, anchor: 0.5, xs, ys };

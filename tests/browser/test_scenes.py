@@ -2,7 +2,8 @@
 test option of the demo study, and of a study on a real table, the frame drawn at the cars'
 closest approach, and every frame while the other car is within the interaction range, has both
 cars inside the canvas.  The real static/studyapp/scene.js draws them in Debian's Chromium, on
-canvases of the widths participants get (a phone's test grid, a laptop's training page)."""
+canvases of the widths participants get (a phone's test grid, a laptop's training page).  And it
+draws the road, the lanes and the cars with the sizes the scene data carry, not sizes of its own."""
 from __future__ import annotations
 
 import os
@@ -12,7 +13,7 @@ import pytest
 from playwright.sync_api import sync_playwright
 
 from studyapp.studies import build_study, demo_spec
-from studyapp.trajectories import drawn_scene
+from studyapp.trajectories import drawn_scene, scene_sizes
 from teaching.table import TrajectoryTable
 from tests.studyapp.test_stimuli import real_spec
 
@@ -111,3 +112,92 @@ def test_both_cars_are_on_the_canvas_whenever_they_interact(studies, live_server
     assert len(frames) >= len(stimuli) * 3
     missing = [f for f in frames if not (f["robot"] and f["other"])]
     assert not missing, missing[:5]
+
+
+# One frame of a scene on a 300 px canvas, in colours set here (the classes below), and what it
+# drew: per pixel of one row near the top (road and goal lane, no car) and of the robot's column
+# and row (its car), the nearest of those colours.
+SIZES = """async ({env, robot}) => {
+  const palette = {grass: "#00ff00", road: "#000000", line: "#ffffff", goal: "#0000ff",
+                   "goal-edge": "#00ffff", robot: "#ff0000", other: "#ff00ff", outline: "#808080"};
+  for (const [name, value] of Object.entries(palette)) {
+    document.documentElement.style.setProperty(`--scene-${name}`, value);
+  }
+  const { Scene } = await import("/static/studyapp/scene.js");
+  const canvas = document.createElement("canvas");
+  canvas.style.width = "300px";
+  document.body.replaceChildren(canvas);
+  const scene = new Scene(canvas, env, robot);
+  scene.drawFrame(0);
+  const hex = (v) => [1, 3, 5].map((i) => parseInt(v.slice(i, i + 2), 16));
+  const rgb = Object.fromEntries(Object.entries(palette).map(([k, v]) => [k, hex(v)]));
+  const ctx = canvas.getContext("2d");
+  const classify = (x, y) => {
+    const d = ctx.getImageData(Math.floor(x * scene.dpr), Math.floor(y * scene.dpr), 1, 1).data;
+    let best = null, dist = Infinity;
+    for (const [k, c] of Object.entries(rgb)) {
+      const e = (d[0] - c[0]) ** 2 + (d[1] - c[1]) ** 2 + (d[2] - c[2]) ** 2;
+      if (e < dist) { best = k; dist = e; }
+    }
+    return best;
+  };
+  const [rx, ry] = scene.lastFrame.robot;
+  const line = (n, f) => Array.from({length: n}, (_, i) => f(i));
+  return {w: scene.w, h: scene.h, robot: [rx, ry],
+          top: line(scene.w, (x) => classify(x + 0.5, 10)),
+          across: line(scene.w, (x) => classify(x + 0.5, ry)),
+          along: line(scene.h, (y) => classify(rx, y + 0.5))};
+}"""
+
+
+def extent(row, *classes) -> tuple[int, int]:
+    """First pixel of `classes` in `row` and the one past the last."""
+    hits = [i for i, c in enumerate(row) if c in classes]
+    return hits[0], hits[-1] + 1
+
+
+def at(got: int, origin: float, ft: float, scale: float) -> bool:
+    """Whether the pixel edge `got` is `ft` feet from `origin` px (within 3 px: lines, outlines)."""
+    return abs(got - (origin + ft * scale)) <= 3
+
+
+def test_the_drawing_follows_the_payloads_sizes(live_server):
+    """scene.js draws the road, the lanes and the cars with the sizes the scene data carry
+    (drawn_scene's "world"), not sizes of its own: with wider lanes, a wider road and a bigger car
+    in the payload the road, the merge goal lane and the robot's car are drawn that wide."""
+    rows = 21
+    robot = [[0.0, 12.5 * k, 1.5707963, 50.0, 0.0] for k in range(rows)]
+    payload = {"goal": 0, "dt": 0.25, "robot": robot,
+               "other": [[-12.0, 12.5 * k] for k in range(rows)]}  # beside the robot: the view is not squeezed
+    today = scene_sizes()
+    wide = {"lane_width": 16.0, "lane_centres": [-16.0, 0.0, 16.0], "road_half_width": 24.0,
+            "car_length": 20.0, "car_width": 8.0}
+    assert wide != today
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
+        page = browser.new_page(viewport={"width": 800, "height": 600})
+        errors = []
+        page.on("pageerror", lambda exc: errors.append(str(exc)))
+        page.goto(f"{live_server.url}/static/studyapp/study.css")  # same origin as scene.js, no page colours
+        drawn = {}
+        for name, world in (("today", today), ("wide", wide)):
+            env = drawn_scene({**payload, "world": world}, robot=False)
+            drawn[name] = page.evaluate(SIZES, {"env": env, "robot": robot})
+        browser.close()
+    assert not errors, errors
+    for name, world in (("today", today), ("wide", wide)):
+        d = drawn[name]
+        s = d["w"] / 60  # px per ft: VIEW_W_FT = 60 across, the same along the road here
+        mid, (rx, ry) = d["w"] / 2, d["robot"]
+        assert rx == pytest.approx(mid)
+        road = extent(d["top"], "road", "line", "goal")  # the road between the grass
+        half = world["road_half_width"]
+        assert at(road[0], mid, -half, s) and at(road[1], mid, half, s), (name, road)
+        goal = extent(d["top"], "goal")  # merge right: the right lane
+        right, lane = world["lane_centres"][-1], world["lane_width"]
+        assert at(goal[0], mid, right - lane / 2, s) and at(goal[1], mid, right + lane / 2, s), (name, goal)
+        car_x, car_y = extent(d["across"], "robot"), extent(d["along"], "robot")  # inside its outline
+        assert at(car_x[0], rx, -world["car_width"] / 2, s) and at(car_x[1], rx, world["car_width"] / 2, s), (
+            name, car_x)
+        assert at(car_y[0], ry, -world["car_length"] / 2, s) and at(car_y[1], ry, world["car_length"] / 2, s), (
+            name, car_y)

@@ -57,7 +57,7 @@ def test_training_page_carries_the_trajectory(client, participant, answer_for):
     r = client.get(url(participant))
     env = participant.condition.training[0]
     # what the page draws, and nothing else: no environment id, class or strategy cluster
-    assert r.context["env"] == {k: env[k] for k in ("goal", "dt", "other", "robot")}
+    assert r.context["env"] == {k: env[k] for k in ("goal", "dt", "other", "robot", "world")}
     assert r.context["goal_name"] == env["goal_name"]
     for leak in (b"cluster", b"env_id", b"class_name", b"theta"):
         assert leak not in r.content

@@ -88,15 +88,15 @@ def test_no_test_page_tells_theta_stars_option_apart(tiny_table):
             data = embedded(html)
             if step.kind == StepKind.TRAINING:
                 payload = p.condition.training[step.item]
-                assert data == {"env-data": {k: payload[k] for k in ("goal", "dt", "other", "robot")}}
+                assert data == {"env-data": {k: payload[k] for k in ("goal", "dt", "other", "robot", "world")}}
             if step.kind != StepKind.TEST:
                 continue
             test = study.test_set[step.item]
             shown = flow.option_letters(p, step.item)
             assert '"robot"' not in html  # no trajectory outside the four options
-            # the shared scene: the goal, the time step, the other car; no reference trajectory
+            # the shared scene: the goal, the time step, the other car, the world's sizes; no reference trajectory
             assert set(data) == {"scene-data", "option-robots"}
-            assert data["scene-data"] == {k: test[k] for k in ("goal", "dt", "other")}
+            assert data["scene-data"] == {k: test[k] for k in ("goal", "dt", "other", "world")}
             # four robots under opaque letters, all of one shape; theta*'s is just one of them
             robots = data["option-robots"]
             assert sorted(robots) == ["A", "B", "C", "D"]

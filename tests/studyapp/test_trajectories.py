@@ -1,4 +1,6 @@
 """The adapter from the numeric core to the stored JSON: every trajectory comes from a table."""
+import json
+
 import numpy as np
 import pytest
 
@@ -7,6 +9,7 @@ from teaching.api import TrajectoryTable
 from teaching.environments import environment_class, get_environments, other_car_states
 from teaching.strategies import strategy_labels
 from teaching.synthetic import synthetic_table
+from teaching.world import WORLD
 
 
 def check_env(payload):
@@ -56,3 +59,39 @@ def test_training_is_theta_stars_optimal_trajectory_in_a_built_table(tiny_table)
         np.testing.assert_allclose(robot, table.states(i, table.theta_star_index), atol=5e-4)
         env = get_environments([p["env_id"]])
         assert p["cluster"] == int(strategy_labels(robot[None], env)[0]) == int(table.strategy[i, 0])
+
+
+# --- the world's sizes a scene is drawn with (one source: WORLD) ---------------------------
+def test_payloads_carry_the_worlds_sizes_from_world():
+    """Every training and test payload carries the sizes scene.js draws with, equal to WORLD's."""
+    sizes = {"lane_width": WORLD.lane_width, "lane_centres": list(WORLD.lane_centres),
+             "road_half_width": WORLD.road_half_width, "car_length": WORLD.car_length,
+             "car_width": WORLD.car_width}
+    assert tj.scene_sizes() == sizes
+    table = synthetic_table(n_envs=16, n_thetas=8, seed=1)
+    ids = [int(e) for e in table.env_ids[:3]]
+    spec = [{"env_id": ids[1], "options": [{"theta_index": k, "is_theta_star": k == 0} for k in (3, 0, 5, 1)]}]
+    payloads = tj.training_from_table(table, ids) + tj.test_set_from_table(table, spec)
+    for p in payloads:
+        assert p["world"] == sizes
+        assert json.loads(json.dumps(p))["world"] == sizes  # what a study stores (JSONField)
+
+
+def test_drawn_scene_passes_the_payloads_sizes():
+    table = synthetic_table(n_envs=16, n_thetas=8, seed=1)
+    (p,) = tj.training_from_table(table, [int(table.env_ids[0])])
+    p["world"] = {**p["world"], "lane_width": 16.0, "lane_centres": [-16.0, 0.0, 16.0]}  # the stored one wins
+    for robot in (True, False):
+        scene = tj.drawn_scene(p, robot=robot)
+        assert scene["world"] == p["world"]
+        assert set(scene) == {"goal", "dt", "other", "world"} | ({"robot"} if robot else set())
+
+
+def test_drawn_scene_of_a_payload_stored_before_sizes_gets_todays():
+    """Payloads stored before they carried "world" are drawn with WORLD's sizes of today."""
+    table = synthetic_table(n_envs=16, n_thetas=8, seed=1)
+    (p,) = tj.training_from_table(table, [int(table.env_ids[0])])
+    del p["world"]
+    scene = tj.drawn_scene(p, robot=True)
+    assert scene["world"] == tj.scene_sizes()
+    assert set(scene) == {"goal", "dt", "other", "robot", "world"}
