@@ -1,15 +1,16 @@
-"""One study condition's teaching sequence as a worker's JSON result.
+"""One study condition's teaching sequence, and a study's simulated pilot, as a worker's JSON.
 
 The selection itself is ``teaching.selection.condition_sequence`` (the same
-steps ``teach`` composes for all conditions); this module only shapes its
-result for the job record.  No Django here.
+steps ``teach`` composes for all conditions), the pilot ``teaching.evaluation.study_matrix``
+(teach.py's ideal-user matrix); this module only shapes their results for the job record and
+the study.  No Django here.
 """
 from __future__ import annotations
 
 import numpy as np
 
+from teaching.api import USER_NAMES, has_hyperparameter, study_matrix
 from teaching.api import condition_sequence as select
-from teaching.api import has_hyperparameter
 
 
 def condition_sequence(table, name: str, **kwargs) -> dict:
@@ -31,3 +32,21 @@ def condition_sequence(table, name: str, **kwargs) -> dict:
         "rule_met": rule_met,
         "added_for_coverage": [int(ids[i]) for i in seq.added_for_coverage],
     }
+
+
+def pilot_matrix(table, conditions: dict[str, list[int]], hyperparameters: dict | None = None) -> dict:
+    """The simulated pilot of a study: P_user(θ*) after each condition's examples, for every ideal
+    user (teach.py's matrix.json, restricted to exactly these conditions).
+
+    conditions: {name: environment *ids* in the order shown}; rows follow its order.
+    hyperparameters: {model: τ or λ} for the users; a model not in it gets the paper's rule.
+    Returns small JSON: conditions, users, matrix (rows x users), models (user -> "name(tau=...)"),
+    prior (1 / number of θ: what a user who learned nothing assigns to θ*)."""
+    index = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
+    missing = sorted({int(e) for ids in conditions.values() for e in ids} - set(index))
+    if missing:
+        raise ValueError(f"environments {missing[:10]} are not in the table")
+    rows = {name: [index[int(e)] for e in ids] for name, ids in conditions.items()}
+    matrix, models = study_matrix(table, rows, hyperparameters)
+    return {"conditions": list(rows), "users": list(USER_NAMES), "matrix": matrix.tolist(),
+            "models": {u: str(models[u]) for u in USER_NAMES}, "prior": 1.0 / table.n_thetas}

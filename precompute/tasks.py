@@ -34,13 +34,14 @@ from django.db.models import F
 from django.utils import timezone
 
 from studyapp.models import Condition, Study
+from studyapp.pilot import store_pilot
 from studyapp.studies import freeze_condition, freeze_test_set
 from studyapp.trajectories import test_set_from_table, training_from_table
 from teaching.api import TrajectoryTable, select_test_set
 
 from . import work
 from .models import Job, Part
-from .sequences import condition_sequence
+from .sequences import condition_sequence, pilot_matrix
 
 log = logging.getLogger(__name__)
 
@@ -190,9 +191,20 @@ def study_condition(self, job_id, params, name, index):
     return {"condition": name, "computed": True, "env_ids": result["env_ids"]}
 
 
+def study_pilot(table, conditions, params, job_id) -> dict:
+    """The study's simulated pilot: the ideal-user matrix for exactly its conditions.  Each user's
+    τ / λ is the one its condition's task chose (or the researcher fixed), so only a model no
+    condition used is swept again."""
+    chosen = {r["model"]: r["value"] for r in Part.objects.filter(job_id=job_id).values_list("result", flat=True)
+              if r.get("model") and r.get("value") is not None}
+    return pilot_matrix(table, {c.name: c.env_ids for c in conditions},
+                        {**chosen, **params.get("hyperparameters", {})})
+
+
 @shared_task(base=JobTask, bind=True, name="precompute.study_finish")
 def study_finish(self, job_id, params):
-    """Chord callback: the test set (disjoint from every condition's training), then open the study."""
+    """Chord callback: the test set (disjoint from every condition's training) and the simulated
+    pilot (stored with the study), then open the study if asked."""
     study = Study.objects.get(pk=params["study_id"])
     conditions = list(study.conditions.all())
     empty = [c.name for c in conditions if not c.training]
@@ -202,6 +214,7 @@ def study_finish(self, job_id, params):
     table = _table(params)
     tests = select_test_set(table, [c.env_ids for c in conditions], seed=params["seed"],
                             **params.get("test_set_thresholds", {}))
+    store_pilot(study, study_pilot(table, conditions, params, job_id))
     freeze_test_set(study, test_set_from_table(table, tests), open_study=params.get("open", True))
     record_part(job_id, "test-set", len(conditions), True, time.perf_counter() - t0,
                 result={"env_ids": [t["env_id"] for t in tests]})

@@ -1,4 +1,5 @@
-"""Researcher views: study list, per-study dashboard with live progress, open/close, preview, exports."""
+"""Researcher views: study list, per-study dashboard with live progress, its simulated pilot (studyapp/pilot.py),
+open/close, preview, exports."""
 from __future__ import annotations
 
 from django.contrib import messages
@@ -12,6 +13,7 @@ from . import exports
 from .access import researcher_required
 from .assignment import counted_filter, preview_participant
 from .models import Answer, Condition, Participant, Study
+from .pilot import pilot_context
 
 REFRESH_SECONDS = 5
 
@@ -62,6 +64,7 @@ def detail(request, slug):
     link = request.build_absolute_uri(study.get_absolute_url())
     ctx.update(link=link, prolific_link=link + "?PROLIFIC_PID={{%PROLIFIC_PID%}}&STUDY_ID={{%STUDY_ID%}}"
                "&SESSION_ID={{%SESSION_ID%}}")
+    ctx.update(pilot_context(study, request.GET))  # the simulated pilot: ideal users and the power table
     return render(request, "studyapp/dashboard/detail.html", ctx)
 
 

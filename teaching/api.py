@@ -62,6 +62,12 @@ Learners and selection (DESIGN §5-6)
                              env_index, cluster and 4 options {theta_index, is_theta_star, cluster, regret}
     MIN_REGRET, MIN_OPTION_DISTANCE  the test set's default thresholds: θ*-reward units (1e-3), and
                              scaled state units between options (0.5)
+
+Ideal users (the paper's simulated learners; teaching.evaluation)
+    USER_NAMES               the matrix's columns: the 7 learner models (MODEL_NAMES)
+    study_matrix(table, sequences, hyperparameters=None)  sequences {name: table row indices} ->
+                             ((S, 7) float64 P_user(θ* | sequence's θ* demonstrations), {user: model
+                             with its τ / λ: fixed in hyperparameters, else the paper's rule})
 """
 from __future__ import annotations
 
@@ -88,6 +94,7 @@ from .environments import (
                     other_car_states,
                     stratified_sample,
 )
+from .evaluation import USER_NAMES, study_matrix
 from .features import default_normalisers
 from .learners import MODEL_NAMES, has_hyperparameter, make_model, parse_hyperparameters
 from .selection import APPROX_STAR, CONDITIONS, SelectionSettings, build_sequences, condition_sequence
@@ -98,10 +105,11 @@ from .world import GOAL_NAMES, WORLD
 
 __all__ = [
     "APPROX_STAR", "CLASS_NAMES", "CLUSTER_NAMES", "CONDITIONS", "GOAL_NAMES", "MIN_OPTION_DISTANCE", "MIN_REGRET",
-    "MODEL_NAMES", "N_CLUSTERS",
+    "MODEL_NAMES", "N_CLUSTERS", "USER_NAMES",
     "N_ENVIRONMENTS", "PRESETS", "SAMPLERS", "WORLD", "Preset", "SelectionSettings", "TableError",
     "TrajectoryTable", "assemble", "build_chunk", "build_sequences", "check_writable", "chunk_key", "chunk_path",
     "chunks_of", "code_fingerprint", "condition_sequence", "customised", "default_normalisers",
     "environment_class", "get_environments", "get_preset", "has_hyperparameter", "make_model", "other_car_states",
-    "parse_hyperparameters", "select_test_set", "strategy_labels", "stratified_sample", "table_identity",
+    "parse_hyperparameters", "select_test_set", "strategy_labels", "stratified_sample", "study_matrix",
+    "table_identity",
 ]

@@ -6,12 +6,16 @@
 * the number of examples of each strategy cluster in each sequence, laid out
   as the paper's 2 × 4 grid (column = environment class, row = its first /
   second strategy).
+
+``study_matrix`` is the same matrix for any named sequences of one table (a study's
+conditions), each ideal user with its τ / λ chosen as ``teach`` chooses it.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from .learners import MODEL_NAMES, Distances, LearnerModel, p_theta_star
+from .selection import DEFAULT_SETTINGS, SelectionSettings, fitted_model
 from .strategies import N_CLUSTERS
 
 # The paper's 8 sequences: one per model (prob-strategy's equals det-strategy's) and random.
@@ -30,6 +34,22 @@ def ideal_user_matrix(models: dict[str, LearnerModel], sequences: dict[str, list
         for j, u in enumerate(user_names):
             out[i, j] = p_theta_star(models[u], dist, sequences[s])
     return out
+
+
+def study_matrix(table, sequences: dict[str, list[int]], hyperparameters: dict | None = None, *,
+                 settings: SelectionSettings = DEFAULT_SETTINGS, dist: Distances | None = None,
+                 user_names=USER_NAMES) -> tuple[np.ndarray, dict[str, LearnerModel]]:
+    """The ideal-user matrix of named sequences (e.g. a study's conditions) on one table.
+
+    sequences: name -> environment indices (table rows); the rows follow its order.  Columns:
+    `user_names`, each user with its τ / λ fixed in `hyperparameters` ({model: value}) or else
+    chosen by the paper's rule (``selection.fitted_model``, the sweep ``teach`` runs), so with no
+    `hyperparameters` the users are ``teach(table).models``.  Returns ((S, U) matrix, {user: model}).
+    """
+    dist = dist or Distances(table)
+    buffer = np.empty(dist.shape, np.float32)
+    models = {u: fitted_model(u, dist, dict(hyperparameters or {}), settings, buffer=buffer)[0] for u in user_names}
+    return ideal_user_matrix(models, sequences, dist, sequence_names=list(sequences), user_names=user_names), models
 
 
 def cluster_counts(clusters: np.ndarray, envs) -> np.ndarray:

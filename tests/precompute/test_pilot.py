@@ -1,0 +1,129 @@
+"""The study designer's simulated pilot (issue 13): the study job stores the ideal-user matrix of
+exactly the study's conditions (teach.py's matrix, computed on the worker), and the study's
+dashboard page shows it with a power table whose α, power and effect size the researcher picks."""
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+import pytest
+from django.template.defaultfilters import floatformat
+from statsmodels.stats.power import TTestIndPower
+
+from precompute import jobs
+from precompute.models import Job
+from precompute.study import create_study_job
+from studyapp.analysis.power import PAPER_EFFECTS, participants_needed
+from studyapp.models import Study
+from teaching.evaluation import USER_NAMES, ideal_user_matrix
+from teaching.learners import Distances
+from teaching.selection import teach
+from teaching.table import TrajectoryTable
+
+CONDITIONS = ["exact", "prob-reward", "random", "coverage-approx*"]
+FIXED = {"det-euclidean": 0.5}  # approx*'s τ fixed; every other user by the paper's rule
+
+
+@pytest.mark.slow
+def test_the_study_job_stores_the_ideal_user_matrix_of_its_conditions(inprocess_worker, transactional_db,
+                                                                       demo_table, staff_client):
+    table = TrajectoryTable.load(demo_table)
+    picked = [int(e) for e in table.env_ids[[7, 3, 250]]]
+    job = create_study_job(demo_table, "piloted", conditions=CONDITIONS, hyperparameters=FIXED,
+                           hand_picked={"mine": picked}, open_when_done=False, target_per_condition=30,
+                           test_set_thresholds={"min_distance": 0.25})  # options 0.5 apart: none left for one cluster
+    job = jobs.wait(job, progress=False, timeout=300)
+    assert job.status == Job.SUCCEEDED, job.error
+    study = Study.objects.get(slug="piloted")
+    pilot = study.source["pilot"]
+    names = CONDITIONS + ["mine"]
+    assert pilot["conditions"] == names and pilot["users"] == list(USER_NAMES)
+    assert pilot["prior"] == 1 / table.n_thetas
+
+    # the same matrix, computed directly: teach's own users (every τ / λ by the rule, det-euclidean
+    # fixed) on the study's frozen sequences, as table rows
+    result = teach(table, hyperparameters=FIXED)
+    row = {int(e): i for i, e in enumerate(table.env_ids)}
+    sequences = {c.name: [row[e] for e in c.env_ids] for c in study.conditions.all()}
+    direct = ideal_user_matrix(result.models, sequences, Distances(table), sequence_names=names)
+    assert np.array_equal(np.array(pilot["matrix"]), direct)
+    assert pilot["models"] == {u: str(m) for u, m in result.models.items()}
+    assert pilot["models"]["det-euclidean"] == "det-euclidean(tau=0.5)"
+    assert direct.shape == (5, 7) and 0 <= direct.min() and direct.max() <= 1 and direct.max() > pilot["prior"]
+
+    # the dashboard page shows it, before the study is opened
+    assert not study.is_open
+    page = staff_client.get("/dashboard/piloted/").content.decode()
+    section = page[page.index('id="pilot"'):]
+    assert "Simulated pilot" in page and 'id="pilot-matrix"' in section
+    for name, values in zip(names, direct, strict=True):
+        tr = re.search(rf'<tr data-condition="{re.escape(name)}">(.*?)</tr>', section, re.S).group(1)
+        assert re.findall(r"<td>(?:<strong>)?([0-9.]+)", tr) == [floatformat(v, 3) for v in values], name
+    assert all(u in section for u in USER_NAMES)
+    assert '<th title="det-euclidean(tau=0.5)">det-euclidean<br><small>τ = 0.5</small>' in section
+
+
+@pytest.fixture
+def sized(make_study):
+    """Studies whose target per condition sits on either side of the hand-worked case's 64."""
+    return {n: make_study(f"n{n}", target_per_condition=n) for n in (63, 64)}
+
+
+def power_page(client, slug, **query):
+    r = client.get(f"/dashboard/{slug}/", query)
+    assert r.status_code == 200
+    return r, r.content.decode()
+
+
+def test_the_power_table_against_statsmodels_by_hand(sized, staff_client):
+    # Cohen (1988): d = 0.5, alpha .05 two-sided, power .8 -> 63.77 per group -> 64
+    exact = TTestIndPower().solve_power(effect_size=0.5, alpha=0.05, power=0.8, ratio=1.0, alternative="two-sided")
+    assert exact == pytest.approx(63.77, abs=0.01) and math.ceil(exact) == 64
+    for n, reached in ((64, True), (63, False)):
+        r, page = power_page(staff_client, f"n{n}", alpha="0.05", power="0.8", d="0.5")
+        rows = {row["comparison"]: row for row in r.context["power_rows"]}
+        mine = rows["your effect size"]
+        assert (mine["d"], mine["needed"], mine["reached"]) == (0.5, 64, reached)
+        for effect in PAPER_EFFECTS:  # the paper's effects: the same solver on the d each p implies
+            assert rows[effect.comparison]["needed"] == math.ceil(TTestIndPower().solve_power(
+                effect_size=effect.d, alpha=0.05, power=0.8, ratio=1.0, alternative="two-sided"))
+        assert rows["approx* vs exact"]["needed"] == 41
+        assert re.search(r'data-effect="your effect size">.*?<td class="needed">64</td>', page, re.S)
+        assert mine["power_at_n"] == pytest.approx(TTestIndPower().power(0.5, nobs1=n, alpha=0.05), abs=1e-12)
+        assert ("reaches the chosen power" in page) is reached and ("falls short" in page) is not reached
+
+
+def test_the_power_form_defaults_to_the_papers_effect(study, staff_client):
+    r, page = power_page(staff_client, study.slug)
+    form = r.context["power_form"]
+    assert not form.is_bound and form["alpha"].value() == 0.05 and form["power"].value() == 0.8
+    assert form["d"].value() == round(PAPER_EFFECTS[0].d, 3) == 0.628
+    rows = r.context["power_rows"]
+    assert rows[-1]["needed"] == participants_needed(0.628) == 41
+    assert r.context["power_n"] == study.target_per_condition == 10 and not r.context["power_reached"]
+    assert 'id="no-pilot"' in page  # a study not built by the designer has no matrix; the power table still shows
+    assert "approx* vs exact" in page and "Welch p = 0.025 with 27 + 27 participants" in page
+
+
+@pytest.mark.parametrize("query, message", [
+    ({"alpha": "2"}, "α must lie between 0.001 and 0.2."),
+    ({"alpha": "0"}, "α must lie between 0.001 and 0.2."),
+    ({"power": "abc"}, "Power must be a number, e.g. 0.8."),
+    ({"power": "1"}, "Power must lie between 0.5 and 0.99."),
+    ({"d": "-1"}, "The effect size d must lie between 0.05 and 2."),
+    ({"d": "nan"}, "The effect size d must be a number"),
+    ({"d": "inf"}, "The effect size d must be a number"),
+    ({"alpha": ""}, "α is needed, e.g. 0.05."),
+    ({"alpha": "0.2", "power": "0.5", "d": "2"}, "solver finds no sample size"),  # 2 per condition already do
+])
+def test_bad_power_input_gives_a_message_not_a_500(study, staff_client, query, message):
+    full = {"alpha": "0.05", "power": "0.8", "d": "0.5", **query}
+    r, page = power_page(staff_client, study.slug, **full)
+    assert message.replace("'", "&#x27;") in page, page[page.index('id="pilot"'):][:3000]
+    assert r.context["power_rows"] is None and 'id="power-table"' not in page
+
+
+def test_the_pilot_is_for_researchers_only(study, client):
+    r = client.get(f"/dashboard/{study.slug}/", {"alpha": "0.05", "power": "0.8", "d": "0.5"})
+    assert r.status_code == 302 and r["Location"].startswith("/login/")
