@@ -49,10 +49,10 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int =
         raise StudyJobError(f"unknown condition(s) {', '.join(unknown)}; choose from {', '.join(CONDITIONS)}")
     hand_picked = {str(k): [int(e) for e in v] for k, v in (hand_picked or {}).items()}
     in_table = {int(e) for e in table.env_ids}
-    for name, ids in hand_picked.items():
+    for condition, ids in hand_picked.items():
         missing = sorted(set(ids) - in_table)
         if not ids or missing:
-            raise StudyJobError(f"hand-picked condition {name!r}: " + (
+            raise StudyJobError(f"hand-picked condition {condition!r}: " + (
                 f"environments {missing[:10]} are not in the table" if missing else "no environment ids given"))
     conditions += list(hand_picked)
     if len(set(conditions)) != len(conditions):

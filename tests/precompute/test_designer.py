@@ -72,6 +72,7 @@ def test_design_with_fixed_tau_a_hand_picked_condition_thresholds_and_texts(inpr
     job = jobs.wait(Job.objects.get(kind=Job.STUDY), progress=False, timeout=180)
     assert job.status == Job.SUCCEEDED, job.error
     study = Study.objects.get(slug="own")
+    assert study.name == "Designed"  # the form's title, not the hand-picked condition's name
     assert [c.name for c in study.conditions.all()] == ["det-euclidean", "mine"]
     assert study.conditions.get(name="mine").env_ids == picked  # as given, in the order given
     assert job.result["conditions"]["det-euclidean"]["value"] == 0.5  # fixed, not the rule's
