@@ -1,6 +1,6 @@
 from django.urls import path, re_path
 
-from . import dashboard, views
+from . import dashboard, stimuli, views
 from .analysis import views as analysis_views
 
 urlpatterns = [
@@ -14,6 +14,7 @@ urlpatterns = [
     path("dashboard/<slug:slug>/toggle/", dashboard.toggle, name="dashboard_toggle"),
     path("dashboard/<slug:slug>/preview/<int:condition_id>/", dashboard.preview, name="dashboard_preview"),
     path("dashboard/<slug:slug>/analysis/", analysis_views.report, name="dashboard_analysis"),
+    path("dashboard/<slug:slug>/stimuli/", stimuli.stimuli, name="dashboard_stimuli"),
     re_path(r"^dashboard/(?P<slug>[-\w]+)/export/(?P<kind>long|wide|dictionary)\.csv$", dashboard.export,
             name="dashboard_export"),
 ]
