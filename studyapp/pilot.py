@@ -3,9 +3,9 @@
 * The ideal-user matrix for exactly the study's conditions: P_user(θ*) after a condition's
   examples, for each of the paper's simulated learners.  The study job computes it on the worker
   when it freezes the test set (precompute/sequences.py::pilot_matrix, teach.py's own matrix) and
-  stores it as small JSON in ``study.source["pilot"]``.  (A study made by `create_study` from
-  `python -m teaching.teach` output has none: that output keeps its matrix in matrix.json, not
-  in the sequences.json create_study reads.)
+  stores it as small JSON in ``study.source["pilot"]``.  A study made by `create_study` from
+  `python -m teaching.teach` output takes the rows of its conditions from that output's
+  matrix.json (studies.spec_from_teach).
 * A power table: participants per condition needed to detect the paper's reported effects and
   the researcher's own effect size, at the α and power they choose (analysis/power.py,
   statsmodels' TTestIndPower), and whether the study's target per condition gets there.

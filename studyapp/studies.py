@@ -145,8 +145,27 @@ def spec_from_teach(teach_dir, table=None) -> dict:
         if not (isinstance(c, dict) and isinstance(c.get("env_ids"), list)):
             raise SpecError(f"{teach_dir / 'sequences.json'}: condition {name!r} has no 'env_ids'")
         conditions.append({"name": name, "env_ids": c["env_ids"]})
-    return {"table": str(table or sequences["table"].get("path", "")),
+    spec = {"table": str(table or sequences["table"].get("path", "")),
             "table_hash": sequences["table"].get("content_hash"), "conditions": conditions, "test_set": tests}
+    pilot = _teach_pilot(teach_dir, [c["name"] for c in conditions])
+    if pilot:
+        spec["pilot"] = pilot
+    return spec
+
+
+def _teach_pilot(teach_dir: Path, names: list[str]) -> dict | None:
+    """The simulated pilot of a teach output (its matrix.json, the extended rows: the paper's nine
+    conditions) restricted to the study's conditions, in the study's order; None if it has none."""
+    path = teach_dir / "matrix.json"
+    if not path.exists():
+        return None
+    m = _read_json(path)
+    try:
+        rows = dict(zip(m["extended_sequence_names"], m["extended_matrix"], strict=True))
+        return {"conditions": names, "users": list(m["user_names"]), "matrix": [rows[n] for n in names],
+                "models": dict(m.get("models", {})), "from": f"teach output ({path})"}
+    except (KeyError, TypeError, ValueError) as exc:
+        raise SpecError(f"{path} is not a teach output's matrix ({exc})") from None
 
 
 def _load_table(spec: dict):
@@ -185,6 +204,8 @@ def _payloads(spec: dict):
         raise SpecError(str(exc)) from None
     source = {"kind": "table", "table": str(spec["table"]), "content_hash": table.meta.get("content_hash"),
               "theta_star": [float(v) for v in table.theta_star]}
+    if isinstance(spec.get("pilot"), dict):  # a teach output's ideal-user matrix (spec_from_teach)
+        source["pilot"] = {**spec["pilot"], "prior": 1.0 / table.n_thetas}
     return conditions, training, tests, source
 
 

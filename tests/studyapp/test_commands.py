@@ -224,15 +224,23 @@ def test_setup_demo_rebuilds_after_the_table_changes_but_never_under_participant
 
 # --- from the output of `python -m teaching.teach` ----------------------------------------------
 @pytest.mark.slow
-def test_create_study_from_the_teach_output(demo_table, demo_teach):
+def test_create_study_from_the_teach_output(demo_table, demo_teach, staff_client):
     sequences = json.loads((demo_teach / "sequences.json").read_text())
     tests = json.loads((demo_teach / "test_set.json").read_text())
     out = io.StringIO()
     call_command("create_study", str(demo_teach), "--slug", "pilot", "--completion-code", "C1ABCDEF",
                  "--recruitment", "prolific", "--target", "25", stdout=out)
     s = Study.objects.get(slug="pilot")
+    pilot = s.source.pop("pilot")
     assert s.source == {"kind": "table", "table": str(demo_table), "content_hash": sequences["table"]["content_hash"],
                         "theta_star": [-64.0, -0.1, -1.0, -0.1, -0.5]}
+    # the simulated pilot: matrix.json's rows of the study's conditions, shown on its dashboard page
+    matrix = json.loads((demo_teach / "matrix.json").read_text())
+    rows = dict(zip(matrix["extended_sequence_names"], matrix["extended_matrix"], strict=True))
+    assert pilot["conditions"] == list(sequences["conditions"]) and pilot["users"] == matrix["user_names"]
+    assert pilot["matrix"] == [rows[n] for n in sequences["conditions"]] and pilot["prior"] == 1 / 200
+    page = staff_client.get("/dashboard/pilot/").content.decode()
+    assert 'id="no-pilot"' not in page and "Ideal users" in page
     assert {c.name: c.env_ids for c in s.conditions.all()} == {
         name: c["env_ids"] for name, c in sequences["conditions"].items()}
     assert [c.name for c in s.conditions.all()] == list(sequences["conditions"])  # in the teach output's order
