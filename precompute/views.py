@@ -99,14 +99,8 @@ def design(request):
         except (StudyJobError, TableError) as exc:
             form.add_error(None, str(exc))
         else:
-            try:
-                jobs.launch(job)
-            except jobs.BrokerUnavailable as exc:  # the job is marked failed with this error; its page has Retry
-                messages.error(request, str(exc))
-            else:
-                messages.success(request, f"Building study {d['slug']!r} on the workers: when this job is done, "
-                                 "preview its conditions on the study's page, then open it.")
-            return redirect(job)
+            return launch_and_follow(request, job, f"Building study {d['slug']!r} on the workers: when this job "
+                                     "is done, preview its conditions on the study's page, then open it.")
     return render(request, "precompute/design.html", design_context(form=form, tables=tables))
 
 
@@ -131,13 +125,20 @@ def design_table(request):
     preset = form.cleaned_data["built"]
     try:
         job = jobs.create_table_job(preset, tables_dir() / preset.name, start=False)
-        jobs.launch(job)
     except ChunkError as exc:
         form.add_error(None, str(exc))
         return render(request, "precompute/design.html", design_context(table_form=form), status=400)
-    except jobs.BrokerUnavailable as exc:  # the job is marked failed with this error; its page has Retry
+    return launch_and_follow(request, job, f"Building table {preset.name!r} on the workers: when this job is done, "
+                             "the designer lists it.")
+
+
+def launch_and_follow(request, job: Job, started: str):
+    """Send a new job's canvas and show its page, saying `started`, or the broker's error (the job
+    is then marked failed with it, and its page has Retry)."""
+    try:
+        jobs.launch(job)
+    except jobs.BrokerUnavailable as exc:
         messages.error(request, str(exc))
     else:
-        messages.success(request, f"Building table {preset.name!r} on the workers: when this job is done, "
-                         "the designer lists it.")
+        messages.success(request, started)
     return redirect(job)
