@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import detmath
 from .world import THETA_STAR
 
 SAMPLERS = ("log-uniform", "sphere")
@@ -25,7 +26,9 @@ def sample_thetas(n: int, sampler: str = "log-uniform", seed: int = 0, theta_sta
     rng = np.random.default_rng(seed)
     star = np.asarray(theta_star, dtype=float)
     if sampler == "log-uniform":
-        rest = -np.abs(star) * 10.0 ** rng.uniform(-1.0, 1.0, size=(n - 1, len(star)))
+        # 10**u correctly rounded (detmath): NumPy's power is CPU-dispatched and its AVX-512 loop
+        # differs in the last bit, which moved thousands of a table's trajectories (issue 22)
+        rest = -np.abs(star) * detmath.pow10(rng.uniform(-1.0, 1.0, size=(n - 1, len(star))))
     else:
         g = np.abs(rng.standard_normal((n - 1, len(star))))
         rest = -g / np.linalg.norm(g, axis=1, keepdims=True)

@@ -30,6 +30,7 @@ import numpy as np
 from numba import njit, prange
 from numba.core import config as numba_config
 
+from . import detmath
 from .world import WORLD, world_fingerprint
 
 # The kernels freeze the world's constants when they compile, but Numba's disk
@@ -82,8 +83,8 @@ def overshoot_penalty(o):
     if u > 40.0:
         sp, sig = u, 1.0
     else:
-        sp = math.log1p(math.exp(u))
-        sig = 1.0 / (1.0 + math.exp(-u))
+        sp = detmath.softplus(u)  # not libm's: its CPU-dispatched variants differ in the last bit
+        sig = detmath.sigmoid(u)
     q = PEN_SOFT * sp
     return W_PEN * q * q, 2.0 * W_PEN * q * sig, 2.0 * W_PEN * (sig * sig + q * sig * (1.0 - sig) / PEN_SOFT)
 
@@ -124,9 +125,10 @@ def rollout_one(z, out):
     out[0, 0], out[0, 1], out[0, 2], out[0, 3], out[0, 4] = x, y, h, v, st
     for t in range(T):
         k = t // SPK
-        xn = x + DT * v * math.cos(h)
-        yn = y + DT * v * math.sin(h)
-        hn = h + DT / WB * v * math.tan(st)
+        sh, ch = detmath.sincos(h)
+        xn = x + DT * v * ch
+        yn = y + DT * v * sh
+        hn = h + DT / WB * v * detmath.tan(st)
         v = v + DT * A_MAX * z[k, 1]
         st = min(max(st + DT * W_MAX * z[k, 0], -S_MAX), S_MAX)
         x, y, h = xn, yn, hn
@@ -151,7 +153,7 @@ def features_of_states(s, ox, oy, goal, out):
     for t in range(1, T + 1):
         dx = s[t, 0] - ox[t]
         dy = s[t, 1] - oy[t]
-        clo += math.exp(-0.5 * (dx * dx / SIG_LAT2 + dy * dy / SIG_LONG2))
+        clo += detmath.exp(-0.5 * (dx * dx / SIG_LAT2 + dy * dy / SIG_LONG2))
         dev += (s[t, 3] - V0) ** 2
         d = s[t, 2] - H0
         turn += math.sqrt(d * d + EPS * EPS) - EPS
@@ -196,7 +198,8 @@ def objective_grad_hess(z, ox, oy, goal, w, g, H, want_hess):
     F = 0.0
     for t in range(T):
         k = t // SPK
-        ch, sh, tn = math.cos(h), math.sin(h), math.tan(st)
+        sh, ch = detmath.sincos(h)
+        tn = detmath.tan(st)
         trig[t, 0], trig[t, 1], trig[t, 2] = ch, sh, tn
         sec2 = 1.0 + tn * tn
         J, Jn = Jall[t], Jall[t + 1]
@@ -220,7 +223,7 @@ def objective_grad_hess(z, ox, oy, goal, w, g, H, want_hess):
         S[t + 1, 0], S[t + 1, 1], S[t + 1, 2], S[t + 1, 3], S[t + 1, 4] = x, y, h, v, st
         # stage cost at s_{t+1}
         dx, dy = x - ox[t + 1], y - oy[t + 1]
-        gk = math.exp(-0.5 * (dx * dx / SIG_LAT2 + dy * dy / SIG_LONG2))
+        gk = detmath.exp(-0.5 * (dx * dx / SIG_LAT2 + dy * dy / SIG_LONG2))
         trig[t + 1, 3] = gk
         d = h - H0
         rt = math.sqrt(d * d + EPS * EPS)
@@ -268,7 +271,8 @@ def objective_grad_hess(z, ox, oy, goal, w, g, H, want_hess):
         M[0, 1] = M[1, 0] = gk * dx * dy / (SIG_LAT2 * SIG_LONG2)
         M[1, 1] = gk * (dy * dy / SIG_LONG2**2 - 1.0 / SIG_LONG2)
         d = h - H0
-        M[2, 2] = w[3] * EPS * EPS / (d * d + EPS * EPS) ** 1.5
+        q = d * d + EPS * EPS
+        M[2, 2] = w[3] * EPS * EPS / (q * math.sqrt(q))  # q**1.5 without libm's pow
         M[3, 3] = 2.0 * w[2]
         if goal == 0 and LW - x > 0.0:
             M[0, 0] += 2.0 * w[4]
@@ -485,3 +489,14 @@ def features_batch(z, ox, oy, goal, out):
 
 
 numba_config.CACHE_DIR = _user_cache_dir  # only these kernels' cache is keyed by the world
+
+
+@njit(cache=True, parallel=True)
+def pool_rewards(pool_phi, thetas, out):
+    """out (N, P) = theta . phi for every theta (N, 5) and pool trajectory (P, 5), summed left to
+    right like features.reward, so the two agree to the bit on every CPU."""
+    for i in prange(thetas.shape[0]):
+        t0, t1, t2, t3, t4 = thetas[i, 0], thetas[i, 1], thetas[i, 2], thetas[i, 3], thetas[i, 4]
+        for p in range(pool_phi.shape[0]):
+            out[i, p] = (((pool_phi[p, 0] * t0 + pool_phi[p, 1] * t1) + pool_phi[p, 2] * t2)
+                         + pool_phi[p, 3] * t3) + pool_phi[p, 4] * t4

@@ -38,14 +38,14 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from . import kernels
+from . import detmath, kernels
 from .dynamics import rollout_np
 from .environments import get_environments, other_car_states
 from .features import raw_features, reward
 from .strategies import lane_crossings, strategy_labels
 from .world import WORLD
 
-PLANNER_VERSION = 8  # bump whenever a change alters the trajectories it returns
+PLANNER_VERSION = 9  # bump whenever a change alters the trajectories it returns
 NEWTON_TOL = 1e-7  # max |projected gradient|, normalised reward units per unit of z (1e-9 changed no gap)
 REFINE_GAIN = 1e-6  # normalised reward units: exact IRL's tolerance (1e-7 and 1e-8 changed no measured gap)
 
@@ -113,7 +113,9 @@ def anchor_order(thetas: np.ndarray) -> np.ndarray:
 @functools.lru_cache(maxsize=4)
 def _anchor_order(data: bytes, shape: tuple) -> np.ndarray:
     # cached: every chunk of a build asks for the same order (O(N^2): 1.5 % of a paper build)
-    pts = np.log10(np.abs(np.frombuffer(data).reshape(shape)))
+    # detmath's correctly rounded log10: np.log10's AVX-512 loop differs in the last bit, and a tie
+    # broken otherwise would reorder the anchors (and the table's bytes) on another CPU
+    pts = detmath.log10(np.abs(np.frombuffer(data).reshape(shape)))
     order = [0]
     dist = np.linalg.norm(pts - pts[0], axis=1)
     for _ in range(len(pts) - 1):
@@ -142,8 +144,12 @@ def _as_stored(z):
 
 def _rewards(pool_phi, thetas):
     """Rewards (N, P) of every pool trajectory (P, 5 normalised features) under every theta (N, 5):
-    theta-major, so the argmax over the pool runs along contiguous rows."""
-    return thetas @ pool_phi.T
+    theta-major, so the argmax over the pool runs along contiguous rows.  Summed in features.reward's
+    fixed order (not a BLAS product, whose kernels differ by CPU): a hand-over decided on the last
+    bit must go the same way on every machine."""
+    out = np.empty((len(thetas), len(pool_phi)))
+    kernels.pool_rewards(np.ascontiguousarray(pool_phi, np.float64), np.ascontiguousarray(thetas, np.float64), out)
+    return out
 
 
 def _cross_theta(pool_phi, thetas, own):

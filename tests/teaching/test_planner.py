@@ -219,13 +219,17 @@ def test_projected_newton_converges_on_merging_problems():
 def test_the_planner_finds_the_double_lane_change_the_reference_found():
     """A benchmark pair (env 17587: braking, the other car 140 ft ahead in the centre lane; theta
     800 of the paper's Theta): the independent reference's optimum goes one lane left, then two
-    lanes right, 1.1e-4 better than everything the planner found from its first 8 seeds."""
+    lanes right, 1.1e-4 better than everything the planner found from its first 8 seeds.  Since
+    version 9 (CPU-independent arithmetic: theta 800 differs in its last bits) the planner finds
+    the mirror image, one lane right then two left, as good to 1e-8: either double change passes."""
     thetas = sample_thetas(1000)
     ids = np.array([17587])
     norm = default_normalisers()
     table = TrajectoryTable(thetas=thetas, env_ids=ids, normalisers=norm, **plan_chunk(ids, thetas, norm))
     x = table.states(0, 800)[..., 0]
-    assert x.min() < -6.0 and x[-1] > 10.0, np.round(x, 1)  # left first, then across to the right lane
+    left_then_right = x.min() < -6.0 and x[-1] > 10.0
+    right_then_left = x.max() > 6.0 and x[-1] < -10.0
+    assert left_then_right or right_then_left, np.round(x, 1)  # one outer lane, then across to the other
     assert reference_gap(table, [(0, 800)], n_jobs=1)[0] <= 1e-6
 
 

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from numpy._core._multiarray_umath import __cpu_features__
 
 import teaching.build as build
 from teaching.build import PRESETS, build_chunk, build_table, chunk_key, chunks_of, table_identity
@@ -216,14 +217,40 @@ def test_every_world_constant_is_in_the_fingerprint():
     assert world_fingerprint(replace(WORLD)) == base  # and it is stable
 
 
+# What another CPU changes: glibc's libm picks FMA/AVX2 variants of exp, sin, tan, ... at load time,
+# NumPy picks AVX-512 loops for power and log10, Numba compiles for the host's instruction set and
+# OpenBLAS picks its kernels by core type.  The "other CPU" below turns all of them off at once.
+_NUMPY_AVX512 = [f for f in ("X86_V4", "AVX512_ICL", "AVX512_SPR") if __cpu_features__.get(f)]
+OTHER_CPU = {"NUMBA_CPU_NAME": "generic", "GLIBC_TUNABLES": "glibc.cpu.hwcaps=-AVX2,-FMA,-AVX512F",
+             "OPENBLAS_CORETYPE": "Prescott", **({"NPY_DISABLE_CPU_FEATURES": " ".join(_NUMPY_AVX512)}
+                                               if _NUMPY_AVX512 else {})}
+# libm and NumPy results that differ in the last bit between the two settings (checked below)
+_PROBE = """import hashlib, math, numpy as np
+x = np.random.default_rng(0).uniform(-1, 1, 100000)
+libm = np.array([math.sin(v) + math.exp(v) + math.tan(v) for v in x])
+print(hashlib.sha256(libm.tobytes()).hexdigest(), hashlib.sha256((10.0 ** x).tobytes()).hexdigest())"""
+
+
+def _probe(env) -> list[str]:
+    return subprocess.run([sys.executable, "-c", _PROBE], env=env, check=True, capture_output=True,
+                          text=True).stdout.split()
+
+
 @pytest.mark.slow
-def test_the_same_preset_gives_the_same_hash_on_a_generic_cpu(tmp_path):
-    """Reproducible builds: the kernels compiled for this machine's CPU and for a generic x86-64 CPU
-    (no FMA or wider vector units) give a bit-identical table, so the content hash a researcher
-    quotes identifies the table on any x86-64 machine."""
+def test_the_same_preset_gives_the_same_hash_on_another_cpu(tmp_path):
+    """Reproducible builds (issue 22, item 2): the tiny preset built natively and as another CPU
+    would build it (libm without FMA, NumPy without AVX-512, Numba for a generic x86-64, OpenBLAS's
+    oldest kernels) is bit-identical, although those settings really do change libm's and NumPy's
+    last bits here: so the content hash a researcher quotes identifies the table on any x86-64."""
+    native, other = dict(os.environ), {**os.environ, **OTHER_CPU}
+    libm_native, power_native = _probe(native)
+    libm_other, power_other = _probe(other)
+    assert libm_native != libm_other, "GLIBC_TUNABLES no longer changes libm: the test would prove nothing"
+    if _NUMPY_AVX512:
+        assert power_native != power_other, "NPY_DISABLE_CPU_FEATURES no longer changes np.power"
     hashes = []
-    for name, extra in (("host", {}), ("generic", {"NUMBA_CPU_NAME": "generic"})):
-        env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / f"numba-{name}"), **extra}
+    for name, env in (("native", native), ("other", other)):
+        env = {**env, "NUMBA_CACHE_DIR": str(tmp_path / f"numba-{name}")}
         out = tmp_path / name
         subprocess.run([sys.executable, "-m", "teaching", "build", "--preset", "tiny", "--out", str(out)],
                        check=True, env=env, capture_output=True)
