@@ -10,7 +10,6 @@ import json
 from pathlib import Path
 
 from django import forms
-from django.conf import settings
 
 from studyapp.models import Study
 from studyapp.studies import TEXT_FIELDS
@@ -28,11 +27,7 @@ from teaching.api import (
     parse_hyperparameters,
 )
 
-from .jobs import table_preset
-
-
-def tables_dir() -> Path:
-    return Path(settings.TABLES_DIR)
+from .jobs import table_preset, tables_dir
 
 
 def built_tables(root: Path | None = None) -> list[dict]:

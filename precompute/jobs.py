@@ -12,6 +12,7 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+from django.conf import settings
 from django.utils import timezone
 from kombu.exceptions import OperationalError
 from kombu.utils.url import maybe_sanitize_url
@@ -25,6 +26,12 @@ from .models import Job, Part
 from .tasks import fail_job
 
 log = logging.getLogger(__name__)
+
+
+def tables_dir() -> Path:
+    """Where tables live: settings.TABLES_DIR ($TABLES_DIR, default $VAR_DIR/tables), the one
+    definition the commands, the designer and the demo (studyapp/studies.py) all read."""
+    return Path(settings.TABLES_DIR)
 
 
 class BrokerUnavailable(RuntimeError):
