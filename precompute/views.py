@@ -19,6 +19,7 @@ from teaching.api import TableError
 from . import jobs
 from .design import StudyDesignForm, TableBuildForm, built_tables, tables_dir
 from .models import Job
+from .specs import SpecFormatError
 from .study import StudyJobError, create_study_job
 from .work import ChunkError
 
@@ -73,8 +74,8 @@ def job_retry(request, pk):
     job = get_object_or_404(Job, pk=pk)
     try:
         jobs.retry(job)
-    except jobs.BrokerUnavailable as exc:
-        messages.error(request, str(exc))
+    except (jobs.BrokerUnavailable, SpecFormatError) as exc:  # the job is marked failed with it too
+        messages.error(request, f"Job {job.pk} cannot be relaunched: {exc}")
     else:
         messages.success(request, f"Job {job.pk} relaunched: finished work is skipped.")
     return redirect(job.get_absolute_url())

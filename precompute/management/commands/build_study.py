@@ -71,4 +71,4 @@ class Command(BaseCommand):
             value = f" (τ/λ={r['value']:g})" if r.get("value") is not None else ""
             self.stdout.write(f"  {name:18s} {len(r['env_ids']):2d} examples{value}: {r['env_ids']}")
         self.stdout.write(f"  test set: {job.result.get('test_env_ids')}; study "
-                          f"{'open' if job.params['open'] else 'closed'} at /s/{opts['slug']}/")
+                          f"{'open' if job.params['open_when_done'] else 'closed'} at /s/{opts['slug']}/")
