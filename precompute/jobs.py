@@ -72,7 +72,7 @@ def create_table_job(preset: Preset, out, queue=None, start: bool = True) -> Job
     return job
 
 
-def launch(job: Job) -> Job:
+def launch(job: Job, by_watchdog: bool = False) -> Job:
     """(Re)send the job's canvas; units already recorded stay counted.  The stored spec is read
     in whatever format it was written (precompute/specs.py upgrades it, and stores it back in
     today's); one this code cannot read fails the job with a SpecFormatError saying why."""
@@ -93,6 +93,8 @@ def launch(job: Job) -> Job:
     job.chunks_computed = job.trajectories_computed = 0
     job.started_at, job.finished_at = timezone.now(), None
     job.attempts += 1
+    if not by_watchdog:  # a person's launch: the watchdog's count and alarm start again
+        job.watchdog_relaunches, job.alarm = 0, ""
     job.save()
     try:
         result = canvas.apply_async()

@@ -73,8 +73,10 @@ def _limit_numba_threads(**_):
 
 
 def mark_running(job_id):
+    """A task of the job starts: running, and a heartbeat the watchdog reads (precompute/watchdog.py)."""
     if job_id is None:
         return
+    Job.objects.filter(pk=job_id).update(heartbeat_at=timezone.now())
     Job.objects.filter(pk=job_id, status=Job.PENDING).update(status=Job.RUNNING)
 
 
@@ -166,6 +168,7 @@ def table_chunk(self, job_id, spec, index, env_ids):
 @shared_task(base=JobTask, bind=True, name="precompute.publish_table")
 def publish_table(self, job_id, spec):
     """Chord callback: check every chunk is stored, assemble, verify and publish the table."""
+    mark_running(job_id)
     info = work.publish(spec)
     finish_job(job_id, info, info["path"])
     return info
@@ -218,6 +221,7 @@ def study_finish(self, job_id, spec):
     """Chord callback: the test set (disjoint from every condition's training) and the simulated
     pilot (stored with the study), then open the study if asked."""
     spec = StudyJobSpec.from_json(spec)
+    mark_running(job_id)
     study = Study.objects.get(pk=spec.study_id)
     conditions = list(study.conditions.all())
     empty = [c.name for c in conditions if not c.training]
