@@ -145,11 +145,15 @@ def handle_lost(job: Job, silent: timedelta, queue: str) -> bool:
 
 def watch(app, stop: threading.Event) -> None:
     """The watchdog loop: one check every PRECOMPUTE_WATCHDOG_EVERY seconds until `stop`."""
+    last_error = None
     while not stop.wait(every_seconds()):
         try:
             check(app)
-        except Exception:  # never take the worker down over this; try again next round
-            log.exception("precompute: the job watchdog's check failed")
+            last_error = None
+        except Exception as exc:  # never take the worker down over this; try again next round
+            if repr(exc) != last_error:  # once per kind of trouble, not every round
+                log.exception("precompute: the job watchdog's check failed")
+            last_error = repr(exc)
         finally:
             close_old_connections()
 
