@@ -115,7 +115,7 @@ def test_a_study_task_refuses_a_table_other_than_the_verified_one(db, table_path
     (["--slug", "bad slug"], "'slug' may hold only letters, digits, - and _"),  # studyapp's rule, one place
 ])
 def test_build_study_rejects_bad_arguments(db, table_path, argv, message, settings, tmp_path):
-    settings.VAR_DIR = tmp_path
+    settings.TABLES_DIR = tmp_path  # where --preset looks
     if "--table" not in argv and "--preset" not in argv:
         argv = ["--table", str(table_path)] + argv
     with pytest.raises(CommandError) as info:
