@@ -19,8 +19,11 @@ browser-deps:
 serve-deps:
 	@command -v nginx >/dev/null 2>&1 || (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq nginx >/dev/null)
 
+# Where tables live: $TABLES_DIR, else $VAR_DIR/tables, else var/tables (config/settings.py's TABLES_DIR).
+TABLES_DIR ?= $(or $(VAR_DIR),var)/tables
+
 table: venv
-	$(PY) -m teaching build --preset demo --out var/tables/demo
+	$(PY) -m teaching build --preset demo --out $(TABLES_DIR)/demo
 
 # Serve the demo study locally on the embedded default (SQLite + filesystem broker, worker included).
 demo: venv table

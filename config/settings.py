@@ -159,6 +159,12 @@ CELERY_TASK_ALWAYS_EAGER = _flag("CELERY_TASK_ALWAYS_EAGER", "0")
 # with reject_on_worker_lost, set on their base class; docs/scaling.md).
 CELERY_WORKER_PREFETCH_MULTIPLIER = 1
 PRECOMPUTE_QUEUE = os.environ.get("PRECOMPUTE_QUEUE", "celery")
+# Each worker's job watchdog (precompute/watchdog.py): a job with no task started and no unit
+# finished for QUIET seconds, none held by a worker while one of its queue is idle, lost its
+# messages (a broker restarted empty): relaunched, or failed with an alarm.  Checked every EVERY
+# seconds (0: no watchdog), so a lost job is noticed within QUIET + EVERY seconds.
+PRECOMPUTE_WATCHDOG_QUIET = float(os.environ.get("PRECOMPUTE_WATCHDOG_QUIET", "60"))
+PRECOMPUTE_WATCHDOG_EVERY = float(os.environ.get("PRECOMPUTE_WATCHDOG_EVERY", "15"))
 # Where the study designer looks for built tables (each a directory with meta.json).
 TABLES_DIR = Path(os.environ.get("TABLES_DIR", VAR_DIR / "tables"))
 

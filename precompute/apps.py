@@ -8,4 +8,5 @@ class PrecomputeConfig(AppConfig):
 
     def ready(self):
         # connects worker_ready: a starting worker puts back the tasks of workers that died
-        from . import recovery  # noqa: F401, PLC0415  (Django's AppConfig.ready: registers the signal handlers)
+        # and starts the watchdog for jobs whose messages the broker lost
+        from . import recovery, watchdog  # noqa: F401, PLC0415  (AppConfig.ready: registers the signal handlers)

@@ -13,6 +13,7 @@ from celery import Signature, chord
 from django.conf import settings
 
 from . import work
+from .specs import StudyJobSpec
 from .tasks import publish_table, study_condition, study_finish, table_chunk
 
 
@@ -20,24 +21,29 @@ def default_queue() -> str:
     return getattr(settings, "PRECOMPUTE_QUEUE", None) or "celery"
 
 
-def sig(task, *args, queue: str, app=None) -> Signature:
-    """`task`(*args) on `queue`, sent through `app` (default: the task's own).  Immutable: a
-    chord's members and its callback take their arguments from the job, never from each other."""
-    return Signature(task.name, args=args, immutable=True, options={"queue": queue}, app=app or task.app)
+def sig(task, *, queue: str, app=None, **kwargs) -> Signature:
+    """`task`(**kwargs) on `queue`, sent through `app` (default: the task's own).  By keyword,
+    never by position: a task's arguments can be renamed or reordered without a stored or queued
+    message being decoded as something else.  Immutable: a chord's members and its callback take
+    their arguments from the job, never from each other."""
+    return Signature(task.name, kwargs=kwargs, immutable=True, options={"queue": queue}, app=app or task.app)
 
 
 def table_canvas(job_id, spec, queue=None, app=None):
     """chord(one table_chunk per chunk, publish_table).  `app`: send through another Celery
     app (e.g. one pointed at another broker) than the project's."""
     queue = queue or default_queue()
-    header = [sig(table_chunk, job_id, spec, i, ids, queue=queue, app=app)
+    header = [sig(table_chunk, job_id=job_id, spec=spec, index=i, env_ids=ids, queue=queue, app=app)
               for i, ids in enumerate(work.chunk_ids(spec))]
-    return chord(header, sig(publish_table, job_id, spec, queue=queue, app=app), app=app or table_chunk.app)
+    return chord(header, sig(publish_table, job_id=job_id, spec=spec, queue=queue, app=app),
+                 app=app or table_chunk.app)
 
 
-def study_canvas(job, queue=None):
-    """chord(one study_condition per condition, study_finish) for a study Job."""
+def study_canvas(job_id, spec: StudyJobSpec, queue=None):
+    """chord(one study_condition per condition, study_finish) for a study job's typed spec; the
+    tasks get the spec in its stored JSON form (precompute/specs.py reads it back)."""
     queue = queue or default_queue()
-    params = job.params
-    header = [sig(study_condition, job.pk, params, name, i, queue=queue) for i, name in enumerate(params["conditions"])]
-    return chord(header, sig(study_finish, job.pk, params, queue=queue), app=study_condition.app)
+    payload = spec.to_json()
+    header = [sig(study_condition, job_id=job_id, spec=payload, name=name, index=i, queue=queue)
+              for i, name in enumerate(spec.conditions)]
+    return chord(header, sig(study_finish, job_id=job_id, spec=payload, queue=queue), app=study_condition.app)

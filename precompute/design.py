@@ -10,7 +10,6 @@ import json
 from pathlib import Path
 
 from django import forms
-from django.conf import settings
 
 from studyapp.models import Study
 from studyapp.studies import TEXT_FIELDS
@@ -25,14 +24,11 @@ from teaching.api import (
     SAMPLERS,
     TableError,
     TrajectoryTable,
-    parse_hyperparameters,
+    has_hyperparameter,
+    make_model,
 )
 
-from .jobs import table_preset
-
-
-def tables_dir() -> Path:
-    return Path(settings.TABLES_DIR)
+from .jobs import table_preset, tables_dir
 
 
 def built_tables(root: Path | None = None) -> list[dict]:
@@ -53,30 +49,42 @@ def built_tables(root: Path | None = None) -> list[dict]:
     return out
 
 
+# The learner models whose τ (deterministic) or λ (probabilistic) the researcher may fix: one
+# optional field each, so an error is said under the model it is about.
+TUNABLE = [(m, "τ" if make_model(m).param == "tau" else "λ") for m in MODEL_NAMES if has_hyperparameter(make_model(m))]
+
+
+def fixed_field(model: str) -> str:
+    return "fixed_" + model.replace("-", "_")
+
+
 def table_label(t: dict) -> str:
     star = ", ".join(f"{v:g}" for v in t["theta_star"] or [])
     return f"{t['preset']}: {t['envs']:,} environments × {t['thetas']:,} θ, θ* = ({star}), hash {t['hash']}"
 
 
 class StudyDesignForm(forms.Form):
-    table = forms.ChoiceField(help_text="A table built with python -m teaching build, or by a table job.")
+    table = forms.ChoiceField(help_text="The trajectory table every condition and test is drawn from: one built "
+                                        "below, on the command line, or by a table job.")
     slug = forms.SlugField(max_length=50, help_text="The study's URL: /s/SLUG/.")
     name = forms.CharField(max_length=200, required=False, help_text="Title for researchers (default: the slug).")
-    conditions = forms.MultipleChoiceField(choices=[(c, c) for c in CONDITIONS], initial=list(CONDITIONS),
-                                           widget=forms.CheckboxSelectMultiple, required=False)
-    target_per_condition = forms.IntegerField(min_value=2, max_value=100_000, initial=30)
-    recruitment = forms.ChoiceField(choices=Study.RECRUITMENTS, initial=Study.LINK)
+    conditions = forms.MultipleChoiceField(
+        choices=[(c, c) for c in CONDITIONS], initial=list(CONDITIONS), widget=forms.CheckboxSelectMultiple,
+        required=False, help_text="The paper's conditions: each selects its own training examples for θ*.")
+    target_per_condition = forms.IntegerField(
+        min_value=2, max_value=100_000, initial=30,
+        help_text="Participants wanted per condition; new arrivals go to the condition furthest from it.")
+    recruitment = forms.ChoiceField(choices=Study.RECRUITMENTS, initial=Study.LINK,
+                                    help_text="How participants arrive: a plain link, Prolific or MTurk.")
     completion_code = forms.CharField(max_length=64, required=False,
                                       help_text="Prolific's completion code (required for Prolific).")
     approx_star = forms.ChoiceField(choices=[(m, m) for m in MODEL_NAMES], initial=APPROX_STAR,
-                                    label="approx* (the model coverage-approx* augments)")
+                                    label="approx* (the model coverage-approx* augments)",
+                                    help_text="The learner model whose examples coverage-approx* starts from.")
     seed = forms.IntegerField(min_value=0, initial=0, help_text="Seeds the random conditions and the test set.")
-    hyperparameters = forms.CharField(
-        required=False, label="Fixed τ / λ (optional)",
-        help_text="MODEL=VALUE, comma-separated, e.g. det-euclidean=0.5, prob-reward=2: these models use the "
-                  "value given instead of the paper's rule (the largest τ, or smallest λ, that still teaches θ*).")
     hand_picked_name = forms.SlugField(required=False, max_length=40, initial="hand-picked",
-                                       label="Hand-picked condition: name")
+                                       label="Hand-picked condition: name",
+                                       help_text="Its name in the study (letters, digits, - and _).")
     hand_picked_env_ids = forms.CharField(
         required=False, label="Hand-picked condition: environment ids",
         help_text="Optional: environment ids of the table, comma-separated, shown in this order as one more "
@@ -90,15 +98,32 @@ class StudyDesignForm(forms.Form):
     def __init__(self, *args, tables: list[dict], **kwargs):
         super().__init__(*args, **kwargs)
         self.fields["table"].choices = [(t["path"], table_label(t)) for t in tables]
+        for model, symbol in TUNABLE:
+            rule = "largest τ" if symbol == "τ" else "smallest λ"
+            self.fields[fixed_field(model)] = forms.CharField(
+                required=False, label=f"{model}: fixed {symbol} (optional)",
+                help_text=f"A number > 0 used instead of the paper's rule (the {rule} that still teaches θ*); "
+                          "empty: the rule.")
         # The consent page's texts, declared once on the Study model.
         self.fields.update(forms.fields_for_model(Study, fields=TEXT_FIELDS))
 
-    def clean_hyperparameters(self):
-        text = self.cleaned_data["hyperparameters"].strip()
-        try:
-            return parse_hyperparameters([t.strip() for t in text.split(",") if t.strip()])
-        except ValueError as exc:
-            raise forms.ValidationError(str(exc)) from None
+    def _fixed_values(self) -> dict[str, float]:
+        """{model: τ or λ} the researcher fixed; each bad value is said under its own field."""
+        fixed = {}
+        for model, symbol in TUNABLE:
+            text = (self.cleaned_data.get(fixed_field(model)) or "").strip()
+            if not text:
+                continue
+            try:
+                value = float(text)
+            except ValueError:
+                value = None
+            if value is None or not 0 < value < float("inf"):
+                self.add_error(fixed_field(model), f"{symbol} of {model} must be a number greater than 0 "
+                                                   f"(e.g. 0.5), not {text!r}; leave it empty for the paper's rule.")
+            else:
+                fixed[model] = value
+        return fixed
 
     def clean_hand_picked_env_ids(self):
         text = self.cleaned_data["hand_picked_env_ids"].strip()
@@ -115,6 +140,7 @@ class StudyDesignForm(forms.Form):
 
     def clean(self):
         data = super().clean()
+        data["hyperparameters"] = self._fixed_values()
         if data.get("recruitment") == Study.PROLIFIC and not (data.get("completion_code") or "").strip():
             self.add_error("completion_code", "Prolific only accepts its study's own completion code: enter it.")
         ids = data.get("hand_picked_env_ids")
@@ -144,22 +170,44 @@ class StudyDesignForm(forms.Form):
 class TableBuildForm(forms.Form):
     """A table to build on the workers: a preset, optionally changed (its own name then)."""
     preset = forms.ChoiceField(choices=[(n, f"{n}: {p.n_envs:,} environments × {p.n_thetas:,} θ")
-                                        for n, p in PRESETS.items()], initial="demo")
-    envs = forms.IntegerField(required=False, min_value=4, max_value=N_ENVIRONMENTS, label="Environments (optional)")
-    thetas = forms.IntegerField(required=False, min_value=2, label="Number of θ (optional)")
+                                        for n, p in PRESETS.items()], initial="demo",
+                               help_text="The size to start from; the fields below change it (the table then "
+                                         "gets a name of its own).")
+    envs = forms.IntegerField(required=False, min_value=4, max_value=N_ENVIRONMENTS, label="Environments (optional)",
+                              error_messages={"min_value": "A table needs at least 4 environments.",
+                                              "max_value": f"There are only {N_ENVIRONMENTS:,} environments."},
+                              help_text=f"How many driving scenes, 4 to {N_ENVIRONMENTS:,} (empty: the preset's).")
+    thetas = forms.IntegerField(required=False, min_value=2, label="Number of θ (optional)",
+                                error_messages={"min_value": "A table needs at least 2 θ: θ* and one other."},
+                                help_text="How many candidate objectives, θ* included, at least 2 (empty: the "
+                                          "preset's).")
     theta_star = forms.CharField(required=False, label="θ* (optional)",
                                  help_text="5 negative weights, v1,v2,v3,v4,v5 (default: the paper's).")
-    sampler = forms.ChoiceField(required=False, choices=[("", "the preset's")] + [(s, s) for s in SAMPLERS])
-    seed = forms.IntegerField(required=False, min_value=0, label="Seed (optional)")
+    sampler = forms.ChoiceField(required=False, choices=[("", "the preset's")] + [(s, s) for s in SAMPLERS],
+                                help_text="How the other θ are drawn around θ*.")
+    seed = forms.IntegerField(required=False, min_value=0, label="Seed (optional)",
+                              error_messages={"min_value": "A seed is a whole number, 0 or more."},
+                              help_text="Seeds the θ and environment samples (empty: the preset's).")
+
+    OVERRIDES = ("envs", "thetas", "seed", "sampler", "theta_star")
 
     def clean(self):
+        """Every bad value is said under its own field, all at once (each override is checked alone
+        by jobs.table_preset, the command's rules)."""
         data = super().clean()
-        if self.errors:
+        if not data.get("preset"):
             return data
-        try:
-            data["built"] = table_preset(data["preset"], envs=data.get("envs"), thetas=data.get("thetas"),
-                                         seed=data.get("seed"), sampler=data.get("sampler") or None,
-                                         theta_star=data.get("theta_star") or None)
-        except ValueError as exc:
-            raise forms.ValidationError(str(exc)) from None
+        overrides = {k: data.get(k) if data.get(k) not in ("", None) else None for k in self.OVERRIDES}
+        for name, value in overrides.items():
+            if value is None or name in self.errors:
+                continue
+            try:
+                table_preset(data["preset"], **{name: value})
+            except ValueError as exc:
+                self.add_error(name, str(exc).removeprefix("theta*: ").replace("theta*", "θ*"))
+        if not self.errors:
+            try:
+                data["built"] = table_preset(data["preset"], **overrides)
+            except ValueError as exc:
+                self.add_error(None, str(exc))
         return data

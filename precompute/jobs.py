@@ -12,6 +12,7 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+from django.conf import settings
 from django.utils import timezone
 from kombu.exceptions import OperationalError
 from kombu.utils.url import maybe_sanitize_url
@@ -22,9 +23,16 @@ from teaching.api import N_ENVIRONMENTS, SAMPLERS, Preset, customised, get_prese
 from . import work
 from .canvases import default_queue, study_canvas, table_canvas
 from .models import Job, Part
+from .specs import SpecFormatError, TableJobSpec, read_spec
 from .tasks import fail_job
 
 log = logging.getLogger(__name__)
+
+
+def tables_dir() -> Path:
+    """Where tables live: settings.TABLES_DIR ($TABLES_DIR, default $VAR_DIR/tables), the one
+    definition the commands, the designer and the demo (studyapp/studies.py) all read."""
+    return Path(settings.TABLES_DIR)
 
 
 class BrokerUnavailable(RuntimeError):
@@ -57,21 +65,25 @@ def create_table_job(preset: Preset, out, queue=None, start: bool = True) -> Job
     out = Path(out)
     work.check_writable(out.resolve())
     spec = work.table_spec(preset, out)
-    job = Job.objects.create(kind=Job.TABLE, params={"preset": spec["preset"], "out": spec["out"], "queue": queue},
-                             chunks_total=spec["n_chunks"])
+    params = TableJobSpec(preset=spec["preset"], out=spec["out"], queue=queue).to_json()
+    job = Job.objects.create(kind=Job.TABLE, params=params, chunks_total=spec["n_chunks"])
     if start:
         launch(job)
     return job
 
 
-def launch(job: Job) -> Job:
-    """(Re)send the job's canvas; units already recorded stay counted."""
-    queue = job.params.get("queue")
-    if job.kind == Job.TABLE:
-        spec = work.table_spec(Preset(**job.params["preset"]), job.params["out"])
-        canvas = table_canvas(job.pk, spec, queue)
-    else:
-        canvas = study_canvas(job, queue)
+def launch(job: Job, by_watchdog: bool = False) -> Job:
+    """(Re)send the job's canvas; units already recorded stay counted.  The stored spec is read
+    in whatever format it was written (precompute/specs.py upgrades it, and stores it back in
+    today's); one this code cannot read fails the job with a SpecFormatError saying why."""
+    try:
+        spec = read_spec(job.kind, job.params)
+        canvas = _canvas(job.pk, spec)
+    except SpecFormatError as exc:
+        fail_job(job.pk, exc, where="stored spec: ")
+        job.refresh_from_db()
+        raise
+    job.params = spec.to_json()
     # Parts recorded by earlier launches stay counted; a chunk stored without its Part row
     # (another job built it, or a worker died between storing and recording) is counted
     # when this launch's task finds it stored.
@@ -81,6 +93,8 @@ def launch(job: Job) -> Job:
     job.chunks_computed = job.trajectories_computed = 0
     job.started_at, job.finished_at = timezone.now(), None
     job.attempts += 1
+    if not by_watchdog:  # a person's launch: the watchdog's count and alarm start again
+        job.watchdog_relaunches, job.alarm = 0, ""
     job.save()
     try:
         result = canvas.apply_async()
@@ -95,6 +109,16 @@ def launch(job: Job) -> Job:
     log.info("precompute: job %s (%s) launched, attempt %d, %d of %d parts already done", job.pk, job.label,
              job.attempts, stored, job.chunks_total)
     return job
+
+
+def _canvas(job_id, spec):
+    if isinstance(spec, TableJobSpec):
+        try:
+            preset = Preset(**spec.preset)
+        except TypeError as exc:  # a preset field renamed or removed since the job was stored
+            raise SpecFormatError(f"table job spec: its preset does not fit teaching's Preset: {exc}") from None
+        return table_canvas(job_id, work.table_spec(preset, spec.out), spec.queue)
+    return study_canvas(job_id, spec, spec.queue)
 
 
 def retry(job: Job) -> Job:

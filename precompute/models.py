@@ -36,6 +36,10 @@ class Job(models.Model):
     result_path = models.CharField(max_length=500, blank=True)
     result = models.JSONField(default=dict, blank=True)
     canvas_id = models.CharField(max_length=64, blank=True)
+    heartbeat_at = models.DateTimeField(null=True, blank=True, help_text="Last time a task of it started.")
+    alarm = models.TextField(blank=True, help_text="What the watchdog did: tasks lost by the broker (watchdog.py).")
+    watchdog_relaunches = models.PositiveIntegerField(default=0, help_text="Relaunches by the watchdog since the "
+                                                      "last launch by a person.")
 
     class Meta:
         ordering = ["-created_at"]

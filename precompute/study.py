@@ -20,6 +20,7 @@ from teaching.api import APPROX_STAR, CONDITIONS, TrajectoryTable, make_model
 
 from .jobs import launch
 from .models import Job
+from .specs import StudyJobSpec
 
 
 class StudyJobError(ValueError):
@@ -79,10 +80,11 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int =
                               target_per_condition=target_per_condition, **study_fields)
         except SpecError as exc:
             raise StudyJobError(str(exc)) from None
-        job = Job.objects.create(kind=Job.STUDY, chunks_total=len(conditions) + 1, params={
-            "study_id": study.pk, "slug": slug, "table": str(table_path), "content_hash": source["content_hash"],
-            "seed": seed, "approx_star": approx_star, "hyperparameters": hyperparameters, "conditions": conditions,
-            "open": open_when_done, "queue": queue, "hand_picked": hand_picked, "test_set_thresholds": thresholds})
+        spec = StudyJobSpec(study_id=study.pk, slug=slug, table=str(table_path), content_hash=source["content_hash"],
+                            seed=seed, approx_star=approx_star, hyperparameters=hyperparameters,
+                            conditions=conditions, open_when_done=open_when_done, queue=queue,
+                            hand_picked=hand_picked, test_set_thresholds=thresholds)
+        job = Job.objects.create(kind=Job.STUDY, chunks_total=len(conditions) + 1, params=spec.to_json())
     if start:
         launch(job)
     return job

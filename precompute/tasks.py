@@ -21,6 +21,7 @@ to the test database); the chunk files and build.log carry the state.
 """
 from __future__ import annotations
 
+import inspect
 import logging
 import os
 import time
@@ -42,6 +43,7 @@ from teaching.api import TrajectoryTable, select_test_set
 from . import work
 from .models import Job, Part
 from .sequences import condition_sequence, pilot_matrix
+from .specs import StudyJobSpec
 
 log = logging.getLogger(__name__)
 
@@ -71,8 +73,10 @@ def _limit_numba_threads(**_):
 
 
 def mark_running(job_id):
+    """A task of the job starts: running, and a heartbeat the watchdog reads (precompute/watchdog.py)."""
     if job_id is None:
         return
+    Job.objects.filter(pk=job_id).update(heartbeat_at=timezone.now())
     Job.objects.filter(pk=job_id, status=Job.PENDING).update(status=Job.RUNNING)
 
 
@@ -111,17 +115,26 @@ def fail_job(job_id, exc, detail="", where=""):
     log.warning("precompute: job %s failed: %s%s: %s", job_id, where, type(exc).__name__, exc)
 
 
-def _where(task_name, args) -> str:
+def task_arguments(task, args, kwargs) -> dict:
+    """A task's arguments by name, bound to its own signature (today's canvases send them all by
+    keyword; a message sent by position by older code is named the same way)."""
+    try:
+        return dict(inspect.signature(task.run).bind_partial(*(args or ()), **(kwargs or {})).arguments)
+    except (TypeError, ValueError):
+        return dict(kwargs or {})
+
+
+def _where(task_name, arguments: dict) -> str:
     """Which unit of the job failed, for the error line."""
     try:
         if task_name == "precompute.table_chunk":
-            index, env_ids = args[2], args[3]
-            return f"chunk {index} (environments {env_ids[0]}..{env_ids[-1]}): "
+            env_ids = arguments["env_ids"]
+            return f"chunk {arguments['index']} (environments {env_ids[0]}..{env_ids[-1]}): "
         if task_name == "precompute.study_condition":
-            return f"condition {args[2]}: "
+            return f"condition {arguments['name']}: "
         if task_name in ("precompute.publish_table", "precompute.study_finish"):
             return "final step: "
-    except (IndexError, TypeError):
+    except (KeyError, IndexError, TypeError):
         pass
     return ""
 
@@ -133,9 +146,10 @@ class JobTask(Task):
     reject_on_worker_lost = True
 
     def on_failure(self, exc, task_id, args, kwargs, einfo):
-        job_id = kwargs.get("job_id", args[0] if args else None)
+        arguments = task_arguments(self, args, kwargs)
+        job_id = arguments.get("job_id")
         try:
-            fail_job(job_id, exc, str(einfo) if einfo else traceback.format_exc(), _where(self.name, args))
+            fail_job(job_id, exc, str(einfo) if einfo else traceback.format_exc(), _where(self.name, arguments))
         except Exception:  # the failure must still reach the result backend
             log.exception("could not record the failure of job %s", job_id)
 
@@ -154,68 +168,70 @@ def table_chunk(self, job_id, spec, index, env_ids):
 @shared_task(base=JobTask, bind=True, name="precompute.publish_table")
 def publish_table(self, job_id, spec):
     """Chord callback: check every chunk is stored, assemble, verify and publish the table."""
+    mark_running(job_id)
     info = work.publish(spec)
     finish_job(job_id, info, info["path"])
     return info
 
 
 # --- study sequences -----------------------------------------------------------------
-def _table(params):
+def _table(spec: StudyJobSpec):
     """The job's table.  create_study_job verified its content hash once and put it in the
-    params; a task only checks that meta.json still records that hash (a table rebuilt or
+    spec; a task only checks that meta.json still records that hash (a table rebuilt or
     replaced since is refused) instead of re-reading every byte: 2.65 GB per task at paper
-    size.  A job created before params carried the hash verifies the table as it always did."""
-    expected = params.get("content_hash")
-    if expected is None:
-        return TrajectoryTable.load(params["table"])
-    return TrajectoryTable.load(params["table"], verify=False, expected_hash=expected)
+    size.  A job created before specs carried the hash verifies the table as it always did."""
+    if spec.content_hash is None:
+        return TrajectoryTable.load(spec.table)
+    return TrajectoryTable.load(spec.table, verify=False, expected_hash=spec.content_hash)
 
 
 @shared_task(base=JobTask, bind=True, name="precompute.study_condition")
-def study_condition(self, job_id, params, name, index):
-    """One condition: its teaching sequence, frozen on the study's Condition (training JSON)."""
+def study_condition(self, job_id, spec, name, index):
+    """One condition: its teaching sequence, frozen on the study's Condition (training JSON).
+    `spec`: the job's StudyJobSpec in its stored JSON form, any version."""
+    spec = StudyJobSpec.from_json(spec)
     mark_running(job_id)
-    condition = Condition.objects.get(study_id=params["study_id"], name=name)
+    condition = Condition.objects.get(study_id=spec.study_id, name=name)
     if condition.training and Part.objects.filter(job_id=job_id, key=name).exists():
         return {"condition": name, "computed": False}  # a re-delivery: already stored
     t0 = time.perf_counter()
-    table = _table(params)
-    hand_picked = params.get("hand_picked") or {}
-    if name in hand_picked:  # the researcher's own list: shown as given, no selection
-        result = {"condition": name, "env_ids": hand_picked[name], "model": "hand-picked", "value": None}
+    table = _table(spec)
+    if name in spec.hand_picked:  # the researcher's own list: shown as given, no selection
+        result = {"condition": name, "env_ids": spec.hand_picked[name], "model": "hand-picked", "value": None}
     else:
-        result = condition_sequence(table, name, seed=params["seed"], approx_star=params["approx_star"],
-                                    hyperparameters=params["hyperparameters"])
+        result = condition_sequence(table, name, seed=spec.seed, approx_star=spec.approx_star,
+                                    hyperparameters=spec.hyperparameters)
     freeze_condition(condition, training_from_table(table, result["env_ids"]))
     record_part(job_id, name, index, True, time.perf_counter() - t0, result=result)
     return {"condition": name, "computed": True, "env_ids": result["env_ids"]}
 
 
-def study_pilot(table, conditions, params, job_id) -> dict:
+def study_pilot(table, conditions, spec: StudyJobSpec, job_id) -> dict:
     """The study's simulated pilot: the ideal-user matrix for exactly its conditions.  Each user's
     τ / λ is the one its condition's task chose (or the researcher fixed), so only a model no
     condition used is swept again."""
     chosen = {r["model"]: r["value"] for r in Part.objects.filter(job_id=job_id).values_list("result", flat=True)
               if r.get("model") and r.get("value") is not None}
     return pilot_matrix(table, {c.name: c.env_ids for c in conditions},
-                        {**chosen, **params.get("hyperparameters", {})})
+                        {**chosen, **spec.hyperparameters})
 
 
 @shared_task(base=JobTask, bind=True, name="precompute.study_finish")
-def study_finish(self, job_id, params):
+def study_finish(self, job_id, spec):
     """Chord callback: the test set (disjoint from every condition's training) and the simulated
     pilot (stored with the study), then open the study if asked."""
-    study = Study.objects.get(pk=params["study_id"])
+    spec = StudyJobSpec.from_json(spec)
+    mark_running(job_id)
+    study = Study.objects.get(pk=spec.study_id)
     conditions = list(study.conditions.all())
     empty = [c.name for c in conditions if not c.training]
     if empty:
         raise RuntimeError(f"conditions without a training sequence: {', '.join(empty)}; retry the job")
     t0 = time.perf_counter()
-    table = _table(params)
-    tests = select_test_set(table, [c.env_ids for c in conditions], seed=params["seed"],
-                            **params.get("test_set_thresholds", {}))
-    store_pilot(study, study_pilot(table, conditions, params, job_id))
-    freeze_test_set(study, test_set_from_table(table, tests), open_study=params.get("open", True))
+    table = _table(spec)
+    tests = select_test_set(table, [c.env_ids for c in conditions], seed=spec.seed, **spec.test_set_thresholds)
+    store_pilot(study, study_pilot(table, conditions, spec, job_id))
+    freeze_test_set(study, test_set_from_table(table, tests), open_study=spec.open_when_done)
     record_part(job_id, "test-set", len(conditions), True, time.perf_counter() - t0,
                 result={"env_ids": [t["env_id"] for t in tests]})
     summary = {"study_slug": study.slug, "study_id": study.pk, "test_env_ids": [t["env_id"] for t in tests],

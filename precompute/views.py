@@ -19,6 +19,7 @@ from teaching.api import TableError
 from . import jobs
 from .design import StudyDesignForm, TableBuildForm, built_tables, tables_dir
 from .models import Job
+from .specs import SpecFormatError
 from .study import StudyJobError, create_study_job
 from .work import ChunkError
 
@@ -43,7 +44,7 @@ def job_context(job: Job) -> dict:
         "throughput": round(job.throughput, 1) if job.throughput else None,
         "eta": jobs.format_seconds(job.eta_seconds) if job.eta_seconds is not None else None,
         "elapsed": jobs.format_seconds(job.elapsed) if job.elapsed is not None else None,
-        "error": job.error, "finished": job.finished, "attempts": job.attempts,
+        "error": job.error, "alarm": job.alarm, "finished": job.finished, "attempts": job.attempts,
         "result_path": job.result_path, "result": job.result,
         "stalled_minutes": int(stalled.total_seconds() // 60) if (stalled := stalled_for(job)) else None,
     }
@@ -73,8 +74,8 @@ def job_retry(request, pk):
     job = get_object_or_404(Job, pk=pk)
     try:
         jobs.retry(job)
-    except jobs.BrokerUnavailable as exc:
-        messages.error(request, str(exc))
+    except (jobs.BrokerUnavailable, SpecFormatError) as exc:  # the job is marked failed with it too
+        messages.error(request, f"Job {job.pk} cannot be relaunched: {exc}")
     else:
         messages.success(request, f"Job {job.pk} relaunched: finished work is skipped.")
     return redirect(job.get_absolute_url())
@@ -110,6 +111,8 @@ def design_context(**ctx) -> dict:
     ctx.setdefault("form", StudyDesignForm(tables=ctx["tables"]))
     ctx.setdefault("table_form", TableBuildForm())
     ctx["table_jobs"] = Job.objects.filter(kind=Job.TABLE).exclude(status__in=(Job.SUCCEEDED,))[:10]
+    # study jobs the watchdog relaunched or failed (precompute/watchdog.py): the researcher must see it
+    ctx["alarmed_jobs"] = Job.objects.exclude(kind=Job.TABLE).exclude(alarm="").exclude(status=Job.SUCCEEDED)[:10]
     ctx["tables_dir"] = tables_dir()
     return ctx
 

@@ -13,4 +13,4 @@ $PY manage.py migrate --verbosity 0
 worker=$!
 stop_worker() { kill -TERM "$worker" 2>/dev/null && wait "$worker" 2>/dev/null || true; }
 trap stop_worker EXIT INT TERM
-$PY manage.py setup_demo --serve --demo-login --addrport "$ADDR" --table var/tables/demo
+$PY manage.py setup_demo --serve --demo-login --addrport "$ADDR"  # the table: $DEMO_TABLE or $TABLES_DIR/demo

@@ -33,6 +33,7 @@ import os
 from pathlib import Path
 
 import numpy as np
+from django.conf import settings
 from django.core.exceptions import ValidationError
 from django.core.validators import validate_slug
 from django.db import transaction
@@ -47,7 +48,7 @@ from .models import Condition, Study
 PAPER_CONDITIONS = list(CONDITIONS)
 DEMO_SLUG = "demo"
 DEMO_TABLE_ENV = "DEMO_TABLE"
-DEMO_TABLE_DEFAULT = "var/tables/demo"  # where `python -m teaching build --preset demo` writes
+DEMO_TABLE_NAME = "demo"  # the demo table is settings.TABLES_DIR/demo, where `make demo` writes it
 
 
 # The per-study texts of the consent page a spec may set (models.Study; defaults there).
@@ -332,7 +333,9 @@ def table_spec(table_path, *, slug: str, sequences: dict | None = None, seed: in
 
 
 def demo_table_path(table_path=None) -> Path:
-    return Path(table_path or os.environ.get(DEMO_TABLE_ENV, DEMO_TABLE_DEFAULT))
+    """`table_path`, else $DEMO_TABLE, else the demo table under settings.TABLES_DIR (the one place
+    that says where tables live: the designer and precompute_table use it too)."""
+    return Path(table_path or os.environ.get(DEMO_TABLE_ENV) or Path(settings.TABLES_DIR) / DEMO_TABLE_NAME)
 
 
 def demo_is_stale(study: Study, table_path=None) -> bool:
@@ -351,7 +354,7 @@ def demo_is_stale(study: Study, table_path=None) -> bool:
 
 def demo_spec(table_path=None) -> dict:
     """The demo study: all of the paper's conditions, selected on the demo table (`table_path`,
-    $DEMO_TABLE or var/tables/demo) by the real pipeline.  No table: a SpecError saying how to
+    $DEMO_TABLE or TABLES_DIR/demo) by the real pipeline.  No table: a SpecError saying how to
     build one."""
     table_path = demo_table_path(table_path)
     if not (table_path / "meta.json").exists():

@@ -3,11 +3,14 @@ identity, chooses conditions and settings, and "Build" selects every condition a
 on a worker; the study comes out closed, for previewing before it opens."""
 from __future__ import annotations
 
+import html
 import json
+import re
 
 import pytest
 
 from precompute import jobs
+from precompute.design import TUNABLE, StudyDesignForm, TableBuildForm, fixed_field
 from precompute.models import Job
 from studyapp.models import Study
 from teaching.api import TrajectoryTable, select_test_set
@@ -63,7 +66,7 @@ def test_design_with_fixed_tau_a_hand_picked_condition_thresholds_and_texts(inpr
     the consent page's texts."""
     table = TrajectoryTable.load(tables)
     picked = [int(e) for e in table.env_ids[[7, 3, 250]]]
-    form = dict(FORM, slug="own", conditions=["det-euclidean"], hyperparameters="det-euclidean=0.5",
+    form = dict(FORM, slug="own", conditions=["det-euclidean"], fixed_det_euclidean="0.5",
                 hand_picked_name="mine", hand_picked_env_ids=", ".join(map(str, picked)), min_regret="0.002",
                 min_distance="0.5", consent_text="Our own consent text.", estimated_minutes="9",
                 payment="£1.50", contact="lab@example.org", ethics_reference="ERB-42", table=str(tables))
@@ -102,8 +105,9 @@ def test_design_form_errors(db, tables, staff_client, make_study):
         (dict(FORM, slug="bad slug"), "Enter a valid"),
         (dict(FORM, completion_code=""), "Prolific only accepts its study"),
         (dict(FORM, conditions=[]), "Choose at least one condition, or give a hand-picked one."),
-        (dict(FORM, hyperparameters="det-euclidean=abc"), "det-euclidean=abc"),
-        (dict(FORM, hyperparameters="nobody=1"), "nobody"),
+        (dict(FORM, fixed_det_euclidean="abc"), "τ of det-euclidean must be a number greater than 0 (e.g. 0.5), "
+                                                 "not 'abc'; leave it empty for the paper's rule."),
+        (dict(FORM, fixed_prob_reward="-2"), "λ of prob-reward must be a number greater than 0"),
         (dict(FORM, hand_picked_env_ids="12, x"), "Give whole environment ids"),
         (dict(FORM, hand_picked_env_ids="999999"), "Not in this table: 999999"),
         (dict(FORM, hand_picked_env_ids="1", hand_picked_name="random"), "already one of the chosen conditions"),
@@ -115,7 +119,9 @@ def test_design_form_errors(db, tables, staff_client, make_study):
     for data, message in cases:
         data.setdefault("table", str(tables))
         r = staff_client.post("/precompute/design/", data)
-        assert r.status_code == 200 and message in r.content.decode(), message
+        page = r.content.decode()
+        assert r.status_code == 200 and html.escape(message) in page, message
+        assert "--hyper" not in page and "MODEL=VALUE" not in page  # the researcher's words, not a command line
     assert not Job.objects.exists() and not Study.objects.filter(slug="designed").exists()
 
 
@@ -154,9 +160,10 @@ def test_build_a_table_from_the_designer_with_progress(inprocess_worker, transac
 
 @pytest.mark.parametrize("data, message", [
     ({"preset": "huge"}, "Select a valid choice"),
-    ({"preset": "tiny", "envs": "2"}, "greater than or equal to 4"),
-    ({"preset": "tiny", "thetas": "1"}, "greater than or equal to 2"),
-    ({"preset": "tiny", "theta_star": "-1,-1"}, "theta*: theta* needs one weight per feature (5), got 2"),
+    ({"preset": "tiny", "envs": "2"}, "A table needs at least 4 environments."),
+    ({"preset": "tiny", "envs": "99999"}, "There are only 21,216 environments."),
+    ({"preset": "tiny", "thetas": "1"}, "A table needs at least 2 θ: θ* and one other."),
+    ({"preset": "tiny", "theta_star": "-1,-1"}, "θ* needs one weight per feature (5), got 2"),
     ({"preset": "tiny", "theta_star": "-1,-1,-1,-1,1"}, "must be a negative number"),
     ({"preset": "tiny", "sampler": "gauss"}, "Select a valid choice"),
 ])
@@ -171,3 +178,36 @@ def test_table_builds_are_for_researchers_only(db, client):
     r = client.post("/precompute/design/table/", {"preset": "tiny"})
     assert r.status_code == 302 and r["Location"].startswith("/login/")
     assert not Job.objects.exists()
+
+
+def field_block(page: str, name: str) -> str:
+    """The rendered <div class="field"> of field `name` (label, input, help text, its errors)."""
+    blocks = [b for b in page.split('<div class="field">') if f'id="id_{name}"' in b or f'for="id_{name}"' in b]
+    assert len(blocks) == 1, name
+    return blocks[0]
+
+
+def test_the_table_form_shows_every_error_under_its_field(db, settings, tmp_path, staff_client):
+    settings.TABLES_DIR = tmp_path
+    r = staff_client.post("/precompute/design/table/", {"preset": "tiny", "envs": "2", "thetas": "1",
+                                                         "theta_star": "-1,-1", "seed": "-3"})
+    page = r.content.decode()
+    assert r.status_code == 400 and set(r.context["table_form"].errors) == {"envs", "thetas", "theta_star", "seed"}
+    for name, message in [("envs", "at least 4 environments"), ("thetas", "at least 2 θ"),
+                          ("theta_star", "θ* needs one weight per feature (5), got 2"),
+                          ("seed", "0 or more")]:
+        assert message in field_block(page, name), name
+    assert not Job.objects.exists()
+
+
+def test_every_designer_field_has_help_and_each_model_its_own_tau_or_lambda(db, settings, tmp_path, staff_client):
+    for form in (StudyDesignForm(tables=[]), TableBuildForm()):
+        missing = [name for name, field in form.fields.items() if not field.help_text]
+        assert not missing, f"{type(form).__name__}: no help text for {missing}"
+    assert [m for m, _ in TUNABLE] == ["det-reward", "det-euclidean", "prob-reward", "prob-euclidean"]
+    assert dict(TUNABLE)["det-euclidean"] == "τ" and dict(TUNABLE)["prob-reward"] == "λ"
+    settings.TABLES_DIR = tmp_path
+    page = staff_client.get("/precompute/design/").content.decode()
+    assert re.search(r"Seeds the θ and environment samples", page)
+    assert StudyDesignForm(tables=[]).fields[fixed_field("prob-euclidean")].label == \
+        "prob-euclidean: fixed λ (optional)"

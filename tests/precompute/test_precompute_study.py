@@ -90,8 +90,8 @@ def test_a_study_job_verifies_its_table_once(db, table_path, monkeypatch):
     assert len(hashed) == 1
     assert job.params["content_hash"] == Study.objects.get(slug="once").source["content_hash"]
     for i, name in enumerate(job.params["conditions"]):
-        study_condition(job.pk, job.params, name, i)
-    study_finish(job.pk, job.params)
+        study_condition(job_id=job.pk, spec=job.params, name=name, index=i)
+    study_finish(job_id=job.pk, spec=job.params)
     assert len(hashed) == 1  # no task re-read the table's bytes
     assert len(Study.objects.get(slug="once").test_set) == 6
 
@@ -99,7 +99,7 @@ def test_a_study_job_verifies_its_table_once(db, table_path, monkeypatch):
 def test_a_study_task_refuses_a_table_other_than_the_verified_one(db, table_path):
     job = create_study_job(table_path, "other", conditions=["exact"], start=False)
     with pytest.raises(TableError, match="is not the one that was verified"):
-        study_condition(job.pk, dict(job.params, content_hash="0" * 64), "exact", 0)
+        study_condition(job_id=job.pk, spec=dict(job.params, content_hash="0" * 64), name="exact", index=0)
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -115,7 +115,7 @@ def test_a_study_task_refuses_a_table_other_than_the_verified_one(db, table_path
     (["--slug", "bad slug"], "'slug' may hold only letters, digits, - and _"),  # studyapp's rule, one place
 ])
 def test_build_study_rejects_bad_arguments(db, table_path, argv, message, settings, tmp_path):
-    settings.VAR_DIR = tmp_path
+    settings.TABLES_DIR = tmp_path  # where --preset looks
     if "--table" not in argv and "--preset" not in argv:
         argv = ["--table", str(table_path)] + argv
     with pytest.raises(CommandError) as info:

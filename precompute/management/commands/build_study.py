@@ -12,7 +12,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from django.conf import settings
 from django.core.management.base import BaseCommand, CommandError
 
 from precompute import jobs
@@ -29,7 +28,7 @@ class Command(BaseCommand):
         src = parser.add_mutually_exclusive_group(required=True)
         src.add_argument("--table", help="trajectory table directory")
         src.add_argument("--preset", help="use the table precompute_table built for this preset "
-                                          "($VAR_DIR/tables/<preset>)")
+                                          "($TABLES_DIR/<preset>)")
         parser.add_argument("--slug", required=True, help="the study's slug (its URL)")
         parser.add_argument("--name", help="the study's title (default: the slug)")
         parser.add_argument("--seed", type=int, default=0, help="seed of the random conditions and the test set")
@@ -46,7 +45,7 @@ class Command(BaseCommand):
         parser.add_argument("--timeout", type=float, help="with --wait: give up after this many seconds")
 
     def handle(self, *args, **opts):
-        table = Path(opts["table"]) if opts["table"] else Path(settings.VAR_DIR) / "tables" / opts["preset"]
+        table = Path(opts["table"]) if opts["table"] else jobs.tables_dir() / opts["preset"]
         try:
             hyper = parse_hyperparameters(opts["hyper"])
         except ValueError as exc:
@@ -72,4 +71,4 @@ class Command(BaseCommand):
             value = f" (τ/λ={r['value']:g})" if r.get("value") is not None else ""
             self.stdout.write(f"  {name:18s} {len(r['env_ids']):2d} examples{value}: {r['env_ids']}")
         self.stdout.write(f"  test set: {job.result.get('test_env_ids')}; study "
-                          f"{'open' if job.params['open'] else 'closed'} at /s/{opts['slug']}/")
+                          f"{'open' if job.params['open_when_done'] else 'closed'} at /s/{opts['slug']}/")

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from django.conf import settings
 from django.core.management.base import BaseCommand, CommandError
 
 from precompute import jobs
@@ -47,7 +46,7 @@ class Command(BaseCommand):
 
     def add_arguments(self, parser):
         parser.add_argument("--preset", required=True, help=f"one of {', '.join(PRESETS)}")
-        parser.add_argument("--out", help="table directory (default: $VAR_DIR/tables/<preset>); on a shared "
+        parser.add_argument("--out", help="table directory (default: $TABLES_DIR/<preset>); on a shared "
                                           "filesystem for several machines")
         parser.add_argument("--envs", type=positive("--envs"), help="override the number of environments")
         parser.add_argument("--thetas", type=positive("--thetas"), help="override the number of thetas")
@@ -63,7 +62,7 @@ class Command(BaseCommand):
     def handle(self, *args, **opts):
         preset = resolve_preset(opts["preset"], opts["envs"], opts["thetas"], opts["seed"], opts["sampler"],
                                 opts["chunk_size"], opts["theta_star"])
-        out = Path(opts["out"] or Path(settings.VAR_DIR) / "tables" / preset.name)
+        out = Path(opts["out"] or jobs.tables_dir() / preset.name)
         try:
             job = jobs.create_table_job(preset, out, queue=opts["queue"])
         except (ChunkError, jobs.BrokerUnavailable) as exc:

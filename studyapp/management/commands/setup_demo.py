@@ -32,7 +32,7 @@ class Command(BaseCommand):
         parser.add_argument("--replace", action="store_true",
                             help="Rebuild the demo study (if it has no participants).")
         parser.add_argument("--table", default=None, help="Trajectory table directory (default $DEMO_TABLE or "
-                            "var/tables/demo; `make demo` builds it).")
+                            "$TABLES_DIR/demo; `make demo` builds it).")
 
     def handle(self, serve, addrport, replace, table, demo_login, **options):
         call_command("migrate", interactive=False, verbosity=0)

@@ -1,0 +1,116 @@
+"""What a job stores to be (re)launched: one frozen, typed spec per kind of job, in a versioned
+JSON format (``Job.params``), and the reader that upgrades every older stored format.
+
+A job can be retried weeks after it was created, by code that has changed since.  So the stored
+form carries ``version``; reading it upgrades older versions step by step (``_UPGRADES``) and
+then refuses any key it does not know and any required key that is missing, with a message
+naming them, instead of launching a silently different job.
+
+Version history:
+  1  (no "version" key; until issue 22) table: preset, out, queue (absent in the oldest rows);
+     study: study_id, slug, table, content_hash, seed, approx_star, hyperparameters,
+     conditions, open, queue, hand_picked, test_set_thresholds (the last three and
+     content_hash absent in the oldest rows).
+  2  "version": 2; study: "open" is called "open_when_done" (create_study_job's word).
+
+Changing the format: add the field here, bump SPEC_VERSION, and add an upgrade from the last
+version that fills it (a test keeps a row of every older version as a literal:
+tests/precompute/test_job_specs.py).
+"""
+from __future__ import annotations
+
+from dataclasses import MISSING, asdict, dataclass, field, fields
+
+SPEC_VERSION = 2
+
+
+class SpecFormatError(ValueError):
+    """A stored job spec this code cannot read: unknown or missing keys, or a newer version."""
+
+
+def _v1_to_v2(kind: str, data: dict) -> dict:
+    data = dict(data)
+    if kind == "table":
+        data.setdefault("queue", None)
+    else:
+        if "open" in data:
+            data["open_when_done"] = data.pop("open")
+        # the oldest rows were written before these existed; the tasks treated them as absent
+        data.setdefault("open_when_done", True)
+        data.setdefault("queue", None)
+        data.setdefault("content_hash", None)
+        data.setdefault("hand_picked", {})
+        data.setdefault("test_set_thresholds", {})
+    return data
+
+
+_UPGRADES = {1: _v1_to_v2}  # version -> function(kind, data) giving version + 1
+
+
+@dataclass(frozen=True)
+class _Spec:
+    KIND = ""
+
+    def to_json(self) -> dict:
+        return {"version": SPEC_VERSION, **asdict(self)}
+
+    @classmethod
+    def from_json(cls, data: dict):
+        """The spec stored as `data`, in this or any older version (upgraded)."""
+        if not isinstance(data, dict):
+            raise SpecFormatError(f"a {cls.KIND} job's spec must be a JSON object, got {type(data).__name__}")
+        data = dict(data)
+        version = data.pop("version", 1)
+        if not isinstance(version, int) or not 1 <= version <= SPEC_VERSION:
+            raise SpecFormatError(f"{cls.KIND} job spec version {version!r}: this code reads versions 1 to "
+                                  f"{SPEC_VERSION} (was it written by newer code?)")
+        while version < SPEC_VERSION:
+            data = _UPGRADES[version](cls.KIND, data)
+            version += 1
+        names = {f.name for f in fields(cls)}
+        required = {f.name for f in fields(cls) if f.default is MISSING and f.default_factory is MISSING}
+        unknown, missing = sorted(set(data) - names), sorted(required - set(data))
+        if unknown or missing:
+            raise SpecFormatError(f"{cls.KIND} job spec (version {SPEC_VERSION}): "
+                                  + "; ".join(p for p in (unknown and f"unknown key(s) {', '.join(unknown)}",
+                                                          missing and f"missing key(s) {', '.join(missing)}") if p))
+        return cls(**data)
+
+
+
+@dataclass(frozen=True)
+class TableJobSpec(_Spec):
+    """A trajectory table: `preset` (teaching's Preset fields) built in directory `out`."""
+    KIND = "table"
+    preset: dict
+    out: str
+    queue: str | None = None
+
+
+@dataclass(frozen=True)
+class StudyJobSpec(_Spec):
+    """A study's conditions and test set selected on `table` (precompute/study.py)."""
+    KIND = "study"
+    study_id: int
+    slug: str
+    table: str
+    seed: int
+    approx_star: str
+    conditions: list
+    content_hash: str | None = None  # None: a row from before the hash was stored; the table is verified
+    hyperparameters: dict = field(default_factory=dict)
+    hand_picked: dict = field(default_factory=dict)
+    test_set_thresholds: dict = field(default_factory=dict)
+    open_when_done: bool = True
+    queue: str | None = None
+
+
+SPECS = {TableJobSpec.KIND: TableJobSpec, StudyJobSpec.KIND: StudyJobSpec}
+
+
+def read_spec(kind: str, data: dict) -> TableJobSpec | StudyJobSpec:
+    """The typed spec of a job of `kind` stored as `data` (Job.params), upgraded to this version."""
+    try:
+        return SPECS[kind].from_json(data)
+    except KeyError:
+        raise SpecFormatError(f"unknown kind of job {kind!r}") from None
