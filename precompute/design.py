@@ -11,6 +11,7 @@ from pathlib import Path
 
 from django import forms
 
+from studyapp.analysis.conditions import aliased_pairs
 from studyapp.models import Study
 from studyapp.studies import TEXT_FIELDS
 from teaching.api import (
@@ -147,8 +148,14 @@ class StudyDesignForm(forms.Form):
         if ids:
             name = data.get("hand_picked_name") or "hand-picked"
             data["hand_picked_name"] = name
-            if name in (data.get("conditions") or []):
+            chosen = list(data.get("conditions") or [])
+            aliased = aliased_pairs([*chosen, name])
+            if name in chosen:
                 self.add_error("hand_picked_name", f"{name!r} is already one of the chosen conditions.")
+            elif aliased:  # the analysis would pool the two as one group
+                first = aliased[0][0]
+                self.add_error("hand_picked_name", f"{name!r} is another name of the chosen condition {first!r}: "
+                                                   "choose a name of its own.")
             elif data.get("table"):
                 self._check_in_table(data["table"], ids)
         elif not data.get("conditions") and "conditions" not in self.errors:

@@ -18,6 +18,7 @@ from django.db import IntegrityError, transaction
 from django.db.models import Count, Q
 from django.utils import timezone
 
+from .analysis.conditions import aliased_pairs
 from .models import Condition, Participant, Study
 
 logger = logging.getLogger(__name__)
@@ -51,6 +52,10 @@ def pick_condition(study: Study) -> Condition:
     conditions = list(counted_conditions(study))
     if not conditions:
         raise ValueError(f"study {study.slug} has no conditions")
+    if aliased_pairs([c.name for c in conditions]):
+        # two names of one condition (a study stored before creating one refused that): its
+        # participants would be one group to the analysis, so it takes no one (Study.opening_problems)
+        raise StudyClosed(study.slug)
     fill = {c.pk: c.n / max(c.target_count, 1) for c in conditions}
     least = min(fill.values())
     return _rng.choice([c for c in conditions if fill[c.pk] == least])

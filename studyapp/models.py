@@ -84,10 +84,25 @@ class Study(models.Model):
         if (self.source or {}).get("kind") != "table":  # e.g. an early version's synthesised placeholder
             return ["Its trajectories do not come from a trajectory table, so they say nothing about "
                     "theta*: rebuild the study from a table (create_study or the study designer)."]
+        aliased = self.aliased_conditions()
+        if aliased:
+            return [f"{aliased}. The analysis would pool them as one group, so this study takes no participants "
+                    "and is not analysed: rebuild it (create_study or the study designer)."]
         if self.recruitment == self.PROLIFIC and not self.completion_code.strip():
             return ["Prolific only accepts its study's own completion code: set the completion code "
                     "(Prolific's study page, 'Completion paths') before opening."]
         return []
+
+    def aliased_conditions(self) -> str:
+        """Which of this study's condition names are one condition ("" if none): creating a study
+        refuses that, but one stored before could have them (analysis/conditions.py)."""
+        from .analysis.conditions import ConditionError, check_distinct_conditions  # noqa: PLC0415 (pandas)
+
+        try:
+            check_distinct_conditions(self.conditions.values_list("name", flat=True))
+        except ConditionError as exc:
+            return str(exc)
+        return ""
 
     def clean(self):
         problems = self.opening_problems() if self.is_open else []

@@ -12,12 +12,9 @@
 """
 from __future__ import annotations
 
-import warnings
-
 from django import forms
-from statsmodels.tools.sm_exceptions import ConvergenceWarning
 
-from .analysis.power import PAPER_EFFECTS, power_table
+from .analysis.power import ALPHA_MAX, ALPHA_MIN, D_MAX, D_MIN, PAPER_EFFECTS, POWER_MAX, power_problem, power_table
 from .models import Study
 
 PILOT_KEY = "pilot"
@@ -70,17 +67,27 @@ def _bounded(label: str, low: float, high: float, example: str) -> dict:
 
 
 class PowerForm(forms.Form):
-    """α, power and the researcher's effect size (a GET form on the study's page).  The bounds keep
-    statsmodels' solver inside the range where it finds an answer."""
+    """α, power and the researcher's effect size (a GET form on the study's page), within the bounds
+    analysis/power.py sets for the `power` command too: inside them a sample size always exists."""
 
-    alpha = forms.FloatField(label="α (two-sided)", initial=0.05, min_value=0.001, max_value=0.2,
-                             error_messages=_bounded("α", 0.001, 0.2, "0.05"))
-    power = forms.FloatField(label="Power", initial=0.8, min_value=0.5, max_value=0.99,
-                             error_messages=_bounded("Power", 0.5, 0.99, "0.8"))
+    alpha = forms.FloatField(label="α (two-sided)", initial=0.05, min_value=ALPHA_MIN, max_value=ALPHA_MAX,
+                             error_messages=_bounded("α", ALPHA_MIN, ALPHA_MAX, "0.05"))
+    power = forms.FloatField(label="Power", initial=0.8, max_value=POWER_MAX,  # and above α: clean()
+                             error_messages={**_bounded("Power", 0, POWER_MAX, "0.8"),
+                                             "max_value": f"Power must be at most {POWER_MAX:g}."})
     d = forms.FloatField(label="Your effect size (Cohen's d)", initial=round(DEFAULT_EFFECT.d, 3),
-                         min_value=0.05, max_value=2.0, error_messages=_bounded("The effect size d", 0.05, 2, "0.5"),
+                         min_value=D_MIN, max_value=D_MAX,
+                         error_messages=_bounded("The effect size d", D_MIN, D_MAX, "0.5"),
                          help_text=f"Default: the paper's {DEFAULT_EFFECT.comparison} (Welch p = {DEFAULT_EFFECT.p:g} "
                                    f"with {DEFAULT_EFFECT.n1} + {DEFAULT_EFFECT.n2} participants).")
+
+    def clean(self):
+        data = super().clean()
+        alpha, power = data.get("alpha"), data.get("power")
+        if alpha is not None and power is not None and power_problem(power, alpha):
+            self.add_error("power", f"Power must be above α ({alpha:g}): at a vanishing effect a test's power "
+                                    "is α itself, so no number of participants reaches less.")
+        return data
 
 
 def smallest_target(study: Study) -> int:
@@ -90,9 +97,7 @@ def smallest_target(study: Study) -> int:
 
 def power_rows(*, alpha: float, power: float, d: float, n: int) -> list[dict]:
     """power_table's rows (the paper's effects, then `d`), each saying whether n per condition is enough."""
-    with warnings.catch_warnings():  # no solution is a nan, reported as a ValueError below
-        warnings.simplefilter("ignore", ConvergenceWarning)
-        rows = power_table(alpha=alpha, power=power, n_per_condition=n, effects={YOUR_EFFECT: d})
+    rows = power_table(alpha=alpha, power=power, n_per_condition=n, effects={YOUR_EFFECT: d})
     for row in rows:
         row["reached"] = n >= row["needed"]
     return rows
@@ -107,12 +112,8 @@ def power_context(study: Study, query) -> dict:
         return {"power_form": form, "power_rows": None}
     values = form.cleaned_data if sent else {name: f.initial for name, f in form.fields.items()}
     n = smallest_target(study)
-    try:
-        rows = power_rows(alpha=values["alpha"], power=values["power"], d=values["d"], n=n)
-    except ValueError:  # statsmodels found no n (an effect so large that 2 per condition suffice)
-        form.add_error(None, "statsmodels' solver finds no sample size for this α, power and effect size: "
-                             "choose a smaller effect size or a higher power.")
-        return {"power_form": form, "power_rows": None}
+    # within the form's bounds a sample size always exists (analysis/power.py)
+    rows = power_rows(alpha=values["alpha"], power=values["power"], d=values["d"], n=n)
     return {"power_form": form, "power_rows": rows, "power_n": n, "power_values": values,
             "power_reached": all(r["reached"] for r in rows)}
 

@@ -41,6 +41,7 @@ from django.db import transaction
 from teaching.api import CONDITIONS, TableError, TrajectoryTable, build_sequences, select_test_set
 
 from . import trajectories
+from .analysis.conditions import ConditionError, check_distinct_conditions
 from .models import Condition, Study
 
 # The paper's nine conditions (Secs. "User Study" and "User Study on Coverage"), spelled as the
@@ -74,6 +75,10 @@ def _check_slug(slug) -> None:
 def _check_condition_names(names) -> None:
     if not names or any(not n for n in names) or len(set(names)) != len(names):
         raise SpecError("every condition needs a unique, non-empty 'name'")
+    try:  # two spellings of one condition would be one group to the analysis (analysis/conditions.py)
+        check_distinct_conditions(names)
+    except ConditionError as exc:
+        raise SpecError(str(exc)) from None
 
 
 def check_spec_shape(spec) -> None:

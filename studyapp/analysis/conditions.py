@@ -57,8 +57,39 @@ def canonical(condition) -> str:
     return ALIASES.get(name, name) if name in ALIASES or name in PAPER_CONDITIONS else str(condition)
 
 
+class ConditionError(ValueError):
+    """Condition names (of a study, or named for a comparison) that cannot be used as they are;
+    the message names them."""
+
+
+def aliased_pairs(names) -> list[tuple[str, str, str]]:
+    """(first, other, canonical) for each name in `names` that is another spelling of an earlier
+    one: "det-euclid" after "det-euclidean", "prob-strategy" after "det-strategy" (the same learner,
+    so the same sequence), "Exact" after "exact".  Repeats of one exact name are not aliases."""
+    first: dict[str, str] = {}
+    pairs = []
+    for name in names:
+        c = canonical(name)
+        if first.setdefault(c, name) != name:
+            pairs.append((first[c], name, c))
+    return pairs
+
+
+def check_distinct_conditions(names) -> None:
+    """A ConditionError naming every pair of `names` that denote one condition: the analysis keys
+    groups by the canonical name, so two of them would be merged into one group (their
+    participants pooled, their training sequences counted together)."""
+    pairs = aliased_pairs(names)
+    if pairs:
+        raise ConditionError("; ".join(f"conditions {a!r} and {b!r} are one condition ({c})" for a, b, c in pairs)
+                             + ": a study may name each condition once; keep one of the names")
+
+
 def canonicalize(df: pd.DataFrame) -> pd.DataFrame:
+    """`df` with its conditions under their canonical names; a ConditionError if two of its names
+    are one condition (they would become one group)."""
     if "condition" in df.columns and len(df):
+        check_distinct_conditions(df["condition"].dropna().unique())
         df = df.copy()
         df["condition"] = df["condition"].map(canonical)
     return df

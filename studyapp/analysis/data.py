@@ -74,15 +74,37 @@ def frames(study: Study, include_incomplete: bool = False) -> tuple[pd.DataFrame
             training_frame(study))
 
 
-def analyze_study(study: Study, include_incomplete: bool = False, extra_comparisons=(),
-                  approx_star: str = S.APPROX_STAR_DEFAULT) -> S.Analysis:
-    participants, answers, training = frames(study, include_incomplete)
-    names = set(S.canonical(c) for c in training["condition"])
+def condition_names(study: Study) -> list[str]:
+    """The study's condition names, canonical; a ConditionError if two of them are one condition
+    (a study stored before creating one refused that: it is not analysed, docs/analysis.md)."""
+    names = list(Condition.objects.filter(study=study).order_by("position", "pk").values_list("name", flat=True))
+    S.check_distinct_conditions(names)
+    return [S.canonical(n) for n in names]
+
+
+def study_approx_star(names, approx_star: str = S.APPROX_STAR_DEFAULT) -> str:
+    """approx* for a study with these (canonical) condition names: `approx_star`, unless the study
+    lacks it and calls a condition "approx*" (or "approx-star")."""
     star = S.canonical(approx_star)
-    if star not in names:  # e.g. a study naming it "approx*"
-        for alt in ("approx*", "approx-star"):
+    if star not in names:
+        for alt in S.APPROX_STAR_NAMES:
             if alt in names:
                 star = alt
+    return star
+
+
+def planned_comparisons(study: Study) -> list[tuple[str, str]]:
+    """The planned comparisons of `study` (its approx* resolved): what a named one may not repeat."""
+    return S.default_comparisons(study_approx_star(condition_names(study)))
+
+
+def analyze_study(study: Study, include_incomplete: bool = False, extra_comparisons=(),
+                  approx_star: str = S.APPROX_STAR_DEFAULT) -> S.Analysis:
+    """The analysis of `study`; a ConditionError (a ValueError, with a message for the researcher)
+    for aliased condition names, an approx* that is no approximate model, or named comparisons
+    that are not new pairs of the study's conditions."""
+    star = study_approx_star(condition_names(study), approx_star)
+    participants, answers, training = frames(study, include_incomplete)
     return S.analyze(participants, answers, training, extra_comparisons=extra_comparisons, approx_star=star)
 
 

@@ -76,7 +76,14 @@ import pandas as pd
 # The implementation lives in the modules below; this module stays the public entry point, so
 # ``from studyapp.analysis import stats as S; S.<name>`` keeps working for every name it had.
 from .anova import AnovaResult, coverage_model_anova, coverage_model_frame, distance_determinism_anovas, factorial_anova
-from .comparisons import default_comparisons, welch, welch_tests
+from .comparisons import (
+    APPROX_STAR_NAMES,
+    check_approx_star,
+    comparison_family,
+    default_comparisons,
+    welch,
+    welch_tests,
+)
 from .conditions import (
     ALIASES,
     APPROX_CONDITIONS,
@@ -88,8 +95,11 @@ from .conditions import (
     MIN_PEARSON,
     MIN_PER_GROUP,
     PAPER_CONDITIONS,
+    ConditionError,
+    aliased_pairs,
     canonical,
     canonicalize,
+    check_distinct_conditions,
     cluster_names,
     condition_factors,
     label,
@@ -110,7 +120,8 @@ from .tables import condition_summary, included, participant_table
 __all__ = [
     # conditions
     "ALIASES", "APPROX_CONDITIONS", "APPROX_STAR_DEFAULT", "COVERAGE_APPROX", "COVERAGE_RANDOM",
-    "DETERMINISM", "DISTANCES", "MIN_PEARSON", "MIN_PER_GROUP", "PAPER_CONDITIONS", "canonical",
+    "DETERMINISM", "DISTANCES", "MIN_PEARSON", "MIN_PER_GROUP", "PAPER_CONDITIONS", "ConditionError",
+    "aliased_pairs", "canonical", "check_distinct_conditions",
     "canonicalize", "cluster_names", "condition_factors", "label", "n_clusters", "partner_cluster",
     # tables
     "condition_summary", "included", "participant_table",
@@ -118,7 +129,7 @@ __all__ = [
     "AnovaResult", "coverage_model_anova", "coverage_model_frame", "distance_determinism_anovas",
     "factorial_anova",
     # comparisons
-    "default_comparisons", "welch", "welch_tests",
+    "APPROX_STAR_NAMES", "check_approx_star", "comparison_family", "default_comparisons", "welch", "welch_tests",
     # correlations
     "Correlation", "correlation", "correlations", "examples_per_cluster", "helpful_examples",
     "pearson", "per_test_frame",
@@ -154,9 +165,14 @@ class Analysis:
 def analyze(participants: pd.DataFrame, answers: pd.DataFrame, training: pd.DataFrame,
             comparisons=None, extra_comparisons=(), approx_star: str = APPROX_STAR_DEFAULT) -> Analysis:
     """Run the whole analysis.  ``extra_comparisons``: pairs a researcher names, added to the
-    planned ones (and to the Holm family)."""
+    planned ones (and to the Holm family).  A ConditionError (a ValueError) when two condition
+    names are one condition, approx* is not an approximate model, or the comparisons are not
+    distinct pairs of the study's conditions (comparisons.comparison_family)."""
     participants, training = canonicalize(participants), canonicalize(training)
-    approx_star = canonical(approx_star)
+    approx_star = check_approx_star(approx_star)
+    known = set(participants.get("condition", [])) | set(training.get("condition", []))
+    planned = list(comparisons) if comparisons is not None else default_comparisons(approx_star)
+    comps = comparison_family(planned, extra_comparisons, known)  # ConditionError before any work
     table = participant_table(participants, answers, training, approx_star)
     conditions = list(dict.fromkeys([*[c for c in PAPER_CONDITIONS if c in set(table["condition"])],
                                      *sorted(set(table["condition"]) | set(training.get("condition", [])))]))
@@ -164,10 +180,6 @@ def analyze(participants: pd.DataFrame, answers: pd.DataFrame, training: pd.Data
     messages = []
     anovas = distance_determinism_anovas(table) + [coverage_model_anova(table, approx_star)]
     messages += [r.message for r in anovas if not r.ok]
-    comps = list(comparisons) if comparisons is not None else default_comparisons(approx_star)
-    comps = [(canonical(a), canonical(b)) for a, b in comps]
-    comps += [(canonical(a), canonical(b)) for a, b in extra_comparisons
-              if (canonical(a), canonical(b)) not in comps]
     w, msgs = welch_tests(table, comps, approx_star)
     messages += msgs
     cors = correlations(table, answers, training)

@@ -12,13 +12,16 @@ URL (add to ``studyapp/urls.py``)::
 ``GET .../analysis/`` is the full page; ``?fragment=1`` returns only the fragment, with an ETag
 (the fingerprint): the page polls it every ``REFRESH_SECONDS`` with ``If-None-Match`` and swaps the
 fragment in when the server answers 200 instead of 304.  ``?compare=a:b`` (repeatable) adds
-researcher-named Welch comparisons; ``?incomplete=1`` also analyses unfinished participants.
+researcher-named Welch comparisons (a pair of the study's conditions not compared already: else
+a 400 with the message, ComparisonsForm); ``?incomplete=1`` also analyses unfinished participants.
+A study whose conditions include two names of one condition is not analysed: the page says why.
 """
 from __future__ import annotations
 
 import hashlib
 import logging
 
+from django import forms
 from django.core.cache import cache
 from django.http import HttpResponse
 from django.shortcuts import get_object_or_404, render
@@ -28,19 +31,35 @@ from ..access import researcher_required
 from ..models import Study
 from . import data as D
 from . import report as R
+from . import stats as S
 
 logger = logging.getLogger("studyapp.analysis")
 REFRESH_SECONDS = 20
 CACHE_SECONDS = 60 * 60 * 24
 
 
-def parse_comparisons(values) -> list[tuple[str, str]]:
-    out = []
-    for v in values:
-        a, sep, b = str(v).partition(":")
-        if sep and a.strip() and b.strip():
-            out.append((a.strip(), b.strip()))
-    return out
+class ComparisonsForm(forms.Form):
+    """The page's ``?compare=a:b`` (repeatable): each a pair of the study's conditions that is not
+    compared already (comparisons.comparison_family); anything else is a message, never dropped."""
+
+    compare = forms.Field(required=False, widget=forms.MultipleHiddenInput)
+
+    def __init__(self, data, *, conditions: list[str], planned: list[tuple[str, str]]):
+        super().__init__(data)
+        self.conditions, self.planned = conditions, planned
+
+    def clean_compare(self) -> list[tuple[str, str]]:
+        pairs = []
+        for value in self.cleaned_data["compare"] or []:
+            a, sep, b = str(value).partition(":")
+            if not (sep and a.strip() and b.strip()):
+                raise forms.ValidationError(f"compare={value!r}: name two conditions as condition-a:condition-b.")
+            pairs.append((a.strip(), b.strip()))
+        try:
+            S.comparison_family(self.planned, pairs, set(self.conditions))
+        except S.ConditionError as exc:
+            raise forms.ValidationError(f"compare: {exc}.") from None
+        return pairs
 
 
 def _key(study, fp, extra, incomplete):
@@ -75,7 +94,15 @@ def _cached(call, *args):
 @researcher_required
 def report(request, slug):
     study = get_object_or_404(Study, slug=slug)
-    extra = parse_comparisons(request.GET.getlist("compare"))
+    try:  # a study stored with two names for one condition is not analysed (docs/analysis.md)
+        conditions = D.condition_names(study)
+    except S.ConditionError as exc:
+        return _refused(request, study, [f"This study cannot be analysed: {exc}."], status=200)
+    form = ComparisonsForm(request.GET, conditions=conditions,
+                           planned=S.default_comparisons(D.study_approx_star(conditions)))
+    if not form.is_valid():
+        return _refused(request, study, form.errors["compare"], status=400, bad_compare=True)
+    extra = form.cleaned_data["compare"]
     incomplete = request.GET.get("incomplete") == "1"
     fp = D.fingerprint(study, incomplete)
     etag = '"' + hashlib.sha1(_key(study, fp, extra, incomplete).encode()).hexdigest()[:20] + '"'
@@ -91,3 +118,11 @@ def report(request, slug):
     return render(request, "studyapp/analysis/dashboard.html", {
         "study": study, "fragment": render_report(study, extra, incomplete, fp), "etag": etag,
         "refresh_seconds": REFRESH_SECONDS})
+
+
+def _refused(request, study, errors, status, bad_compare=False):
+    """The page (or the polled fragment) with the messages instead of the report."""
+    context = {"study": study, "errors": list(errors), "bad_compare": bad_compare, "refresh_seconds": REFRESH_SECONDS}
+    if request.GET.get("fragment") == "1":
+        return render(request, "studyapp/analysis/_errors.html", context, status=status)
+    return render(request, "studyapp/analysis/dashboard.html", context, status=status)

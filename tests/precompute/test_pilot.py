@@ -107,21 +107,31 @@ def test_the_power_form_defaults_to_the_papers_effect(study, staff_client):
 
 
 @pytest.mark.parametrize("query, message", [
-    ({"alpha": "2"}, "α must lie between 0.001 and 0.2."),
-    ({"alpha": "0"}, "α must lie between 0.001 and 0.2."),
+    ({"alpha": "2"}, "α must lie between 0.0001 and 0.5."),
+    ({"alpha": "0"}, "α must lie between 0.0001 and 0.5."),
     ({"power": "abc"}, "Power must be a number, e.g. 0.8."),
-    ({"power": "1"}, "Power must lie between 0.5 and 0.99."),
-    ({"d": "-1"}, "The effect size d must lie between 0.05 and 2."),
+    ({"power": "1"}, "Power must be at most 0.999."),
+    ({"alpha": "0.5", "power": "0.3"}, "Power must be above α (0.5)"),  # issue 22: no n reaches less than α
+    ({"d": "-1"}, "The effect size d must lie between 0.05 and 5."),
+    ({"d": "1e-9"}, "The effect size d must lie between 0.05 and 5."),
     ({"d": "nan"}, "The effect size d must be a number"),
     ({"d": "inf"}, "The effect size d must be a number"),
     ({"alpha": ""}, "α is needed, e.g. 0.05."),
-    ({"alpha": "0.2", "power": "0.5", "d": "2"}, "solver finds no sample size"),  # 2 per condition already do
 ])
 def test_bad_power_input_gives_a_message_not_a_500(study, staff_client, query, message):
     full = {"alpha": "0.05", "power": "0.8", "d": "0.5", **query}
     r, page = power_page(staff_client, study.slug, **full)
     assert message.replace("'", "&#x27;") in page, page[page.index('id="pilot"'):][:3000]
     assert r.context["power_rows"] is None and 'id="power-table"' not in page
+
+
+def test_two_per_condition_when_they_already_reach_the_power(study, staff_client):
+    # statsmodels' solver has no answer here (NaN: the page used to say "finds no sample size");
+    # 2 per condition is the answer, checked by hand: their power already exceeds .5
+    r, page = power_page(staff_client, study.slug, alpha="0.2", power="0.5", d="2")
+    mine = r.context["power_rows"][-1]
+    assert mine["needed"] == 2 and TTestIndPower().power(2.0, nobs1=2, alpha=0.2) >= 0.5
+    assert 'id="power-table"' in page
 
 
 def test_the_pilot_is_for_researchers_only(study, client):

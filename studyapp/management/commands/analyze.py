@@ -24,9 +24,10 @@ class Command(BaseCommand):
         parser.add_argument("study", help="study slug (or numeric id)")
         parser.add_argument("--out", help="output folder (default: var/analysis/<slug>)")
         parser.add_argument("--compare", action="append", default=[], metavar="A:B",
-                            help="extra Welch comparison of condition A vs B (repeatable; joins the Holm family)")
+                            help="extra Welch comparison of condition A vs B (repeatable; joins the Holm family): "
+                                 "two of the study's conditions, a pair not already compared")
         parser.add_argument("--approx-star", default=S.APPROX_STAR_DEFAULT,
-                            help="the condition that is approx* (default %(default)s)")
+                            help="the approximate model that is approx* (default %(default)s)")
         parser.add_argument("--include-incomplete", action="store_true",
                             help="also analyse participants who did not finish")
 
@@ -44,8 +45,11 @@ class Command(BaseCommand):
             if not sep or not a or not b:
                 raise CommandError(f"--compare takes A:B, got {c!r}")
             pairs.append((a, b))
-        analysis = D.analyze_study(obj, include_incomplete=include_incomplete, extra_comparisons=pairs,
-                                   approx_star=approx_star)
+        try:
+            analysis = D.analyze_study(obj, include_incomplete=include_incomplete, extra_comparisons=pairs,
+                                       approx_star=approx_star)
+        except S.ConditionError as exc:  # aliased conditions, an unknown approx*, a repeated or unknown pair
+            raise CommandError(str(exc)) from None
         folder = Path(out) if out else Path(getattr(settings, "VAR_DIR", Path("var"))) / "analysis" / obj.slug
         written = R.write_report(analysis, folder, title=f"Analysis of {obj.name}")
         self.stdout.write(f"Study {obj.slug}: " + R.headline(analysis)[0])

@@ -6,7 +6,16 @@
 """
 from django.core.management.base import BaseCommand, CommandError
 
-from studyapp.analysis.power import power_table
+from studyapp.analysis.power import (
+    ALPHA_MAX,
+    ALPHA_MIN,
+    D_MAX,
+    D_MIN,
+    POWER_MAX,
+    effect_problem,
+    input_problems,
+    power_table,
+)
 from studyapp.models import Study
 
 
@@ -15,9 +24,12 @@ def parse_effect(text: str) -> tuple[str, float]:
     try:
         d = float(value)
     except ValueError:
-        d = float("nan")
-    if not sep or not name.strip() or not d > 0:
-        raise CommandError(f"--effect expects NAME=D with a positive Cohen's d, got {text!r}")
+        d = None
+    if not sep or not name.strip() or d is None:
+        raise CommandError(f"--effect expects NAME=D with D a Cohen's d, got {text!r}")
+    problem = effect_problem(d)
+    if problem:
+        raise CommandError(f"--effect {text}: {problem}")
     return name.strip(), d
 
 
@@ -25,14 +37,19 @@ class Command(BaseCommand):
     help = "Participants per condition needed to detect the paper's effects (and yours), Welch/t-test power."
 
     def add_arguments(self, parser):
-        parser.add_argument("--alpha", type=float, default=0.05)
-        parser.add_argument("--power", type=float, default=0.8)
+        parser.add_argument("--alpha", type=float, default=0.05,
+                            help=f"two-sided, {ALPHA_MIN:g} to {ALPHA_MAX:g} (default %(default)s)")
+        parser.add_argument("--power", type=float, default=0.8,
+                            help=f"above alpha, at most {POWER_MAX:g} (default %(default)s)")
         parser.add_argument("--effect", action="append", default=[], metavar="NAME=D",
-                            help="another effect to plan for, as Cohen's d (repeatable)")
+                            help=f"another effect to plan for, as Cohen's d from {D_MIN:g} to {D_MAX:g} (repeatable)")
         parser.add_argument("--n", type=int, help="also print the power at this many participants per condition")
         parser.add_argument("--study", help="use this study's target per condition as --n")
 
     def handle(self, alpha, power, effect, n, study, **options):
+        problems = input_problems(alpha=alpha, power=power)
+        if problems:
+            raise CommandError("; ".join(problems))
         effects = dict(parse_effect(e) for e in effect)
         if study:
             found = Study.objects.filter(slug=study).first()
