@@ -42,23 +42,27 @@ EXP_MAX = 709.0  # exp(x) for x above this overflows float64's range: returned a
 EXP_MIN = -745.0  # ... and below this underflows to 0
 
 
+# Taylor coefficients, highest power first (Horner): e**r to r**14/14!, sin r / r and (1 - cos r) / r**2
+# in powers of r**2 to r**18/19! and r**18/20!, and the atanh series (1/3, 1/5, ... 1/23) in s**2
+EXP_COEFFS = tuple(1.0 / math.factorial(n) for n in range(14, 1, -1))
+SIN_COEFFS = tuple((-1.0) ** n / math.factorial(2 * n + 1) for n in range(9, 0, -1))
+COS_COEFFS = tuple((-1.0) ** (n + 1) / math.factorial(2 * n + 2) for n in range(9, 0, -1))
+ATANH_COEFFS = tuple(1.0 / (2 * n + 1) for n in range(11, 0, -1))
+
+
+@njit(cache=True)
+def _horner(coeffs, x):
+    """coeffs[0] x^(n-1) + ... + coeffs[n-1], evaluated in this one fixed order."""
+    p = coeffs[0]
+    for i in range(1, len(coeffs)):
+        p = p * x + coeffs[i]
+    return p
+
+
 @njit(cache=True)
 def _exp_reduced(r):
     """e**r for |r| <= ln2/2 (Taylor to r**14/14!: truncation below 1e-17 relative)."""
-    p = 1.0 / 87178291200.0
-    p = p * r + 1.0 / 6227020800.0
-    p = p * r + 1.0 / 479001600.0
-    p = p * r + 1.0 / 39916800.0
-    p = p * r + 1.0 / 3628800.0
-    p = p * r + 1.0 / 362880.0
-    p = p * r + 1.0 / 40320.0
-    p = p * r + 1.0 / 5040.0
-    p = p * r + 1.0 / 720.0
-    p = p * r + 1.0 / 120.0
-    p = p * r + 1.0 / 24.0
-    p = p * r + 1.0 / 6.0
-    p = p * r + 0.5
-    return 1.0 + (r + r * r * p)
+    return 1.0 + (r + r * r * _horner(EXP_COEFFS, r))
 
 
 @njit(cache=True)
@@ -79,33 +83,15 @@ def exp(x):
 def _sin_reduced(r):
     """sin r for |r| <= pi/4 (Taylor to r**19/19!)."""
     r2 = r * r
-    p = -1.0 / 121645100408832000.0
-    p = p * r2 + 1.0 / 355687428096000.0
-    p = p * r2 - 1.0 / 1307674368000.0
-    p = p * r2 + 1.0 / 6227020800.0
-    p = p * r2 - 1.0 / 39916800.0
-    p = p * r2 + 1.0 / 362880.0
-    p = p * r2 - 1.0 / 5040.0
-    p = p * r2 + 1.0 / 120.0
-    p = p * r2 - 1.0 / 6.0
-    return r + r * r2 * p
+    return r + r * r2 * _horner(SIN_COEFFS, r2)
 
 
 @njit(cache=True)
 def _cos_reduced(r):
-    """cos r for |r| <= pi/4 (Taylor to r**20/20!)."""
+    """cos r for |r| <= pi/4 (Taylor to r**20/20!): 1 - r2/2 + r2^2 p, the leading subtraction last
+    so the small terms are not lost."""
     r2 = r * r
-    p = 1.0 / 2432902008176640000.0
-    p = p * r2 - 1.0 / 6402373705728000.0
-    p = p * r2 + 1.0 / 20922789888000.0
-    p = p * r2 - 1.0 / 87178291200.0
-    p = p * r2 + 1.0 / 479001600.0
-    p = p * r2 - 1.0 / 3628800.0
-    p = p * r2 + 1.0 / 40320.0
-    p = p * r2 - 1.0 / 720.0
-    p = p * r2 + 1.0 / 24.0
-    # 1 - r2/2 + r2^2 p, with the leading subtraction last so the small terms are not lost
-    return 1.0 - (0.5 * r2 - r2 * r2 * p)
+    return 1.0 - (0.5 * r2 - r2 * r2 * _horner(COS_COEFFS, r2))
 
 
 @njit(cache=True)
@@ -142,17 +128,7 @@ def _log(w):
     f = m - 1.0
     s = f / (2.0 + f)
     s2 = s * s
-    p = 1.0 / 23.0
-    p = p * s2 + 1.0 / 21.0
-    p = p * s2 + 1.0 / 19.0
-    p = p * s2 + 1.0 / 17.0
-    p = p * s2 + 1.0 / 15.0
-    p = p * s2 + 1.0 / 13.0
-    p = p * s2 + 1.0 / 11.0
-    p = p * s2 + 1.0 / 9.0
-    p = p * s2 + 1.0 / 7.0
-    p = p * s2 + 1.0 / 5.0
-    p = p * s2 + 1.0 / 3.0
+    p = _horner(ATANH_COEFFS, s2)
     # 2 atanh(s) = f - (hfsq - s (hfsq + R)), R = 2 s2 p, hfsq = f^2/2: f enters exactly, the
     # correction terms are small (fdlibm's arrangement of the same series)
     hfsq = 0.5 * f * f
