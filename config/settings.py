@@ -74,6 +74,7 @@ MIDDLEWARE = [
     "django.middleware.security.SecurityMiddleware",
     "config.middleware.DatabaseUnavailableMiddleware",  # DB outage -> 503 + Retry-After
     "whitenoise.middleware.WhiteNoiseMiddleware",
+    "config.middleware.ResearcherNoStoreMiddleware",  # no-store on every researcher page and export
     "django.contrib.sessions.middleware.SessionMiddleware",
     "django.middleware.common.CommonMiddleware",
     "django.middleware.csrf.CsrfViewMiddleware",
