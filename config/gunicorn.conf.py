@@ -11,10 +11,13 @@ Environment (all optional):
 * ``GUNICORN_TIMEOUT``   — seconds before a silent worker is killed and replaced (default 30)
 * ``GUNICORN_ACCESS_LOG``— file for the access log, "-" for stdout (default), "" for none
 * ``FORWARDED_ALLOW_IPS``— proxies whose X-Forwarded-* headers gunicorn trusts (default 127.0.0.1)
+* ``GUNICORN_CONTROL_SOCKET`` — gunicornc's control socket (default ``$VAR_DIR/gunicorn.ctl``)
 """
+import hashlib
 import multiprocessing
 import os
 import time
+from pathlib import Path
 
 bind = os.environ.get("GUNICORN_BIND", "127.0.0.1:8000")
 
@@ -37,6 +40,28 @@ keepalive = 5
 # the jitter keeps them from restarting all at once.
 max_requests = 5000
 max_requests_jitter = 500
+
+
+
+def _control_socket() -> str:
+    """This instance's own control socket (``gunicornc -s PATH``), under its VAR_DIR.
+
+    gunicorn's default is one path per user ($XDG_RUNTIME_DIR or $HOME/.gunicorn/gunicorn.ctl):
+    a second instance on the machine (another study, a load test, a staging copy) unlinks the
+    first one's socket and takes it over, so ``gunicornc`` would reload or shrink the wrong
+    server, and the first to stop removes the other's socket.  A Unix socket's path is limited
+    to 107 bytes: a VAR_DIR too deep for it gets a path under /tmp named by its hash instead.
+    """
+    if os.environ.get("GUNICORN_CONTROL_SOCKET"):
+        return os.environ["GUNICORN_CONTROL_SOCKET"]
+    var = Path(os.environ.get("VAR_DIR") or Path(__file__).resolve().parent.parent / "var").resolve()
+    path = str(var / "gunicorn.ctl")
+    if len(path.encode()) <= 100:
+        return path
+    return f"/tmp/study-gunicorn-{hashlib.sha1(str(var).encode()).hexdigest()[:12]}.ctl"
+
+
+control_socket = _control_socket()
 
 forwarded_allow_ips = os.environ.get("FORWARDED_ALLOW_IPS", "127.0.0.1")
 

@@ -1,4 +1,5 @@
-"""A database outage answers 503 + Retry-After, never a traceback or a bare 500.
+"""A database outage answers 503 + Retry-After, never a traceback or a bare 500; researcher
+pages are never cached (``ResearcherNoStoreMiddleware``, at the end).
 
 When PostgreSQL restarts or is briefly unreachable, every request that touches
 it raises django.db.OperationalError (or InterfaceError on a connection that
@@ -28,6 +29,7 @@ import sys
 from django.conf import settings
 from django.db import InterfaceError, OperationalError
 from django.http import HttpResponse, JsonResponse
+from django.utils.cache import add_never_cache_headers
 from django.views import defaults
 
 from studyapp.security import wants_json
@@ -87,3 +89,29 @@ def server_error(request, *args, **kwargs):
     if isinstance(exc, DB_ERRORS):
         return unavailable_response(request, exc)
     return defaults.server_error(request, *args, **kwargs)
+
+
+# The participant pages (studyapp.views) set their own caching headers; every other view is a
+# researcher's (dashboard, exports, analysis, designer and jobs, login, logout, the admin).
+PARTICIPANT_URL_NAMES = frozenset({"home", "entry", "step", "answer"})
+
+
+class ResearcherNoStoreMiddleware:
+    """``Cache-Control: no-store`` (Django's never-cache set) on every researcher response.
+
+    Keyed on the URL, not on each view, so that a researcher view added later cannot forget it:
+    a browser's disk cache or a shared proxy must never keep a page or CSV export of participant
+    data, and the browser's back button after logging out must not show it again.  Anything
+    that did not resolve to a participant page counts (404s included); static files are served
+    by WhiteNoise before this runs.
+    """
+
+    def __init__(self, get_response):
+        self.get_response = get_response
+
+    def __call__(self, request):
+        response = self.get_response(request)
+        match = getattr(request, "resolver_match", None)
+        if match is None or match.view_name not in PARTICIPANT_URL_NAMES:
+            add_never_cache_headers(response)
+        return response

@@ -74,6 +74,7 @@ MIDDLEWARE = [
     "django.middleware.security.SecurityMiddleware",
     "config.middleware.DatabaseUnavailableMiddleware",  # DB outage -> 503 + Retry-After
     "whitenoise.middleware.WhiteNoiseMiddleware",
+    "config.middleware.ResearcherNoStoreMiddleware",  # no-store on every researcher page and export
     "django.contrib.sessions.middleware.SessionMiddleware",
     "django.middleware.common.CommonMiddleware",
     "django.middleware.csrf.CsrfViewMiddleware",
@@ -176,14 +177,20 @@ AUTH_PASSWORD_VALIDATORS = [
     {"NAME": "django.contrib.auth.password_validation.CommonPasswordValidator"},
     {"NAME": "django.contrib.auth.password_validation.NumericPasswordValidator"},
 ]
-# Login throttling (django-axes): after LOGIN_FAILURE_LIMIT wrong passwords for one user name, or
-# from one address, further attempts are refused with 429 for LOGIN_COOLOFF_MINUTES.  Staff
-# accounts guard every export, so the account itself is locked too, not only the address;
-# `manage.py axes_reset` lifts a lockout.  The address is the one rate limits count by.
+# Login throttling (django-axes; policy and page: studyapp/lockout.py): a user name is locked after
+# LOGIN_FAILURE_LIMIT wrong passwords from any address (staff accounts guard every export); an
+# address only after LOGIN_ADDRESS_FAILURE_LIMIT across all names, so one researcher's typos never
+# lock out the others behind the same address.  Each lock lasts LOGIN_COOLOFF_MINUTES from the
+# failure that set it (attempts while locked do not extend it) and its 429 page says what is
+# locked and for how long; `manage.py axes_reset` lifts it.  The address is the one rate limits
+# count by.
 AUTHENTICATION_BACKENDS = ["axes.backends.AxesStandaloneBackend", "django.contrib.auth.backends.ModelBackend"]
 AXES_FAILURE_LIMIT = int(os.environ.get("LOGIN_FAILURE_LIMIT", "5"))
+LOGIN_ADDRESS_FAILURE_LIMIT = int(os.environ.get("LOGIN_ADDRESS_FAILURE_LIMIT", "50"))
 AXES_COOLOFF_TIME = timedelta(minutes=int(os.environ.get("LOGIN_COOLOFF_MINUTES", "15")))
-AXES_LOCKOUT_PARAMETERS = ["ip_address", "username"]
+AXES_LOCKOUT_PARAMETERS = "studyapp.lockout.lockout_parameters"
+AXES_LOCKOUT_CALLABLE = "studyapp.lockout.lockout_response"
+AXES_RESET_COOL_OFF_ON_FAILURE_DURING_LOCKOUT = False
 AXES_CLIENT_IP_CALLABLE = "studyapp.security.client_address"
 AXES_RESET_ON_SUCCESS = True
 AXES_VERBOSE = False

@@ -9,6 +9,7 @@ import csv
 import io
 import json
 
+from .csvsafe import FORMULA_STARTS, neutralise  # noqa: F401  (the guard; exports.neutralise stays importable)
 from .models import Answer, Participant, StepKind, Study
 
 # (column, description) — the data dictionary; the same text is in docs/study.md.
@@ -124,21 +125,6 @@ def wide_rows(study: Study):
             row.update({f"test{a.item}_env_id": a.data["env_id"], f"test{a.item}_correct": int(a.correct),
                         f"test{a.item}_confidence_score": a.confidence_score})
         yield row
-
-
-# A spreadsheet runs a cell that starts with one of these as a formula (OWASP "CSV injection").
-FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
-
-
-def neutralise(value):
-    """Text that a spreadsheet would read as a formula gets a leading single quote.
-
-    Only strings: they are what participants typed (platform ids, gender_text); numbers, such as a
-    confidence score of -5, are written as numbers and stay untouched.
-    """
-    if isinstance(value, str) and value.startswith(FORMULA_STARTS):
-        return "'" + value
-    return value
 
 
 def to_csv(columns, rows) -> str:
