@@ -127,13 +127,13 @@ def measure(which: str, kind: str) -> dict:
     from django.test import Client  # noqa: PLC0415
     from django.urls import reverse  # noqa: PLC0415
 
-    from studyapp import dashboard  # noqa: PLC0415
+    from studyapp import exports  # noqa: PLC0415
 
     if which == "before":
         from tests.studyapp import exports_before  # noqa: PLC0415
 
         old = {"long": exports_before.long_csv, "wide": exports_before.wide_csv}[kind]
-        dashboard.STREAMS[kind] = lambda study: iter([old(study)])  # the whole file, as HttpResponse had it
+        exports.STREAMS[kind] = lambda study: iter([old(study)])  # the whole file, as HttpResponse had it
     client = Client()
     client.force_login(get_user_model().objects.get(username=STAFF))
     client.get(reverse("dashboard_export", args=[SLUG, "dictionary"]))  # warm: URL conf, views, connection

@@ -97,9 +97,6 @@ def preview(request, slug, condition_id):
     return redirect(preview_participant(condition))
 
 
-STREAMS = {"long": exports.long_stream, "wide": exports.wide_stream}
-
-
 @researcher_required
 def export(request, slug, kind):
     """The long and wide files are streamed as they are written (a study of 10,000 participants
@@ -107,8 +104,8 @@ def export(request, slug, kind):
     (The researcher pages in general get their no-store from a middleware, issue 22 item 6; this
     view says it itself so the exports never depend on it.)"""
     study = get_object_or_404(Study, slug=slug)
-    if kind in STREAMS:
-        response = StreamingHttpResponse(STREAMS[kind](study), content_type="text/csv; charset=utf-8")
+    if kind in exports.STREAMS:
+        response = StreamingHttpResponse(exports.STREAMS[kind](study), content_type="text/csv; charset=utf-8")
         name = f"{slug}-{kind}.csv"
     else:
         response = HttpResponse(exports.dictionary_csv(), content_type="text/csv; charset=utf-8")

@@ -282,3 +282,6 @@ def dictionary_csv() -> str:
     rows = [{"file": "long", "column": c, "description": d} for c, d in LONG_COLUMNS]
     rows += [{"file": "wide", "column": c, "description": d} for c, d in WIDE_COLUMNS]
     return to_csv([("file", ""), ("column", ""), ("description", "")], rows)
+
+
+STREAMS = {"long": long_stream, "wide": wide_stream}  # the files a view or command streams, by name

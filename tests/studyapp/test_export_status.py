@@ -7,7 +7,7 @@ import re
 from pathlib import Path
 
 import pytest
-from django.core.management import call_command
+from django.core.management import CommandError, call_command
 from django.http import StreamingHttpResponse
 from django.urls import reverse
 
@@ -149,3 +149,15 @@ def test_unchanged_against_the_previous_exporter(cohort):
             assert {**new[pid], "mean_confidence_score": ""} == {**old[pid], "mean_confidence_score": ""}, pid
             assert new[pid]["mean_confidence_score"] == ""
     assert old["three"]["mean_confidence_score"] == "6.0"  # what the issue reported: an analysable-looking mean
+
+
+def test_export_command_writes_the_same_files(cohort, tmp_path):
+    for kind, whole in (("long", exports.long_csv), ("wide", exports.wide_csv)):
+        path = tmp_path / f"{kind}.csv"
+        call_command("export_study", cohort.slug, kind, "--out", str(path), stderr=io.StringIO())
+        assert path.read_bytes().decode() == whole(cohort)
+    printed = io.StringIO()
+    call_command("export_study", cohort.slug, "wide", stdout=printed)
+    assert printed.getvalue() == exports.wide_csv(cohort)
+    with pytest.raises(CommandError, match="no study 'nope'"):
+        call_command("export_study", "nope", "wide")
