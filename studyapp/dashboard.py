@@ -7,6 +7,7 @@ from django.db.models import Count, Q
 from django.http import HttpResponse, StreamingHttpResponse
 from django.shortcuts import get_object_or_404, redirect, render
 from django.utils import timezone
+from django.utils.cache import add_never_cache_headers
 from django.views.decorators.http import require_POST
 
 from . import exports
@@ -111,5 +112,5 @@ def export(request, slug, kind):
         response = HttpResponse(exports.dictionary_csv(), content_type="text/csv; charset=utf-8")
         name = f"{slug}-data-dictionary.csv"
     response["Content-Disposition"] = f'attachment; filename="{name}"'
-    response["Cache-Control"] = "no-store"
+    add_never_cache_headers(response)  # Cache-Control: no-store, ..., as the researcher-page middleware will
     return response
