@@ -51,6 +51,7 @@ bench: venv
 	$(PY) bench/planner.py
 	$(PY) bench/teaching.py
 	$(PY) bench/precompute.py
+	$(PY) bench/exports.py
 
 clean:
 	rm -rf var/ test-output/ .pytest_cache

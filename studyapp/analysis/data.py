@@ -3,6 +3,7 @@
 * Staff previews are never analysed (not in any table).
 * By default only participants who finished (``completed_at`` set) are analysed; with
   ``include_incomplete=True`` unfinished ones enter too (with the tests they answered).
+* ``status`` is studyapp.status's (complete / incomplete / excluded / declined), the exports' column.
 * ``attention_ok`` comes from the stored attention answer (``data["passed"]``); ``excluded``
   is the participant's flag (set by the flow when the attention check fails).
 * ``test_cluster`` of a test is the strategy cluster stored with the study's test set
@@ -15,10 +16,11 @@ import pandas as pd
 from django.db.models import Count, Max, Q
 
 from ..models import Answer, Condition, Participant, StepKind, Study
+from ..status import participant_status
 from . import stats as S
 
 PARTICIPANT_COLUMNS = ["participant_id", "condition", "attention_ok", "excluded", "exclusion_reason", "age",
-                       "gender", "platform", "completed"]
+                       "gender", "platform", "completed", "status"]
 ANSWER_COLUMNS = ["participant_id", "test_index", "test_cluster", "correct", "confidence", "score"]
 TRAINING_COLUMNS = ["condition", "position", "environment_id", "cluster"]
 
@@ -28,7 +30,7 @@ def _participants(study: Study, include_incomplete: bool):
     if not include_incomplete:
         qs = qs.filter(completed_at__isnull=False)
     # values(): never decode the large training / test-set JSON once per participant
-    return qs.order_by("pk").values("pk", "condition__name", "excluded", "completed_at", "platform")
+    return qs.order_by("pk").values("pk", "condition__name", "excluded", "completed_at", "platform", "position")
 
 
 def training_frame(study: Study) -> pd.DataFrame:
@@ -69,7 +71,9 @@ def frames(study: Study, include_incomplete: bool = False) -> tuple[pd.DataFrame
         prows.append({"participant_id": str(pk), "condition": p["condition__name"], "attention_ok": ok,
                       "excluded": excluded, "exclusion_reason": reason,
                       "age": demo.get(pk, {}).get("age"), "gender": demo.get(pk, {}).get("gender"),
-                      "platform": p["platform"], "completed": p["completed_at"] is not None})
+                      "platform": p["platform"], "completed": p["completed_at"] is not None,
+                      "status": participant_status(position=p["position"], excluded=excluded,
+                                                   completed=p["completed_at"] is not None)})
     return (pd.DataFrame(prows, columns=PARTICIPANT_COLUMNS), pd.DataFrame(arows, columns=ANSWER_COLUMNS),
             training_frame(study))
 

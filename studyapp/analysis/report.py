@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 from django.template.loader import render_to_string
 
+from .. import status as ST
 from . import figures as FIG
 from . import stats as S
 
@@ -118,10 +119,35 @@ def _cell(v):
     return str(v)
 
 
+def participant_groups(table: pd.DataFrame) -> list[tuple[str, int]]:
+    """(label, count) of every kind of participant in the analysis's table; the counts add up to its rows.
+
+    By status (studyapp.status, the exports' column); a table made by hand without one counts its
+    rows as complete unless ``excluded`` or ``completed == False`` says otherwise."""
+    excluded = table["excluded"].astype(bool)
+    if "status" in table:
+        status = table["status"]
+    else:
+        done = table["completed"].astype(bool) if "completed" in table else pd.Series(True, index=table.index)
+        status = pd.Series(np.where(excluded, ST.EXCLUDED, np.where(done, ST.COMPLETE, ST.INCOMPLETE)),
+                           index=table.index)
+    answered = table["n_answered"] > 0 if "n_answered" in table else pd.Series(False, index=table.index)
+    attention = table["exclusion_reason"] == "failed attention check" if "exclusion_reason" in table else excluded
+    incomplete, out = status == ST.INCOMPLETE, status == ST.EXCLUDED
+    return [(ST.COMPLETE, int((status == ST.COMPLETE).sum())),
+            ("incomplete (some tests answered)", int((incomplete & answered).sum())),
+            ("incomplete (no test answered)", int((incomplete & ~answered).sum())),
+            ("excluded (attention)", int((out & attention).sum())),
+            ("excluded (by the researcher)", int((out & ~attention).sum())),
+            ("declined (no consent)", int((status == ST.DECLINED).sum()))]
+
+
 def headline(analysis: S.Analysis) -> list[str]:
     """A few lines of plain-text summary (printed by ``manage.py analyze``)."""
-    lines = [f"{len(analysis.participants)} participants, {analysis.n_excluded} excluded, "
-             f"{analysis.n_included} analysed; approx* = {analysis.approx_star}"]
+    groups = ", ".join(f"{n} {label}" for label, n in participant_groups(analysis.participants)
+                       if n or label == ST.COMPLETE)
+    lines = [f"{len(analysis.participants)} participants: {groups}; {analysis.n_included} analysed; "
+             f"approx* = {analysis.approx_star}"]
     for a in analysis.anovas:
         if not a.ok:
             lines.append(a.message)

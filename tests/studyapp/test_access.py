@@ -116,7 +116,7 @@ def test_exports_neutralise_formulas_but_not_numbers(staff_client, study, comple
     record(p, p.position, age="30", gender="other", gender_text="@SUM(A1)")
     complete(assignment.assign(study, "prolific", "\tTAB", platform_session_id="\rCR"))
     wide = list(csv.DictReader(io.StringIO(
-        staff_client.get(reverse("dashboard_export", args=[study.slug, "wide"])).content.decode())))
+        staff_client.get(reverse("dashboard_export", args=[study.slug, "wide"])).getvalue().decode())))
     row = next(r for r in wide if r["participant_id"] == str(p.pk))
     assert (row["platform_pid"], row["platform_study_id"], row["platform_session_id"], row["gender_text"]) == (
         "'=HYPERLINK(\"http://x\")", "'+1", "'-2", "'@SUM(A1)")

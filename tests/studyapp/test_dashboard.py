@@ -95,7 +95,7 @@ def test_preview_is_not_counted(staff_client, study, complete):
     assert assignment.condition_counts(study)[cond.pk] == 0
     page = staff_client.get(p.get_absolute_url())
     assert b"Staff preview" in page.content and b"prolific.com" not in page.content
-    long = staff_client.get(reverse("dashboard_export", args=[study.slug, "long"])).content.decode()
+    long = staff_client.get(reverse("dashboard_export", args=[study.slug, "long"])).getvalue().decode()
     assert len(list(csv.DictReader(io.StringIO(long)))) == 0
     assert staff_client.post(reverse("dashboard_preview", args=["other", cond.pk])).status_code == 404
 
@@ -106,7 +106,7 @@ def test_exports_download(staff_client, study, complete):
         r = staff_client.get(reverse("dashboard_export", args=[study.slug, kind]))
         assert r.status_code == 200 and r["Content-Type"].startswith("text/csv")
         assert f'{study.slug}-' in r["Content-Disposition"]
-    wide = staff_client.get(reverse("dashboard_export", args=[study.slug, "wide"])).content.decode()
+    wide = staff_client.get(reverse("dashboard_export", args=[study.slug, "wide"])).getvalue().decode()
     (row,) = csv.DictReader(io.StringIO(wide))
     assert row["platform_pid"] == "exp" and row["condition"] == p.condition.name
     assert row["mean_confidence_score"] == "6.0"

@@ -14,7 +14,7 @@ from django.core.management.base import BaseCommand, CommandError
 from studyapp.analysis import data as D
 from studyapp.analysis import report as R
 from studyapp.analysis import stats as S
-from studyapp.models import Study
+from studyapp.models import Participant, Study
 
 
 class Command(BaseCommand):
@@ -53,6 +53,12 @@ class Command(BaseCommand):
         folder = Path(out) if out else Path(getattr(settings, "VAR_DIR", Path("var"))) / "analysis" / obj.slug
         written = R.write_report(analysis, folder, title=f"Analysis of {obj.name}")
         self.stdout.write(f"Study {obj.slug}: " + R.headline(analysis)[0])
+        if not include_incomplete:  # say who is not in the headline's count
+            unfinished = (Participant.objects.filter(study=obj, completed_at__isnull=True)
+                          .exclude(platform=Participant.PREVIEW).count())
+            if unfinished:
+                self.stdout.write(f"  {unfinished} unfinished participants left out (--include-incomplete "
+                                  "names them and analyses those who answered a test)")
         for line in R.headline(analysis)[1:]:
             self.stdout.write("  " + line)
         self.stdout.write(self.style.SUCCESS(
