@@ -34,9 +34,9 @@ def test_plain_text_and_numbers_are_untouched(value):
 def test_a_fullwidth_id_is_neutralised_in_the_export(staff_client, study, complete):
     pid = "\uff1dHYPERLINK(\"http://x\")"
     p = complete(assignment.assign(study, "prolific", pid, platform_session_id="\uff0b1"))
-    body = staff_client.get(reverse("dashboard_export", args=[study.slug, "wide"])).content.decode()
+    body = staff_client.get(reverse("dashboard_export", args=[study.slug, "wide"])).getvalue().decode()
     row = next(r for r in csv.DictReader(io.StringIO(body)) if r["participant_id"] == str(p.pk))
     assert (row["platform_pid"], row["platform_session_id"]) == ("'" + pid, "'\uff0b1")
-    long = staff_client.get(reverse("dashboard_export", args=[study.slug, "long"])).content.decode()
+    long = staff_client.get(reverse("dashboard_export", args=[study.slug, "long"])).getvalue().decode()
     pids = {r["platform_pid"] for r in csv.DictReader(io.StringIO(long)) if r["participant_id"] == str(p.pk)}
     assert pids == {"'" + pid}
