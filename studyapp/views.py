@@ -206,11 +206,11 @@ def completion_target(participant: Participant) -> dict:
 @security.rate_limit("RATE_LIMIT_ANSWER", by="token")
 @security.framed_csrf_protect
 def answer(request, slug, token, step_index):
+    if request.POST.get("consent") == "no":
+        declined = _decline(request, slug, token, step_index)
+        if declined is not None:
+            return declined
     participant = _participant(slug, token)
-    steps = flow.steps_for(participant)
-    if (0 <= step_index < len(steps) and steps[step_index].kind == StepKind.CONSENT
-            and request.POST.get("consent") == "no" and participant.position == step_index):
-        return render(request, "studyapp/declined.html", {"study": participant.study})
     try:
         participant = flow.record(participant, step_index, request.POST)
     except flow.AnswerError as exc:
@@ -227,6 +227,23 @@ def answer(request, slug, token, step_index):
     if security.wants_json(request):
         return JsonResponse({"ok": True, "position": participant.position, "next": participant.get_absolute_url()})
     return redirect(participant.get_absolute_url(), permanent=False)
+
+
+def _decline(request, slug, token, step_index):
+    """The declined page if this "I do not agree" deleted the participant (flow.decline), else None.
+
+    The browser's session remembers the (random, now meaningless) token, so a double click shows the
+    same page instead of "unknown link"; no row refers to it any more."""
+    study = get_object_or_404(Study, slug=slug)
+    participant = Participant.objects.filter(token=token, study=study).first()
+    if participant is None:
+        if request.session.get(f"declined:{study.slug}") != token:
+            raise Http404("This participant link does not belong to this study.")
+    elif not flow.decline(participant, step_index):
+        return None
+    request.session.pop(_session_key(study), None)
+    request.session[f"declined:{study.slug}"] = token
+    return render(request, "studyapp/declined.html", {"study": study})
 
 
 def home(request):
