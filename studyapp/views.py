@@ -159,6 +159,7 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
         ctx["goal_name"] = payload["goal_name"]
         ctx["env"] = drawn_scene(payload, robot=True)
         ctx["number"] = current.item + 1
+        ctx["seen_before"] = repeated_example(participant.condition.training, current.item)
     elif current.kind == StepKind.TEST:
         test = participant.study.test_set[current.item]
         shown = flow.option_letters(participant, current.item)
@@ -176,6 +177,15 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
     elif current.kind == StepKind.DONE:
         ctx.update(completion_target(participant))
     return ctx
+
+
+def repeated_example(training: list[dict], item: int) -> int | None:
+    """The number (1-based) of the last earlier example showing the same environment as example `item`,
+    or None.  A sequence may repeat an environment on purpose (prob-reward shows two environments ten
+    times); without a word on the page a repeat looks like a glitch.  Only the number reaches the page."""
+    env_id = training[item].get("env_id")
+    earlier = [i for i in range(item) if env_id is not None and training[i].get("env_id") == env_id]
+    return earlier[-1] + 1 if earlier else None
 
 
 def completion_target(participant: Participant) -> dict:
