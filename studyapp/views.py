@@ -154,6 +154,8 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
     }
     # The page gets what it draws and nothing else (drawn_scene): no theta, cluster or option
     # index, and no reference trajectory, so its source cannot tell theta*'s option apart.
+    if current.kind in (StepKind.TRAINING, StepKind.TEST):
+        ctx["study_span"] = participant.study.scene_span()  # one px/ft for every canvas of the study
     if current.kind == StepKind.TRAINING:
         payload = participant.condition.training[current.item]
         ctx["goal_name"] = payload["goal_name"]
