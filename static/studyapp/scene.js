@@ -14,7 +14,7 @@ const VIEW_W_FT = 60;         // feet shown across the reference canvas
 // canvas (the smallest a participant gets, --scene-ref-w wide, 3:4) holds the study's largest
 // framed span (env.study_span).  A larger canvas (a training example) shows more road around the
 // cars at the same scale, so the same speeds and gaps look the same in training and at test.
-const REF_W = 160;
+const REF_W = 144;
 // The other car within this distance along the road counts as interacting: the camera frames
 // both cars while it is (and at their closest approach in any case), so the participant sees
 // the merge ahead of or behind it, or the pass, instead of an edge marker.

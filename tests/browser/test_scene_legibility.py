@@ -29,7 +29,7 @@ from tests.studyapp.test_stimuli import real_spec
 
 CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 OUT = Path(__file__).resolve().parents[2] / "test-output"
-WIDTHS = [160, 340]  # a test option's canvas (--scene-ref-w) and the training page's
+WIDTHS = [144, 340]  # a test option's canvas (--scene-ref-w, 1280 px wide page) and the training page's
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
