@@ -140,5 +140,24 @@ def record(participant: Participant, step_index: int, post) -> Participant:
         return locked
 
 
+def decline(participant: Participant, step_index: int) -> bool:
+    """"I do not agree" on the consent page: delete the participant (their platform ids, condition and
+    display orders) so that nothing about them is kept and their condition's place is free at once.
+
+    Only while they stand on consent with nothing stored; returns False (nothing deleted) otherwise,
+    e.g. when another tab has already agreed."""
+    with transaction.atomic():
+        locked = Participant.objects.select_for_update().filter(pk=participant.pk).first()
+        if locked is None:
+            return True  # declined already (double click): nothing is left to delete
+        steps = steps_for(locked)
+        if not (step_index == locked.position and steps[step_index].kind == StepKind.CONSENT
+                and not locked.answers.exists()):
+            return False
+        locked.delete()
+    logger.info("a participant of study %r declined consent; their row was deleted", participant.study.slug)
+    return True
+
+
 def _code() -> str:
     return new_code()

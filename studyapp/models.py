@@ -36,6 +36,9 @@ def new_code() -> str:
     return secrets.token_hex(4).upper()
 
 
+_SPANS: dict[tuple, float] = {}  # Study.scene_span, per study version
+
+
 class Study(models.Model):
     slug = models.SlugField(unique=True)
     name = models.CharField(max_length=200)
@@ -113,6 +116,15 @@ class Study(models.Model):
     def completion_url(self) -> str:
         """Where a finished Prolific participant is sent, exactly."""
         return self.prolific_completion_url.format(code=self.completion_code)
+
+    def scene_span(self) -> float:
+        """The along-road span (ft) every canvas of this study is scaled to hold (trajectories.study_span);
+        computed once per study version: the trajectories are frozen while it has participants."""
+        key = (self.pk, self.created_at, len(self.test_set))
+        if key not in _SPANS:
+            from .trajectories import study_span  # noqa: PLC0415  (trajectories imports numpy and teaching)
+            _SPANS[key] = study_span([c.training for c in self.conditions.all()], self.test_set)
+        return _SPANS[key]
 
     def consent_paragraphs(self) -> list[str]:
         text = self.consent_text.strip() or DEFAULT_CONSENT

@@ -39,7 +39,7 @@ def sheet(study: Study) -> dict:
                    "examples": [row_of_example(p, i + 1) for i, p in enumerate(c.training)]}
                   for c in study.conditions.order_by("position", "pk")]
     tests = [row_of_test(t, j + 1) for j, t in enumerate(study.test_set)]
-    return {"conditions": conditions, "tests": tests,
+    return {"conditions": conditions, "tests": tests, "study_span": study.scene_span(),
             "n_examples": sum(len(c["examples"]) for c in conditions),
             "n_options": sum(len(t["options"]) for t in tests)}
 

@@ -89,6 +89,27 @@ def drawn_scene(payload: dict, *, robot: bool) -> dict:
     return scene
 
 
+# scene.js's INTERACTION_FT: the other car within this distance along the road is framed with the robot
+INTERACTION_FT = 150.0
+
+
+def framed_span(robot, other) -> float:
+    """scene.js's framedSpan: the along-road gap (ft) a view must hold between the two cars (the
+    largest while within INTERACTION_FT, and at least the gap at their closest approach)."""
+    gaps = [abs(other[min(k, len(other) - 1)][1] - r[1]) for k, r in enumerate(robot)]
+    near = [g for g in gaps if g <= INTERACTION_FT]
+    return max(min(gaps), max(near, default=0.0))
+
+
+def study_span(conditions, test_set) -> float:
+    """The largest framed span of any training example or test option of a study: every canvas of
+    the study is drawn at the one scale that holds it, so the same speeds and gaps look the same in
+    training and at test (issue 22: test canvases drew at about half the training's px/ft)."""
+    spans = [framed_span(env["robot"], env["other"]) for training in conditions for env in training]
+    spans += [framed_span(o["robot"], t["other"]) for t in test_set for o in t["options"]]
+    return round(max(spans, default=0.0), 1)
+
+
 def option_payload(theta_index, is_theta_star, cluster, robot) -> dict:
     return {
         "theta_index": None if theta_index is None else int(theta_index),

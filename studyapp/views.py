@@ -154,11 +154,14 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
     }
     # The page gets what it draws and nothing else (drawn_scene): no theta, cluster or option
     # index, and no reference trajectory, so its source cannot tell theta*'s option apart.
+    if current.kind in (StepKind.TRAINING, StepKind.TEST):
+        ctx["study_span"] = participant.study.scene_span()  # one px/ft for every canvas of the study
     if current.kind == StepKind.TRAINING:
         payload = participant.condition.training[current.item]
         ctx["goal_name"] = payload["goal_name"]
         ctx["env"] = drawn_scene(payload, robot=True)
         ctx["number"] = current.item + 1
+        ctx["seen_before"] = repeated_example(participant.condition.training, current.item)
     elif current.kind == StepKind.TEST:
         test = participant.study.test_set[current.item]
         shown = flow.option_letters(participant, current.item)
@@ -176,6 +179,15 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
     elif current.kind == StepKind.DONE:
         ctx.update(completion_target(participant))
     return ctx
+
+
+def repeated_example(training: list[dict], item: int) -> int | None:
+    """The number (1-based) of the last earlier example showing the same environment as example `item`,
+    or None.  A sequence may repeat an environment on purpose (prob-reward shows two environments ten
+    times); without a word on the page a repeat looks like a glitch.  Only the number reaches the page."""
+    env_id = training[item].get("env_id")
+    earlier = [i for i in range(item) if env_id is not None and training[i].get("env_id") == env_id]
+    return earlier[-1] + 1 if earlier else None
 
 
 def completion_target(participant: Participant) -> dict:
@@ -206,11 +218,11 @@ def completion_target(participant: Participant) -> dict:
 @security.rate_limit("RATE_LIMIT_ANSWER", by="token")
 @security.framed_csrf_protect
 def answer(request, slug, token, step_index):
+    if request.POST.get("consent") == "no":
+        declined = _decline(request, slug, token, step_index)
+        if declined is not None:
+            return declined
     participant = _participant(slug, token)
-    steps = flow.steps_for(participant)
-    if (0 <= step_index < len(steps) and steps[step_index].kind == StepKind.CONSENT
-            and request.POST.get("consent") == "no" and participant.position == step_index):
-        return render(request, "studyapp/declined.html", {"study": participant.study})
     try:
         participant = flow.record(participant, step_index, request.POST)
     except flow.AnswerError as exc:
@@ -227,6 +239,23 @@ def answer(request, slug, token, step_index):
     if security.wants_json(request):
         return JsonResponse({"ok": True, "position": participant.position, "next": participant.get_absolute_url()})
     return redirect(participant.get_absolute_url(), permanent=False)
+
+
+def _decline(request, slug, token, step_index):
+    """The declined page if this "I do not agree" deleted the participant (flow.decline), else None.
+
+    The browser's session remembers the (random, now meaningless) token, so a double click shows the
+    same page instead of "unknown link"; no row refers to it any more."""
+    study = get_object_or_404(Study, slug=slug)
+    participant = Participant.objects.filter(token=token, study=study).first()
+    if participant is None:
+        if request.session.get(f"declined:{study.slug}") != token:
+            raise Http404("This participant link does not belong to this study.")
+    elif not flow.decline(participant, step_index):
+        return None
+    request.session.pop(_session_key(study), None)
+    request.session[f"declined:{study.slug}"] = token
+    return render(request, "studyapp/declined.html", {"study": study})
 
 
 def home(request):

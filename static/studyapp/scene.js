@@ -7,7 +7,14 @@
 // rows every `dt` seconds; the other car's rows are [x, y]. Playback interpolates between
 // rows at the display's frame rate (requestAnimationFrame), so it is smooth at 60 fps.
 
-const VIEW_W_FT = 60;         // feet shown across the canvas
+import { Layout, tag } from "./labels.js";
+
+const VIEW_W_FT = 60;         // feet shown across the reference canvas
+// Every canvas of a study is drawn at one scale (px per ft): the one at which a test option's
+// canvas (the smallest a participant gets, --scene-ref-w wide, 3:4) holds the study's largest
+// framed span (env.study_span).  A larger canvas (a training example) shows more road around the
+// cars at the same scale, so the same speeds and gaps look the same in training and at test.
+const REF_W = 144;
 // The other car within this distance along the road counts as interacting: the camera frames
 // both cars while it is (and at their closest approach in any case), so the participant sees
 // the merge ahead of or behind it, or the pass, instead of an edge marker.
@@ -15,9 +22,13 @@ const INTERACTION_FT = 150;
 const MARGIN_FT = 10;         // road shown beyond each framed car
 const MAX_SQUEEZE = 3;        // the forward axis is compressed at most 3:1 against the lateral one
 // Colours come from the page's CSS (--scene-*), so the legend's swatches are the canvas's colours.
+// Not colour alone (issue 22): the goal lane is dark and hatched against a light road, the
+// autonomous car light with a black outline, the other car dark with a white outline, so each
+// stays apart in greyscale (tests/browser/test_scene_legibility.py measures it).
 const FALLBACK = {
-  grass: "#dfe9d8", road: "#5b6068", line: "#f4f4f4", goal: "#4a6190",
-  goalEdge: "#2563eb", robot: "#f5c518", other: "#c9ccd1", outline: "#1f2328",
+  grass: "#dfe9d8", road: "#959ca4", line: "#f4f4f4", goal: "#1e3a8a", goalHatch: "rgba(255, 255, 255, 0.38)",
+  goalEdge: "#ffffff", robot: "#f5c518", robotEdge: "#111111", other: "#2b2f36", otherEdge: "#ffffff",
+  outline: "#1f2328", refW: "",
 };
 let COLORS = null;
 function colors() {
@@ -55,6 +66,8 @@ export class Scene {
     this.mode = "frame";     // "frame" | "trail"
     this.t = 0;
     this.span = framedSpan(robot, env.other);
+    this.viewSpan = Math.max(this.span, Number(env.study_span) || 0);  // the study's, where the page gives it
+    this.boxes = [];         // every label and mark drawn last (labels.js), for the tests
     this.lastFrame = null;   // screen positions drawn last: {robot: [x, y], other: [x, y] | null}
     this.resize();
   }
@@ -91,14 +104,12 @@ export class Scene {
     ctx.fillStyle = colors().road;
     ctx.fillRect(left, 0, 2 * roadHalf * s, this.h);
     // goal: the right lane (merge) or the centre lane straight ahead (forward), in blue
-    ctx.fillStyle = colors().goal;
     if (this.env.goal === 0) {
       const [gx] = this.toScreen(cam, lanes[lanes.length - 1] - laneW / 2, 0);
-      ctx.fillRect(gx, 0, laneW * s, this.h);
+      this.goalLane(gx, 0, laneW * s, this.h);
     } else {
       const [gx, gy] = this.toScreen(cam, this.centreLane() - laneW / 2, 0);
-      ctx.fillRect(gx, 0, laneW * s, Math.max(0, gy));
-      this.arrow(cam);
+      this.goalLane(gx, 0, laneW * s, Math.max(0, gy));
     }
     // lane markings: solid edges, dashed separators (halfway between lane centres) scrolling with the world
     ctx.strokeStyle = colors().line;
@@ -119,17 +130,44 @@ export class Scene {
     ctx.setLineDash([]);
   }
 
-  arrow(cam) {
-    const ctx = this.ctx, s = cam.xs;
-    const [ax] = this.toScreen(cam, this.centreLane(), 0);
-    const top = 6, size = 4 * s;
-    ctx.fillStyle = colors().goalEdge;
-    ctx.beginPath();
-    ctx.moveTo(ax, top); ctx.lineTo(ax - size, top + size * 1.4); ctx.lineTo(ax + size, top + size * 1.4);
-    ctx.closePath(); ctx.fill();
+  // The goal lane: dark, hatched with light diagonals (a pattern, not only a colour).
+  goalLane(x, y, w, h) {
+    const ctx = this.ctx;
+    ctx.fillStyle = colors().goal;
+    ctx.fillRect(x, y, w, h);
+    ctx.save();
+    ctx.beginPath(); ctx.rect(x, y, w, h); ctx.clip();
+    ctx.strokeStyle = colors().goalHatch;
+    ctx.lineWidth = 2;
+    for (let k = -h; k < w + h; k += 9) {
+      ctx.beginPath(); ctx.moveTo(x + k, y + h); ctx.lineTo(x + k + h, y); ctx.stroke();
+    }
+    ctx.restore();
   }
 
-  car(cam, x, y, heading, color, alpha = 1) {
+  // Goal marks, drawn after the cars: the arrow straight ahead (forward) and a "goal" tag on the lane.
+  goalMarks(cam, layout) {
+    const ctx = this.ctx, s = cam.xs;
+    const lanes = this.world.lane_centres;
+    const laneX = this.env.goal === 0 ? lanes[lanes.length - 1] : this.centreLane();
+    const [ax] = this.toScreen(cam, laneX, 0);
+    if (this.env.goal !== 0) {
+      const top = 4, size = Math.max(6, 4 * s);
+      layout.reserve("goal-arrow", ax - size, top, 2 * size, size * 1.4);
+      ctx.fillStyle = colors().goalEdge;
+      ctx.strokeStyle = colors().outline;
+      ctx.lineWidth = 1.5;
+      ctx.beginPath();
+      ctx.moveTo(ax, top); ctx.lineTo(ax - size, top + size * 1.4); ctx.lineTo(ax + size, top + size * 1.4);
+      ctx.closePath(); ctx.fill(); ctx.stroke();
+      tag(ctx, layout, "goal-label", "goal", (w) => [[ax + size + 3, top], [ax - size - 3 - w, top],
+        [ax - w / 2, top + size * 1.4 + 2]]);
+    } else {
+      tag(ctx, layout, "goal-label", "goal", (w) => [[ax - w / 2, 4], [ax - w / 2, 22], [this.w - w - 2, 4]]);
+    }
+  }
+
+  car(cam, x, y, heading, kind, alpha = 1) {
     const ctx = this.ctx;
     const [sx, sy] = this.toScreen(cam, x, y);
     let len = this.world.car_length * cam.ys, wid = this.world.car_width * cam.xs;
@@ -139,41 +177,44 @@ export class Scene {
     ctx.globalAlpha = alpha;
     ctx.translate(sx, sy);
     ctx.rotate(-Math.atan2(Math.sin(heading) * cam.ys, Math.cos(heading) * cam.xs));
-    ctx.fillStyle = color;
-    ctx.strokeStyle = colors().outline;
-    ctx.lineWidth = 1;
+    ctx.fillStyle = colors()[kind];
+    ctx.strokeStyle = colors()[`${kind}Edge`];
+    ctx.lineWidth = 2;
     ctx.beginPath();
     ctx.rect(-len / 2, -wid / 2, len, wid);
     ctx.fill(); ctx.stroke();
-    ctx.fillStyle = "rgba(30, 40, 60, 0.55)";  // windscreen marks the front
+    ctx.fillStyle = kind === "robot" ? "rgba(30, 40, 60, 0.55)" : "rgba(255, 255, 255, 0.55)";  // windscreen: the front
     ctx.fillRect(len * 0.12, -wid * 0.38, len * 0.16, wid * 0.76);
     ctx.restore();
     return true;
   }
 
-  // The other car outside the view: an arrow at the edge, and its distance on a white tag
-  // beside it (readable on grass, road and goal lane alike, never over the arrow).
-  offscreen(cam, x, y, ry) {
+  // The other car outside the view: an arrow at the edge, and its distance on a white tag beside
+  // it, on whichever side (or row) is free of the other labels and marks.
+  offscreen(cam, x, y, ry, layout) {
     const ctx = this.ctx;
     const [sx, sy] = this.toScreen(cam, x, y);
     const above = sy < 0, dir = above ? 1 : -1;
-    const edge = above ? (this.env.goal === 1 ? 30 : 4) : this.h - 24;  // clear of the goal arrow and time label
+    const edge = above ? 4 : this.h - 4;
+    let top = above ? edge : edge - 12;
+    let arrow = { kind: "other-arrow", x: sx - 8, y: top, w: 16, h: 13 };
+    while (!layout.fits(arrow) && top > 0 && top < this.h - 13) {  // below the goal arrow or its tag
+      top += above ? 4 : -4;
+      arrow = { ...arrow, y: top };
+    }
+    layout.reserve(arrow.kind, arrow.x, arrow.y, arrow.w, arrow.h);
+    const tip = above ? top : top + 12;
     ctx.fillStyle = colors().other;
-    ctx.strokeStyle = colors().outline;
+    ctx.strokeStyle = colors().otherEdge;
     ctx.lineWidth = 1.5;
     ctx.beginPath();
-    ctx.moveTo(sx, edge); ctx.lineTo(sx - 7, edge + dir * 12); ctx.lineTo(sx + 7, edge + dir * 12);
+    ctx.moveTo(sx, tip); ctx.lineTo(sx - 7, tip + dir * 12); ctx.lineTo(sx + 7, tip + dir * 12);
     ctx.closePath(); ctx.fill(); ctx.stroke();
-    ctx.font = "11px system-ui, sans-serif";
     const text = `other car ${Math.round(Math.abs(y - ry))} ft ${above ? "ahead" : "behind"}`;
-    const tw = ctx.measureText(text).width;
-    const right = sx + 10 + tw + 6 <= this.w;  // the tag goes beside the arrow, on whichever side fits
-    const tx = right ? sx + 12 : Math.max(2, sx - 12 - tw - 6);
-    const ty = above ? edge : edge - 2;
-    ctx.fillStyle = "rgba(255, 255, 255, 0.92)";
-    ctx.fillRect(tx, ty, tw + 6, 14);
-    ctx.fillStyle = "#111";
-    ctx.fillText(text, tx + 3, ty + 11);
+    tag(ctx, layout, "other-label", text, (w, h) => {
+      const rows = above ? [top, top + h + 2, top + 2 * (h + 2)] : [top - 2, top - h - 4, top - 2 * (h + 2) - 2];
+      return rows.flatMap((ty) => [[sx + 10, ty], [sx - 10 - w, ty], [this.w - w - 2, ty], [2, ty]]);
+    });
   }
 
   begin() {
@@ -186,12 +227,19 @@ export class Scene {
   // wide enough along the road to hold both cars whenever they interact; it centres between
   // them, and on the robot alone (with the other car at the edge) when they are further apart.
   camera(r, o) {
-    const base = this.w / VIEW_W_FT;
-    const usable = this.h - 36;  // room for the goal arrow above and the time label below
-    const ys = Math.min(base, usable / (this.span + this.world.car_length + 2 * MARGIN_FT));
-    const xs = Math.min(base, MAX_SQUEEZE * ys);
+    const { xs, ys } = this.scale();
     const dy = Math.max(-this.span, Math.min(this.span, o.y - r.y));
     return { cy: r.y + dy / 2, anchor: 0.5, xs, ys };
+  }
+
+  // px per ft across (xs) and along (ys) the road: the reference canvas's (or this one's, if smaller),
+  // holding the study's largest framed span with room for the goal arrow above and the time below.
+  scale() {
+    const refW = Math.min(this.w, parseFloat(colors().refW) || REF_W);
+    const base = refW / VIEW_W_FT;
+    const usable = refW * 4 / 3 - 36;
+    const ys = Math.min(base, usable / (this.viewSpan + this.world.car_length + 2 * MARGIN_FT));
+    return { xs: Math.min(base, MAX_SQUEEZE * ys), ys };
   }
 
   // One animation frame at time t.
@@ -202,10 +250,13 @@ export class Scene {
     const o = sample(this.env.other, t, this.dt);
     const cam = this.camera(r, o);
     this.drawRoad(cam);
-    const otherShown = this.car(cam, o.x, o.y, Math.PI / 2, colors().other);
-    if (!otherShown) this.offscreen(cam, o.x, o.y, r.y);
-    this.car(cam, r.x, r.y, r.h, colors().robot);
-    this.label(`t = ${t.toFixed(1)} s`);
+    const otherShown = this.car(cam, o.x, o.y, Math.PI / 2, "other");
+    this.car(cam, r.x, r.y, r.h, "robot");
+    const layout = new Layout(this.w, this.h);
+    this.goalMarks(cam, layout);
+    this.label(layout, `t = ${t.toFixed(1)} s`);
+    if (!otherShown) this.offscreen(cam, o.x, o.y, r.y, layout);
+    this.boxes = layout.boxes;
     this.lastFrame = { robot: this.toScreen(cam, r.x, r.y), other: otherShown ? this.toScreen(cam, o.x, o.y) : null };
   }
 
@@ -221,19 +272,19 @@ export class Scene {
     for (let k = 0; k <= last; k += (last % 2 === 0 ? 2 : 1)) {
       const alpha = 0.12 + 0.88 * (k / last);
       const o = this.env.other[k], r = this.robot[k];
-      this.car(cam, o[0], o[1], Math.PI / 2, colors().other, alpha);
-      this.car(cam, r[0], r[1], r[2], colors().robot, alpha);
+      this.car(cam, o[0], o[1], Math.PI / 2, "other", alpha);
+      this.car(cam, r[0], r[1], r[2], "robot", alpha);
     }
-    this.label("trail: whole drive");
+    const layout = new Layout(this.w, this.h);
+    this.goalMarks(cam, layout);
+    this.label(layout, "trail: whole drive");
+    this.boxes = layout.boxes;
   }
 
-  label(text) {
-    const ctx = this.ctx;
-    ctx.font = "12px system-ui, sans-serif";
-    ctx.fillStyle = "rgba(255,255,255,0.85)";
-    ctx.fillRect(4, this.h - 20, ctx.measureText(text).width + 8, 16);
-    ctx.fillStyle = "#111";
-    ctx.fillText(text, 8, this.h - 8);
+  // The time (or view) label: bottom left, else bottom right, else the first free row.
+  label(layout, text) {
+    tag(this.ctx, layout, "time-label", text, (w, h) => [[4, this.h - h - 4], [this.w - w - 4, this.h - h - 4]],
+      { size: 12 });
   }
 
   redraw() {

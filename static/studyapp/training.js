@@ -24,7 +24,10 @@ form.addEventListener("studyapp:saved", () => memory.clear());
 if (memory.load().played) {
   player.played = true;
   unlock();
-} else if (root.dataset.autoplay) {
+} else if (root.dataset.autoplay && !matchMedia("(prefers-reduced-motion: reduce)").matches) {
   player.play();
+} else {
+  // reduced motion asked for (or no autoplay): nothing moves until the participant presses Play
+  hint.textContent = "Press Play to watch the example; watch it to the end to continue.";
 }
 document.body.dataset.ready = "1";

@@ -119,7 +119,8 @@ def test_both_cars_are_on_the_canvas_whenever_they_interact(studies, live_server
 # and row (its car), the nearest of those colours.
 SIZES = """async ({env, robot}) => {
   const palette = {grass: "#00ff00", road: "#000000", line: "#ffffff", goal: "#0000ff",
-                   "goal-edge": "#00ffff", robot: "#ff0000", other: "#ff00ff", outline: "#808080"};
+                   "goal-edge": "#00ffff", robot: "#ff0000", other: "#ff00ff", outline: "#808080",
+                   "goal-hatch": "#0000ff"};  // the hatch drawn in the goal's colour: the lane's extent
   for (const [name, value] of Object.entries(palette)) {
     document.documentElement.style.setProperty(`--scene-${name}`, value);
   }
@@ -143,8 +144,8 @@ SIZES = """async ({env, robot}) => {
   };
   const [rx, ry] = scene.lastFrame.robot;
   const line = (n, f) => Array.from({length: n}, (_, i) => f(i));
-  return {w: scene.w, h: scene.h, robot: [rx, ry],
-          top: line(scene.w, (x) => classify(x + 0.5, 10)),
+  return {w: scene.w, h: scene.h, robot: [rx, ry], xs: scene.scale().xs,
+          top: line(scene.w, (x) => classify(x + 0.5, 30)),  // below the "goal" tag
           across: line(scene.w, (x) => classify(x + 0.5, ry)),
           along: line(scene.h, (y) => classify(rx, y + 0.5))};
 }"""
@@ -187,7 +188,7 @@ def test_the_drawing_follows_the_payloads_sizes(live_server):
     assert not errors, errors
     for name, world in (("today", today), ("wide", wide)):
         d = drawn[name]
-        s = d["w"] / 60  # px per ft: VIEW_W_FT = 60 across, the same along the road here
+        s = d["xs"]  # px per ft (the study's one scale): the same along the road here
         mid, (rx, ry) = d["w"] / 2, d["robot"]
         assert rx == pytest.approx(mid)
         road = extent(d["top"], "road", "line", "goal")  # the road between the grass

@@ -58,17 +58,28 @@ def test_four_options_compared_without_scrolling_and_44px_targets(on_a_test, liv
             assert not small, (selector, small[:3])
         canvases = sizes(page, ".option canvas")
         assert len(canvases) == 4
+        # each option's canvas is the reference width every canvas of the study is scaled to (scene.js)
+        ref = float(page.evaluate("getComputedStyle(document.documentElement).getPropertyValue('--scene-ref-w')")
+                    .strip().removesuffix("px"))
+        assert all(abs(c[0] - ref) < 0.5 for c in canvases), (ref, canvases)
         if name == "phone":  # the 2x2 grid: all four animations on the first screen, side by side in pairs
             assert all(c[3] <= height for c in canvases), canvases
             assert canvases[0][2] == canvases[1][2] and canvases[2][2] == canvases[3][2] > canvases[0][2]
-            assert all(c[0] >= 150 for c in canvases)
+            assert all(c[0] >= 100 for c in canvases)  # beside its controls column (study.css, phone)
         else:  # the laptop: the whole question, down to its Next button, above the fold
             assert sizes(page, "#test-form button[type=submit]")[0][3] <= height
-            assert all(c[0] >= 150 for c in canvases)
+            assert all(c[0] >= 140 for c in canvases)
         # "Play all four together" starts every animation and marks each played
         page.locator("[data-action=play-all]").click()
         page.clock.run_for(5600)
         expect(page.locator("section.played")).to_have_count(4)
+        # "✓ played" never covers the canvas (its goal arrow, its labels): it sits beside or above it
+        assert all(badge[0] > 0 for badge in sizes(page, ".played-flag"))
+        covered = page.eval_on_selector_all(".option", """els => els.filter(el => {
+            const b = el.querySelector(".played-flag").getBoundingClientRect();
+            const c = el.querySelector("canvas").getBoundingClientRect();
+            return b.left < c.right && c.left < b.right && b.top < c.bottom && c.top < b.bottom; }).length""")
+        assert covered == 0
         page.locator('input[name="choice"][value="B"]').check()
         for row in page.locator(".rating").all():
             row.locator('input[value="5"]').check()

@@ -3,7 +3,8 @@ import pytest
 from django.test import Client
 from django.urls import reverse
 
-from studyapp import flow
+from studyapp import assignment, exports, flow
+from studyapp.dashboard import condition_stats
 from studyapp.models import Answer, Participant, StepKind
 from tests.studyapp.helpers import snapshot
 
@@ -211,9 +212,29 @@ def test_bad_answers_on_other_steps(client, participant, answer_for, kind, body,
 
 
 def test_declining_consent_writes_nothing(client, participant):
+    study = participant.study
+    assert sum(assignment.condition_counts(study).values()) == 1  # the arrival holds a place
     r = client.post(url(participant, 0), {"consent": "no"})
     assert r.status_code == 200 and b"chose not to take part" in r.content
-    assert not Answer.objects.exists()
+    assert b"has been deleted" in r.content  # what the page says is what happened:
+    assert not Answer.objects.exists() and not Participant.objects.exists()  # no platform id kept
+    assert sum(assignment.condition_counts(study).values()) == 0  # the place is free at once
+    assert all(row["started"] == 0 for row in condition_stats(study))  # not "started", never "abandoned"
+    assert "flow1" not in exports.long_csv(study) + exports.wide_csv(study)
+    # a double click shows the same page; the dead token opens nothing
+    assert b"chose not to take part" in client.post(url(participant, 0), {"consent": "no"}).content
+    assert client.get(url(participant)).status_code == 404
+    # coming back with the same Prolific id is a fresh arrival, asked for consent again
+    client.get(reverse("entry", args=[study.slug]), {"PROLIFIC_PID": "flow1", "STUDY_ID": "S", "SESSION_ID": "Y"})
+    again = Participant.objects.get()
+    assert again.token != participant.token and again.position == 0
+
+
+def test_declining_after_agreeing_in_another_tab_deletes_nothing(client, participant):
+    assert client.post(url(participant, 0), {"consent": "yes"}).status_code == 302
+    r = client.post(url(participant, 0), {"consent": "no"})  # the stale first tab
+    assert b"chose not to take part" not in r.content
+    assert Participant.objects.filter(pk=participant.pk).exists() and Answer.objects.count() == 1
 
 
 def test_attention_check_failure_excludes_but_keeps(client, participant, answer_for):
