@@ -48,6 +48,7 @@ nearly all of it in the 53 L-BFGS-B runs: 0.6 s (idle) to 1.4 s (loaded) per pai
 from __future__ import annotations
 
 import math
+import multiprocessing
 from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
@@ -228,7 +229,9 @@ def reference_solutions(oxy, goals, weights, n_jobs: int = 2, n_polish: int = 16
     processes.  Returns z (P, K, 2), F (P,), pg (P,)."""
     tasks = [(oxy[i], int(goals[i]), weights[i], n_polish) for i in range(len(goals))]
     if n_jobs > 1 and len(tasks) > 1:
-        with ProcessPoolExecutor(min(n_jobs, len(tasks))) as pool:
+        # spawned, not forked: a fork copies the caller's threads and sockets half-way (a Celery
+        # connection pool's after-fork hook hung the child reading a Redis socket it inherited)
+        with ProcessPoolExecutor(min(n_jobs, len(tasks)), mp_context=multiprocessing.get_context("spawn")) as pool:
             out = list(pool.map(_solve_one, tasks))
     else:
         out = [_solve_one(t) for t in tasks]
