@@ -4,6 +4,7 @@ every Django import here happens inside a fixture so they stay Django-free.
 """
 from __future__ import annotations
 
+import functools
 import os
 import sys
 
@@ -11,6 +12,7 @@ import pytest
 
 from teaching import teach
 from teaching.build import PRESETS, build_table
+from tests import services
 
 # Environments of the `tiny` table (48 environments × 24 θ, built once per run by `tiny_table`).
 SMALL_SEQUENCES = {"alpha": [500, 5780, 12165], "beta": [7107, 15245], "gamma": [586, 20132]}
@@ -151,13 +153,7 @@ def ci() -> bool:
 def require_service(ci):
     """require_service(ok, what): a test whose service (tests/services.py) is missing fails under
     CI and is skipped elsewhere, with `what` as the reason."""
-    def require(ok: bool, what: str) -> None:
-        if not ok:
-            if ci:
-                pytest.fail(f"CI is set but {what}")
-            pytest.skip(f"{what} (allowed only outside CI)")
-
-    return require
+    return functools.partial(services.require_service, ci=ci)
 
 
 # --- real tables ----------------------------------------------------------------------------

@@ -1,7 +1,7 @@
 """The services some tests need on this machine (PostgreSQL, Redis), checked one way everywhere.
 
-Whether a missing service skips or fails the test is the ``require_service`` fixture's business
-(tests/conftest.py): under CI it fails.
+Whether a missing service skips or fails the test is :func:`require_service`'s business (the
+fixture of that name in tests/conftest.py calls it): under CI it fails.
 """
 from __future__ import annotations
 
@@ -11,9 +11,19 @@ import threading
 from contextlib import contextmanager
 
 import psycopg
+import pytest
 import redis
 
 PG_URL = os.environ.get("POSTGRES_TEST_URL", "postgres://postgres@127.0.0.1:5432/test")
+
+
+def require_service(ok: bool, what: str, ci: bool) -> None:
+    """A test (or fixture, of any scope) whose service is missing fails under CI and is skipped
+    elsewhere, with `what` as the reason."""
+    if not ok:
+        if ci:
+            pytest.fail(f"CI is set but {what}")
+        pytest.skip(f"{what} (allowed only outside CI)")
 
 
 def postgres_reachable(url: str = PG_URL) -> bool:

@@ -39,6 +39,27 @@ print(study.slug, study.conditions.count(), len(study.test_set))
 """
 
 
+def timed_get(url: str, timeout: float) -> float:
+    """Seconds until a 200 for GET url, or inf when none came within `timeout`."""
+    start = time.monotonic()
+    try:
+        with NO_PROXY.open(url, timeout=timeout) as r:
+            r.read()
+            assert r.status == 200
+    except OSError:
+        return float("inf")
+    return time.monotonic() - start
+
+
+def gets_during(url: str, seconds: float, timeout: float, every: float = 0.25) -> list[float]:
+    """timed_get of url every `every` s for `seconds`: what a normal visitor sees meanwhile."""
+    times, end = [], time.monotonic() + seconds
+    while time.monotonic() < end:
+        times.append(timed_get(url, timeout))
+        time.sleep(every)
+    return times
+
+
 def with_database(url: str, name: str) -> str:
     parts = urlsplit(url)
     return urlunsplit(parts._replace(path="/" + name))

@@ -81,32 +81,17 @@ class Trickler:
                 s.close()
 
 
-def timed_get(url: str) -> float:
-    start = time.monotonic()
-    try:
-        with harness.NO_PROXY.open(url, timeout=5) as r:
-            r.read()
-            assert r.status == 200
-    except OSError:
-        return float("inf")  # no answer within 5 s
-    return time.monotonic() - start
-
-
 def test_slow_clients_from_one_address_leave_the_site_responsive(tmp_path, require_service, demo_table):
     require_service(postgres_reachable(), f"PostgreSQL at {PG_URL} is unreachable")
     require_service(redis_reachable(harness.REDIS_URL), f"Redis at {harness.REDIS_URL} is unreachable")
     with harness.Server(tmp_path, demo_table=demo_table) as server:
         url = server.base_url + "/"
-        assert timed_get(url) < P95_BAR
+        assert harness.timed_get(url, 5) < P95_BAR
         slow = Trickler(server.port)
         slow.thread.start()
         try:
             time.sleep(1.0)  # every slow connection is open and trickling
-            times = []
-            end = time.monotonic() + DURATION
-            while time.monotonic() < end:
-                times.append(timed_get(url))
-                time.sleep(0.25)
+            times = harness.gets_during(url, DURATION, timeout=5)
         finally:
             slow.stop.set()
             slow.thread.join(10)
