@@ -30,6 +30,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from bench.doc_section import rewrite_section  # noqa: E402  (needs ROOT on sys.path)
+
 SEQUENCES = {"alpha": [500, 5780, 12165], "beta": [7107, 15245], "gamma": [586, 20132]}  # tiny-table envs
 SLUG, STAFF = "bench-exports", "bench-staff"
 BAR_SECONDS, BAR_MB = 10.0, 500.0
@@ -181,13 +183,7 @@ def markdown(fig: dict) -> str:
 
 
 def update_doc(json_path: Path, doc: Path) -> None:
-    fig = json.loads(json_path.read_text())
-    text = doc.read_text()
-    if BEGIN not in text or END not in text:
-        raise SystemExit(f"{doc} has no {BEGIN} ... {END} markers")
-    start, stop = text.index(BEGIN), text.index(END) + len(END)
-    doc.write_text(text[:start] + markdown(fig) + text[stop:])
-    print(f"rewrote the exports section of {doc} from {json_path}")
+    rewrite_section(json_path, doc, BEGIN, END, markdown, "exports")
 
 
 def main() -> None:

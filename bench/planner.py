@@ -30,6 +30,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from bench.doc_section import rewrite_section
 from bench.hard_reference import compare_table, summarise
 from teaching.build import PRESETS, assemble, chunk_key, chunks_of, table_identity
 from teaching.candidates import sample_thetas
@@ -131,13 +132,7 @@ def markdown(fig: dict) -> str:
 
 
 def update_doc(json_path: Path, doc: Path) -> None:
-    fig = json.loads(json_path.read_text())
-    text = doc.read_text()
-    if BEGIN not in text or END not in text:
-        raise SystemExit(f"{doc} has no {BEGIN} ... {END} markers")
-    start, stop = text.index(BEGIN), text.index(END) + len(END)
-    doc.write_text(text[:start] + markdown(fig) + text[stop:])
-    print(f"rewrote the planner section of {doc} from {json_path}")
+    rewrite_section(json_path, doc, BEGIN, END, markdown, "planner")
 
 
 def hard_mode(args) -> None:
