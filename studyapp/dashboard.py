@@ -7,7 +7,6 @@ from django.db.models import Count, Q
 from django.http import HttpResponse, StreamingHttpResponse
 from django.shortcuts import get_object_or_404, redirect, render
 from django.utils import timezone
-from django.utils.cache import add_never_cache_headers
 from django.views.decorators.http import require_POST
 
 from . import exports
@@ -101,9 +100,9 @@ def preview(request, slug, condition_id):
 @researcher_required
 def export(request, slug, kind):
     """The long and wide files are streamed as they are written (a study of 10,000 participants
-    would otherwise be built whole in the web worker); none is kept by a browser or proxy cache.
-    (The researcher pages in general get their no-store from a middleware, issue 22 item 6; this
-    view says it itself so the exports never depend on it.)"""
+    would otherwise be built whole in the web worker); none is kept by a browser or proxy cache
+    (Cache-Control: no-store from config.middleware.ResearcherNoStoreMiddleware, as on every
+    researcher page)."""
     study = get_object_or_404(Study, slug=slug)
     if kind in exports.STREAMS:
         response = StreamingHttpResponse(exports.STREAMS[kind](study), content_type="text/csv; charset=utf-8")
@@ -112,5 +111,4 @@ def export(request, slug, kind):
         response = HttpResponse(exports.dictionary_csv(), content_type="text/csv; charset=utf-8")
         name = f"{slug}-data-dictionary.csv"
     response["Content-Disposition"] = f'attachment; filename="{name}"'
-    add_never_cache_headers(response)  # Cache-Control: no-store, ..., as the researcher-page middleware will
     return response

@@ -20,12 +20,9 @@ from PIL import Image
 from playwright.sync_api import sync_playwright
 
 from studyapp.assignment import assign
-from studyapp.studies import build_study, demo_spec
 from studyapp.trajectories import study_span
-from teaching.table import TrajectoryTable
 from tests.browser.test_scenes import stimuli_of
 from tests.conftest import complete_flow
-from tests.studyapp.test_stimuli import real_spec
 
 CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 OUT = Path(__file__).resolve().parents[2] / "test-output"
@@ -64,14 +61,6 @@ COLLECT = """async ({stimuli, widths, span}) => {
 def overlap(a, b) -> bool:
     return (a["x"] < b["x"] + b["w"] and b["x"] < a["x"] + a["w"]
             and a["y"] < b["y"] + b["h"] and b["y"] < a["y"] + a["h"])
-
-
-@pytest.fixture
-def studies(transactional_db, demo_table, tiny_table, monkeypatch):
-    monkeypatch.setenv("DEMO_TABLE", str(demo_table))
-    demo = build_study(demo_spec())
-    real = build_study(real_spec(TrajectoryTable.load(tiny_table), tiny_table))
-    return [demo, real]
 
 
 def test_labels_never_overlap_and_one_scale_per_study(studies, live_server):

@@ -12,10 +12,7 @@ from pathlib import Path
 import pytest
 from playwright.sync_api import sync_playwright
 
-from studyapp.studies import build_study, demo_spec
 from studyapp.trajectories import drawn_scene, scene_sizes
-from teaching.table import TrajectoryTable
-from tests.studyapp.test_stimuli import real_spec
 
 CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 OUT = Path(__file__).resolve().parents[2] / "test-output"
@@ -82,14 +79,6 @@ def stimuli_of(study) -> list[dict]:
             out.append({"name": f"test {j + 1} option {k} (env {test['env_id']})",
                         "env": drawn_scene(test, robot=False), "robot": option["robot"]})
     return out
-
-
-@pytest.fixture
-def studies(transactional_db, demo_table, tiny_table, monkeypatch):
-    monkeypatch.setenv("DEMO_TABLE", str(demo_table))
-    demo = build_study(demo_spec())
-    real = build_study(real_spec(TrajectoryTable.load(tiny_table), tiny_table))
-    return [demo, real]
 
 
 def test_both_cars_are_on_the_canvas_whenever_they_interact(studies, live_server):
