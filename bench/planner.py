@@ -3,7 +3,8 @@ peak memory, and optimality against the independent reference (teaching/referenc
 
     python bench/planner.py [--envs 64] [--pairs 1000] [--scipy-problems 40] [--jobs 2]
                             [--seed 2024] [--no-assembly] [--json PATH]
-    python bench/planner.py --reference hard [--table DIR] [--pairs N] [--jobs 2] [--seed 2024] [--json PATH]
+    python bench/planner.py --reference hard [--table DIR | --envs N [--exact]] [--pairs N] [--jobs 2] [--seed 2024]
+                            [--json PATH]
 
 Everything is measured in this one run on this machine; the figures printed are the ones to
 quote (--json writes them all, to regenerate docs/benchmarks.md).  Bars: >= 100x the
@@ -36,7 +37,7 @@ from teaching.build import PRESETS, assemble, chunk_key, chunks_of, table_identi
 from teaching.candidates import sample_thetas
 from teaching.environments import N_ENVIRONMENTS, get_environments, other_car_states
 from teaching.features import default_normalisers, raw_features, reward
-from teaching.planner import objective_weights, plan_chunk, strategy_seeds
+from teaching.planner import PlannerSettings, objective_weights, plan_chunk, strategy_seeds
 from teaching.reference import reference_gap, single_thread_blas, solve_scipy
 from teaching.table import TrajectoryTable
 
@@ -138,12 +139,18 @@ def update_doc(json_path: Path, doc: Path) -> None:
 def hard_mode(args) -> None:
     """--reference hard: random pairs of a stored or freshly planned table against reference_hard."""
     rng = np.random.default_rng(args.seed)
+    stats = {}
     if args.table:
         table = TrajectoryTable.load(args.table)
     else:
         thetas, norm = sample_thetas(1000), default_normalisers()
         env_ids = np.sort(rng.choice(N_ENVIRONMENTS, args.envs, replace=False))
-        parts = [plan_chunk(c, thetas, norm) for c in np.array_split(env_ids, max(1, args.envs // 32))]
+        settings = PlannerSettings(exact=args.exact)
+        t0 = time.perf_counter()
+        parts = [plan_chunk(c, thetas, norm, settings, stats=stats)
+                 for c in np.array_split(env_ids, max(1, args.envs // 32))]
+        print(f"planned {args.envs} environments x 1,000 theta (exact={args.exact}) in "
+              f"{time.perf_counter() - t0:.1f} s: {stats}")
         table = TrajectoryTable(thetas=thetas, env_ids=env_ids, normalisers=norm,
                                 **{k: np.concatenate([p[k] for p in parts]) for k in parts[0]})
     pairs = np.stack([rng.integers(0, table.n_envs, args.pairs), rng.integers(0, table.n_thetas, args.pairs)], 1)
@@ -177,6 +184,8 @@ def main() -> None:
     ap.add_argument("--reference", choices=("penalised", "hard"), default="penalised",
                     help="hard: only the optimality check, against the hard-constraint reference")
     ap.add_argument("--table", metavar="DIR", help="with --reference hard: check this stored table, plan nothing")
+    ap.add_argument("--exact", action="store_true",
+                    help="with --reference hard and no --table: plan with PlannerSettings(exact=True) (step 6)")
     ap.add_argument("--paper-assembly", metavar="DIR", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.reference == "hard":

@@ -15,9 +15,9 @@ stored ones: turning is sum_t sqrt(dh^2 + eps^2) - eps everywhere.
 
 Exact derivatives, with s_t the state after t steps and J_t = ds_t/dz:
   grad F = sum_t J_t^T grad l_t  (+ the acceleration term, quadratic in z)
-  hess F = sum_t J_t^T M_t J_t,  M_t = hess l_t + sum_k lam_{t+1,k} hess f_k(s_t)
-where l_t is the stage cost at s_t, f the Euler step and lam the costate
-(lam_T = grad l_T, lam_t = grad l_t + A_t^T lam_{t+1}).  Controls enter the
+  hess F = sum_t J_t^T M_t J_t,  M_t = hess l_t + sum_k co_{t+1,k} hess f_k(s_t)
+where l_t is the stage cost at s_t, f the Euler step and co the costate
+(co_T = grad l_T, co_t = grad l_t + A_t^T co_{t+1}).  Controls enter the
 step linearly, so these are all the second-order terms.  The steering clip
 (never active at an optimum) is treated as constant where it binds.
 """
@@ -38,8 +38,9 @@ from .world import WORLD, world_fingerprint
 # stale kernel.  So the cache lives in a directory named by the world's
 # fingerprint (the locator is fixed when each function below is decorated).
 _user_cache_dir = numba_config.CACHE_DIR
-numba_config.CACHE_DIR = os.path.join(_user_cache_dir or os.path.join(os.path.dirname(__file__), "__pycache__"),
-                                      f"numba-world-{world_fingerprint()}")
+WORLD_CACHE_DIR = os.path.join(_user_cache_dir or os.path.join(os.path.dirname(__file__), "__pycache__"),
+                               f"numba-world-{world_fingerprint()}")
+numba_config.CACHE_DIR = WORLD_CACHE_DIR  # teaching.constrained's kernels use it too
 
 DT = WORLD.dt
 WB = WORLD.wheelbase
@@ -65,6 +66,8 @@ W_PEN = WORLD.constraint_penalty
 PEN_SOFT = 0.05  # ft: the penalty's softness (softplus scale); 0.01-0.2 ft all tried, this was fastest
 STRIPES = 256  # parallel work units per batch (solve_batch)
 ACTIVE_EPS = 1e-3  # widest band next to a bound in which a variable may be held fixed
+NC = T + 2  # the world's limits: |x_t| <= X_LIM at t = 1..T, then the lane-end band, then the end heading
+NO_MULTIPLIERS = np.zeros(NC)
 
 
 @njit(cache=True)
@@ -90,14 +93,34 @@ def overshoot_penalty(o):
 
 
 @njit(cache=True)
-def road_penalty(x):
+def limit_term(o, lam, rho):
+    """The objective's term for one limit o <= 0 (o in ft), with d/do and d2/do2.
+
+    rho == 0: the soft penalty (overshoot_penalty), which finds the basins.  rho < 0: the
+    Lagrangian's term lam * o.  rho > 0: the
+    augmented Lagrangian (Powell-Hestenes-Rockafellar) term (max(0, lam + rho o)^2 - lam^2) / (2 rho)
+    with multiplier lam >= 0 (normalised reward units per ft), whose minimisers, as lam is updated
+    to max(0, lam + rho o), converge to the optimum with the limit enforced exactly
+    (teaching.constrained)."""
+    if rho == 0.0:
+        return overshoot_penalty(o)
+    if rho < 0.0:  # the Lagrangian's term lam * o (teaching.constrained.kkt_polish)
+        return lam * o, lam, 0.0
+    m = lam + rho * o
+    if m <= 0.0:
+        return -lam * lam / (2.0 * rho), 0.0, 0.0
+    return (m * m - lam * lam) / (2.0 * rho), m, rho
+
+
+@njit(cache=True)
+def road_penalty(x, lam, rho):
     """The limit on the car's centre, |x| <= X_LIM: (value, d/dx, d2/dx2)."""
-    p, dp, ddp = overshoot_penalty(abs(x) - X_LIM)
+    p, dp, ddp = limit_term(abs(x) - X_LIM, lam, rho)
     return p, (dp if x > 0.0 else -dp), ddp
 
 
 @njit(cache=True)
-def lane_end_penalty(x, goal):
+def lane_end_penalty(x, goal, lam, rho):
     """The end of the drive: x_T within BAND of a lane centre (goal 0, merge
     right: of the right lane's).  (value, d/dx, d2/dx2).  Between two lanes the
     penalty peaks half-way, so a local search keeps the lane its start ends in;
@@ -106,15 +129,15 @@ def lane_end_penalty(x, goal):
         c = LW
     else:
         c = min(max(LW * math.floor(x / LW + 0.5), -LW), LW)
-    p, dp, ddp = overshoot_penalty(abs(x - c) - BAND)
+    p, dp, ddp = limit_term(abs(x - c) - BAND, lam, rho)
     return p, (dp if x > c else -dp), ddp
 
 
 @njit(cache=True)
-def heading_end_penalty(h):
+def heading_end_penalty(h, lam, rho):
     """The end of the drive: |h_T - pi/2| <= H_BAND.  (value, d/dh, d2/dh2)."""
     d = h - H0
-    p, dp, ddp = overshoot_penalty(H_SCALE * (abs(d) - H_BAND))
+    p, dp, ddp = limit_term(H_SCALE * (abs(d) - H_BAND), lam, rho)
     return p, (H_SCALE * dp if d > 0.0 else -H_SCALE * dp), H_SCALE * H_SCALE * ddp
 
 
@@ -171,20 +194,33 @@ def features_of_states(s, ox, oy, goal, out):
 
 @njit(cache=True)
 def objective(z, ox, oy, goal, w):
-    """F(z), value only: used in line searches."""
+    """F(z) with the soft penalty, value only."""
+    return al_objective(z, ox, oy, goal, w, NO_MULTIPLIERS, 0.0)
+
+
+@njit(cache=True)
+def al_objective(z, ox, oy, goal, w, lam, rho):
+    """F(z), value only (line searches), the limits' terms as limit_term(., lam (NC,), rho) says."""
     s = np.empty((T + 1, 5))
     rollout_one(z, s)  # once: the features and the penalties read the same states
     f = np.empty(5)
     features_of_states(s, ox, oy, goal, f)
-    pen = lane_end_penalty(s[T, 0], goal)[0] + heading_end_penalty(s[T, 2])[0]
+    pen = lane_end_penalty(s[T, 0], goal, lam[T], rho)[0] + heading_end_penalty(s[T, 2], lam[T + 1], rho)[0]
     for t in range(1, T + 1):
-        pen += road_penalty(s[t, 0])[0]
+        pen += road_penalty(s[t, 0], lam[t - 1], rho)[0]
     return w[0] * f[0] + w[1] * f[1] + w[2] * f[2] + w[3] * f[3] + w[4] * f[4] + pen
 
 
 @njit(cache=True)
 def objective_grad_hess(z, ox, oy, goal, w, g, H, want_hess):
-    """F(z); fills g (NV,) and, if want_hess, H (NV, NV) with exact derivatives."""
+    """F(z) with the soft penalty; fills g (NV,) and, if want_hess, H (NV, NV) with exact derivatives."""
+    return al_objective_grad_hess(z, ox, oy, goal, w, NO_MULTIPLIERS, 0.0, g, H, want_hess)
+
+
+@njit(cache=True)
+def al_objective_grad_hess(z, ox, oy, goal, w, lam, rho, g, H, want_hess):
+    """F(z), the limits' terms as limit_term(., lam (NC,), rho) says; fills g (NV,) and, if
+    want_hess, H (NV, NV) with exact derivatives."""
     S = np.empty((T + 1, 5))
     Jall = np.zeros((T + 1, 5, NV))
     dl = np.zeros((T + 1, 5))  # grad of the stage cost at each state
@@ -232,10 +268,10 @@ def objective_grad_hess(z, ox, oy, goal, w, g, H, want_hess):
         dl[t + 1, 1] = -w[0] * gk * dy / SIG_LONG2
         dl[t + 1, 2] = w[3] * d / rt
         dl[t + 1, 3] = 2.0 * w[2] * (v - V0)
-        p_pen, dp_pen, _ = road_penalty(x)  # constraints of the world, not features
+        p_pen, dp_pen, _ = road_penalty(x, lam[t], rho)  # constraints of the world, not features
         if t + 1 == T:
-            p_end, dp_end, _ = lane_end_penalty(x, goal)
-            p_head, dp_head, _ = heading_end_penalty(h)
+            p_end, dp_end, _ = lane_end_penalty(x, goal, lam[T], rho)
+            p_head, dp_head, _ = heading_end_penalty(h, lam[T + 1], rho)
             p_pen += p_end + p_head
             dp_pen += dp_end
             dl[t + 1, 2] += dp_head
@@ -259,7 +295,7 @@ def objective_grad_hess(z, ox, oy, goal, w, g, H, want_hess):
     if not want_hess:
         return F
     H[:, :] = 0.0
-    lam = dl[T].copy()
+    co = dl[T].copy()  # the costate
     M = np.zeros((5, 5))
     N = np.empty((5, NV))
     for t in range(T, 0, -1):
@@ -276,26 +312,26 @@ def objective_grad_hess(z, ox, oy, goal, w, g, H, want_hess):
         M[3, 3] = 2.0 * w[2]
         if goal == 0 and LW - x > 0.0:
             M[0, 0] += 2.0 * w[4]
-        M[0, 0] += road_penalty(x)[2]
+        M[0, 0] += road_penalty(x, lam[t - 1], rho)[2]
         if t == T:
-            M[0, 0] += lane_end_penalty(x, goal)[2]
-            M[2, 2] += heading_end_penalty(h)[2]
-        if t < T:  # second derivatives of the step s_t -> s_{t+1}, weighted by lam_{t+1}
+            M[0, 0] += lane_end_penalty(x, goal, lam[T], rho)[2]
+            M[2, 2] += heading_end_penalty(h, lam[T + 1], rho)[2]
+        if t < T:  # second derivatives of the step s_t -> s_{t+1}, weighted by the costate co_{t+1}
             ch, sh, tn = trig[t, 0], trig[t, 1], trig[t, 2]
             sec2 = 1.0 + tn * tn
-            M[2, 2] += -lam[0] * DT * v * ch - lam[1] * DT * v * sh
-            M[2, 3] += -lam[0] * DT * sh + lam[1] * DT * ch
+            M[2, 2] += -co[0] * DT * v * ch - co[1] * DT * v * sh
+            M[2, 3] += -co[0] * DT * sh + co[1] * DT * ch
             M[3, 2] = M[2, 3]
-            M[3, 4] += lam[2] * DT / WB * sec2
+            M[3, 4] += co[2] * DT / WB * sec2
             M[4, 3] = M[3, 4]
-            M[4, 4] += lam[2] * DT / WB * v * 2.0 * sec2 * tn
-            # costate: lam_t = grad l_t + A_t^T lam_{t+1}
-            l0, l1, l2, l3, l4 = lam[0], lam[1], lam[2], lam[3], lam[4]
-            lam[0] = dl[t, 0] + l0
-            lam[1] = dl[t, 1] + l1
-            lam[2] = dl[t, 2] + l2 - l0 * DT * v * sh + l1 * DT * v * ch
-            lam[3] = dl[t, 3] + l3 + l0 * DT * ch + l1 * DT * sh + l2 * DT / WB * tn
-            lam[4] = dl[t, 4] + (0.0 if clipped[t] else l4) + l2 * DT / WB * v * sec2
+            M[4, 4] += co[2] * DT / WB * v * 2.0 * sec2 * tn
+            # costate: co_t = grad l_t + A_t^T co_{t+1}
+            l0, l1, l2, l3, l4 = co[0], co[1], co[2], co[3], co[4]
+            co[0] = dl[t, 0] + l0
+            co[1] = dl[t, 1] + l1
+            co[2] = dl[t, 2] + l2 - l0 * DT * v * sh + l1 * DT * v * ch
+            co[3] = dl[t, 3] + l3 + l0 * DT * ch + l1 * DT * sh + l2 * DT / WB * tn
+            co[4] = dl[t, 4] + (0.0 if clipped[t] else l4) + l2 * DT / WB * v * sec2
         J = Jall[t]
         nz = 2 * ((t - 1) // SPK + 1)  # J_t depends only on knots before step t
         # N = M J with M's structure spelled out: 11 of its 25 entries can be non-zero
@@ -355,12 +391,14 @@ def _cholesky_solve(A, b, x):
 
 
 @njit(cache=True)
-def newton_one(z, ox, oy, goal, w, maxiter, tol):
-    """Projected Newton on the box [-1, 1]^NV from z (modified in place).
+def newton_one(z, ox, oy, goal, w, maxiter, tol, lam, rho):
+    """Projected Newton on the box [-1, 1]^NV from z (modified in place), minimising F with the
+    limits' terms as limit_term(., lam (NC,), rho) says.
 
     Newton directions on the free variables with a Levenberg shift that makes
     the reduced Hessian positive definite and adapts to how far the last step
-    could go, Armijo backtracking along the projection arc.  Returns (F, iterations).
+    could go, Armijo backtracking along the projection arc.  Returns (F, iterations, converged: the
+    projected gradient fell below tol; not when the line search failed or maxiter ran out).
     """
     g = np.empty(NV)
     H = np.empty((NV, NV))
@@ -369,8 +407,9 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol):
     p = np.empty(NV)
     zf = z.reshape(NV)
     zn = np.empty(NV)
-    F = objective_grad_hess(z, ox, oy, goal, w, g, H, True)
+    F = al_objective_grad_hess(z, ox, oy, goal, w, lam, rho, g, H, True)
     damping = 0.0
+    converged = False
     it = 0
     for it in range(maxiter):  # noqa: B007  (returned: the iterations taken)
         # epsilon-active set (Bertsekas): a variable within eps of a bound whose
@@ -385,6 +424,7 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol):
             if not ((zf[i] <= -1.0 and g[i] > 0.0) or (zf[i] >= 1.0 and g[i] < 0.0)):
                 pg = max(pg, abs(g[i]))
         if pg < tol:
+            converged = True
             break
         eps_act = min(ACTIVE_EPS, math.sqrt(resid))
         free = np.empty(NV, np.bool_)
@@ -426,7 +466,7 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol):
             for i in range(NV):
                 zn[i] = min(1.0, max(-1.0, zf[i] + alpha * p[i]))
                 dec += g[i] * (zn[i] - zf[i])
-            Fn = objective(zn.reshape(K, 2), ox, oy, goal, w)
+            Fn = al_objective(zn.reshape(K, 2), ox, oy, goal, w, lam, rho)
             if Fn <= F + 1e-4 * dec:
                 accepted = True
                 break
@@ -446,10 +486,10 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol):
             for j in range(NV):
                 hs += H[i, j] * (zn[j] - zf[j])
             pred -= si * (g[i] + 0.5 * hs)
-        rho = (F - Fn) / pred if pred > 0.0 else 0.0
-        if rho > 0.75:
+        ratio = (F - Fn) / pred if pred > 0.0 else 0.0
+        if ratio > 0.75:
             damping = mu / 3.0 if mu / 3.0 > 1e-12 * (scale + 1.0) else 0.0
-        elif rho < 0.25:
+        elif ratio < 0.25:
             damping = max(2.0 * mu, 1e-9 * (scale + 1.0))
         else:
             damping = mu
@@ -457,8 +497,8 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol):
         # No stop on a small decrease: near a constraint the last digits come in many small
         # steps, and stopping on |dF| < 1e-13 left the projected gradient at 1e-5 and F up to
         # 3e-7 short of the optimum.  Only the tolerance, a failed line search or maxiter stop it.
-        F = objective_grad_hess(z, ox, oy, goal, w, g, H, True)
-    return F, it
+        F = al_objective_grad_hess(z, ox, oy, goal, w, lam, rho, g, H, True)
+    return F, it, converged
 
 
 @njit(parallel=True, cache=True)
@@ -471,7 +511,7 @@ def solve_batch(z, ox, oy, goal, w, maxiter, tol, F_out, it_out):
     n = z.shape[0]
     for s in prange(STRIPES):
         for b in range(s, n, STRIPES):
-            F, it = newton_one(z[b], ox[b], oy[b], goal[b], w[b], maxiter, tol)
+            F, it, _ = newton_one(z[b], ox[b], oy[b], goal[b], w[b], maxiter, tol, NO_MULTIPLIERS, 0.0)
             F_out[b] = F
             it_out[b] = it
 

@@ -24,6 +24,12 @@ a local optimiser alone is wrong.  For one chunk of environments:
    the timing it starts with -- and steps 3-4 run again, in the environments
    where a hop did better, with these as extra candidates.
 
+6. **exact** (opt-in, ``PlannerSettings(exact=True)``): every theta's trajectory is solved again
+   with the world's limits as hard constraints (:mod:`teaching.constrained`; the penalty's
+   minimiser lies a little inside each limit it presses against), and steps 3-4 run again among
+   the trajectories that keep the limits (to the stored precision).  Off by default until it is
+   fast (docs/decisions.md, "The world's limits as hard constraints").
+
 After step 3 every theta's stored trajectory is at least as good under theta as
 theta*'s, so d_reward >= 0 holds exactly on the stored (float32) trajectories.
 Newton uses exact Hessians (:mod:`teaching.kernels`); it is parallel over
@@ -38,7 +44,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from . import detmath, kernels
+from . import constrained, detmath, kernels
 from .dynamics import rollout_np
 from .environments import get_environments, other_car_states
 from .features import raw_features, reward
@@ -48,6 +54,8 @@ from .world import WORLD
 PLANNER_VERSION = 9  # bump whenever a change alters the trajectories it returns
 NEWTON_TOL = 1e-7  # max |projected gradient|, normalised reward units per unit of z (1e-9 changed no gap)
 REFINE_GAIN = 1e-6  # normalised reward units: exact IRL's tolerance (1e-7 and 1e-8 changed no measured gap)
+FEAS_TOL = 1e-9  # ft: how far past a limit the constrained solve may end (teaching.constrained)
+STORED_FEAS_TOL = 1e-4  # ft: ... and a stored (float32) trajectory that may be handed over (measured: < 2e-5)
 
 
 @dataclass(frozen=True)
@@ -62,6 +70,7 @@ class PlannerSettings:
     hop_min_crossings: int = 5  # lane-line crossings that make a trajectory hop (step 5): across all three lanes
     #                             and back; 3 (one lane, then two back) found 7 more of 128,000 pairs at 1.07x the time
     hop_shifts: tuple = (-1,)  # knots; (-1, +1) found 2 more pairs above 1e-4 in 128,000, at 1.17x the time
+    exact: bool = False  # step 6: the world's limits as hard constraints (teaching.constrained; issue 22)
 
 
 def planner_identity(settings: PlannerSettings = None) -> dict:
@@ -137,6 +146,29 @@ def solve(z0, other_xy, goal, weights, maxiter):
     return z, F, its
 
 
+def solve_constrained(z0, other_xy, goal, weights, maxiter):
+    """The hard-limit optimum from z0 (B, K, 2) (teaching.constrained); returns (z, w . phi_raw, iterations,
+    status: 0 no limit pressed, 1 exact, 2 the penalty's answer kept)."""
+    z = np.ascontiguousarray(z0, dtype=np.float64).copy()
+    n = len(z)
+    F, resid = np.empty(n), np.empty(n)
+    its, status = np.empty(n, np.int64), np.empty(n, np.int64)
+    if n:
+        constrained.constrained_batch(z, np.ascontiguousarray(other_xy[..., 0]), np.ascontiguousarray(other_xy[..., 1]),
+                                      np.asarray(goal, np.int64), np.ascontiguousarray(weights), maxiter, NEWTON_TOL,
+                                      FEAS_TOL, F, its, resid, status)
+    return z, F, its, status
+
+
+def limit_excess(z, goal):
+    """max over the world's limits of how far (ft) each trajectory z (B, K, 2) lies past it (<= 0 inside)."""
+    z = np.ascontiguousarray(z, dtype=np.float64)
+    out = np.empty((len(z), kernels.NC))
+    if len(z):
+        constrained.limits_batch(z, np.asarray(goal, np.int64), out)
+    return out.max(axis=1) if len(z) else np.zeros(0)
+
+
 def _as_stored(z):
     """Round to the stored precision so features describe the stored trajectory exactly."""
     return np.clip(z, -1.0, 1.0).astype(np.float32).astype(np.float64)
@@ -152,13 +184,14 @@ def _rewards(pool_phi, thetas):
     return out
 
 
-def _cross_theta(pool_phi, thetas, own):
-    """Per environment, every theta takes the best pool trajectory under theta.
+def _cross_theta(pool_phi, thetas, own, feasible=None):
+    """Per environment, every theta takes the best feasible pool trajectory under theta.
 
     pool_phi (M, P, 5) normalised features, thetas (N, 5), own (M, N) index
-    into the pool of each theta's own solution.  Returns the chosen pool index
-    (M, N) (a theta keeps its own unless another is strictly better) and the
-    gain in normalised reward units (M, N).
+    into the pool of each theta's own solution, feasible (M, P) bool (all if None).
+    Returns the chosen pool index (M, N) (a theta keeps its own unless another is
+    strictly better, or its own is infeasible) and the gain in normalised reward
+    units (M, N; 0 where its own was infeasible).
     """
     pick = np.empty(own.shape, np.int64)
     gain = np.empty(own.shape)
@@ -166,10 +199,12 @@ def _cross_theta(pool_phi, thetas, own):
     rows = np.arange(len(thetas))
     for m in range(len(pool_phi)):  # one environment at a time: the (N, P) rewards stay small
         r = _rewards(pool_phi[m], thetas)
+        if feasible is not None:
+            r[:, ~feasible[m]] = -np.inf
         best = r.argmax(axis=1)
         own_r, best_r = r[rows, own[m]], r[rows, best]
         pick[m] = np.where(best_r > own_r, best, own[m])
-        gain[m] = (best_r - own_r) / norms
+        gain[m] = np.where(np.isfinite(own_r), (best_r - own_r) / norms, 0.0)
     return pick, gain
 
 
@@ -261,6 +296,29 @@ def plan_chunk(env_ids, thetas, normalisers, settings: PlannerSettings = Planner
             stats["hopped"] = stats.get("hopped", 0) + len(hop)
             stats["hops_better"] = stats.get("hops_better", 0) + len(e_found)
 
+    # 6. exact: the penalty's minimiser lies a little inside each limit it presses against; every
+    #    theta's trajectory is solved again with the limits as hard constraints, and the hand-overs
+    #    settled again among feasible trajectories only (the penalty's answers stay in the pool:
+    #    feasible, and another theta's may still be the better basin), refining from a new start
+    #    with the same constrained solve.
+    if settings.exact:
+        def exact_batch(env_idx, theta_idx, z0, iters):
+            zc, _, its, status = solve_constrained(z0, oxy[env_idx], envs.goal[env_idx], weights[theta_idx], iters)
+            if stats is not None:
+                stats["constrained"] = stats.get("constrained", 0) + len(zc)
+                stats["constrained_iterations"] = stats.get("constrained_iterations", 0) + int(its.sum())
+                stats["constrained_kept_penalty"] = stats.get("constrained_kept_penalty", 0) + int((status == 2).sum())
+            return _as_stored(zc)
+
+        def feasible(zs, env_idx):
+            return limit_excess(zs, envs.goal[env_idx]) <= STORED_FEAS_TOL
+
+        e6, t6 = np.repeat(np.arange(M), N), np.tile(np.arange(N), M)
+        zx = exact_batch(e6, t6, z.reshape(-1, K, 2), settings.warm_iters).reshape(M, N, K, 2)
+        phix = phi(zx.reshape(-1, K, 2), e6).reshape(M, N, 5)
+        z, feats = _settle(zx, phix, z, feats, thetas=thetas, rounds=settings.refine_rounds, batch=exact_batch,
+                           phi=phi, iters=settings.warm_iters, stats=stats, feasible=feasible)
+
     # Guard in the table's own arithmetic: never worse under theta than theta*'s trajectory.
     worse = reward(feats, thetas) < reward(feats[:, :1], thetas)
     z = np.where(worse[..., None, None], z[:, :1], z)
@@ -277,19 +335,27 @@ def plan_chunk(env_ids, thetas, normalisers, settings: PlannerSettings = Planner
     }
 
 
-def _settle(z, feats, extra_z, extra_phi, *, thetas, rounds, batch, phi, iters, stats, rows=None):
+def _settle(z, feats, extra_z, extra_phi, *, thetas, rounds, batch, phi, iters, stats, rows=None, feasible=None):
     """Steps 3-4: every theta takes the best, under theta, of all thetas' trajectories and the extra
     candidates of its environment; a theta that gained more than REFINE_GAIN (it was in a worse
     basin) is solved again from its new start, the result offered to all, `rounds` times.
 
     z (M, N, K, 2) and feats (M, N, 5) are each theta's own; extra_z (M, P, K, 2), extra_phi (M, P, 5);
-    rows (M,) the chunk's environments these are (all of them if None).  Returns the settled (z, feats)."""
+    rows (M,) the chunk's environments these are (all of them if None); feasible(z (B, K, 2), env_idx (B,))
+    -> (B,) bool, if given, says which trajectories may be handed over.  Returns the settled (z, feats)."""
     M, N = feats.shape[:2]
     rows = np.arange(M) if rows is None else rows
     pool_z, pool_phi = np.concatenate([z, extra_z], axis=1), np.concatenate([feats, extra_phi], axis=1)
     own = np.broadcast_to(np.arange(N), (M, N))
+
+    def pool_feasible():
+        if feasible is None:
+            return None
+        P = pool_z.shape[1]
+        return feasible(pool_z.reshape(-1, *pool_z.shape[2:]), np.repeat(rows, P)).reshape(M, P)
+
     for r in range(rounds + 1):
-        pick, gain = _cross_theta(pool_phi, thetas, own)
+        pick, gain = _cross_theta(pool_phi, thetas, own, pool_feasible())
         # Only a real gain says the theta was in a worse basin; re-solving after a
         # rounding-level gain would cost a solve and change nothing.
         moved = np.argwhere(gain > REFINE_GAIN)
