@@ -1,17 +1,19 @@
 """The optimum with the world's limits as hard constraints (issue 22), one trajectory at a time.
 
-The soft penalty of :mod:`teaching.kernels` finds the basins, but its minimiser lies a little inside
-each limit it presses against (0.16-0.36 ft from |x| = 12 in the planner-9 demo table, up to 1.4e-3
-normalised reward units off the constrained optimum).  From that point, :func:`constrained_one`
-
-1. runs a few loose rounds of the augmented Lagrangian (Powell-Hestenes-Rockafellar; the AL term is
-   kernels.limit_term with rho > 0) to learn which limits are active, then
-2. polishes with Newton on the KKT conditions of those limits (:func:`kkt_polish`), which converges
-   quadratically to rounding level; where that fails, the augmented Lagrangian is run to convergence.
+The soft penalty of :mod:`teaching.kernels` finds the basins fast, but its minimiser lies a little
+inside each limit it presses against (0.16-0.36 ft from |x| = 12 in the planner-9 demo table, up to
+1.4e-3 normalised reward units short of the constrained optimum).  From that point (feasible, and
+near the optimum) :func:`constrained_one` runs sequential quadratic programming (:func:`sqp_one`):
+Newton steps on the KKT conditions, each the solution of a small dense QP with every linearised
+limit and the controls' box (Goldfarb-Idnani's dual active-set method, :func:`qp_solve`), so the
+active limits are found by the QP itself and redundant ones (a car running along x = 12 meets
+several at once) need no care.  Under hard limits the merge feature sum_t max(0, 12 - x_t)^2 is
+taken as its smooth extension sum_t (12 - x_t)^2 (kernels.lagrangian_grad_hess): equal wherever the road's
+limit |x_t| <= 12 holds, without the kink that lies exactly on it.
 
 Limits (NC = T + 2 values c <= 0, in ft; :func:`limit_values`): |x_t| <= x_limit at t = 1..T; the
 lane-end band |x_T - lane| <= lane_end_band; H_SCALE (|h_T - pi/2| - heading_end_band) for the end
-heading.  The controls' box [-1, 1] is kept by projection, as in kernels.newton_one.
+heading.
 """
 from __future__ import annotations
 
@@ -21,21 +23,29 @@ import numpy as np
 from numba import njit, prange
 from numba.core import config as numba_config
 
+from . import detmath
 from .kernels import (
+    A_MAX,
     BAND,
+    DT,
     H0,
     H_BAND,
     H_SCALE,
     LW,
     NC,
     NV,
+    S_MAX,
+    SPK,
     STRIPES,
+    V0,
+    W_MAX,
+    WB,
     WORLD_CACHE_DIR,
     X_LIM,
     T,
     _cholesky_solve,
-    al_objective_grad_hess,
     features_one,
+    lagrangian_grad_hess,
     newton_one,
     overshoot_penalty,
     rollout_one,
@@ -45,11 +55,15 @@ _user_cache_dir = numba_config.CACHE_DIR
 numba_config.CACHE_DIR = WORLD_CACHE_DIR  # these kernels freeze the world's constants too (see teaching.kernels)
 
 LAM_NEGLIGIBLE = 1e-12  # a penalty force below this (units per ft: a limit >= ~0.65 ft away) moves no reward digit
-RHO_START, RHO_MAX = 1e4, 1e7  # the augmented Lagrangian's stiffness (units per ft^2)
-AL_ROUNDS = 12
-AL_ROUNDS_LOOSE, AL_ITERS_LOOSE, AL_TOL_LOOSE, AL_FEAS_LOOSE = 3, 30, 1e-5, 1e-4  # to find the active limits
-KKT_ITERS = 20
-KKT_MAX_STEP = 0.05  # largest Newton-KKT step (in z) taken as still local
+SQP_ITERS = 30
+SQP_STEP_DONE = 1e-8  # max |step| in z at a KKT point: the reward moves by ~|H| step^2, nothing
+SQP_PRED_DONE = 1e-13  # ... or the QP promises less than this decrease of f (normalised units)
+SQP_LOCAL = 1e-4  # a step this short is taken whole (the l1 merit's Maratos effect would reject it)
+AUG_GAIN = 100.0  # the augmentation, per unit normal, in units of H's largest diagonal entry (10 was enough
+#                   where a reduced Hessian's smallest eigenvalue was 1.8e-5 of it; 100 keeps B's condition ~4e7)
+HELD_NEAR = 1e-3  # ft
+QP_TOL = 1e-13  # ft (per unit normal): a linearised limit violated by less is held
+QP_DEP = 1e-8  # share of a normal (G^-1 metric) outside the active ones' span below which it depends on them
 
 
 @njit(cache=True)
@@ -75,285 +89,413 @@ def true_objective(z, ox, oy, goal, w):
 
 
 @njit(cache=True)
-def augmented_lagrangian(z, ox, oy, goal, w, lam, rho, rounds, maxiter, tol, feas_tol):
-    """Rounds of the augmented Lagrangian from z (in place) and multipliers lam (NC,, in place):
-    each minimises the AL function by newton_one and sets lam = max(0, lam + rho c); rho grows
-    tenfold when the limits' residual max_i |max(c_i, -lam_i / rho)| (ft) did not fall fourfold.
-    Returns (Newton iterations, residual, True if the last round's Newton converged (its projected
-    gradient below tol, not a failed line search) and the
-    residual is <= feas_tol: then z is a KKT point with multipliers lam)."""
-    c = np.empty(NC)
-    it, resid, last = 0, np.inf, np.inf
-    for _round in range(rounds):
-        _, its, converged = newton_one(z, ox, oy, goal, w, maxiter, tol, lam, rho)
-        it += its
-        limit_values(z, goal, c)
-        resid = 0.0
-        for i in range(NC):
-            resid = max(resid, abs(max(c[i], -lam[i] / rho)))
-            lam[i] = max(0.0, lam[i] + rho * c[i])
-        if resid <= feas_tol and converged:
-            return it, resid, True
-        if resid > 0.25 * last:
-            rho = min(10.0 * rho, RHO_MAX)
-        last = resid
-    return it, resid, False
+def limit_jacobian(z, goal, c, A):
+    """c (NC,) as limit_values and A (NC, NV) = dc/dz (flat z), by forward sensitivities of the
+    Euler rollout (the steering angle's clip, never active at an optimum, held constant)."""
+    J = np.zeros((5, NV))
+    Jn = np.zeros((5, NV))
+    x, y, h, v, st = 0.0, 0.0, H0, V0, 0.0
+    for t in range(T):
+        k = t // SPK
+        sh, ch = detmath.sincos(h)
+        tn = detmath.tan(st)
+        sec2 = 1.0 + tn * tn
+        for j in range(NV):
+            Jn[0, j] = J[0, j] - DT * v * sh * J[2, j] + DT * ch * J[3, j]
+            Jn[1, j] = J[1, j] + DT * v * ch * J[2, j] + DT * sh * J[3, j]
+            Jn[2, j] = J[2, j] + DT / WB * tn * J[3, j] + DT / WB * v * sec2 * J[4, j]
+            Jn[3, j] = J[3, j]
+            Jn[4, j] = J[4, j]
+        Jn[3, 2 * k + 1] += DT * A_MAX
+        st_new = st + DT * W_MAX * z[k, 0]
+        if abs(st_new) > S_MAX:
+            st_new = S_MAX if st_new > 0 else -S_MAX
+            Jn[4, :] = 0.0
+        else:
+            Jn[4, 2 * k] += DT * W_MAX
+        x, y, h, v, st = x + DT * v * ch, y + DT * v * sh, h + DT / WB * v * tn, v + DT * A_MAX * z[k, 1], st_new
+        J[:, :] = Jn
+        sx = 1.0 if x > 0.0 else -1.0
+        c[t] = abs(x) - X_LIM
+        A[t, :] = sx * J[0, :]
+    lane = LW if goal == 0 else min(max(LW * math.floor(x / LW + 0.5), -LW), LW)
+    c[T] = abs(x - lane) - BAND
+    A[T, :] = (1.0 if x > lane else -1.0) * J[0, :]
+    c[T + 1] = H_SCALE * (abs(h - H0) - H_BAND)
+    A[T + 1, :] = (H_SCALE if h > H0 else -H_SCALE) * J[2, :]
 
 
 @njit(cache=True)
-def constrained_one(z, ox, oy, goal, w, maxiter, tol, feas_tol):
-    """The optimum of F with the world's limits as hard constraints, from z (modified in place).
+def _inverse_spd(G, n, out):
+    """out = G^-1 for SPD G (n, n), by one Cholesky factorisation; False if G is not positive definite."""
+    L = np.zeros((n, n))
+    for i in range(n):
+        for j in range(i + 1):
+            s = G[i, j]
+            for k in range(j):
+                s -= L[i, k] * L[j, k]
+            if i == j:
+                if s <= 0.0:
+                    return False
+                L[i, i] = math.sqrt(s)
+            else:
+                L[i, j] = s / L[j, j]
+    Li = np.zeros((n, n))  # L^-1, lower triangular
+    for j in range(n):
+        Li[j, j] = 1.0 / L[j, j]
+        for i in range(j + 1, n):
+            s = 0.0
+            for k in range(j, i):
+                s -= L[i, k] * Li[k, j]
+            Li[i, j] = s / L[i, i]
+    for i in range(n):  # G^-1 = L^-T L^-1
+        for j in range(i + 1):
+            s = 0.0
+            for k in range(i, n):
+                s += Li[k, i] * Li[k, j]
+            out[i, j] = s
+            out[j, i] = s
+    return True
 
-    1. Projected Newton on the soft penalty (it finds the basin; its minimiser lies a little inside
-       each limit it presses against).  If no limit exerts a force > LAM_NEGLIGIBLE there, that
-       is the constrained optimum too, and we stop.
-    2. A few loose rounds of the augmented Lagrangian identify the limits that are active.
-    3. kkt_polish: Newton on the KKT conditions with those limits, to rounding level.
-    4. If that fails, or ends worse than the penalty's (feasible) answer, the augmented Lagrangian
-       run to convergence; if that fails too, the penalty's answer is kept (status 2).
-    Returns (w . phi_raw at the answer, Newton iterations, limits' residual in ft, status:
-    0 no limit pressed, 1 exact (KKT to feas_tol), 2 kept the penalty's answer)."""
+
+@njit(cache=True)
+def qp_solve(Ginv, a, N, b, m, x, u, active):
+    """Goldfarb and Idnani's dual active-set method for  min 1/2 x' G x + a' x  s.t.  N_i . x >= b_i
+    (i < m), given Ginv = G^-1 (n, n), G positive definite.  x (n,) and u (m,) (the multipliers, >= 0)
+    are filled; active (m,) bool marks the active constraints.  Starting from the unconstrained
+    minimum it adds the most violated constraint, moving primal and dual variables together and
+    dropping an active constraint whenever its multiplier would turn negative; a constraint whose
+    normal depends on the active ones is reached by dropping one (so the active normals stay
+    independent: redundant limits need no care).  Returns False if the constraints are infeasible
+    or it did not finish in its iteration budget."""
+    n = Ginv.shape[0]
+    for i in range(n):
+        v = 0.0
+        for j in range(n):
+            v -= Ginv[i, j] * a[j]
+        x[i] = v
+    u[:m] = 0.0
+    active[:m] = False
+    act = np.empty(n, np.int64)  # indices of the active constraints, in order
+    q = 0
+    GN = np.empty((n, n))  # Ginv N_k' for the active k (columns)
+    Mq = np.empty((n, n))
+    zdir = np.empty(n)
+    r = np.empty(n)
+    w1 = np.empty(n)
+    gn = np.empty(n)
+    scale = 0.0
+    for i in range(m):
+        for j in range(n):
+            scale = max(scale, abs(N[i, j]))
+    for _outer in range(4 * (m + n)):
+        # the most violated constraint (relative to its normal's size)
+        worst, p = 0.0, -1
+        for i in range(m):
+            if active[i]:
+                continue
+            s = -b[i]
+            nn = 0.0
+            for j in range(n):
+                s += N[i, j] * x[j]
+                nn += N[i, j] * N[i, j]
+            s /= math.sqrt(nn) + 1e-300
+            if s < worst - QP_TOL:
+                worst, p = s, i
+        if p < 0:
+            return True
+        u_p = 0.0
+        for _inner in range(n + 2):
+            for j in range(n):  # gn = Ginv N_p'
+                v = 0.0
+                for k in range(n):
+                    v += Ginv[j, k] * N[p, k]
+                gn[j] = v
+            # r = (Na Ginv Na')^-1 Na Ginv n_p ; z = Ginv n_p - Ginv Na' r
+            if q:
+                for a_ in range(q):
+                    for b_ in range(q):
+                        v = 0.0
+                        for j in range(n):
+                            v += N[act[a_], j] * GN[j, b_]
+                        Mq[a_, b_] = v
+                    v = 0.0
+                    for j in range(n):
+                        v += N[act[a_], j] * gn[j]
+                    w1[a_] = v
+                if not _cholesky_solve(Mq[:q, :q].copy(), w1[:q].copy(), r[:q]):
+                    return False
+            for j in range(n):
+                v = gn[j]
+                for a_ in range(q):
+                    v -= GN[j, a_] * r[a_]
+                zdir[j] = v
+            t1, l_ = np.inf, -1
+            for a_ in range(q):
+                if r[a_] > 0.0:
+                    ratio = u[act[a_]] / r[a_]
+                    if ratio < t1:
+                        t1, l_ = ratio, a_
+            zn = 0.0
+            gg = 0.0
+            for j in range(n):
+                zn += zdir[j] * N[p, j]
+                gg += gn[j] * N[p, j]
+            s = -b[p]
+            for j in range(n):
+                s += N[p, j] * x[j]
+            # n_p' H n_p against n_p' G^-1 n_p: the share of n_p the active normals do not explain
+            t2 = -s / zn if zn > QP_DEP * gg else np.inf
+            t = min(t1, t2)
+            if t == np.inf:
+                return False
+            if t2 < np.inf:
+                for j in range(n):
+                    x[j] += t * zdir[j]
+            for a_ in range(q):
+                u[act[a_]] -= t * r[a_]
+            u_p += t
+            if t == t2:  # full step: p joins the active set
+                u[p] = u_p
+                active[p] = True
+                act[q] = p
+                GN[:, q] = gn
+                q += 1
+                break
+            # partial step: the constraint whose multiplier reached 0 leaves
+            k_out = act[l_]
+            active[k_out] = False
+            u[k_out] = 0.0
+            for a_ in range(l_, q - 1):
+                act[a_] = act[a_ + 1]
+                GN[:, a_] = GN[:, a_ + 1]
+            q -= 1
+    return False
+
+
+@njit(cache=True)
+def sqp_one(z, ox, oy, goal, w, lam, maxiter, feas_tol):
+    """Sequential quadratic programming from a feasible z near the constrained optimum (the penalty's
+    answer), z (K, 2) in place, lam (NC,) multipliers (in: the penalty's forces; out: the final ones).
+
+    Each iteration: the Lagrangian's exact Hessian H_L (kernels, limits' terms lam . c), made positive
+    definite by adding r A_i' A_i for the limits with lam_i > 0 (which changes nothing on their null
+    space) and, if needed, a diagonal shift; the QP  min 1/2 p' B p + grad f' p  s.t.  c + A p <= 0 and
+    the box, by qp_solve; a full step where it lowers the l1 merit f + nu sum max(0, c) or is short,
+    else halved.  True when the step is <= SQP_STEP_DONE with every limit holding to feas_tol: a KKT
+    point with the QP's multipliers lam >= 0.  Returns (that, iterations)."""
+    zf = z.reshape(NV)
+    c = np.empty(NC)
+    A = np.empty((NC, NV))
+    g = np.empty(NV)
+    H = np.empty((NV, NV))
+    B = np.empty((NV, NV))
+    B0 = np.empty((NV, NV))
+    Ginv = np.empty((NV, NV))
+    m = NC + 2 * NV
+    N = np.zeros((m, NV))
+    bq = np.empty(m)
+    p = np.empty(NV)
+    u = np.empty(m)
+    active = np.zeros(m, np.bool_)
+    zt = np.empty(NV)
+    ct = np.empty(NC)
+    lam_pos = np.empty(NC)
+    # The limits active in the last QP or within HELD_NEAR of theirs are augmented in the next QP's
+    # Hessian (as are the controls it held on their bounds: active[NC + ...]).  The term
+    # r (A_i p)^2 / |A_i|^2 vanishes with p, so it moves no KKT point, but it makes B positive
+    # definite where only the reduced Hessian is, and steady where a limit enters and leaves.
+    held = np.zeros(NC, np.bool_)
+    for it in range(maxiter):
+        for i in range(NC):
+            lam_pos[i] = max(lam[i], 0.0)
+        lagrangian_grad_hess(z, ox, oy, goal, w, lam_pos, g, H, True)  # grad L, hess L
+        limit_jacobian(z, goal, c, A)
+        for j in range(NV):  # grad f = grad L - A' lam
+            for i in range(NC):
+                g[j] -= A[i, j] * lam_pos[i]
+        r_aug = 1.0
+        for j in range(NV):
+            r_aug = max(r_aug, abs(H[j, j]))
+        r_aug *= AUG_GAIN
+        B0[:, :] = H
+        for i in range(NC):
+            if held[i]:
+                f_i = r_aug / max(1.0, _row_norm2(A, i))
+                for a_ in range(NV):
+                    for b_ in range(NV):
+                        B0[a_, b_] += f_i * A[i, a_] * A[i, b_]
+        for a_ in range(NV):
+            if active[NC + 2 * a_] or active[NC + 2 * a_ + 1]:  # a control held on its bound
+                B0[a_, a_] += r_aug
+        shift = 0.0
+        ok = False
+        for _attempt in range(40):
+            B[:, :] = B0
+            for a_ in range(NV):
+                B[a_, a_] += shift
+            if _inverse_spd(B, NV, Ginv):
+                ok = True
+                break
+            shift = max(1e-12 * r_aug, 10.0 * shift)
+        if not ok:
+            return False, it
+        for i in range(NC):  # c + A p <= 0  as  (-A_i) . p >= c_i
+            N[i, :] = -A[i, :]
+            bq[i] = c[i]
+        for j in range(NV):  # -1 <= z + p <= 1
+            N[NC + 2 * j, j] = 1.0
+            bq[NC + 2 * j] = -1.0 - zf[j]
+            N[NC + 2 * j + 1, j] = -1.0
+            bq[NC + 2 * j + 1] = zf[j] - 1.0
+        if not qp_solve(Ginv, g, N, bq, m, p, u, active):
+            return False, it
+        step = 0.0
+        for j in range(NV):
+            step = max(step, abs(p[j]))
+        viol = 0.0
+        for i in range(NC):
+            viol = max(viol, c[i])
+        for i in range(NC):
+            lam[i] = u[i]
+            held[i] = active[i]
+        # the QP model's decrease: how much f the step promised (a flat valley along several nearly
+        # dependent active limits gives long steps that promise nothing: converged in f all the same)
+        pred = 0.0
+        for a_ in range(NV):
+            bp = 0.0
+            for b_ in range(NV):
+                bp += B[a_, b_] * p[b_]
+            pred -= p[a_] * (g[a_] + 0.5 * bp)
+        if (step <= SQP_STEP_DONE or pred <= SQP_PRED_DONE) and viol <= feas_tol:
+            return True, it
+        nu = 1e-8
+        for i in range(NC):
+            nu = max(nu, 2.0 * u[i])
+        merit = true_objective(z, ox, oy, goal, w) + nu * _excess(c)
+        alpha = 1.0
+        for _ls in range(30):
+            for j in range(NV):
+                zt[j] = min(1.0, max(-1.0, zf[j] + alpha * p[j]))
+            limit_values(zt.reshape(z.shape), goal, ct)
+            mt = true_objective(zt.reshape(z.shape), ox, oy, goal, w) + nu * _excess(ct)
+            if mt <= merit or alpha * step <= SQP_LOCAL:
+                break
+            if alpha == 1.0 and _second_order_correction(zf, p, Ginv, A, active, ct, zt):
+                # the full step's curvature pushed the active limits off (Maratos): corrected back onto
+                # them along the QP's metric, it is taken if the merit then falls
+                limit_values(zt.reshape(z.shape), goal, ct)
+                if true_objective(zt.reshape(z.shape), ox, oy, goal, w) + nu * _excess(ct) <= merit:
+                    break
+            alpha *= 0.5
+        zf[:] = zt
+    return False, maxiter
+
+
+@njit(cache=True)
+def _second_order_correction(zf, p, Ginv, A, active, ct, zt):
+    """zt = z + p + q with q = -G^-1 A_W' (A_W G^-1 A_W')^-1 c_W(z + p): the step corrected so the
+    limits active in the QP hold again to second order (A_W at z, c_W at z + p, ct).  False if no
+    limit is active or the system is singular."""
+    n = zf.shape[0]
+    rows = np.empty(NC, np.int64)
+    q = 0
+    for i in range(NC):
+        if active[i]:
+            rows[q] = i
+            q += 1
+    if q == 0:
+        return False
+    GA = np.empty((n, q))
+    for a_ in range(q):
+        for j in range(n):
+            v = 0.0
+            for k in range(n):
+                v += Ginv[j, k] * A[rows[a_], k]
+            GA[j, a_] = v
+    S = np.empty((q, q))
+    r = np.empty(q)
+    y = np.empty(q)
+    for a_ in range(q):
+        for b_ in range(q):
+            v = 0.0
+            for j in range(n):
+                v += A[rows[a_], j] * GA[j, b_]
+            S[a_, b_] = v
+        r[a_] = ct[rows[a_]]
+    if not _cholesky_solve(S, r, y):
+        return False
+    for j in range(n):
+        v = zf[j] + p[j]
+        for a_ in range(q):
+            v -= GA[j, a_] * y[a_]
+        zt[j] = min(1.0, max(-1.0, v))
+    return True
+
+
+@njit(cache=True)
+def _row_norm2(A, i):
+    v = 0.0
+    for j in range(A.shape[1]):
+        v += A[i, j] * A[i, j]
+    return v
+
+
+@njit(cache=True)
+def _excess(c):
+    """sum_i max(0, c_i): how far past the limits, in total (ft)."""
+    v = 0.0
+    for i in range(c.shape[0]):
+        v += max(0.0, c[i])
+    return v
+
+
+@njit(cache=True)
+def constrained_one(z, ox, oy, goal, w, maxiter, tol, feas_tol, from_penalty_optimum):
+    """The optimum of w . phi_raw with the world's limits as hard constraints, from z (in place).
+
+    1. Projected Newton on the soft penalty finds the basin (skipped if from_penalty_optimum: z is
+       already the penalty's optimum, to the stored precision).  If no limit exerts a force above
+       LAM_NEGLIGIBLE there, that is the constrained optimum too (status 0).
+    2. sqp_one from there, the penalty's forces as first multipliers.  Status 1: it reached a KKT
+       point (step <= SQP_STEP_DONE, every limit holding to feas_tol) no worse than the penalty's
+       answer.  Status 2: otherwise; the penalty's (feasible) answer is kept and nothing claimed.
+    Returns (w . phi_raw at the answer, Newton and SQP iterations, status)."""
     lam = np.zeros(NC)
-    _, it, _ = newton_one(z, ox, oy, goal, w, maxiter, tol, lam, 0.0)
+    it = 0
+    if not from_penalty_optimum:
+        _, it = newton_one(z, ox, oy, goal, w, maxiter, tol)
     c = np.empty(NC)
     limit_values(z, goal, c)
     pressed = False
     for i in range(NC):
-        pressed = pressed or overshoot_penalty(c[i])[1] > LAM_NEGLIGIBLE
+        lam[i] = overshoot_penalty(c[i])[1]
+        pressed = pressed or lam[i] > LAM_NEGLIGIBLE
     f_pen = true_objective(z, ox, oy, goal, w)
     if not pressed:
-        return f_pen, it, 0.0, 0
-    za = z.copy()
-    its, resid, _ = augmented_lagrangian(za, ox, oy, goal, w, lam, RHO_START, AL_ROUNDS_LOOSE, AL_ITERS_LOOSE,
-                                         AL_TOL_LOOSE, AL_FEAS_LOOSE)
-    it += its
-    zk = za.copy()
-    lk = lam.copy()
-    if kkt_polish(zk, ox, oy, goal, w, lk, KKT_ITERS, feas_tol):
-        f = true_objective(zk, ox, oy, goal, w)
-        if f <= f_pen + 1e-12:
-            z[:, :] = zk
-            return f, it, _residual(zk, goal, lk), 1
-    its, resid, ok = augmented_lagrangian(za, ox, oy, goal, w, lam, RHO_START, AL_ROUNDS, maxiter, tol, feas_tol)
+        return f_pen, it, 0
+    zs = z.copy()
+    ok, its = sqp_one(zs, ox, oy, goal, w, lam, SQP_ITERS, feas_tol)
     it += its
     if ok:
-        f = true_objective(za, ox, oy, goal, w)
+        f = true_objective(zs, ox, oy, goal, w)
         if f <= f_pen + 1e-12:
-            z[:, :] = za
-            return f, it, resid, 1
-    return f_pen, it, 0.0, 2
-
-
-@njit(cache=True)
-def _residual(z, goal, lam):
-    """max_i |max(c_i, -lam_i)| (ft): feasibility and complementarity of z with multipliers lam."""
-    c = np.empty(NC)
-    limit_values(z, goal, c)
-    r = 0.0
-    for i in range(NC):
-        r = max(r, abs(max(c[i], -lam[i])))
-    return r
+            z[:, :] = zs
+            return f, it, 1
+    return f_pen, it, 2
 
 
 @njit(parallel=True, cache=True)
-def constrained_batch(z, ox, oy, goal, w, maxiter, tol, feas_tol, F_out, it_out, resid_out, status_out):
-    """constrained_one on every problem (in parallel, striped as solve_batch). z (B, K, 2) in place."""
+def constrained_batch(z, ox, oy, goal, w, maxiter, tol, feas_tol, from_penalty_optimum, F_out, it_out, status_out):
+    """constrained_one on every problem (in parallel, striped as kernels.solve_batch). z (B, K, 2) in place."""
     n = z.shape[0]
     for s in prange(STRIPES):
         for b in range(s, n, STRIPES):
-            F, it, r, st = constrained_one(z[b], ox[b], oy[b], goal[b], w[b], maxiter, tol, feas_tol)
+            F, it, st = constrained_one(z[b], ox[b], oy[b], goal[b], w[b], maxiter, tol, feas_tol,
+                                        from_penalty_optimum)
             F_out[b] = F
             it_out[b] = it
-            resid_out[b] = r
             status_out[b] = st
-
-
-@njit(cache=True)
-def _solve_spd(A, b, x, n):
-    """x[:n] = A[:n, :n]^-1 b[:n] by Cholesky, A shifted along its diagonal until positive definite.
-    Returns the shift used (0.0 if none), -1.0 if none worked."""
-    scale = 0.0
-    for i in range(n):
-        scale = max(scale, abs(A[i, i]))
-    mu = 0.0
-    B = np.empty((n, n))
-    for _attempt in range(40):
-        for i in range(n):
-            for j in range(n):
-                B[i, j] = A[i, j]
-            B[i, i] += mu
-        if _cholesky_solve(B, b[:n].copy(), x[:n]):
-            return mu
-        mu = max(1e-14 * (scale + 1e-300), 10.0 * mu)
-    return -1.0
-
-
-@njit(cache=True)
-def _independent_solve(S, r, x, m, lam, rows):
-    """x[:m] solving S x = r on a maximal set of linearly independent working limits (S = A H^-1 A^T
-    is singular where limits are redundant: a car running along x = 12 for several steps meets them
-    all once it is straight), taken greedily by decreasing multiplier; the others get x = 0
-    (they hold implicitly, and the next iteration checks them).  An incremental Cholesky."""
-    order = np.argsort(-np.array([lam[rows[k]] for k in range(m)]))
-    L = np.zeros((m, m))
-    kept = np.empty(m, np.int64)
-    n = 0
-    for k in order:
-        for a in range(n):
-            j = kept[a]
-            v = S[k, j]
-            for b in range(a):
-                v -= L[k, kept[b]] * L[j, kept[b]]
-            L[k, j] = v / L[j, j]
-        d = S[k, k]
-        for a in range(n):
-            d -= L[k, kept[a]] ** 2
-        if d > 1e-10 * S[k, k] and d > 0.0:
-            L[k, k] = math.sqrt(d)
-            kept[n] = k
-            n += 1
-        else:
-            for a in range(n):
-                L[k, kept[a]] = 0.0
-    y = np.zeros(m)
-    for a in range(n):
-        k = kept[a]
-        v = r[k]
-        for b in range(a):
-            v -= L[k, kept[b]] * y[kept[b]]
-        y[k] = v / L[k, k]
-    x[:m] = 0.0
-    for a in range(n - 1, -1, -1):
-        k = kept[a]
-        v = y[k]
-        for b in range(a + 1, n):
-            v -= L[kept[b], k] * x[kept[b]]
-        x[k] = v / L[k, k]
-
-
-@njit(cache=True)
-def kkt_polish(z, ox, oy, goal, w, lam, maxiter, feas_tol):
-    """Newton on the KKT conditions from a point near the constrained optimum; z (K, 2) in place,
-    lam (NC,) the multipliers (in: the augmented Lagrangian's; out: the final ones).
-
-    The working set starts as the limits with lam > 0 or c > -feas_tol.  Each iteration solves the
-    equality-constrained Newton system  H_L p + A^T lam' = -grad f,  A p = -c  on the free controls
-    (H_L the Lagrangian's exact Hessian, A the working limits' gradients) by a Cholesky of
-    H_L + r A^T A and of the Schur complement; limits whose new multiplier is negative leave the set
-    and violated ones join it.  True when the step is at rounding level, every working limit holds
-    with equality and every other limit holds (to feas_tol), and lam >= 0: a KKT point."""
-    zf = z.reshape(NV)
-    c = np.empty(NC)
-    limit_values(z, goal, c)
-    work = np.zeros(NC, np.bool_)
-    for i in range(NC):
-        work[i] = lam[i] > 0.0 or c[i] > -feas_tol
-    g = np.empty(NV)
-    H = np.empty((NV, NV))
-    gi = np.empty(NV)
-    Hd = np.empty((NV, NV))
-    A = np.zeros((NC, NV))
-    unit = np.zeros(NC)
-    zero_w = np.zeros(5)
-    idx = np.empty(NV, np.int64)
-    rows = np.empty(NC, np.int64)
-    Hs = np.empty((NV, NV))
-    rhs = np.empty(NV)
-    u = np.empty(NV)
-    col = np.empty(NV)
-    gfree = np.empty(NV)
-    Y = np.empty((NC, NV))
-    S = np.empty((NC, NC))
-    r = np.empty(NC)
-    lnew = np.empty(NC)
-    for _it in range(maxiter):
-        lam_w = np.where(work, lam, 0.0)
-        al_objective_grad_hess(z, ox, oy, goal, w, lam_w, -1.0, g, H, True)  # grad and Hessian of L
-        m = 0
-        for i in range(NC):
-            if work[i]:
-                unit[i] = 1.0
-                al_objective_grad_hess(z, ox, oy, goal, zero_w, unit, -1.0, gi, Hd, False)  # grad c_i
-                unit[i] = 0.0
-                A[m, :] = gi
-                rows[m] = i
-                m += 1
-        nf = 0
-        for j in range(NV):
-            # a control on its bound stays there while the Lagrangian pushes it outwards
-            if (zf[j] >= 1.0 and g[j] < 0.0) or (zf[j] <= -1.0 and g[j] > 0.0):
-                continue
-            gf = g[j]  # grad f = grad L - A^T lam
-            for a in range(m):
-                gf -= A[a, j] * lam_w[rows[a]]
-            idx[nf] = j
-            gfree[nf] = gf
-            nf += 1
-        r_aug = 1.0
-        for a in range(nf):
-            r_aug = max(r_aug, abs(H[idx[a], idx[a]]))
-        for a in range(nf):
-            for b in range(nf):
-                v = H[idx[a], idx[b]]
-                for k in range(m):
-                    v += r_aug * A[k, idx[a]] * A[k, idx[b]]
-                Hs[a, b] = v
-            v = -gfree[a]
-            for k in range(m):
-                v -= r_aug * A[k, idx[a]] * c[rows[k]]
-            rhs[a] = v
-        if _solve_spd(Hs, rhs, u, nf) < 0.0:
-            return False
-        for k in range(m):
-            for a in range(nf):
-                rhs[a] = A[k, idx[a]]
-            if _solve_spd(Hs, rhs, col, nf) < 0.0:
-                return False
-            Y[k, :nf] = col[:nf]
-        for k in range(m):
-            v = c[rows[k]]
-            for a in range(nf):
-                v += A[k, idx[a]] * u[a]
-            r[k] = v
-            for q in range(m):
-                v = 0.0
-                for a in range(nf):
-                    v += A[k, idx[a]] * Y[q, a]
-                S[k, q] = v
-        if m:
-            _independent_solve(S, r, lnew, m, lam_w, rows)
-        step = 0.0
-        for a in range(nf):
-            v = u[a]
-            for k in range(m):
-                v -= Y[k, a] * lnew[k]
-            j = idx[a]
-            zn = min(1.0, max(-1.0, zf[j] + v))
-            step = max(step, abs(zn - zf[j]))
-            zf[j] = zn
-        if step > KKT_MAX_STEP:  # not near a KKT point of this working set: let the AL go on
-            return False
-        lam[:] = 0.0
-        neg = False
-        for k in range(m):
-            lam[rows[k]] = lnew[k]
-            neg = neg or lnew[k] < 0.0
-        limit_values(z, goal, c)
-        viol = 0.0
-        added = False
-        for i in range(NC):
-            viol = max(viol, abs(c[i]) if work[i] else c[i])
-            if not work[i] and c[i] > feas_tol:
-                work[i] = True
-                added = True
-        if neg:
-            for i in range(NC):
-                if work[i] and lam[i] < 0.0:
-                    work[i] = False
-                    lam[i] = 0.0
-        if step <= 1e-11 and viol <= feas_tol and not neg and not added:
-            return True
-    return False
 
 
 @njit(parallel=True, cache=True)

@@ -93,34 +93,24 @@ def overshoot_penalty(o):
 
 
 @njit(cache=True)
-def limit_term(o, lam, rho):
-    """The objective's term for one limit o <= 0 (o in ft), with d/do and d2/do2.
-
-    rho == 0: the soft penalty (overshoot_penalty), which finds the basins.  rho < 0: the
-    Lagrangian's term lam * o.  rho > 0: the
-    augmented Lagrangian (Powell-Hestenes-Rockafellar) term (max(0, lam + rho o)^2 - lam^2) / (2 rho)
-    with multiplier lam >= 0 (normalised reward units per ft), whose minimisers, as lam is updated
-    to max(0, lam + rho o), converge to the optimum with the limit enforced exactly
-    (teaching.constrained)."""
-    if rho == 0.0:
-        return overshoot_penalty(o)
-    if rho < 0.0:  # the Lagrangian's term lam * o (teaching.constrained.kkt_polish)
+def limit_term(o, lam, hard):
+    """The objective's term for one limit o <= 0 (o in ft), with d/do and d2/do2: the soft penalty
+    (overshoot_penalty), which finds the basins, or, if hard, the Lagrangian's term lam * o with the
+    limit's multiplier lam >= 0 (normalised reward units per ft; teaching.constrained)."""
+    if hard:
         return lam * o, lam, 0.0
-    m = lam + rho * o
-    if m <= 0.0:
-        return -lam * lam / (2.0 * rho), 0.0, 0.0
-    return (m * m - lam * lam) / (2.0 * rho), m, rho
+    return overshoot_penalty(o)
 
 
 @njit(cache=True)
-def road_penalty(x, lam, rho):
+def road_penalty(x, lam, hard):
     """The limit on the car's centre, |x| <= X_LIM: (value, d/dx, d2/dx2)."""
-    p, dp, ddp = limit_term(abs(x) - X_LIM, lam, rho)
+    p, dp, ddp = limit_term(abs(x) - X_LIM, lam, hard)
     return p, (dp if x > 0.0 else -dp), ddp
 
 
 @njit(cache=True)
-def lane_end_penalty(x, goal, lam, rho):
+def lane_end_penalty(x, goal, lam, hard):
     """The end of the drive: x_T within BAND of a lane centre (goal 0, merge
     right: of the right lane's).  (value, d/dx, d2/dx2).  Between two lanes the
     penalty peaks half-way, so a local search keeps the lane its start ends in;
@@ -129,15 +119,15 @@ def lane_end_penalty(x, goal, lam, rho):
         c = LW
     else:
         c = min(max(LW * math.floor(x / LW + 0.5), -LW), LW)
-    p, dp, ddp = limit_term(abs(x - c) - BAND, lam, rho)
+    p, dp, ddp = limit_term(abs(x - c) - BAND, lam, hard)
     return p, (dp if x > c else -dp), ddp
 
 
 @njit(cache=True)
-def heading_end_penalty(h, lam, rho):
+def heading_end_penalty(h, lam, hard):
     """The end of the drive: |h_T - pi/2| <= H_BAND.  (value, d/dh, d2/dh2)."""
     d = h - H0
-    p, dp, ddp = limit_term(H_SCALE * (abs(d) - H_BAND), lam, rho)
+    p, dp, ddp = limit_term(H_SCALE * (abs(d) - H_BAND), lam, hard)
     return p, (H_SCALE * dp if d > 0.0 else -H_SCALE * dp), H_SCALE * H_SCALE * ddp
 
 
@@ -194,33 +184,50 @@ def features_of_states(s, ox, oy, goal, out):
 
 @njit(cache=True)
 def objective(z, ox, oy, goal, w):
-    """F(z) with the soft penalty, value only."""
-    return al_objective(z, ox, oy, goal, w, NO_MULTIPLIERS, 0.0)
+    """F(z) with the soft penalty, value only: used in line searches."""
+    return _objective(z, ox, oy, goal, w, NO_MULTIPLIERS, False)
 
 
 @njit(cache=True)
-def al_objective(z, ox, oy, goal, w, lam, rho):
-    """F(z), value only (line searches), the limits' terms as limit_term(., lam (NC,), rho) says."""
+def lagrangian(z, ox, oy, goal, w, lam):
+    """w . phi_raw(z) + sum_i lam_i c_i(z), the hard-limit problem's Lagrangian (lam (NC,); see hard_merge)."""
+    return _objective(z, ox, oy, goal, w, lam, True)
+
+
+@njit(cache=True)
+def _objective(z, ox, oy, goal, w, lam, hard):
     s = np.empty((T + 1, 5))
     rollout_one(z, s)  # once: the features and the penalties read the same states
     f = np.empty(5)
     features_of_states(s, ox, oy, goal, f)
-    pen = lane_end_penalty(s[T, 0], goal, lam[T], rho)[0] + heading_end_penalty(s[T, 2], lam[T + 1], rho)[0]
+    if hard and goal == 0:
+        f[4] = 0.0
+        for t in range(1, T + 1):
+            f[4] += (LW - s[t, 0]) ** 2  # hard_merge
+    pen = lane_end_penalty(s[T, 0], goal, lam[T], hard)[0] + heading_end_penalty(s[T, 2], lam[T + 1], hard)[0]
     for t in range(1, T + 1):
-        pen += road_penalty(s[t, 0], lam[t - 1], rho)[0]
+        pen += road_penalty(s[t, 0], lam[t - 1], hard)[0]
     return w[0] * f[0] + w[1] * f[1] + w[2] * f[2] + w[3] * f[3] + w[4] * f[4] + pen
 
 
 @njit(cache=True)
 def objective_grad_hess(z, ox, oy, goal, w, g, H, want_hess):
     """F(z) with the soft penalty; fills g (NV,) and, if want_hess, H (NV, NV) with exact derivatives."""
-    return al_objective_grad_hess(z, ox, oy, goal, w, NO_MULTIPLIERS, 0.0, g, H, want_hess)
+    return _objective_grad_hess(z, ox, oy, goal, w, NO_MULTIPLIERS, False, g, H, want_hess)
 
 
 @njit(cache=True)
-def al_objective_grad_hess(z, ox, oy, goal, w, lam, rho, g, H, want_hess):
-    """F(z), the limits' terms as limit_term(., lam (NC,), rho) says; fills g (NV,) and, if
-    want_hess, H (NV, NV) with exact derivatives."""
+def lagrangian_grad_hess(z, ox, oy, goal, w, lam, g, H, want_hess):
+    """The Lagrangian (see lagrangian); fills g (NV,) and, if want_hess, H (NV, NV) with exact derivatives.
+
+    hard_merge: under hard limits the merge feature sum_t max(0, LW - x_t)^2 is taken as its smooth
+    extension sum_t (LW - x_t)^2, equal wherever |x_t| <= X_LIM = LW holds, without the kink at
+    x_t = 12 that lies exactly on the road's limit where a merging car ends."""
+    return _objective_grad_hess(z, ox, oy, goal, w, lam, True, g, H, want_hess)
+
+
+@njit(cache=True)
+def _objective_grad_hess(z, ox, oy, goal, w, lam, hard, g, H, want_hess):
     S = np.empty((T + 1, 5))
     Jall = np.zeros((T + 1, 5, NV))
     dl = np.zeros((T + 1, 5))  # grad of the stage cost at each state
@@ -268,17 +275,17 @@ def al_objective_grad_hess(z, ox, oy, goal, w, lam, rho, g, H, want_hess):
         dl[t + 1, 1] = -w[0] * gk * dy / SIG_LONG2
         dl[t + 1, 2] = w[3] * d / rt
         dl[t + 1, 3] = 2.0 * w[2] * (v - V0)
-        p_pen, dp_pen, _ = road_penalty(x, lam[t], rho)  # constraints of the world, not features
+        p_pen, dp_pen, _ = road_penalty(x, lam[t], hard)  # constraints of the world, not features
         if t + 1 == T:
-            p_end, dp_end, _ = lane_end_penalty(x, goal, lam[T], rho)
-            p_head, dp_head, _ = heading_end_penalty(h, lam[T + 1], rho)
+            p_end, dp_end, _ = lane_end_penalty(x, goal, lam[T], hard)
+            p_head, dp_head, _ = heading_end_penalty(h, lam[T + 1], hard)
             p_pen += p_end + p_head
             dp_pen += dp_end
             dl[t + 1, 2] += dp_head
         F += p_pen
         dl[t + 1, 0] += dp_pen
         if goal == 0:
-            m = max(0.0, LW - x)
+            m = (LW - x) if hard else max(0.0, LW - x)  # hard_merge
             F += w[4] * m * m
             dl[t + 1, 0] += -2.0 * w[4] * m
         elif t + 1 == T:
@@ -310,12 +317,12 @@ def al_objective_grad_hess(z, ox, oy, goal, w, lam, rho, g, H, want_hess):
         q = d * d + EPS * EPS
         M[2, 2] = w[3] * EPS * EPS / (q * math.sqrt(q))  # q**1.5 without libm's pow
         M[3, 3] = 2.0 * w[2]
-        if goal == 0 and LW - x > 0.0:
+        if goal == 0 and (hard or LW - x > 0.0):
             M[0, 0] += 2.0 * w[4]
-        M[0, 0] += road_penalty(x, lam[t - 1], rho)[2]
+        M[0, 0] += road_penalty(x, lam[t - 1], hard)[2]
         if t == T:
-            M[0, 0] += lane_end_penalty(x, goal, lam[T], rho)[2]
-            M[2, 2] += heading_end_penalty(h, lam[T + 1], rho)[2]
+            M[0, 0] += lane_end_penalty(x, goal, lam[T], hard)[2]
+            M[2, 2] += heading_end_penalty(h, lam[T + 1], hard)[2]
         if t < T:  # second derivatives of the step s_t -> s_{t+1}, weighted by the costate co_{t+1}
             ch, sh, tn = trig[t, 0], trig[t, 1], trig[t, 2]
             sec2 = 1.0 + tn * tn
@@ -391,14 +398,12 @@ def _cholesky_solve(A, b, x):
 
 
 @njit(cache=True)
-def newton_one(z, ox, oy, goal, w, maxiter, tol, lam, rho):
-    """Projected Newton on the box [-1, 1]^NV from z (modified in place), minimising F with the
-    limits' terms as limit_term(., lam (NC,), rho) says.
+def newton_one(z, ox, oy, goal, w, maxiter, tol):
+    """Projected Newton on the box [-1, 1]^NV from z (modified in place).
 
     Newton directions on the free variables with a Levenberg shift that makes
     the reduced Hessian positive definite and adapts to how far the last step
-    could go, Armijo backtracking along the projection arc.  Returns (F, iterations, converged: the
-    projected gradient fell below tol; not when the line search failed or maxiter ran out).
+    could go, Armijo backtracking along the projection arc.  Returns (F, iterations).
     """
     g = np.empty(NV)
     H = np.empty((NV, NV))
@@ -407,9 +412,8 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol, lam, rho):
     p = np.empty(NV)
     zf = z.reshape(NV)
     zn = np.empty(NV)
-    F = al_objective_grad_hess(z, ox, oy, goal, w, lam, rho, g, H, True)
+    F = objective_grad_hess(z, ox, oy, goal, w, g, H, True)
     damping = 0.0
-    converged = False
     it = 0
     for it in range(maxiter):  # noqa: B007  (returned: the iterations taken)
         # epsilon-active set (Bertsekas): a variable within eps of a bound whose
@@ -424,7 +428,6 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol, lam, rho):
             if not ((zf[i] <= -1.0 and g[i] > 0.0) or (zf[i] >= 1.0 and g[i] < 0.0)):
                 pg = max(pg, abs(g[i]))
         if pg < tol:
-            converged = True
             break
         eps_act = min(ACTIVE_EPS, math.sqrt(resid))
         free = np.empty(NV, np.bool_)
@@ -466,7 +469,7 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol, lam, rho):
             for i in range(NV):
                 zn[i] = min(1.0, max(-1.0, zf[i] + alpha * p[i]))
                 dec += g[i] * (zn[i] - zf[i])
-            Fn = al_objective(zn.reshape(K, 2), ox, oy, goal, w, lam, rho)
+            Fn = objective(zn.reshape(K, 2), ox, oy, goal, w)
             if Fn <= F + 1e-4 * dec:
                 accepted = True
                 break
@@ -486,10 +489,10 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol, lam, rho):
             for j in range(NV):
                 hs += H[i, j] * (zn[j] - zf[j])
             pred -= si * (g[i] + 0.5 * hs)
-        ratio = (F - Fn) / pred if pred > 0.0 else 0.0
-        if ratio > 0.75:
+        rho = (F - Fn) / pred if pred > 0.0 else 0.0
+        if rho > 0.75:
             damping = mu / 3.0 if mu / 3.0 > 1e-12 * (scale + 1.0) else 0.0
-        elif ratio < 0.25:
+        elif rho < 0.25:
             damping = max(2.0 * mu, 1e-9 * (scale + 1.0))
         else:
             damping = mu
@@ -497,8 +500,8 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol, lam, rho):
         # No stop on a small decrease: near a constraint the last digits come in many small
         # steps, and stopping on |dF| < 1e-13 left the projected gradient at 1e-5 and F up to
         # 3e-7 short of the optimum.  Only the tolerance, a failed line search or maxiter stop it.
-        F = al_objective_grad_hess(z, ox, oy, goal, w, lam, rho, g, H, True)
-    return F, it, converged
+        F = objective_grad_hess(z, ox, oy, goal, w, g, H, True)
+    return F, it
 
 
 @njit(parallel=True, cache=True)
@@ -511,7 +514,7 @@ def solve_batch(z, ox, oy, goal, w, maxiter, tol, F_out, it_out):
     n = z.shape[0]
     for s in prange(STRIPES):
         for b in range(s, n, STRIPES):
-            F, it, _ = newton_one(z[b], ox[b], oy[b], goal[b], w[b], maxiter, tol, NO_MULTIPLIERS, 0.0)
+            F, it = newton_one(z[b], ox[b], oy[b], goal[b], w[b], maxiter, tol)
             F_out[b] = F
             it_out[b] = it
 

@@ -24,11 +24,10 @@ a local optimiser alone is wrong.  For one chunk of environments:
    the timing it starts with -- and steps 3-4 run again, in the environments
    where a hop did better, with these as extra candidates.
 
-6. **exact** (opt-in, ``PlannerSettings(exact=True)``): every theta's trajectory is solved again
-   with the world's limits as hard constraints (:mod:`teaching.constrained`; the penalty's
-   minimiser lies a little inside each limit it presses against), and steps 3-4 run again among
-   the trajectories that keep the limits (to the stored precision).  Off by default until it is
-   fast (docs/decisions.md, "The world's limits as hard constraints").
+6. **exact**: every theta's trajectory is solved again with the world's limits as hard
+   constraints (:mod:`teaching.constrained`, sequential quadratic programming from the penalty's
+   answer, which lies a little inside each limit it presses against), and steps 3-4 run again
+   among those trajectories (docs/decisions.md, "The world's limits as hard constraints").
 
 After step 3 every theta's stored trajectory is at least as good under theta as
 theta*'s, so d_reward >= 0 holds exactly on the stored (float32) trajectories.
@@ -51,7 +50,7 @@ from .features import raw_features, reward
 from .strategies import lane_crossings, strategy_labels
 from .world import WORLD
 
-PLANNER_VERSION = 9  # bump whenever a change alters the trajectories it returns
+PLANNER_VERSION = 10  # bump whenever a change alters the trajectories it returns
 NEWTON_TOL = 1e-7  # max |projected gradient|, normalised reward units per unit of z (1e-9 changed no gap)
 REFINE_GAIN = 1e-6  # normalised reward units: exact IRL's tolerance (1e-7 and 1e-8 changed no measured gap)
 FEAS_TOL = 1e-9  # ft: how far past a limit the constrained solve may end (teaching.constrained)
@@ -70,7 +69,7 @@ class PlannerSettings:
     hop_min_crossings: int = 5  # lane-line crossings that make a trajectory hop (step 5): across all three lanes
     #                             and back; 3 (one lane, then two back) found 7 more of 128,000 pairs at 1.07x the time
     hop_shifts: tuple = (-1,)  # knots; (-1, +1) found 2 more pairs above 1e-4 in 128,000, at 1.17x the time
-    exact: bool = False  # step 6: the world's limits as hard constraints (teaching.constrained; issue 22)
+    exact: bool = True  # step 6: the world's limits as hard constraints (teaching.constrained; issue 22)
 
 
 def planner_identity(settings: PlannerSettings = None) -> dict:
@@ -146,17 +145,18 @@ def solve(z0, other_xy, goal, weights, maxiter):
     return z, F, its
 
 
-def solve_constrained(z0, other_xy, goal, weights, maxiter):
-    """The hard-limit optimum from z0 (B, K, 2) (teaching.constrained); returns (z, w . phi_raw, iterations,
+def solve_constrained(z0, other_xy, goal, weights, maxiter, from_penalty_optimum=False):
+    """The hard-limit optimum from z0 (B, K, 2) (teaching.constrained; from_penalty_optimum: z0 already
+    minimises the penalised F, so the penalised Newton is skipped); returns (z, w . phi_raw, iterations,
     status: 0 no limit pressed, 1 exact, 2 the penalty's answer kept)."""
     z = np.ascontiguousarray(z0, dtype=np.float64).copy()
     n = len(z)
-    F, resid = np.empty(n), np.empty(n)
+    F = np.empty(n)
     its, status = np.empty(n, np.int64), np.empty(n, np.int64)
     if n:
         constrained.constrained_batch(z, np.ascontiguousarray(other_xy[..., 0]), np.ascontiguousarray(other_xy[..., 1]),
                                       np.asarray(goal, np.int64), np.ascontiguousarray(weights), maxiter, NEWTON_TOL,
-                                      FEAS_TOL, F, its, resid, status)
+                                      FEAS_TOL, from_penalty_optimum, F, its, status)
     return z, F, its, status
 
 
@@ -298,12 +298,12 @@ def plan_chunk(env_ids, thetas, normalisers, settings: PlannerSettings = Planner
 
     # 6. exact: the penalty's minimiser lies a little inside each limit it presses against; every
     #    theta's trajectory is solved again with the limits as hard constraints, and the hand-overs
-    #    settled again among feasible trajectories only (the penalty's answers stay in the pool:
-    #    feasible, and another theta's may still be the better basin), refining from a new start
-    #    with the same constrained solve.
+    #    settled again among these (feasible) trajectories only, refining from a new start with the
+    #    same constrained solve.
     if settings.exact:
-        def exact_batch(env_idx, theta_idx, z0, iters):
-            zc, _, its, status = solve_constrained(z0, oxy[env_idx], envs.goal[env_idx], weights[theta_idx], iters)
+        def exact_batch(env_idx, theta_idx, z0, iters, from_penalty_optimum=False):
+            zc, _, its, status = solve_constrained(z0, oxy[env_idx], envs.goal[env_idx], weights[theta_idx], iters,
+                                                   from_penalty_optimum)
             if stats is not None:
                 stats["constrained"] = stats.get("constrained", 0) + len(zc)
                 stats["constrained_iterations"] = stats.get("constrained_iterations", 0) + int(its.sum())
@@ -314,10 +314,10 @@ def plan_chunk(env_ids, thetas, normalisers, settings: PlannerSettings = Planner
             return limit_excess(zs, envs.goal[env_idx]) <= STORED_FEAS_TOL
 
         e6, t6 = np.repeat(np.arange(M), N), np.tile(np.arange(N), M)
-        zx = exact_batch(e6, t6, z.reshape(-1, K, 2), settings.warm_iters).reshape(M, N, K, 2)
+        zx = exact_batch(e6, t6, z.reshape(-1, K, 2), settings.warm_iters, True).reshape(M, N, K, 2)
         phix = phi(zx.reshape(-1, K, 2), e6).reshape(M, N, 5)
-        z, feats = _settle(zx, phix, z, feats, thetas=thetas, rounds=settings.refine_rounds, batch=exact_batch,
-                           phi=phi, iters=settings.warm_iters, stats=stats, feasible=feasible)
+        z, feats = _settle(zx, phix, zx[:, :0], phix[:, :0], thetas=thetas, rounds=settings.refine_rounds,
+                           batch=exact_batch, phi=phi, iters=settings.warm_iters, stats=stats, feasible=feasible)
 
     # Guard in the table's own arithmetic: never worse under theta than theta*'s trajectory.
     worse = reward(feats, thetas) < reward(feats[:, :1], thetas)

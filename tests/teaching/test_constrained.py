@@ -1,8 +1,11 @@
-"""The planner's hard-limit solve (teaching/constrained.py, issue 22): the augmented Lagrangian's and
-the Lagrangian's terms have exact derivatives; from the soft penalty's answer it reaches the optimum
-that the independent hard-constraint reference (teaching/reference_hard.py: its own rollout, starts and
-SLSQP) finds, where the penalty's answer falls short; and a chunk planned with `exact=True` is never
-worse than the penalised one, feasible to the stored precision."""
+"""The planner's hard-limit solve (teaching/constrained.py, issue 22): the Lagrangian and the limits
+have exact derivatives; the QP solver agrees with brute force over active sets; from the soft
+penalty's answer it reaches the optimum that the independent hard-constraint reference
+(teaching/reference_hard.py: its own rollout, starts and SLSQP) finds, where the penalty's answer
+falls short; and a chunk planned (exact by default) is never worse than a penalised one, feasible to
+the stored precision."""
+import itertools
+
 import numpy as np
 import pytest
 
@@ -36,42 +39,99 @@ def _penalised_best(oxy, goal, w):
     return z[np.argmin(F)].copy()
 
 
-def _fd_check(z, ox, oy, goal, w, lam, rho):
+def _fd_check(z, ox, oy, goal, w, lam):
     g, H = np.empty(2 * K), np.empty((2 * K, 2 * K))
-    kernels.al_objective_grad_hess(z, ox, oy, goal, w, lam, rho, g, H, True)
+    kernels.lagrangian_grad_hess(z, ox, oy, goal, w, lam, g, H, True)
     fd_g, fd_H = np.empty_like(g), np.empty_like(H)
     g2, H2 = np.empty_like(g), np.empty_like(H)
     for j in range(2 * K):
         e = np.zeros(2 * K)
         e[j] = 1e-6
         zp, zm = (z.reshape(-1) + e).reshape(K, 2), (z.reshape(-1) - e).reshape(K, 2)
-        fd_g[j] = (kernels.al_objective(zp, ox, oy, goal, w, lam, rho)
-                   - kernels.al_objective(zm, ox, oy, goal, w, lam, rho)) / 2e-6
-        kernels.al_objective_grad_hess(zp, ox, oy, goal, w, lam, rho, g2, H2, False)
+        fd_g[j] = (kernels.lagrangian(zp, ox, oy, goal, w, lam) - kernels.lagrangian(zm, ox, oy, goal, w, lam)) / 2e-6
+        kernels.lagrangian_grad_hess(zp, ox, oy, goal, w, lam, g2, H2, False)
         gp = g2.copy()
-        kernels.al_objective_grad_hess(zm, ox, oy, goal, w, lam, rho, g2, H2, False)
+        kernels.lagrangian_grad_hess(zm, ox, oy, goal, w, lam, g2, H2, False)
         fd_H[:, j] = (gp - g2) / 2e-6
     assert np.allclose(g, fd_g, rtol=1e-5, atol=1e-6 * np.abs(g).max())
     assert np.allclose(H, fd_H, rtol=1e-4, atol=1e-5 * np.abs(H).max())
 
 
-def test_augmented_lagrangian_and_lagrangian_terms_have_exact_derivatives():
-    w = objective_weights(GOAL_HEAVY, default_normalisers())[0]
-    z = _penalised_best(FAR, 0, w)
-    c = np.empty(NC)
-    constrained.limit_values(z, 0, c)
-    assert c.max() > -0.5  # near the road edge: the limits' terms are live here
-    lam = np.where(c > -1.0, 0.3, 0.0)
+def _away_from_kinks(z, goal):
+    """(NC,) bool: limits whose |.| is differentiable at z with room for finite differences (|x_t|
+    away from x_t = 0, |x_T - lane| away from the lane centre, |h_T - pi/2| away from straight)."""
+    s = np.empty((T + 1, 5))
+    kernels.rollout_one(z, s)
+    x, h = s[1:, 0], s[T, 2]
+    lane = 12.0 if goal == 0 else np.clip(12.0 * np.floor(x[-1] / 12.0 + 0.5), -12.0, 12.0)
+    return np.concatenate([np.abs(x) > 1e-3, [abs(x[-1] - lane) > 1e-3, abs(h - np.pi / 2) > 1e-3]])
+
+
+@pytest.mark.parametrize("goal, theta", [(0, GOAL_HEAVY), (1, np.array([-1.0, -0.1, -1.0, -1.0, -0.2]))])
+def test_the_lagrangian_and_the_limits_have_exact_derivatives(goal, theta):
+    w = objective_weights(theta, default_normalisers())[0]
+    z = _penalised_best(FAR, goal, w)
+    z[:, 0] += 0.05 * np.sin(np.arange(K))  # off the straight drive: no limit at its kink
+    smooth = _away_from_kinks(z, goal)
+    c, A = np.empty(NC), np.empty((NC, 2 * K))
+    constrained.limit_jacobian(z, goal, c, A)
+    c2 = np.empty(NC)
+    constrained.limit_values(z, goal, c2)
+    assert np.array_equal(c, c2)
+    lam = np.where(smooth, 0.3, 0.0)  # every limit's curvature enters the Lagrangian
+    assert smooth[4:].all()  # (x_1 .. x_4 stay within 1e-3 ft of 0 for a car that starts straight)
     ox, oy = np.ascontiguousarray(FAR[:, 0]), np.ascontiguousarray(FAR[:, 1])
-    for rho in (-1.0, 10.0):  # the Lagrangian (lam . c) and the AL with some limits past lam + rho c = 0
-        _fd_check(z, ox, oy, 0, w, lam, rho)
+    _fd_check(z, ox, oy, goal, w, lam)
+    fd_A = np.empty_like(A)
+    for j in range(2 * K):
+        e = np.zeros(2 * K)
+        e[j] = 1e-6
+        cp, cm = np.empty(NC), np.empty(NC)
+        constrained.limit_values((z.reshape(-1) + e).reshape(K, 2), goal, cp)
+        constrained.limit_values((z.reshape(-1) - e).reshape(K, 2), goal, cm)
+        fd_A[:, j] = (cp - cm) / 2e-6
+    assert np.allclose(A[smooth], fd_A[smooth], rtol=1e-5, atol=1e-6 * np.abs(A).max())
+
+
+def test_qp_solver_agrees_with_brute_force_over_active_sets():
+    """min 1/2 x'Gx + a'x s.t. N x >= b: the optimum is the best feasible point among the
+    equality-constrained minimisers of every subset of constraints (KKT with lam >= 0)."""
+    rng = np.random.default_rng(3)
+    for trial in range(40):
+        n, m = 4, 6
+        R = rng.normal(size=(n, n))
+        G = R @ R.T + 0.1 * np.eye(n)
+        a, N, b = rng.normal(size=n), rng.normal(size=(m, n)), rng.normal(size=m) - 0.5
+        if trial % 4 == 0:
+            N[5] = 2.0 * N[4]  # a redundant pair: parallel normals
+            b[5] = 2.0 * b[4]
+        x, u, act = np.empty(n), np.empty(m), np.zeros(m, bool)
+        assert constrained.qp_solve(np.linalg.inv(G), a, N, b, m, x, u, act)
+        best = None
+        for k in range(m + 1):
+            for S in itertools.combinations(range(m), k):
+                S = list(S)
+                KKT = np.block([[G, -N[S].T], [N[S], np.zeros((k, k))]])
+                try:
+                    sol = np.linalg.solve(KKT, np.concatenate([-a, b[S]]))
+                except np.linalg.LinAlgError:
+                    continue
+                xs = sol[:n]
+                if np.all(N @ xs >= b - 1e-9) and np.all(sol[n:] >= -1e-9):
+                    f = 0.5 * xs @ G @ xs + a @ xs
+                    if best is None or f < best[0]:
+                        best = (f, xs)
+        assert best is not None
+        assert np.allclose(x, best[1], atol=1e-8)
+        assert np.all(u >= 0) and np.all(N @ x >= b - 1e-9)
+        assert np.allclose(G @ x + a, N.T @ u, atol=1e-8)  # stationarity with the solver's multipliers
 
 
 @pytest.mark.parametrize("theta, pressed", [(GOAL_HEAVY, True), (np.array([-1.0, -0.1, -1.0, -0.1, -0.5]), False)])
 def test_reaches_the_hard_references_optimum_where_the_penalty_falls_short(theta, pressed):
     """No other car in reach, merge right: with the goal weighted heavily the car rushes right and
     presses against |x| = 12, where the penalty's answer stops short by 3e-4; with theta*'s shape no
-    limit is active and all three agree.  (Where the solve cannot certify a KKT point it keeps the
+    limit is active and all three agree.  (Where the solve cannot reach a KKT point it keeps the
     penalty's answer and says so, status 2: then it claims nothing, and the planner counts it.)"""
     norm = default_normalisers()
     w = objective_weights(theta, norm)[0]
@@ -83,8 +143,8 @@ def test_reaches_the_hard_references_optimum_where_the_penalty_falls_short(theta
     z = _penalised_best(FAR, 0, w)
     zc = z.copy()
     ox, oy = np.ascontiguousarray(FAR[:, 0]), np.ascontiguousarray(FAR[:, 1])
-    _, _, resid, status = constrained.constrained_one(zc, ox, oy, 0, w, 200, 1e-7, 1e-9)
-    assert status in ((1,) if pressed else (0, 1)) and resid <= 1e-9
+    _, _, status = constrained.constrained_one(zc, ox, oy, 0, w, 200, 1e-7, 1e-9, False)
+    assert status in ((1,) if pressed else (0, 1))
     ref = reference_hard.solve_hard(FAR, 0, theta, norm, starts=reference_hard.hard_starts()[:8])
     r_ref = reward(ref["phi"] / norm, theta) / nt
     assert abs(r_ref - normalised_reward(zc)) <= 1e-10
@@ -99,7 +159,8 @@ def two_plans():
     envs = np.array([environment_id(0, 100, 2, 50), environment_id(1, -140, 1, 70, 1.0, 80),
                      environment_id(0, -200, 0, 20), environment_id(1, 120, 1, 30)])
     thetas, norm = sample_thetas(24), default_normalisers()
-    return envs, thetas, plan_chunk(envs, thetas, norm), plan_chunk(envs, thetas, norm, PlannerSettings(exact=True))
+    return (envs, thetas, plan_chunk(envs, thetas, norm, PlannerSettings(exact=False)),
+            plan_chunk(envs, thetas, norm))  # exact by default
 
 
 def test_an_exact_plan_is_never_worse_and_stays_within_the_limits(two_plans):

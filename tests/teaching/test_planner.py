@@ -18,13 +18,15 @@ from teaching.environments import (
     other_car_states,
     stratified_sample,
 )
-from teaching.features import default_normalisers, raw_features, reward
+from teaching.features import default_normalisers, raw_features
 from teaching.planner import (
     NEWTON_TOL,
     PLANNER_VERSION,
+    STORED_FEAS_TOL,
     _per_environment,
     anchor_order,
     euclidean_distance,
+    limit_excess,
     objective_weights,
     plan_chunk,
     planner_identity,
@@ -255,12 +257,10 @@ def test_the_planner_finds_the_basins_version_7_missed():
     assert gaps.max() <= 1e-6, gaps
     assert table.strategy[1, 887] == TAIL_STAY
     envs = get_environments(ids)
-    oxy = other_car_states(envs)
     z = table.controls.astype(np.float64)
-    e, t = np.repeat([0, 1], len(thetas)), np.tile(np.arange(len(thetas)), 2)
-    _, F, _ = solve(z.reshape(-1, K, 2), oxy[e], envs.goal[e], objective_weights(thetas, norm)[t], 0)
-    penalty = F + (reward(table.features, thetas) / np.linalg.norm(thetas, axis=1)).reshape(-1)
-    assert penalty.max() < 1e-3, penalty.max()  # F = -reward + the world's constraint penalties
+    e = np.repeat([0, 1], len(thetas))
+    excess = limit_excess(z.reshape(-1, K, 2), envs.goal[e])  # ft past the nearest limit (float32 rounding)
+    assert excess.max() <= STORED_FEAS_TOL, excess.max()
 
 
 def test_lane_crossings_by_hand():
