@@ -44,6 +44,7 @@ from .kernels import (
     X_LIM,
     T,
     _cholesky_solve,
+    cholesky,
     features_one,
     lagrangian_grad_hess,
     newton_one,
@@ -129,17 +130,8 @@ def limit_jacobian(z, goal, c, A):
 def _inverse_spd(G, n, out):
     """out = G^-1 for SPD G (n, n), by one Cholesky factorisation; False if G is not positive definite."""
     L = np.zeros((n, n))
-    for i in range(n):
-        for j in range(i + 1):
-            s = G[i, j]
-            for k in range(j):
-                s -= L[i, k] * L[j, k]
-            if i == j:
-                if s <= 0.0:
-                    return False
-                L[i, i] = math.sqrt(s)
-            else:
-                L[i, j] = s / L[j, j]
+    if not cholesky(G, L):
+        return False
     Li = np.zeros((n, n))  # L^-1, lower triangular
     for j in range(n):
         Li[j, j] = 1.0 / L[j, j]

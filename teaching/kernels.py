@@ -369,10 +369,9 @@ def _objective_grad_hess(z, ox, oy, goal, w, lam, hard, g, H, want_hess):
 
 
 @njit(cache=True)
-def _cholesky_solve(A, b, x):
-    """Solve A x = b for SPD A in place of a copy; False if A is not PD."""
+def cholesky(A, L):
+    """L (n, n) lower triangular with L L' = A (n, n), for SPD A; False if A is not PD."""
     n = A.shape[0]
-    L = np.zeros((n, n))
     for i in range(n):
         for j in range(i + 1):
             s = A[i, j]
@@ -384,6 +383,16 @@ def _cholesky_solve(A, b, x):
                 L[i, i] = math.sqrt(s)
             else:
                 L[i, j] = s / L[j, j]
+    return True
+
+
+@njit(cache=True)
+def _cholesky_solve(A, b, x):
+    """Solve A x = b for SPD A in place of a copy; False if A is not PD."""
+    n = A.shape[0]
+    L = np.zeros((n, n))
+    if not cholesky(A, L):
+        return False
     for i in range(n):
         s = b[i]
         for k in range(i):
