@@ -62,7 +62,6 @@ SQP_PRED_DONE = 1e-13  # ... or the QP promises less than this decrease of f (no
 SQP_LOCAL = 1e-4  # a step this short is taken whole (the l1 merit's Maratos effect would reject it)
 AUG_GAIN = 100.0  # the augmentation, per unit normal, in units of H's largest diagonal entry (10 was enough
 #                   where a reduced Hessian's smallest eigenvalue was 1.8e-5 of it; 100 keeps B's condition ~4e7)
-HELD_NEAR = 1e-3  # ft
 QP_TOL = 1e-13  # ft (per unit normal): a linearised limit violated by less is held
 QP_DEP = 1e-8  # share of a normal (G^-1 metric) outside the active ones' span below which it depends on them
 
@@ -293,10 +292,10 @@ def sqp_one(z, ox, oy, goal, w, lam, maxiter, feas_tol):
     zt = np.empty(NV)
     ct = np.empty(NC)
     lam_pos = np.empty(NC)
-    # The limits active in the last QP or within HELD_NEAR of theirs are augmented in the next QP's
-    # Hessian (as are the controls it held on their bounds: active[NC + ...]).  The term
-    # r (A_i p)^2 / |A_i|^2 vanishes with p, so it moves no KKT point, but it makes B positive
-    # definite where only the reduced Hessian is, and steady where a limit enters and leaves.
+    # The limits active in the last QP are augmented in the next QP's Hessian (as are the controls
+    # it held on their bounds: active[NC + ...]).  The term r (A_i p)^2 / |A_i|^2 vanishes with p,
+    # so it moves no KKT point, but it makes B positive definite where only the reduced Hessian is.
+    # (Augmenting also the limits within 1e-3 ft of theirs left 3x more pairs unconverged.)
     held = np.zeros(NC, np.bool_)
     for it in range(maxiter):
         for i in range(NC):
@@ -361,6 +360,8 @@ def sqp_one(z, ox, oy, goal, w, lam, maxiter, feas_tol):
             pred -= p[a_] * (g[a_] + 0.5 * bp)
         if (step <= SQP_STEP_DONE or pred <= SQP_PRED_DONE) and viol <= feas_tol:
             return True, it
+        # the merit's weight on violation: above the multipliers (exact penalty) but of their size;
+        # weight 1 (normalised units per ft, multipliers ~1e-4) rejected nearly every full step
         nu = 1e-8
         for i in range(NC):
             nu = max(nu, 2.0 * u[i])
