@@ -23,28 +23,22 @@ import numpy as np
 from numba import njit, prange
 from numba.core import config as numba_config
 
-from . import detmath
 from .kernels import (
-    A_MAX,
     BAND,
-    DT,
     H0,
     H_BAND,
     H_SCALE,
     LW,
     NC,
     NV,
-    S_MAX,
-    SPK,
     STRIPES,
     V0,
-    W_MAX,
-    WB,
     WORLD_CACHE_DIR,
     X_LIM,
     T,
     _cholesky_solve,
     cholesky,
+    euler_step_sensitivities,
     features_one,
     lagrangian_grad_hess,
     newton_one,
@@ -90,31 +84,13 @@ def true_objective(z, ox, oy, goal, w):
 
 @njit(cache=True)
 def limit_jacobian(z, goal, c, A):
-    """c (NC,) as limit_values and A (NC, NV) = dc/dz (flat z), by forward sensitivities of the
-    Euler rollout (the steering angle's clip, never active at an optimum, held constant)."""
-    J = np.zeros((5, NV))
-    Jn = np.zeros((5, NV))
+    """c (NC,) as limit_values and A (NC, NV) = dc/dz (flat z), by the forward sensitivities of the
+    Euler rollout (kernels.euler_step_sensitivities)."""
+    Jall = np.zeros((T + 1, 5, NV))
     x, y, h, v, st = 0.0, 0.0, H0, V0, 0.0
     for t in range(T):
-        k = t // SPK
-        sh, ch = detmath.sincos(h)
-        tn = detmath.tan(st)
-        sec2 = 1.0 + tn * tn
-        for j in range(NV):
-            Jn[0, j] = J[0, j] - DT * v * sh * J[2, j] + DT * ch * J[3, j]
-            Jn[1, j] = J[1, j] + DT * v * ch * J[2, j] + DT * sh * J[3, j]
-            Jn[2, j] = J[2, j] + DT / WB * tn * J[3, j] + DT / WB * v * sec2 * J[4, j]
-            Jn[3, j] = J[3, j]
-            Jn[4, j] = J[4, j]
-        Jn[3, 2 * k + 1] += DT * A_MAX
-        st_new = st + DT * W_MAX * z[k, 0]
-        if abs(st_new) > S_MAX:
-            st_new = S_MAX if st_new > 0 else -S_MAX
-            Jn[4, :] = 0.0
-        else:
-            Jn[4, 2 * k] += DT * W_MAX
-        x, y, h, v, st = x + DT * v * ch, y + DT * v * sh, h + DT / WB * v * tn, v + DT * A_MAX * z[k, 1], st_new
-        J[:, :] = Jn
+        x, y, h, v, st, _, _, _, _ = euler_step_sensitivities(z, t, x, y, h, v, st, Jall[t], Jall[t + 1])
+        J = Jall[t + 1]
         sx = 1.0 if x > 0.0 else -1.0
         c[t] = abs(x) - X_LIM
         A[t, :] = sx * J[0, :]
