@@ -63,6 +63,13 @@ def is_offset(r: dict) -> bool:
     return bool(same and (off_road or off_band))
 
 
+def print_gaps(gap_quantiles: dict, within: dict) -> None:
+    """The gap lines both optimality checks print (quantiles and shares within each threshold)."""
+    print("  gap = (reference reward - table reward) / |theta|, normalised units; positive = table worse")
+    print("  quantiles: " + ", ".join(f"{q}: {v:.2e}" for q, v in gap_quantiles.items()))
+    print("  within:    " + ", ".join(f"{t}: {v:.2%}" for t, v in within.items()))
+
+
 def summarise(results: list[dict], pairs, env_ids, seconds: float, n_jobs: int) -> dict:
     """Print the summary and return its figures (JSON-ready)."""
     pairs = np.asarray(pairs).reshape(-1, 2)
@@ -89,9 +96,7 @@ def summarise(results: list[dict], pairs, env_ids, seconds: float, n_jobs: int) 
     print(f"\noptimality on {len(results):,} random (E, theta) pairs against the HARD-constraint reference "
           f"(teaching/reference_hard.py; {seconds:.0f} s with {n_jobs} workers = "
           f"{seconds / len(results):.1f} s per pair):")
-    print("  gap = (reference reward - table reward) / |theta|, normalised units; positive = table worse")
-    print("  quantiles: " + ", ".join(f"{q}: {v:.2e}" for q, v in fig["gap_quantiles"].items()))
-    print("  within:    " + ", ".join(f"{t}: {v:.2%}" for t, v in within.items()))
+    print_gaps(fig["gap_quantiles"], within)
     print("  worst: " + "; ".join(f"{w['gap']:.2e} (env {w['env_id']}, theta {w['theta_index']}"
                                   f"{', offset' if w['offset'] else ''})" for w in fig["worst"]))
     print(f"  above 1e-6: {fig['above_1e6']} pairs, of which {fig['penalty_offset']} the penalty's offset "

@@ -32,7 +32,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench.doc_section import rewrite_section
-from bench.hard_reference import compare_table, summarise
+from bench.hard_reference import compare_table, print_gaps, summarise
 from teaching.build import PRESETS, assemble, chunk_key, chunks_of, table_identity
 from teaching.candidates import sample_thetas
 from teaching.environments import N_ENVIRONMENTS, get_environments, other_car_states
@@ -312,9 +312,7 @@ def main() -> None:
     print(f"\noptimality on {len(pairs):,} random (E, theta) pairs against the independent reference "
           f"({t_ref:.0f} s with {args.jobs} workers = {t_ref / len(pairs):.2f} s per pair; "
           f"{t_ref / len(pairs) * 1000 / 60:.0f} min per 1,000 pairs):")
-    print("  gap = (reference reward - table reward) / |theta|, normalised units; positive = table worse")
-    print("  quantiles: " + ", ".join(f"{q}: {v:.2e}" for q, v in fig["gap_quantiles"].items()))
-    print("  within:    " + ", ".join(f"{t}: {v:.2%}" for t, v in within.items()))
+    print_gaps(fig["gap_quantiles"], within)
     print(f"  within 1e-6: {within['1e-06']:.2%}   [bar >= 99 %: {bar(ok6)}]")
     print(f"  within 1e-4: {within['1e-04']:.2%}   [bar 100 %: {bar(ok4)}]")
     print(f"  largest gap {gap[worst]:.2e} at env id {fig['largest_gap_env_id']}, theta index {pairs[worst, 1]}")

@@ -126,6 +126,18 @@ def _inverse_spd(G, n, out):
 
 
 @njit(cache=True)
+def _normal_gram(N, rows, q, GN, out):
+    """out[:q, :q] = N_rows G^-1 N_rows' for the q normals N[rows[:q]], given GN[:, :q] = G^-1 N_rows'
+    (the Schur complement of the active limits in the QP's metric)."""
+    for a_ in range(q):
+        for b_ in range(q):
+            v = 0.0
+            for j in range(N.shape[1]):
+                v += N[rows[a_], j] * GN[j, b_]
+            out[a_, b_] = v
+
+
+@njit(cache=True)
 def qp_solve(Ginv, a, N, b, m, x, u, active):
     """Goldfarb and Idnani's dual active-set method for  min 1/2 x' G x + a' x  s.t.  N_i . x >= b_i
     (i < m), given Ginv = G^-1 (n, n), G positive definite.  x (n,) and u (m,) (the multipliers, >= 0)
@@ -180,12 +192,8 @@ def qp_solve(Ginv, a, N, b, m, x, u, active):
                 gn[j] = v
             # r = (Na Ginv Na')^-1 Na Ginv n_p ; z = Ginv n_p - Ginv Na' r
             if q:
+                _normal_gram(N, act, q, GN, Mq)
                 for a_ in range(q):
-                    for b_ in range(q):
-                        v = 0.0
-                        for j in range(n):
-                            v += N[act[a_], j] * GN[j, b_]
-                        Mq[a_, b_] = v
                     v = 0.0
                     for j in range(n):
                         v += N[act[a_], j] * gn[j]
@@ -385,12 +393,8 @@ def _second_order_correction(zf, p, Ginv, A, active, ct, zt):
     S = np.empty((q, q))
     r = np.empty(q)
     y = np.empty(q)
+    _normal_gram(A, rows, q, GA, S)
     for a_ in range(q):
-        for b_ in range(q):
-            v = 0.0
-            for j in range(n):
-                v += A[rows[a_], j] * GA[j, b_]
-            S[a_, b_] = v
         r[a_] = ct[rows[a_]]
     if not _cholesky_solve(S, r, y):
         return False
