@@ -347,15 +347,13 @@ def _settle(z, feats, extra_z, extra_phi, *, thetas, rounds, batch, phi, iters, 
     rows = np.arange(M) if rows is None else rows
     pool_z, pool_phi = np.concatenate([z, extra_z], axis=1), np.concatenate([feats, extra_phi], axis=1)
     own = np.broadcast_to(np.arange(N), (M, N))
-
-    def pool_feasible():
-        if feasible is None:
-            return None
+    pool_ok = None  # (M, P) feasibility, checked once per trajectory: picks inherit it
+    if feasible is not None:
         P = pool_z.shape[1]
-        return feasible(pool_z.reshape(-1, *pool_z.shape[2:]), np.repeat(rows, P)).reshape(M, P)
+        pool_ok = feasible(pool_z.reshape(-1, *pool_z.shape[2:]), np.repeat(rows, P)).reshape(M, P)
 
     for r in range(rounds + 1):
-        pick, gain = _cross_theta(pool_phi, thetas, own, pool_feasible())
+        pick, gain = _cross_theta(pool_phi, thetas, own, pool_ok)
         # Only a real gain says the theta was in a worse basin; re-solving after a
         # rounding-level gain would cost a solve and change nothing.
         moved = np.argwhere(gain > REFINE_GAIN)
@@ -373,6 +371,11 @@ def _settle(z, feats, extra_z, extra_phi, *, thetas, rounds, batch, phi, iters, 
         extra, extra_phi = z.copy(), feats.copy()
         extra[em, tm], extra_phi[em, tm] = z_ref, phi(z_ref, rows[em])
         pool_z, pool_phi = np.concatenate([z, extra], axis=1), np.concatenate([feats, extra_phi], axis=1)
+        if pool_ok is not None:
+            ok = np.take_along_axis(pool_ok, pick, 1)
+            extra_ok = ok.copy()
+            extra_ok[em, tm] = feasible(z_ref, rows[em])
+            pool_ok = np.concatenate([ok, extra_ok], axis=1)
     return z, feats
 
 
