@@ -163,10 +163,6 @@ def qp_solve(Ginv, a, N, b, m, x, u, active):
     r = np.empty(n)
     w1 = np.empty(n)
     gn = np.empty(n)
-    scale = 0.0
-    for i in range(m):
-        for j in range(n):
-            scale = max(scale, abs(N[i, j]))
     for _outer in range(4 * (m + n)):
         # the most violated constraint (relative to its normal's size)
         worst, p = 0.0, -1
