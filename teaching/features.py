@@ -36,7 +36,7 @@ def reward(features: np.ndarray, thetas: np.ndarray) -> np.ndarray:
     """theta . phi over the last axis, broadcast.  Every reward comparison that
     must hold exactly (d_reward >= 0) goes through this one function, so the
     same numbers are always summed in the same order: left to right, one product at a time, as
-    kernels.pool_rewards does too (a BLAS product or np.sum may reorder the sum by CPU)."""
+    kernels.pool_best does too (a BLAS product or np.sum may reorder the sum by CPU)."""
     features, thetas = np.asarray(features, np.float64), np.asarray(thetas, np.float64)
     r = features[..., 0] * thetas[..., 0]
     for i in range(1, features.shape[-1]):

@@ -554,12 +554,27 @@ def features_batch(z, ox, oy, goal, out):
 numba_config.CACHE_DIR = _user_cache_dir  # only these kernels' cache is keyed by the world
 
 
+@njit(cache=True, inline="always")
+def _reward5(phi, p, t0, t1, t2, t3, t4):
+    """theta . phi[p] summed left to right like features.reward, so the two agree to the bit."""
+    return (((phi[p, 0] * t0 + phi[p, 1] * t1) + phi[p, 2] * t2) + phi[p, 3] * t3) + phi[p, 4] * t4
+
+
 @njit(cache=True, parallel=True)
-def pool_rewards(pool_phi, thetas, out):
-    """out (N, P) = theta . phi for every theta (N, 5) and pool trajectory (P, 5), summed left to
-    right like features.reward, so the two agree to the bit on every CPU."""
+def pool_best(pool_phi, thetas, allowed, own, best, best_r, own_r):
+    """For every theta (N, 5): best (N,) the first index of the largest theta . phi over the allowed
+    pool trajectories (P, 5; allowed (P,) bool), best_r (N,) that reward (-inf and index 0 if none is
+    allowed), own_r (N,) the reward of pool trajectory own[i] (-inf if it is not allowed).  One pass,
+    without an (N, P) reward matrix: writing it and scanning it again cost ~8 % of a build."""
     for i in prange(thetas.shape[0]):
         t0, t1, t2, t3, t4 = thetas[i, 0], thetas[i, 1], thetas[i, 2], thetas[i, 3], thetas[i, 4]
+        b, rb = 0, -np.inf
         for p in range(pool_phi.shape[0]):
-            out[i, p] = (((pool_phi[p, 0] * t0 + pool_phi[p, 1] * t1) + pool_phi[p, 2] * t2)
-                         + pool_phi[p, 3] * t3) + pool_phi[p, 4] * t4
+            if allowed[p]:
+                r = _reward5(pool_phi, p, t0, t1, t2, t3, t4)
+                if r > rb:
+                    b, rb = p, r
+        best[i] = b
+        best_r[i] = rb
+        o = own[i]
+        own_r[i] = _reward5(pool_phi, o, t0, t1, t2, t3, t4) if allowed[o] else -np.inf

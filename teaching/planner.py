@@ -174,14 +174,19 @@ def _as_stored(z):
     return np.clip(z, -1.0, 1.0).astype(np.float32).astype(np.float64)
 
 
-def _rewards(pool_phi, thetas):
-    """Rewards (N, P) of every pool trajectory (P, 5 normalised features) under every theta (N, 5):
-    theta-major, so the argmax over the pool runs along contiguous rows.  Summed in features.reward's
-    fixed order (not a BLAS product, whose kernels differ by CPU): a hand-over decided on the last
-    bit must go the same way on every machine."""
-    out = np.empty((len(thetas), len(pool_phi)))
-    kernels.pool_rewards(np.ascontiguousarray(pool_phi, np.float64), np.ascontiguousarray(thetas, np.float64), out)
-    return out
+def _pool_best(pool_phi, thetas, allowed=None, own=None):
+    """For every theta (N, 5), the best allowed trajectory of one environment's pool (P, 5 normalised
+    features; allowed (P,) bool, all if None): (index (N,), reward (N,), reward of pool trajectory
+    own[i] (N,), -inf where it is not allowed).  Ties go to the lowest index; rewards are summed as
+    features.reward sums them (kernels.pool_best)."""
+    pool_phi = np.ascontiguousarray(pool_phi, np.float64)
+    thetas = np.ascontiguousarray(thetas, np.float64)
+    n = len(thetas)
+    allowed = np.ones(len(pool_phi), np.bool_) if allowed is None else np.ascontiguousarray(allowed, np.bool_)
+    own = np.zeros(n, np.int64) if own is None else np.ascontiguousarray(own, np.int64)
+    best, best_r, own_r = np.empty(n, np.int64), np.empty(n), np.empty(n)
+    kernels.pool_best(pool_phi, thetas, allowed, own, best, best_r, own_r)
+    return best, best_r, own_r
 
 
 def _cross_theta(pool_phi, thetas, own, feasible=None):
@@ -196,13 +201,8 @@ def _cross_theta(pool_phi, thetas, own, feasible=None):
     pick = np.empty(own.shape, np.int64)
     gain = np.empty(own.shape)
     norms = np.linalg.norm(thetas, axis=1)
-    rows = np.arange(len(thetas))
-    for m in range(len(pool_phi)):  # one environment at a time: the (N, P) rewards stay small
-        r = _rewards(pool_phi[m], thetas)
-        if feasible is not None:
-            r[:, ~feasible[m]] = -np.inf
-        best = r.argmax(axis=1)
-        own_r, best_r = r[rows, own[m]], r[rows, best]
+    for m in range(len(pool_phi)):
+        best, best_r, own_r = _pool_best(pool_phi[m], thetas, None if feasible is None else feasible[m], own[m])
         pick[m] = np.where(best_r > own_r, best, own[m])
         gain[m] = np.where(np.isfinite(own_r), (best_r - own_r) / norms, 0.0)
     return pick, gain
@@ -259,7 +259,7 @@ def plan_chunk(env_ids, thetas, normalisers, settings: PlannerSettings = Planner
         idx = order[done:done + size]
         B = len(idx)
         pz, pphi = np.concatenate(pool_z, axis=1), np.concatenate(pool_phi, axis=1)
-        start = np.stack([_rewards(pphi[m], thetas[idx]).argmax(axis=1) for m in range(M)])  # (M, B)
+        start = np.stack([_pool_best(pphi[m], thetas[idx])[0] for m in range(M)])  # (M, B)
         e2, t2 = np.repeat(np.arange(M), B), np.tile(idx, M)
         zb = batch(e2, t2, pz[e2, start.reshape(-1)], settings.warm_iters).reshape(M, B, K, 2)
         phib = phi(zb.reshape(-1, K, 2), e2).reshape(M, B, 5)

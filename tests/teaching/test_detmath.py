@@ -15,7 +15,7 @@ import pytest
 from teaching import detmath
 from teaching.candidates import sample_thetas
 from teaching.features import reward
-from teaching.planner import _rewards  # the planner's private helper: it must agree with reward
+from teaching.planner import _pool_best  # the planner's private helper: it must agree with reward
 
 # pi to 100 digits: the reference's own range reduction uses it, nothing of detmath's
 PI = Decimal("3.14159265358979323846264338327950288419716939937510582097494459230781640628620899862803482534211706798")
@@ -143,10 +143,21 @@ def test_candidate_thetas_are_theta_star_times_exact_powers_of_ten():
 
 def test_the_reward_sums_left_to_right():
     """features.reward (and the planner's pool rewards, which must agree with it to the bit) sum
-    theta_i phi_i from i = 0 up, each product rounded, whatever the CPU's BLAS would do."""
+    theta_i phi_i from i = 0 up, each product rounded, whatever the CPU's BLAS would do; the planner's
+    best pool trajectory is the first argmax of those sums over the allowed ones."""
     phi = RNG.normal(size=(40, 5))
+    phi[7], phi[31] = phi[3], phi[12]  # ties: the lower index wins
     thetas = -np.abs(RNG.normal(size=(30, 5)))
     by_hand = np.array([[float(sum((float(t[i] * p[i]) for i in range(5)), start=0.0)) for p in phi]
                         for t in thetas])
     assert np.array_equal(reward(phi[None, :, :], thetas[:, None, :]), by_hand)
-    assert np.array_equal(_rewards(phi, thetas), by_hand)
+    allowed = RNG.random(40) < 0.7
+    own = RNG.integers(0, 40, size=30)
+    best, best_r, own_r = _pool_best(phi, thetas, allowed, own)
+    masked = np.where(allowed, by_hand, -np.inf)
+    assert np.array_equal(best, masked.argmax(axis=1))
+    assert np.array_equal(best_r, masked.max(axis=1))
+    assert np.array_equal(own_r, masked[np.arange(30), own])
+    assert np.array_equal(_pool_best(phi, thetas)[0], by_hand.argmax(axis=1))
+    none = _pool_best(phi, thetas, np.zeros(40, bool))
+    assert np.array_equal(none[0], np.zeros(30)) and np.all(none[1] == -np.inf)
