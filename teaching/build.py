@@ -11,10 +11,12 @@ from __future__ import annotations
 
 import hashlib
 import json
+import multiprocessing
 import os
 import secrets
 import socket
 import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -175,24 +177,54 @@ def check_writable(out: Path) -> None:
         raise TableError(f"cannot write to {out}: {exc.strerror or exc}") from None
 
 
-def build_table(preset: Preset, out, progress=None) -> TrajectoryTable:
+def build_table(preset: Preset, out, progress=None, jobs: int = 1) -> TrajectoryTable:
     """Build (or resume building) the preset's table in directory `out`.
 
-    progress: optional callable(done_envs, total_envs) after each chunk.
+    progress: optional callable(done_envs, total_envs) after each chunk.  jobs: worker processes, each
+    planning whole chunks with cores // jobs Numba threads (1: this process, every core).  The table is
+    the same whatever `jobs` is (each chunk's content depends on its environments alone); two processes
+    on two cores are faster than two threads in one, whose serial parts (hand-overs, labels) leave a
+    core idle.
     """
+    if jobs < 1:
+        raise ValueError(f"jobs must be at least 1, got {jobs}")
     out = Path(out)
     check_writable(out)
     thetas = preset.thetas()
     normalisers = default_normalisers()
     identity = table_identity(preset, thetas, normalisers)
     env_ids = preset.env_ids()
+    chunks = chunks_of(env_ids, preset.chunk_size)
     done = 0
-    for chunk in chunks_of(env_ids, preset.chunk_size):
-        build_chunk(out, identity, chunk, thetas, normalisers)
-        done += len(chunk)
-        if progress:
-            progress(done, len(env_ids))
+    if jobs == 1:
+        for chunk in chunks:
+            build_chunk(out, identity, chunk, thetas, normalisers)
+            done += len(chunk)
+            if progress:
+                progress(done, len(env_ids))
+    else:
+        # spawned, not forked: a child must not inherit a Numba thread pool this process may have started
+        threads = max(1, (os.cpu_count() or 1) // jobs)
+        with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn"),
+                                 initializer=_worker_threads, initargs=(threads,)) as pool:
+            sizes = {pool.submit(build_chunk, out, identity, chunk, thetas, normalisers): len(chunk)
+                     for chunk in chunks}
+            try:
+                for future in as_completed(sizes):
+                    future.result()  # a chunk's error stops the build, with its traceback
+                    done += sizes[future]
+                    if progress:
+                        progress(done, len(env_ids))
+            except BaseException:
+                pool.shutdown(cancel_futures=True)
+                raise
     return assemble(out, preset, identity, env_ids, thetas, normalisers)
+
+
+def _worker_threads(n: int) -> None:
+    import numba  # noqa: PLC0415  (in the spawned child only)
+
+    numba.set_num_threads(min(n, numba.config.NUMBA_NUM_THREADS))
 
 
 def assemble(out: Path, preset: Preset, identity: dict, env_ids, thetas, normalisers) -> TrajectoryTable:
