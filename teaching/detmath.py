@@ -156,6 +156,17 @@ def softplus(u):
 
 
 @njit(cache=True)
+def softplus_sigmoid(u):
+    """(softplus(u), sigmoid(u)) with one exp: both are functions of e**-|u| (the same bits as the two
+    calls, which compute that exp each)."""
+    e = exp(-abs(u))
+    sp = max(u, 0.0) + log1p(e)
+    if u >= 0.0:
+        return sp, 1.0 / (1.0 + e)
+    return sp, e / (1.0 + e)
+
+
+@njit(cache=True)
 def sigmoid(u):
     """1 / (1 + e**-u), without overflow for large |u|."""
     if u >= 0.0:

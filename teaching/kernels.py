@@ -86,8 +86,7 @@ def overshoot_penalty(o):
     if u > 40.0:
         sp, sig = u, 1.0
     else:
-        sp = detmath.softplus(u)  # not libm's: its CPU-dispatched variants differ in the last bit
-        sig = detmath.sigmoid(u)
+        sp, sig = detmath.softplus_sigmoid(u)  # not libm's: its CPU-dispatched variants differ in the last bit
     q = PEN_SOFT * sp
     return W_PEN * q * q, 2.0 * W_PEN * q * sig, 2.0 * W_PEN * (sig * sig + q * sig * (1.0 - sig) / PEN_SOFT)
 
@@ -258,16 +257,34 @@ def euler_step_sensitivities(z, t, x, y, h, v, st, J, Jn):
 
 @njit(cache=True)
 def _objective_grad_hess(z, ox, oy, goal, w, lam, hard, g, H, want_hess):
-    S = np.empty((T + 1, 5))
-    Jall = np.zeros((T + 1, 5, NV))
-    dl = np.zeros((T + 1, 5))  # grad of the stage cost at each state
+    work = workspace()
+    F = _forward(z, ox, oy, goal, w, lam, hard, g, work)
+    if want_hess:
+        _backward(ox, oy, goal, w, lam, hard, work, H)
+    return F
+
+
+@njit(cache=True)
+def workspace():
+    """What the forward pass keeps for the Hessian's backward pass: states S (T+1, 5), sensitivities
+    Jall (T+1, 5, NV) = ds_t/dz, stage-cost gradients dl (T+1, 5), cos h, sin h, tan(steer) and the
+    closeness kernel per step trig (T+1, 4), whether the steering clip bound (T,), and the limits'
+    second derivatives pen2 (T+1, 3): the road's at each step, the lane end's and the heading's at T.
+    Zeros where a pass never writes (Jall's columns of later knots, dl's last column), so one
+    workspace serves any number of passes."""
+    return (np.empty((T + 1, 5)), np.zeros((T + 1, 5, NV)), np.zeros((T + 1, 5)), np.empty((T + 1, 4)),
+            np.zeros(T, np.bool_), np.zeros((T + 1, 3)))
+
+
+@njit(cache=True)
+def _forward(z, ox, oy, goal, w, lam, hard, g, work):
+    """F(z) and its gradient g (NV,), filling the workspace (see workspace) for _backward."""
+    S, Jall, dl, trig, clipped, pen2 = work
     g[:] = 0.0
     x, y, h, v, st = 0.0, 0.0, H0, V0, 0.0
     S[0, 0], S[0, 1], S[0, 2], S[0, 3], S[0, 4] = x, y, h, v, st
-    clipped = np.zeros(T, np.bool_)
-    # cos h, sin h, tan(steer) at each step and the closeness kernel at each state, kept for the
+    # cos h, sin h, tan(steer) at each step and the closeness kernel at each state are kept for the
     # backward pass: recomputing them there was a fifth of a Hessian evaluation
-    trig = np.empty((T + 1, 4))
     F = 0.0
     for t in range(T):
         x, y, h, v, st, ch, sh, tn, clipped[t] = euler_step_sensitivities(z, t, x, y, h, v, st, Jall[t],
@@ -285,10 +302,10 @@ def _objective_grad_hess(z, ox, oy, goal, w, lam, hard, g, H, want_hess):
         dl[t + 1, 1] = -w[0] * gk * dy / SIG_LONG2
         dl[t + 1, 2] = w[3] * d / rt
         dl[t + 1, 3] = 2.0 * w[2] * (v - V0)
-        p_pen, dp_pen, _ = road_penalty(x, lam[t], hard)  # constraints of the world, not features
+        p_pen, dp_pen, pen2[t + 1, 0] = road_penalty(x, lam[t], hard)  # constraints of the world, not features
         if t + 1 == T:
-            p_end, dp_end, _ = lane_end_penalty(x, goal, lam[T], hard)
-            p_head, dp_head, _ = heading_end_penalty(h, lam[T + 1], hard)
+            p_end, dp_end, pen2[T, 1] = lane_end_penalty(x, goal, lam[T], hard)
+            p_head, dp_head, pen2[T, 2] = heading_end_penalty(h, lam[T + 1], hard)
             p_pen += p_end + p_head
             dp_pen += dp_end
             dl[t + 1, 2] += dp_head
@@ -310,14 +327,21 @@ def _objective_grad_hess(z, ox, oy, goal, w, lam, hard, g, H, want_hess):
     for kk in range(K):
         F += 0.5 * ca * z[kk, 1] ** 2
         g[2 * kk + 1] += ca * z[kk, 1]
-    if not want_hess:
-        return F
+    return F
+
+
+@njit(cache=True)
+def _backward(ox, oy, goal, w, lam, hard, work, H):
+    """H (NV, NV), the exact Hessian at the point of the last _forward into `work` (the costate
+    recursion of the module docstring)."""
+    S, Jall, dl, trig, clipped, pen2 = work
+    ca = 2.0 * w[1] * SPK * (DT * A_MAX) ** 2
     H[:, :] = 0.0
     co = dl[T].copy()  # the costate
     M = np.zeros((5, 5))
     N = np.empty((5, NV))
     for t in range(T, 0, -1):
-        x, y, h, v, st = S[t, 0], S[t, 1], S[t, 2], S[t, 3], S[t, 4]
+        x, y, h, v = S[t, 0], S[t, 1], S[t, 2], S[t, 3]
         M[:, :] = 0.0
         dx, dy = x - ox[t], y - oy[t]
         gk = w[0] * trig[t, 3]
@@ -330,10 +354,10 @@ def _objective_grad_hess(z, ox, oy, goal, w, lam, hard, g, H, want_hess):
         M[3, 3] = 2.0 * w[2]
         if goal == 0 and (hard or LW - x > 0.0):
             M[0, 0] += 2.0 * w[4]
-        M[0, 0] += road_penalty(x, lam[t - 1], hard)[2]
+        M[0, 0] += pen2[t, 0]  # the limits' curvature, as the forward pass found it
         if t == T:
-            M[0, 0] += lane_end_penalty(x, goal, lam[T], hard)[2]
-            M[2, 2] += heading_end_penalty(h, lam[T + 1], hard)[2]
+            M[0, 0] += pen2[T, 1]
+            M[2, 2] += pen2[T, 2]
         if t < T:  # second derivatives of the step s_t -> s_{t+1}, weighted by the costate co_{t+1}
             ch, sh, tn = trig[t, 0], trig[t, 1], trig[t, 2]
             sec2 = 1.0 + tn * tn
@@ -376,7 +400,6 @@ def _objective_grad_hess(z, ox, oy, goal, w, lam, hard, g, H, want_hess):
             H[a, b] = H[b, a]
     for kk in range(K):
         H[2 * kk + 1, 2 * kk + 1] += ca
-    return F
 
 
 @njit(cache=True)
@@ -432,7 +455,9 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol):
     p = np.empty(NV)
     zf = z.reshape(NV)
     zn = np.empty(NV)
-    F = objective_grad_hess(z, ox, oy, goal, w, g, H, True)
+    # the Hessian only once the gradient says another step is needed: the last point's would go unused
+    work = workspace()
+    F = _forward(z, ox, oy, goal, w, NO_MULTIPLIERS, False, g, work)
     damping = 0.0
     it = 0
     for it in range(maxiter):  # noqa: B007  (returned: the iterations taken)
@@ -449,6 +474,7 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol):
                 pg = max(pg, abs(g[i]))
         if pg < tol:
             break
+        _backward(ox, oy, goal, w, NO_MULTIPLIERS, False, work, H)
         eps_act = min(ACTIVE_EPS, math.sqrt(resid))
         free = np.empty(NV, np.bool_)
         for i in range(NV):
@@ -520,7 +546,7 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol):
         # No stop on a small decrease: near a constraint the last digits come in many small
         # steps, and stopping on |dF| < 1e-13 left the projected gradient at 1e-5 and F up to
         # 3e-7 short of the optimum.  Only the tolerance, a failed line search or maxiter stop it.
-        F = objective_grad_hess(z, ox, oy, goal, w, g, H, True)
+        F = _forward(z, ox, oy, goal, w, NO_MULTIPLIERS, False, g, work)
     return F, it
 
 
