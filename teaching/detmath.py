@@ -8,7 +8,7 @@ machine the demo preset built three different hashes this way.
 
 So what a table's bytes depend on goes through this module instead:
 
-* :func:`exp`, :func:`sincos`, :func:`tan`, :func:`softplus`, :func:`sigmoid` - Numba functions
+* :func:`exp`, :func:`sincos`, :func:`tan`, :func:`softplus_sigmoid` - Numba functions
   built from +, -, *, / and ``ldexp``/``frexp`` alone (each correctly rounded by IEEE 754, or
   exact), in a fixed order, with no fused multiply-add (Numba contracts only under fastmath).
   Range reduction by Cody and Waite's split constants, then Taylor polynomials long enough that
@@ -150,29 +150,15 @@ def log1p(a):
 
 
 @njit(cache=True)
-def softplus(u):
-    """ln(1 + e**u) without overflow: max(u, 0) + ln(1 + e**-|u|)."""
-    return max(u, 0.0) + log1p(exp(-abs(u)))
-
-
-@njit(cache=True)
 def softplus_sigmoid(u):
-    """(softplus(u), sigmoid(u)) with one exp: both are functions of e**-|u| (the same bits as the two
-    calls, which compute that exp each)."""
+    """(ln(1 + e**u), 1 / (1 + e**-u)) without overflow, from the one exp both need, e**-|u|:
+    softplus = max(u, 0) + ln(1 + e**-|u|), and the sigmoid e**u / (1 + e**u) written so that
+    only e**-|u| appears."""
     e = exp(-abs(u))
     sp = max(u, 0.0) + log1p(e)
     if u >= 0.0:
         return sp, 1.0 / (1.0 + e)
     return sp, e / (1.0 + e)
-
-
-@njit(cache=True)
-def sigmoid(u):
-    """1 / (1 + e**-u), without overflow for large |u|."""
-    if u >= 0.0:
-        return 1.0 / (1.0 + exp(-u))
-    e = exp(u)
-    return e / (1.0 + e)
 
 
 # --- correctly rounded, elementwise, for a few thousand values ------------------------------

@@ -105,10 +105,10 @@ def test_sin_cos_within_an_ulp_and_tan_within_three():
 
 def test_softplus_and_sigmoid_within_two_ulps():
     points = [0.0, 1e-12, -1e-12, 40.0, -40.0, *RNG.uniform(-45, 45, 2000)]
-    assert worst_ulps(lambda u: (detmath.softplus(u), ref(lambda d: (1 + d.exp()).ln(), u)), points) <= 2.0
-    assert worst_ulps(lambda u: (detmath.sigmoid(u), ref(lambda d: 1 / (1 + (-d).exp()), u)), points) <= 2.0
-    both = [detmath.softplus_sigmoid(u) for u in points]  # the penalty's one-exp form: the same bits
-    assert both == [(detmath.softplus(u), detmath.sigmoid(u)) for u in points]
+    assert worst_ulps(lambda u: (detmath.softplus_sigmoid(u)[0], ref(lambda d: (1 + d.exp()).ln(), u)),
+                      points) <= 2.0
+    assert worst_ulps(lambda u: (detmath.softplus_sigmoid(u)[1], ref(lambda d: 1 / (1 + (-d).exp()), u)),
+                      points) <= 2.0
 
 
 def test_log1p_within_two_ulps():
