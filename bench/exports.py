@@ -57,7 +57,7 @@ def populate(folder: Path, n: int) -> dict:
     from studyapp import assignment, flow  # noqa: PLC0415
     from studyapp.models import Answer, Participant, StepKind, new_token  # noqa: PLC0415
     from studyapp.studies import build_study, table_spec  # noqa: PLC0415
-    from teaching.build import PRESETS, build_table  # noqa: PLC0415
+    from teaching.core.build import PRESETS, build_table  # noqa: PLC0415
 
     logging.getLogger("studyapp").setLevel(logging.WARNING)  # not a line per template participant
     call_command("migrate", verbosity=0)

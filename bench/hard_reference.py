@@ -25,8 +25,8 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-from teaching.environments import get_environments, other_car_states
-from teaching.reference_hard import ACTIVE, compare_pair
+from teaching.domains.driving.environments import get_environments, other_car_states
+from teaching.domains.driving.reference_hard import ACTIVE, compare_pair
 
 THRESHOLDS = (1e-8, 1e-7, 1e-6, 1e-5, 1e-4, 1e-3)
 QUANTILES = (0.0, 0.01, 0.05, 0.25, 0.5, 0.75, 0.95, 0.99, 1.0)

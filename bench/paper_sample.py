@@ -34,7 +34,7 @@ def _plan(args) -> str:
     chunk, thetas, normalisers, threads = args
     import numba  # noqa: PLC0415
 
-    from teaching.planner import plan_chunk  # noqa: PLC0415
+    from teaching.domains.driving.planner import plan_chunk  # noqa: PLC0415
 
     numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
     return _digest(plan_chunk(chunk, thetas, normalisers))
@@ -50,9 +50,9 @@ def main(argv=None) -> int:
     if args.stride < 1 or args.jobs < 1:
         parser.error("--stride and --jobs must be at least 1")
     sys.path.insert(0, str(Path(args.code).resolve()))  # spawned workers inherit sys.path
-    from teaching.build import PRESETS, chunks_of  # noqa: PLC0415
-    from teaching.features import default_normalisers  # noqa: PLC0415
-    from teaching.planner import PLANNER_VERSION, plan_chunk  # noqa: PLC0415
+    from teaching.core.build import PRESETS, chunks_of  # noqa: PLC0415
+    from teaching.domains.driving.features import default_normalisers  # noqa: PLC0415
+    from teaching.domains.driving.planner import PLANNER_VERSION, plan_chunk  # noqa: PLC0415
 
     preset = PRESETS["paper"]
     thetas, normalisers = preset.thetas(), default_normalisers()

@@ -33,13 +33,14 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench.doc_section import rewrite_section
 from bench.hard_reference import compare_table, print_gaps, summarise
-from teaching.build import PRESETS, assemble, chunk_key, chunks_of, table_identity
-from teaching.candidates import sample_thetas
-from teaching.environments import N_ENVIRONMENTS, get_environments, other_car_states
-from teaching.features import default_normalisers, raw_features, reward
-from teaching.planner import PlannerSettings, objective_weights, plan_chunk, strategy_seeds
-from teaching.reference import reference_gap, single_thread_blas, solve_scipy
-from teaching.table import TrajectoryTable
+from teaching.core.build import PRESETS, assemble, chunk_key, chunks_of, table_identity
+from teaching.core.candidates import sample_thetas
+from teaching.core.table import TrajectoryTable
+from teaching.domains.driving.environments import N_ENVIRONMENTS, get_environments, other_car_states
+from teaching.domains.driving.features import default_normalisers, raw_features, reward
+from teaching.domains.driving.planner import PlannerSettings, objective_weights, plan_chunk, strategy_seeds
+from teaching.domains.driving.reference import reference_gap, single_thread_blas, solve_scipy
+from teaching.domains.driving.world import THETA_STAR
 
 PAPER = N_ENVIRONMENTS * 1000
 THRESHOLDS = (1e-8, 1e-7, 1e-6, 1e-5, 1e-4, 1e-3)
@@ -53,7 +54,7 @@ def peak_rss_gb() -> float:
 def paper_assembly(out: Path) -> None:
     """Child process: write paper-shaped chunk files, assemble them, load with verification."""
     preset = PRESETS["paper"]
-    thetas = sample_thetas(preset.n_thetas)
+    thetas = sample_thetas(preset.n_thetas, theta_star=THETA_STAR)
     norm = default_normalisers()
     identity = table_identity(preset, thetas, norm)
     env_ids = preset.env_ids()
@@ -143,7 +144,7 @@ def hard_mode(args) -> None:
     if args.table:
         table = TrajectoryTable.load(args.table)
     else:
-        thetas, norm = sample_thetas(1000), default_normalisers()
+        thetas, norm = sample_thetas(1000, theta_star=THETA_STAR), default_normalisers()
         env_ids = np.sort(rng.choice(N_ENVIRONMENTS, args.envs, replace=False))
         settings = PlannerSettings(exact=not args.no_exact)
         t0 = time.perf_counter()
@@ -199,7 +200,7 @@ def main() -> None:
                  "load_average_start": os.getloadavg()[0], "envs": args.envs, "pairs": args.pairs, "seed": args.seed}
     print(f"machine: {os.cpu_count()} cores, load average {fig['load_average_start']:.2f} at start")
     rng = np.random.default_rng(args.seed)
-    thetas = sample_thetas(1000)  # the paper preset's Theta
+    thetas = sample_thetas(1000, theta_star=THETA_STAR)  # the paper preset's Theta
     norm = default_normalisers()
     env_ids = np.sort(rng.choice(N_ENVIRONMENTS, args.envs, replace=False))  # uniform: the paper's class mix
     plan_chunk(env_ids[:2], thetas[:16], norm)  # compile outside the timing

@@ -44,8 +44,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from precompute import procs, work  # noqa: E402  (no Django needed in this process)
-from teaching.build import Preset, get_preset  # noqa: E402
-from teaching.planner import plan_chunk  # noqa: E402
+from teaching.core.build import Preset, get_preset  # noqa: E402
+from teaching.domains.driving.planner import plan_chunk  # noqa: E402
 
 
 def parse_args(argv=None):

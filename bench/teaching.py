@@ -17,10 +17,10 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from teaching.evaluation import ideal_user_matrix
-from teaching.learners import Distances
-from teaching.selection import teach
-from teaching.synthetic import synthetic_table
+from teaching.core.evaluation import ideal_user_matrix
+from teaching.core.learners import Distances
+from teaching.core.selection import teach
+from teaching.domains.driving.synthetic import synthetic_table
 
 
 def main() -> None:

@@ -18,12 +18,12 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from teaching.dynamics import rollout_np
-from teaching.environments import CLASS_NAMES, N_ENVIRONMENTS, environment_class, get_environments
-from teaching.features import default_normalisers
-from teaching.planner import plan_chunk
-from teaching.strategies import CLUSTER_NAMES
-from teaching.world import THETA_STAR, world_fingerprint
+from teaching.domains.driving.dynamics import rollout_np
+from teaching.domains.driving.environments import CLASS_NAMES, N_ENVIRONMENTS, environment_class, get_environments
+from teaching.domains.driving.features import default_normalisers
+from teaching.domains.driving.planner import plan_chunk
+from teaching.domains.driving.strategies import CLUSTER_NAMES
+from teaching.domains.driving.world import THETA_STAR, world_fingerprint
 
 
 def main() -> None:

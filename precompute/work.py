@@ -24,7 +24,7 @@ import os
 import socket
 import time
 from dataclasses import asdict
-from functools import lru_cache
+from functools import cache, lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -40,14 +40,18 @@ from teaching.api import (
     chunk_path,
     chunks_of,
     code_fingerprint,
-    default_normalisers,
+    get_domain,
     table_identity,
 )
 
-# Every teaching module's source, hashed once when this module is imported (i.e. the code this
-# process actually runs); every task checks it against the launcher's, so machines on different
-# commits refuse instead of mixing chunks.
-CODE_FINGERPRINT = code_fingerprint()
+
+@cache
+def domain_code(domain: str) -> str:
+    """The source of teaching/core and `domain`'s package, hashed once per process when first
+    needed (i.e. the code this process actually runs); every task checks it against the
+    launcher's, so machines on different commits refuse instead of mixing chunks.  Per domain:
+    an edit to another robot's code does not stop this one's builds."""
+    return code_fingerprint(domain)
 
 
 class ChunkError(RuntimeError):
@@ -80,14 +84,14 @@ def table_spec(preset: Preset, out) -> dict:
     """Everything a worker needs to build any chunk of `preset`'s table in `out`."""
     out = Path(out).resolve()
     thetas = _thetas(preset)
-    normalisers = default_normalisers()
+    normalisers = get_domain(preset.domain).default_normalisers()
     env_ids = preset.env_ids()
     return {
         "preset": asdict(preset),
         "out": str(out),
         "normalisers": [float(v) for v in normalisers],  # JSON floats round-trip exactly
         "identity": table_identity(preset, thetas, normalisers),
-        "code": CODE_FINGERPRINT,
+        "code": domain_code(preset.domain),
         "n_envs": int(len(env_ids)),
         "n_chunks": len(chunks_of(env_ids, preset.chunk_size)),
     }
@@ -103,11 +107,12 @@ def _context(spec: dict):
     thetas = _thetas(preset)
     normalisers = np.array(spec["normalisers"], dtype=np.float64)
     identity = table_identity(preset, thetas, normalisers)
-    if spec.get("code", CODE_FINGERPRINT) != CODE_FINGERPRINT:
+    ours = domain_code(preset.domain)
+    if spec.get("code", ours) != ours:
         raise ChunkError(
             f"this worker ({host_id()}) runs other planner code than the launcher "
-            f"(teaching/ fingerprint {CODE_FINGERPRINT} != {spec['code']}); deploy one commit everywhere "
-            f"and restart the workers")
+            f"(teaching/core + {preset.domain} fingerprint {ours} != {spec['code']}); deploy one commit "
+            f"everywhere and restart the workers")
     if identity != spec["identity"]:
         diff = sorted(k for k in identity if identity.get(k) != spec["identity"].get(k))
         raise ChunkError(
@@ -134,7 +139,7 @@ def read_journal(out) -> list[dict]:
 
 
 def compute_chunk(spec: dict, env_ids) -> dict:
-    """Build one chunk unless it is stored (``teaching.build.build_chunk``, whose
+    """Build one chunk unless it is stored (``teaching.core.build.build_chunk``, whose
     temporary names are unique per host, process and call, so a re-delivery on a
     shared filesystem never shares one), journalling it.  Returns key, computed,
     seconds, trajectories."""
@@ -150,7 +155,7 @@ def compute_chunk(spec: dict, env_ids) -> dict:
     check_writable(out)
     journal(out, "start", key=key)
     t0 = time.perf_counter()
-    build_chunk(out, identity, env_ids, thetas, normalisers)
+    build_chunk(out, identity, env_ids, thetas, normalisers, preset.domain)
     seconds = time.perf_counter() - t0
     journal(out, "stored", key=key, seconds=round(seconds, 3), trajectories=n_traj)
     return {"key": key, "computed": True, "seconds": seconds, "trajectories": n_traj}

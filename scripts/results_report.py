@@ -27,11 +27,11 @@ ROOT = Path(__file__).resolve().parent.parent
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from teaching.environments import CLASS_NAMES, N_ENVIRONMENTS  # noqa: E402
-from teaching.learners import EXACT_TOLERANCE, Distances, make_model, p_theta_star  # noqa: E402
-from teaching.selection import MIN_RISE, greedy, showable  # noqa: E402
-from teaching.strategies import CLUSTER_NAMES, N_CLUSTERS  # noqa: E402
-from teaching.table import TableError, TrajectoryTable  # noqa: E402
+from teaching.core.learners import EXACT_TOLERANCE, Distances, make_model, p_theta_star  # noqa: E402
+from teaching.core.selection import MIN_RISE, greedy, showable  # noqa: E402
+from teaching.core.table import TableError, TrajectoryTable  # noqa: E402
+from teaching.domains.driving.environments import CLASS_NAMES, N_ENVIRONMENTS  # noqa: E402
+from teaching.domains.driving.strategies import CLUSTER_NAMES, N_CLUSTERS  # noqa: E402
 
 TOLERANCES = (0.0, 1e-7, 1e-6, 1e-5)
 TEACH_FILES = ("sequences.json", "matrix.json", "examples_per_cluster.json", "test_set.json")

@@ -34,6 +34,7 @@ from teaching.api import (
     GOAL_NAMES,
     WORLD,
     get_environments,
+    other_car_states,
 )
 
 DECIMALS = 3
@@ -144,7 +145,7 @@ def training_from_table(table, env_ids) -> list[dict]:
         i = _env_index(table, int(env_id))
         env = get_environments([int(env_id)])
         star = table.theta_star_index
-        out.append(env_payload(env, table.states(i, star), table.other_car(i), table.strategy[i, star]))
+        out.append(env_payload(env, table.states(i, star), other_car_states(env)[0], table.strategy[i, star]))
     return out
 
 
@@ -155,7 +156,7 @@ def test_set_from_table(table, test_set) -> list[dict]:
         i = _env_index(table, int(test["env_id"]))
         env = get_environments([int(test["env_id"])])
         star = table.theta_star_index
-        payload = env_payload(env, table.states(i, star), table.other_car(i), table.strategy[i, star])
+        payload = env_payload(env, table.states(i, star), other_car_states(env)[0], table.strategy[i, star])
         for o in test["options"]:
             if not 0 <= int(o["theta_index"]) < table.n_thetas:
                 raise ValueError(f"test in environment {test['env_id']}: theta index {o['theta_index']} is not "

@@ -14,27 +14,27 @@ import time
 import numpy as np
 from tqdm import tqdm
 
-from .build import PRESETS, build_table, customised, get_preset
-from .candidates import SAMPLERS
-from .environments import CLASS_NAMES
-from .strategies import CLUSTER_NAMES
-from .table import TableError, TrajectoryTable
+from .core.build import PRESETS, build_table, customised, get_preset
+from .core.candidates import SAMPLERS
+from .core.table import TableError, TrajectoryTable
 
 
 def summary(table: TrajectoryTable) -> str:
     lines = [
-        f"table: preset={table.meta.get('preset')} envs={table.n_envs} thetas={table.n_thetas} "
+        f"table: domain={table.domain.name} preset={table.meta.get('preset')} envs={table.n_envs} "
+        f"thetas={table.n_thetas} "
         f"hash={table.meta.get('content_hash', '')[:16]}",
         f"theta*: {[float(v) for v in table.thetas[0]]}",
         f"min d_reward: {float(table.d_reward().min()):.3g} (must be >= 0)",
         "theta* strategies per cluster:",
     ]
     star = np.asarray(table.strategy[:, 0])
-    for c, name in enumerate(CLUSTER_NAMES):
+    domain = table.domain
+    for c, name in enumerate(domain.cluster_names):
         lines.append(f"  {name:32s} {int((star == c).sum()):6d}")
     cls = table.env_class
     lines.append("environments per class: "
-                 + ", ".join(f"{n} {int((cls == i).sum())}" for i, n in enumerate(CLASS_NAMES)))
+                 + ", ".join(f"{n} {int((cls == i).sum())}" for i, n in enumerate(domain.class_names)))
     return "\n".join(lines)
 
 
@@ -84,7 +84,7 @@ def main(argv=None) -> int:
             print(f"built {n * preset.n_thetas:,} trajectories in {time.time() - start:.1f} s -> {args.out}")
         elif args.command == "sheet":
             # matplotlib loads only for this command
-            from .sheet import make_sheet  # noqa: PLC0415
+            from .domains.driving.sheet import make_sheet  # noqa: PLC0415
 
             if args.columns < 1 or args.dpi < 10:
                 raise ValueError(f"--columns must be >= 1 and --dpi >= 10, got {args.columns} and {args.dpi}")

@@ -1,7 +1,9 @@
 """What the web side (``studyapp``) and the workers (``precompute``) use from ``teaching``.
 
 They import from here only, so the numeric core can move its modules around behind this list
-(tests may still reach into the modules).  Plain re-exports: every name below is the module's
+(tests may still reach into the modules).  The core (``teaching.core``) knows no robot; the
+names under "World and environments" and "Strategies" are still the driving domain's
+(``teaching.domains.driving``), which the web side draws.  Plain re-exports: every name below is the module's
 own object, documented here with its shapes and units.  Like the rest of the package this
 module never imports Django (tests/teaching/test_api.py checks it in a fresh interpreter).
 
@@ -26,15 +28,20 @@ Strategies (what a trajectory does; the paper's coverage clusters)
     strategy_labels(states, envs)  states (n, T+1, 5) or (n, N, T+1, 5) [x, y, heading rad,
                              v ft/s, steer rad] -> (n,) or (n, N) int8 cluster (8: no strategy)
 
-Tables (teaching.table: a directory of .npy arrays plus meta.json with its content hash)
-    TrajectoryTable          .load(path, verify=True, expected_hash=None); thetas (N, 5),
-                             env_ids (M,) int64, features (M, N, 5), strategy (M, N) int8,
+Domains (teaching.core.domain)
+    Domain                   the interface a robot implements (names, classes, clusters, features,
+                             planning); get_domain(name=None) the registered one (None: default),
+                             domain_names() every registered name
+
+Tables (teaching.core.table: a directory of .npy arrays plus meta.json with its content hash)
+    TrajectoryTable          .load(path, verify=True, expected_hash=None); thetas (N, D),
+                             env_ids (M,) int64, features (M, N, D), strategy (M, N) int8,
                              d_euclid (M, N) float32; .states(env_index, theta_index) ->
-                             (..., T+1, 5); .other_car(env_index) -> (..., T+1, 2);
+                             (..., T+1, S); .domain its Domain; .env_class (M,) int8;
                              .meta["content_hash"] identifies the table
     TableError               ValueError: a missing, altered or foreign table (one-line message)
 
-Building a table in chunks (teaching.build; precompute/work.py runs one chunk per task)
+Building a table in chunks (teaching.core.build; precompute/work.py runs one chunk per task)
     Preset, PRESETS, get_preset(name), customised(preset, n_envs=, n_thetas=, seed=, sampler=,
                              theta_star=)  what to build (M environments x N thetas, seeded)
     SAMPLERS                 the ways the other θs are drawn
@@ -42,10 +49,10 @@ Building a table in chunks (teaching.build; precompute/work.py runs one chunk pe
     table_identity(preset, thetas, normalisers)  dict naming the table chunks belong to
     chunks_of(env_ids, size) list of (<= size,) int64 id arrays
     chunk_key(identity, env_ids), chunk_path(out, key)  where a chunk is stored
-    build_chunk(out, identity, env_ids, thetas, normalisers)  plan and store one chunk
+    build_chunk(out, identity, env_ids, thetas, normalisers, domain)  plan and store one chunk
     assemble(out, preset, identity, env_ids, thetas, normalisers)  publish the table
     check_writable(out)      TableError unless chunks can be written under out
-    code_fingerprint()       16 hex digits over every module of this package
+    code_fingerprint(domain=None)  16 hex digits over teaching/core and the domain's package
 
 Learners and selection (DESIGN §5-6)
     MODEL_NAMES              the 7 learner models (the paper's ideal users)
@@ -71,7 +78,7 @@ Ideal users (the paper's simulated learners; teaching.evaluation)
 """
 from __future__ import annotations
 
-from .build import (
+from .core.build import (
                     PRESETS,
                     Preset,
                     assemble,
@@ -85,8 +92,14 @@ from .build import (
                     get_preset,
                     table_identity,
 )
-from .candidates import SAMPLERS
-from .environments import (
+from .core.candidates import SAMPLERS
+from .core.domain import Domain, domain_names, get_domain
+from .core.evaluation import USER_NAMES, study_matrix
+from .core.learners import MODEL_NAMES, has_hyperparameter, make_model, parse_hyperparameters
+from .core.selection import APPROX_STAR, CONDITIONS, SelectionSettings, build_sequences, condition_sequence
+from .core.table import TableError, TrajectoryTable
+from .core.testset import MIN_OPTION_DISTANCE, MIN_REGRET, select_test_set
+from .domains.driving.environments import (
                     CLASS_NAMES,
                     N_ENVIRONMENTS,
                     environment_class,
@@ -94,17 +107,13 @@ from .environments import (
                     other_car_states,
                     stratified_sample,
 )
-from .evaluation import USER_NAMES, study_matrix
-from .features import default_normalisers
-from .learners import MODEL_NAMES, has_hyperparameter, make_model, parse_hyperparameters
-from .selection import APPROX_STAR, CONDITIONS, SelectionSettings, build_sequences, condition_sequence
-from .strategies import CLUSTER_NAMES, N_CLUSTERS, strategy_labels
-from .table import TableError, TrajectoryTable
-from .testset import MIN_OPTION_DISTANCE, MIN_REGRET, select_test_set
-from .world import GOAL_NAMES, WORLD
+from .domains.driving.features import default_normalisers
+from .domains.driving.strategies import CLUSTER_NAMES, N_CLUSTERS, strategy_labels
+from .domains.driving.world import GOAL_NAMES, WORLD
 
 __all__ = [
     "APPROX_STAR", "CLASS_NAMES", "CLUSTER_NAMES", "CONDITIONS", "GOAL_NAMES", "MIN_OPTION_DISTANCE", "MIN_REGRET",
+    "Domain", "domain_names", "get_domain",
     "MODEL_NAMES", "N_CLUSTERS", "USER_NAMES",
     "N_ENVIRONMENTS", "PRESETS", "SAMPLERS", "WORLD", "Preset", "SelectionSettings", "TableError",
     "TrajectoryTable", "assemble", "build_chunk", "build_sequences", "check_writable", "chunk_key", "chunk_path",

@@ -22,12 +22,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .evaluation import SEQUENCE_NAMES, USER_NAMES, examples_per_cluster, ideal_user_matrix
-from .learners import Distances, model_names, parse_hyperparameters
-from .selection import APPROX_STAR, CONDITIONS, COVERAGE_EPSILON, SelectionSettings, teach, theta_star_clusters
-from .table import TableError, TrajectoryTable
-from .testset import MIN_OPTION_DISTANCE, MIN_REGRET, TestSetError, select_test_set
-from .world import THETA_STAR
+from .core.evaluation import SEQUENCE_NAMES, USER_NAMES, examples_per_cluster, grid_layout, ideal_user_matrix
+from .core.learners import Distances, model_names, parse_hyperparameters
+from .core.selection import APPROX_STAR, CONDITIONS, COVERAGE_EPSILON, SelectionSettings, teach, theta_star_clusters
+from .core.table import TableError, TrajectoryTable
+from .core.testset import MIN_OPTION_DISTANCE, MIN_REGRET, TestSetError, select_test_set
 
 EXIT_BAD_INPUT = 2
 
@@ -65,7 +64,7 @@ def check_table(table) -> None:
         raise InputError("the table has no environments (empty environment set)")
     if table.n_thetas == 0:
         raise InputError("the table has no candidate objectives θ (it must contain θ* as theta 0)")
-    expected = np.asarray(table.meta.get("theta_star", THETA_STAR), np.float64)
+    expected = np.asarray(table.meta.get("theta_star", table.domain.theta_star), np.float64)
     if not np.allclose(np.asarray(table.thetas[0]), expected):
         raise InputError(f"the table does not contain θ* as theta 0: "
                          f"thetas[0] = {np.asarray(table.thetas[0]).tolist()}, θ* = {expected.tolist()}")
@@ -120,15 +119,15 @@ def run(args) -> dict:
                                  "matrix": matrix.tolist(), "extended_sequence_names": list(ext_names),
                                  "extended_matrix": extended.tolist(),
                                  "models": {k: str(m) for k, m in result.models.items()}})
-    grids = examples_per_cluster(theta_star_clusters(table), envs, ext_names)
-    _write(out / "examples_per_cluster.json", {"layout": "grid[row][col]: col = class (merging, braking, "
-                                               "tailgating, other), row = 1st/2nd strategy (cluster 2*col+row)",
+    domain = table.domain
+    grids = examples_per_cluster(theta_star_clusters(table), envs, ext_names, class_of_cluster=domain.class_of_cluster)
+    _write(out / "examples_per_cluster.json", {"layout": grid_layout(domain),
                                                "grids": {n: g.tolist() for n, g in zip(ext_names, grids, strict=True)}})
     # matplotlib loads only when figures are drawn
-    from .plots import plot_examples_shown, plot_ideal_users  # noqa: PLC0415
+    from .core.plots import plot_examples_shown, plot_ideal_users  # noqa: PLC0415
 
     plot_ideal_users(matrix, SEQUENCE_NAMES, USER_NAMES, out / "sim_users.png")
-    plot_examples_shown(grids[:len(SEQUENCE_NAMES)], SEQUENCE_NAMES, out / "examples_shown.png")
+    plot_examples_shown(grids[:len(SEQUENCE_NAMES)], SEQUENCE_NAMES, out / "examples_shown.png", domain)
     if "error" in tests:  # everything else is written; the study cannot run without tests
         raise InputError(f"test set: {tests['error']} (other outputs were written to {out})")
     return {"sequences": seq_json, "test_set": tests, "matrix": matrix}

@@ -11,7 +11,7 @@ import sys
 import pytest
 
 from teaching import teach
-from teaching.build import PRESETS, build_table
+from teaching.core.build import PRESETS, build_table
 from tests import services
 
 # Environments of the `tiny` table (48 environments × 24 θ, built once per run by `tiny_table`).

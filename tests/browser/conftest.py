@@ -4,7 +4,7 @@ from __future__ import annotations
 import pytest
 
 from studyapp.studies import build_study, demo_spec
-from teaching.table import TrajectoryTable
+from teaching.core.table import TrajectoryTable
 from tests.studyapp.test_stimuli import real_spec
 
 

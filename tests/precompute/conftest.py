@@ -10,8 +10,8 @@ import pytest
 from celery.contrib.testing.worker import start_worker
 
 from config.celery import app
-from teaching.build import Preset, build_table
-from teaching.table import ARRAYS, TrajectoryTable
+from teaching.core.build import Preset, build_table
+from teaching.core.table import ARRAYS, TrajectoryTable
 from tests.services import redis_reachable
 
 # 16 environments × 16 thetas in 4 chunks of 4: big enough for the chord and the fault

@@ -16,10 +16,10 @@ from precompute.models import Job
 from precompute.study import create_study_job
 from studyapp.analysis.power import PAPER_EFFECTS, participants_needed
 from studyapp.models import Study
-from teaching.evaluation import USER_NAMES, ideal_user_matrix
-from teaching.learners import Distances
-from teaching.selection import teach
-from teaching.table import TrajectoryTable
+from teaching.core.evaluation import USER_NAMES, ideal_user_matrix
+from teaching.core.learners import Distances
+from teaching.core.selection import teach
+from teaching.core.table import TrajectoryTable
 
 CONDITIONS = ["exact", "prob-reward", "random", "coverage-approx*"]
 FIXED = {"det-euclidean": 0.5}  # approx*'s τ fixed; every other user by the paper's rule

@@ -23,12 +23,12 @@ import pytest
 from django.core.management import CommandError, call_command
 from django.utils import timezone
 
-import teaching.build
 from precompute import jobs, work
 from precompute.management.commands.precompute_table import resolve_preset
 from precompute.models import Job
 from precompute.tasks import table_chunk
 from teaching.api import code_fingerprint
+from teaching.core.domain import get_domain
 from tests.services import blackhole
 
 pytestmark = pytest.mark.slow
@@ -102,7 +102,8 @@ def test_failure_is_shown_and_retried_from_the_dashboard(
         inprocess_worker, transactional_db, small_preset, tmp_path, monkeypatch, client, django_user_model,
         reference, assert_same_table):
     calls = {"n": 0}
-    real = teaching.build.plan_chunk  # the planner as the chunk builder calls it
+    domain = get_domain(small_preset.domain)
+    real = domain.plan_chunk  # the planner as the chunk builder calls it
 
     def flaky(env_ids, *args, **kwargs):
         calls["n"] += 1
@@ -110,14 +111,14 @@ def test_failure_is_shown_and_retried_from_the_dashboard(
             raise FloatingPointError(f"planner diverged in environment {int(env_ids[0])}")
         return real(env_ids, *args, **kwargs)
 
-    monkeypatch.setattr(teaching.build, "plan_chunk", flaky)
+    monkeypatch.setattr(domain, "plan_chunk", flaky)
     out = tmp_path / "table"
     job = jobs.wait(jobs.create_table_job(small_preset, out), progress=False, timeout=180)
     assert job.status == Job.FAILED
     assert re.fullmatch(r"chunk \d \(environments \d+\.\.\d+\): FloatingPointError: planner diverged in "
                         r"environment \d+", job.error), job.error
     assert "Traceback" in job.error_detail
-    monkeypatch.setattr(teaching.build, "plan_chunk", real)
+    monkeypatch.setattr(domain, "plan_chunk", real)
 
     # the job page shows the error; retry is staff-only and POST-only
     url = job.get_absolute_url()
@@ -198,8 +199,8 @@ def test_worker_with_other_planner_code_refuses(small_preset, tmp_path):
         work.compute_chunk(spec, work.chunk_ids(spec)[0])
 
 
-def test_the_code_fingerprint_is_the_whole_teaching_package():
-    assert work.CODE_FINGERPRINT == code_fingerprint()
+def test_the_code_fingerprint_is_the_core_and_the_domain(small_preset, tmp_path):
+    assert work.table_spec(small_preset, tmp_path / "t")["code"] == code_fingerprint(small_preset.domain)
 
 
 def test_concurrent_publishers_do_not_interleave(small_preset, reference, tmp_path, assert_same_table):

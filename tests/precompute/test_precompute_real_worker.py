@@ -19,7 +19,7 @@ import pytest
 from celery import Celery
 
 from precompute import jobs, procs, work
-from teaching.build import Preset, build_table
+from teaching.core.build import Preset, build_table
 
 pytestmark = pytest.mark.slow
 

@@ -6,17 +6,17 @@ import io
 import pytest
 from django.core.management import CommandError, call_command
 
-import teaching.table
+import teaching.core.table
 from precompute import jobs
 from precompute.models import Job
 from precompute.sequences import condition_sequence
 from precompute.study import create_study_job
 from precompute.tasks import study_condition, study_finish
 from studyapp.models import Study
-from teaching.selection import CONDITIONS, build_sequences
-from teaching.synthetic import synthetic_table
-from teaching.table import TableError, TrajectoryTable
-from teaching.testset import select_test_set
+from teaching.core.selection import CONDITIONS, build_sequences
+from teaching.core.table import TableError, TrajectoryTable
+from teaching.core.testset import select_test_set
+from teaching.domains.driving.synthetic import synthetic_table
 
 
 @pytest.fixture(scope="module")
@@ -84,8 +84,8 @@ def test_build_study_subset_closed(inprocess_worker, transactional_db, table_pat
 
 def test_a_study_job_verifies_its_table_once(db, table_path, monkeypatch):
     """create_study_job hashes the table; its tasks only compare the hash it recorded."""
-    real, hashed = teaching.table.content_hash, []
-    monkeypatch.setattr(teaching.table, "content_hash", lambda *a: hashed.append(1) or real(*a))
+    real, hashed = teaching.core.table.content_hash, []
+    monkeypatch.setattr(teaching.core.table, "content_hash", lambda *a: hashed.append(1) or real(*a))
     job = create_study_job(table_path, "once", conditions=["exact", "random"], open_when_done=False, start=False)
     assert len(hashed) == 1
     assert job.params["content_hash"] == Study.objects.get(slug="once").source["content_hash"]

@@ -22,7 +22,7 @@ from django.utils import timezone
 
 from precompute import jobs, watchdog, work
 from precompute.models import Job
-from teaching.build import Preset
+from teaching.core.build import Preset
 
 pytestmark = [pytest.mark.slow, pytest.mark.redis]
 

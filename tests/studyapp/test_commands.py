@@ -16,7 +16,7 @@ from studyapp.assignment import assign
 from studyapp.models import Condition, Participant, Study
 from studyapp.studies import SpecError, freeze_condition, freeze_test_set, new_study, table_spec
 from teaching.api import TrajectoryTable, select_test_set
-from teaching.synthetic import synthetic_table
+from teaching.domains.driving.synthetic import synthetic_table
 from tests.conftest import TINY_TEST_SET
 
 pytestmark = pytest.mark.django_db
@@ -33,7 +33,7 @@ SEQUENCES = {"exact": [500, 586], "random": [1149, 1473, 1945]}  # environments 
 
 @pytest.fixture
 def spec(tiny_table):
-    """A spec on the tiny table: its conditions, and a test set from teaching.testset."""
+    """A spec on the tiny table: its conditions, and a test set from teaching.core.testset."""
     return dict(table_spec(tiny_table, slug="cmd", sequences=SEQUENCES, **TINY_TEST_SET),
                 name="From a spec", target_per_condition=12)
 
@@ -160,7 +160,7 @@ def test_create_study_from_a_saved_table(tmp_path):
 
 
 def test_setup_demo_uses_the_table_when_the_pipeline_works(tmp_path, monkeypatch):
-    """With a table, the demo's conditions and tests come from teaching.selection / teaching.testset
+    """With a table, the demo's conditions and tests come from teaching.core.selection / teaching.testset
     (through teaching.api, which studyapp.studies imports them from)."""
     table = synthetic_table(n_envs=16, n_thetas=8, seed=3)
     table.save(tmp_path / "table")

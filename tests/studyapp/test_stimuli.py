@@ -12,10 +12,10 @@ from django.urls import reverse
 from studyapp import flow
 from studyapp.models import Participant, StepKind
 from studyapp.studies import build_study
-from teaching.build import PRESETS, build_table
-from teaching.selection import showable
-from teaching.strategies import CLUSTER_NAMES
-from teaching.table import TrajectoryTable
+from teaching.core.build import PRESETS, build_table
+from teaching.core.selection import showable
+from teaching.core.table import TrajectoryTable
+from teaching.domains.driving.strategies import CLUSTER_NAMES
 from tests.conftest import answer_payload
 
 pytestmark = pytest.mark.django_db

@@ -6,10 +6,10 @@ import pytest
 
 from studyapp import trajectories as tj
 from teaching.api import TrajectoryTable
-from teaching.environments import environment_class, get_environments, other_car_states
-from teaching.strategies import strategy_labels
-from teaching.synthetic import synthetic_table
-from teaching.world import WORLD
+from teaching.domains.driving.environments import environment_class, get_environments, other_car_states
+from teaching.domains.driving.strategies import strategy_labels
+from teaching.domains.driving.synthetic import synthetic_table
+from teaching.domains.driving.world import WORLD
 
 
 def check_env(payload):

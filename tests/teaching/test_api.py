@@ -12,7 +12,7 @@ from pathlib import Path
 
 import teaching
 from teaching import api
-from teaching.build import code_fingerprint, source_files
+from teaching.core.build import code_fingerprint, source_files
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -69,24 +69,26 @@ def test_web_side_and_workers_import_only_the_api():
     assert not offenders
 
 
-def test_code_fingerprint_covers_every_module():
+def test_code_fingerprint_covers_the_core_and_the_domain(monkeypatch):
     root = Path(teaching.__file__).resolve().parent
-    names = {p.relative_to(root).as_posix() for p in source_files()}
-    assert {"api.py", "build.py", "planner.py", "kernels.py", "selection.py", "teach.py"} <= names
-    assert names == {p.relative_to(root).as_posix() for p in root.rglob("*.py") if "__pycache__" not in p.parts
-                     and not p.name.startswith(".")}
+    core, driving = root / "core", root / "domains" / "driving"
+    names = {p.relative_to(root).as_posix() for p in source_files(core) + source_files(driving)}
+    assert {"core/build.py", "core/selection.py", "domains/driving/planner.py", "domains/driving/kernels.py"} <= names
+    assert names == {p.relative_to(root).as_posix() for d in (core, driving) for p in d.rglob("*.py")
+                     if "__pycache__" not in p.parts and not p.name.startswith(".")}
+    assert code_fingerprint("driving") == code_fingerprint(roots=(core, driving))
 
 
 def test_a_new_module_changes_the_fingerprint(tmp_path):
     (tmp_path / "world.py").write_text("G = 1\n")
-    before = code_fingerprint(tmp_path)
-    assert code_fingerprint(tmp_path) == before  # deterministic
+    before = code_fingerprint(roots=(tmp_path,))
+    assert code_fingerprint(roots=(tmp_path,)) == before  # deterministic
     (tmp_path / "newcomer.py").write_text("")
-    added = code_fingerprint(tmp_path)
+    added = code_fingerprint(roots=(tmp_path,))
     assert added != before
     (tmp_path / "sub").mkdir()
     (tmp_path / "sub" / "deeper.py").write_text("")
-    assert code_fingerprint(tmp_path) != added
+    assert code_fingerprint(roots=(tmp_path,)) != added
     (tmp_path / "__pycache__").mkdir()
     (tmp_path / "__pycache__" / "cached.py").write_text("")
     (tmp_path / ".#lock.py").write_text("")

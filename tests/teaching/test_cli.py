@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from teaching.table import TrajectoryTable
+from teaching.core.table import TrajectoryTable
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -33,7 +33,7 @@ def test_build_tiny_then_info(tmp_path):
     out = tmp_path / "tiny"
     proc = run("build", "--preset", "tiny", "--out", str(out))
     assert proc.returncode == 0, proc.stderr
-    assert "table: preset=tiny envs=48 thetas=24" in proc.stdout
+    assert "table: domain=driving preset=tiny envs=48 thetas=24" in proc.stdout
     assert "min d_reward: 0 (must be >= 0)" in proc.stdout
     assert "theta* strategies per cluster:" in proc.stdout
     # the stratified sample puts 12 environments in each class

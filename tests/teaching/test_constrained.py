@@ -9,11 +9,11 @@ import itertools
 import numpy as np
 import pytest
 
-from teaching import constrained, kernels, reference_hard
-from teaching.candidates import sample_thetas
-from teaching.environments import environment_id, get_environments
-from teaching.features import default_normalisers, raw_features, reward
-from teaching.planner import (
+from teaching.core.candidates import sample_thetas
+from teaching.domains.driving import constrained, kernels, reference_hard
+from teaching.domains.driving.environments import environment_id, get_environments
+from teaching.domains.driving.features import default_normalisers, raw_features, reward
+from teaching.domains.driving.planner import (
     STORED_FEAS_TOL,
     PlannerSettings,
     limit_excess,
@@ -21,7 +21,7 @@ from teaching.planner import (
     plan_chunk,
     strategy_seeds,
 )
-from teaching.world import WORLD
+from teaching.domains.driving.world import THETA_STAR, WORLD
 
 K, T, NC = WORLD.n_knots, WORLD.horizon, kernels.NC
 FAR = np.stack([np.zeros(T + 1), np.full(T + 1, 1e6)], axis=1)  # no other car in reach
@@ -158,7 +158,7 @@ def test_reaches_the_hard_references_optimum_where_the_penalty_falls_short(theta
 def two_plans():
     envs = np.array([environment_id(0, 100, 2, 50), environment_id(1, -140, 1, 70, 1.0, 80),
                      environment_id(0, -200, 0, 20), environment_id(1, 120, 1, 30)])
-    thetas, norm = sample_thetas(24), default_normalisers()
+    thetas, norm = sample_thetas(24, theta_star=THETA_STAR), default_normalisers()
     return (envs, thetas, plan_chunk(envs, thetas, norm, PlannerSettings(exact=False)),
             plan_chunk(envs, thetas, norm))  # exact by default
 

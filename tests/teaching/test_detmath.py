@@ -12,10 +12,11 @@ from decimal import Decimal, localcontext
 import numpy as np
 import pytest
 
-from teaching import detmath
-from teaching.candidates import sample_thetas
-from teaching.features import reward
-from teaching.planner import _pool_best  # the planner's private helper: it must agree with reward
+from teaching.core import detmath
+from teaching.core.candidates import sample_thetas
+from teaching.domains.driving.features import reward
+from teaching.domains.driving.planner import _pool_best  # the planner's private helper: it must agree with reward
+from teaching.domains.driving.world import THETA_STAR
 
 # pi to 100 digits: the reference's own range reduction uses it, nothing of detmath's
 PI = Decimal("3.14159265358979323846264338327950288419716939937510582097494459230781640628620899862803482534211706798")
@@ -134,7 +135,7 @@ def test_pow10_and_log10_are_correctly_rounded():
 def test_candidate_thetas_are_theta_star_times_exact_powers_of_ten():
     """The sampled thetas are -|theta*| 10**u with 10**u correctly rounded: recomputed here from the
     same seeded draws with decimal arithmetic of our own."""
-    thetas = sample_thetas(50, seed=7)
+    thetas = sample_thetas(50, seed=7, theta_star=THETA_STAR)
     u = np.random.default_rng(7).uniform(-1.0, 1.0, size=(49, 5))
     star = np.abs(thetas[0])
     with localcontext() as ctx:

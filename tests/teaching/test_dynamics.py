@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from teaching.dynamics import HEADING, STEER, V, X, Y, physical_controls, rollout_np
-from teaching.world import WORLD
+from teaching.domains.driving.dynamics import HEADING, STEER, V, X, Y, physical_controls, rollout_np
+from teaching.domains.driving.world import WORLD
 
 DT = 0.25
 L = 9.0

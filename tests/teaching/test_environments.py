@@ -4,7 +4,7 @@ import itertools
 import numpy as np
 import pytest
 
-from teaching.environments import (
+from teaching.domains.driving.environments import (
     BRAKING,
     MERGING,
     N_ENVIRONMENTS,

@@ -3,7 +3,7 @@ import matplotlib.image as mpimg
 import numpy as np
 import pytest
 
-from teaching.evaluation import (
+from teaching.core.evaluation import (
     SEQUENCE_NAMES,
     USER_NAMES,
     cluster_counts,
@@ -11,10 +11,13 @@ from teaching.evaluation import (
     examples_per_cluster,
     ideal_user_matrix,
 )
-from teaching.learners import Distances, make_model
-from teaching.plots import plot_examples_shown, plot_ideal_users
-from teaching.selection import teach, theta_star_clusters
-from teaching.synthetic import hand_table, synthetic_table
+from teaching.core.learners import Distances, make_model
+from teaching.core.plots import plot_examples_shown, plot_ideal_users
+from teaching.core.selection import teach, theta_star_clusters
+from teaching.domains.driving.domain import DOMAIN as DRIVING
+from teaching.domains.driving.synthetic import hand_table, synthetic_table
+
+PAIRS = DRIVING.class_of_cluster  # the car: clusters 2k, 2k+1 belong to class k
 
 
 def test_matrix_by_hand():
@@ -36,15 +39,21 @@ def test_matrix_by_hand():
 
 
 def test_cluster_grid_layout_matches_the_paper():
-    grid = cluster_grid(np.arange(8))
+    grid = cluster_grid(np.arange(8), PAIRS)
     # columns = merging, braking, tailgating, other; rows = first / second strategy
     np.testing.assert_array_equal(grid, [[0, 2, 4, 6], [1, 3, 5, 7]])
 
 
+def test_cluster_grid_of_uneven_classes():
+    # 3 classes: two strategies, three strategies, one ("other"); rows = a class's 1st, 2nd, 3rd cluster
+    grid = cluster_grid(np.array([10, 11, 20, 21, 22, 30]), np.array([0, 0, 1, 1, 1, 2]))
+    np.testing.assert_array_equal(grid, [[10, 20, 30], [11, 21, 0], [0, 22, 0]])
+
+
 def test_cluster_counts_count_repeats():
     clusters = np.array([0, 3, 3, 7, 5])
-    np.testing.assert_array_equal(cluster_counts(clusters, [1, 2, 1, 4]), [0, 0, 0, 3, 0, 1, 0, 0])
-    grids = examples_per_cluster(clusters, {"x": [0, 3], "y": []}, names=("x", "y"))
+    np.testing.assert_array_equal(cluster_counts(clusters, [1, 2, 1, 4], 8), [0, 0, 0, 3, 0, 1, 0, 0])
+    grids = examples_per_cluster(clusters, {"x": [0, 3], "y": []}, names=("x", "y"), class_of_cluster=PAIRS)
     np.testing.assert_array_equal(grids[0], [[1, 0, 0, 0], [0, 0, 0, 1]])
     assert grids[1].sum() == 0
 
@@ -79,6 +88,7 @@ def test_figures_are_grayscale_white_zero_black_one(tmp_path, result):
     # the image is gray: R = G = B everywhere
     assert np.allclose(img[..., 0], img[..., 1]) and np.allclose(img[..., 1], img[..., 2])
     assert (img.mean(-1) < 0.05).any() and (img.mean(-1) > 0.95).any()  # a black cell and white paper
-    grids = examples_per_cluster(theta_star_clusters(table), {k: s.envs for k, s in res.sequences.items()})
-    plot_examples_shown(grids, SEQUENCE_NAMES, tmp_path / "ex.png")
+    grids = examples_per_cluster(theta_star_clusters(table), {k: s.envs for k, s in res.sequences.items()},
+                                 class_of_cluster=PAIRS)
+    plot_examples_shown(grids, SEQUENCE_NAMES, tmp_path / "ex.png", DRIVING)
     assert (tmp_path / "ex.png").stat().st_size > 1000

@@ -5,12 +5,18 @@ import math
 import numpy as np
 import pytest
 
-from teaching import kernels
-from teaching.dynamics import rollout_np
-from teaching.environments import environment_id, get_environments, other_car_states
-from teaching.features import calibrate_normalisers, calibration_controls, default_normalisers, raw_features, reward
-from teaching.planner import objective_weights
-from teaching.world import THETA_STAR, WORLD
+from teaching.domains.driving import kernels
+from teaching.domains.driving.dynamics import rollout_np
+from teaching.domains.driving.environments import environment_id, get_environments, other_car_states
+from teaching.domains.driving.features import (
+    calibrate_normalisers,
+    calibration_controls,
+    default_normalisers,
+    raw_features,
+    reward,
+)
+from teaching.domains.driving.planner import objective_weights
+from teaching.domains.driving.world import THETA_STAR, WORLD
 
 K, T = WORLD.n_knots, WORLD.horizon
 Y_MAX = 368.75  # 0.25 * sum_{t<20} (50 + 2.5 t), see test_dynamics

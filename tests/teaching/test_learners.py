@@ -4,8 +4,8 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from teaching import learners
-from teaching.learners import (
+from teaching.core import learners
+from teaching.core.learners import (
     MODEL_NAMES,
     Distances,
     LearnerModel,
@@ -17,8 +17,8 @@ from teaching.learners import (
     posterior,
     register_model,
 )
-from teaching.selection import greedy
-from teaching.synthetic import hand_table, synthetic_table
+from teaching.core.selection import greedy
+from teaching.domains.driving.synthetic import hand_table, synthetic_table
 
 # 2 environments x 4 thetas (theta 0 = theta*), distances written by hand.
 D_REWARD = np.array([[0.0, 0.5, 2.0, 0.0],

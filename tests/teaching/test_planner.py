@@ -5,10 +5,11 @@ import json
 import numpy as np
 import pytest
 
-from teaching import kernels
-from teaching.candidates import sample_thetas
-from teaching.dynamics import rollout_np
-from teaching.environments import (
+from teaching.core.candidates import sample_thetas
+from teaching.core.table import TrajectoryTable
+from teaching.domains.driving import kernels
+from teaching.domains.driving.dynamics import rollout_np
+from teaching.domains.driving.environments import (
     BRAKING,
     MERGING,
     TAILGATING,
@@ -18,8 +19,8 @@ from teaching.environments import (
     other_car_states,
     stratified_sample,
 )
-from teaching.features import default_normalisers, raw_features
-from teaching.planner import (
+from teaching.domains.driving.features import default_normalisers, raw_features
+from teaching.domains.driving.planner import (
     NEWTON_TOL,
     PLANNER_VERSION,
     STORED_FEAS_TOL,
@@ -34,8 +35,8 @@ from teaching.planner import (
     solve,
     strategy_seeds,
 )
-from teaching.reference import reference_gap
-from teaching.strategies import (
+from teaching.domains.driving.reference import reference_gap
+from teaching.domains.driving.strategies import (
     BRAKE_CHANGE,
     BRAKE_STAY,
     CLASS_OF_CLUSTER,
@@ -47,8 +48,7 @@ from teaching.strategies import (
     lane_crossings,
     strategy_labels,
 )
-from teaching.table import TrajectoryTable
-from teaching.world import THETA_STAR, WORLD
+from teaching.domains.driving.world import THETA_STAR, WORLD
 
 K, T = WORLD.n_knots, WORLD.horizon
 M_ENVS, N_THETAS = 12, 16
@@ -57,7 +57,7 @@ M_ENVS, N_THETAS = 12, 16
 @pytest.fixture(scope="module")
 def chunk():
     ids = stratified_sample(M_ENVS, seed=1)
-    thetas = sample_thetas(N_THETAS, seed=2)
+    thetas = sample_thetas(N_THETAS, seed=2, theta_star=THETA_STAR)
     norm = default_normalisers()
     stats = {}
     out = plan_chunk(ids, thetas, norm, stats=stats)
@@ -94,7 +94,7 @@ def test_d_reward_is_nonnegative_everywhere(chunk):
 
 def test_stored_features_labels_and_distances_describe_the_stored_controls(chunk):
     table, _ = chunk
-    envs = table.environments
+    envs = get_environments(table.env_ids)
     oxy = other_car_states(envs)
     z = np.asarray(table.controls, np.float64).reshape(-1, K, 2)
     e = np.repeat(np.arange(M_ENVS), N_THETAS)
@@ -157,7 +157,7 @@ KKT_PROBLEMS = [
 def test_newton_reaches_a_kkt_point(eid, theta_index, seed):
     env = get_environments([eid])
     oxy = other_car_states(env)[0]
-    theta = sample_thetas(5, seed=7)[theta_index]
+    theta = sample_thetas(5, seed=7, theta_star=THETA_STAR)[theta_index]
     w = objective_weights(theta, default_normalisers())
     z, F, its = solve(strategy_seeds()[seed][None], oxy[None], env.goal, w, 1000)
     assert its[0] < 999  # stopped by its tolerance, not the iteration cap
@@ -187,7 +187,7 @@ def test_newton_does_not_stop_short_next_to_a_bound():
     assert eid == 8416
     env = get_environments([eid])
     oxy = other_car_states(env)[0]
-    theta = sample_thetas(5, seed=7)[1]
+    theta = sample_thetas(5, seed=7, theta_star=THETA_STAR)[1]
     w = objective_weights(theta, default_normalisers())
     # This optimum lies on the limit of the car's centre (x = 12 ft), where the edge penalty's curvature
     # changes and the last digits come slowly (~140 iterations); 400 is the budget here.
@@ -207,7 +207,7 @@ def test_projected_newton_converges_on_merging_problems():
     Version 6: 0.3 %."""
     rng = np.random.default_rng(4)
     ids = np.sort(rng.choice(np.flatnonzero(environment_class(get_environments()) == MERGING), 40, replace=False))
-    thetas = sample_thetas(200, seed=3)[:16]
+    thetas = sample_thetas(200, seed=3, theta_star=THETA_STAR)[:16]
     envs = get_environments(ids)
     oxy = other_car_states(envs)
     e = np.repeat(np.arange(len(ids)), 16 * 8)
@@ -224,7 +224,7 @@ def test_the_planner_finds_the_double_lane_change_the_reference_found():
     lanes right, 1.1e-4 better than everything the planner found from its first 8 seeds.  Since
     version 9 (CPU-independent arithmetic: theta 800 differs in its last bits) the planner finds
     the mirror image, one lane right then two left, as good to 1e-8: either double change passes."""
-    thetas = sample_thetas(1000)
+    thetas = sample_thetas(1000, theta_star=THETA_STAR)
     ids = np.array([17587])
     norm = default_normalisers()
     table = TrajectoryTable(thetas=thetas, env_ids=ids, normalisers=norm, **plan_chunk(ids, thetas, norm))
@@ -247,7 +247,7 @@ def test_the_planner_finds_the_basins_version_7_missed():
     Each is checked against the independent reference, and every trajectory of both
     environments is checked to obey the world's constraints (a hop from a start that breaks
     one can end far off the road; such an answer must never be taken)."""
-    thetas = sample_thetas(1000)
+    thetas = sample_thetas(1000, theta_star=THETA_STAR)
     ids = np.array([6547, 15014])
     norm = default_normalisers()
     stats = {}

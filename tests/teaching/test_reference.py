@@ -5,14 +5,14 @@ import inspect
 import numpy as np
 import pytest
 
-from teaching import kernels, reference
-from teaching.candidates import sample_thetas
-from teaching.dynamics import rollout_np
-from teaching.environments import environment_id, get_environments, other_car_states
-from teaching.features import default_normalisers, raw_features, reward
-from teaching.planner import objective_weights, plan_chunk, strategy_seeds
-from teaching.table import TrajectoryTable
-from teaching.world import THETA_STAR, WORLD
+from teaching.core.candidates import sample_thetas
+from teaching.core.table import TrajectoryTable
+from teaching.domains.driving import kernels, reference
+from teaching.domains.driving.dynamics import rollout_np
+from teaching.domains.driving.environments import environment_id, get_environments, other_car_states
+from teaching.domains.driving.features import default_normalisers, raw_features, reward
+from teaching.domains.driving.planner import objective_weights, plan_chunk, strategy_seeds
+from teaching.domains.driving.world import THETA_STAR, WORLD
 
 K = WORLD.n_knots
 PROBLEMS = [
@@ -71,9 +71,9 @@ def test_the_starts_are_its_own_diverse_and_not_the_planners_seeds():
 def test_reference_gap_positive_for_a_bad_trajectory_and_zero_for_its_own():
     norm = default_normalisers()
     ids = np.array(PROBLEMS)
-    thetas = sample_thetas(3, seed=4)
+    thetas = sample_thetas(3, seed=4, theta_star=THETA_STAR)
     table = TrajectoryTable(thetas=thetas, env_ids=ids, normalisers=norm, **plan_chunk(ids, thetas, norm))
-    envs, oxy = table.environments, other_car_states(table.environments)
+    envs, oxy = get_environments(table.env_ids), other_car_states(get_environments(table.env_ids))
 
     def store(m, n, z):  # exactly as the planner stores a trajectory: float32 controls, their features
         z = np.asarray(z, np.float32)

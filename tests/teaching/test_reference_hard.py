@@ -6,11 +6,11 @@ import inspect
 import numpy as np
 import pytest
 
-from teaching import reference, reference_hard
-from teaching.environments import environment_id, get_environments, other_car_states
-from teaching.features import default_normalisers, raw_features, reward
-from teaching.planner import objective_weights, strategy_seeds
-from teaching.world import THETA_STAR, WORLD
+from teaching.domains.driving import reference, reference_hard
+from teaching.domains.driving.environments import environment_id, get_environments, other_car_states
+from teaching.domains.driving.features import default_normalisers, raw_features, reward
+from teaching.domains.driving.planner import objective_weights, strategy_seeds
+from teaching.domains.driving.world import THETA_STAR, WORLD
 
 K, T = WORLD.n_knots, WORLD.horizon
 

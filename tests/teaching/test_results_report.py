@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from teaching.selection import CONDITIONS
-from teaching.synthetic import synthetic_table
+from teaching.core.selection import CONDITIONS
+from teaching.domains.driving.synthetic import synthetic_table
 from teaching.teach import main as teach_main
 
 SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "results_report.py"

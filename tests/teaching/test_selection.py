@@ -8,8 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from teaching.learners import MODEL_NAMES, Distances, make_model, p_theta_star
-from teaching.selection import (
+from teaching.core.learners import MODEL_NAMES, Distances, make_model, p_theta_star
+from teaching.core.selection import (
     CONDITIONS,
     GRID,
     Sequence,
@@ -25,8 +25,8 @@ from teaching.selection import (
     teach,
     theta_star_clusters,
 )
-from teaching.strategies import NO_STRATEGY
-from teaching.synthetic import hand_table, synthetic_table
+from teaching.domains.driving.strategies import NO_STRATEGY
+from teaching.domains.driving.synthetic import hand_table, synthetic_table
 
 DETERMINISTIC = ("exact", "det-reward", "det-euclidean", "det-strategy", "prob-strategy")
 
@@ -146,14 +146,14 @@ def test_coverage_adds_exactly_the_missing_clusters():
     # eps = .18: env 0 lifts P from 1/8 to 1/3 (gain .21); the best next gain is 1/3 -> 1/2 (.17 < eps):
     # stop.  Missing clusters 1, 2, 5; best first: env 2 (P 1/2, ties env 4, lower index), then env 4
     # (P 1; env 3 of the same cluster kills nothing new), then env 5.
-    seq = coverage_augmented(lik, clusters, epsilon=0.18)
+    seq = coverage_augmented(lik, clusters, n_clusters=8, epsilon=0.18)
     assert seq.envs == [0, 2, 4, 5] and seq.added_for_coverage == [2, 4, 5]
     np.testing.assert_allclose(seq.p, [1 / 3, 1 / 2, 1, 1])
     # eps = .01: greedy runs to P = 1 with [0, 1, 2] (clusters 0, 0, 2); then one each for 1 and 5
-    seq = coverage_augmented(lik, clusters, epsilon=0.01)
+    seq = coverage_augmented(lik, clusters, n_clusters=8, epsilon=0.01)
     assert seq.envs == [0, 1, 2, 3, 5] and seq.added_for_coverage == [3, 5]
     # eps = .25: the first gain (.21) is already too small; every cluster is added exactly once
-    seq = coverage_augmented(lik, clusters, epsilon=0.25)
+    seq = coverage_augmented(lik, clusters, n_clusters=8, epsilon=0.25)
     assert seq.envs == [0, 2, 4, 5] and seq.added_for_coverage == seq.envs
     for s in (seq,):
         assert sorted(clusters[s.added_for_coverage].tolist()) == [0, 1, 2, 5]
@@ -165,7 +165,7 @@ def test_coverage_keeps_greedy_prefix_when_epsilon_is_tiny(small):
     lik = model.likelihood(dist)
     clusters = theta_star_clusters(table)
     plain, _ = greedy(lik)
-    cov = coverage_augmented(lik, clusters, epsilon=1e-12)
+    cov = coverage_augmented(lik, clusters, n_clusters=8, epsilon=1e-12)
     n = len(cov.envs) - len(cov.added_for_coverage)
     assert cov.envs[:n] == plain.envs
     present = set(np.unique(clusters).tolist())
@@ -192,9 +192,9 @@ def test_random_baseline_is_the_median_by_rank(small):
 def test_coverage_random_takes_one_env_per_present_cluster(small):
     table = small[0]
     clusters = theta_star_clusters(table)
-    seq = coverage_random(clusters, np.random.default_rng(0))
+    seq = coverage_random(clusters, np.random.default_rng(0), 8)
     assert clusters[seq].tolist() == sorted(np.unique(clusters).tolist())
-    assert seq == coverage_random(clusters, np.random.default_rng(0))
+    assert seq == coverage_random(clusters, np.random.default_rng(0), 8)
 
 
 def test_hyperparameter_rule_on_constructed_sweep():

@@ -14,9 +14,9 @@ import pytest
 from PIL import Image
 
 from teaching.__main__ import main
-from teaching.build import PRESETS, build_table
-from teaching.sheet import make_sheet
-from teaching.synthetic import synthetic_table
+from teaching.core.build import PRESETS, build_table
+from teaching.domains.driving.sheet import make_sheet
+from teaching.domains.driving.synthetic import synthetic_table
 from teaching.teach import main as teach_main
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from teaching.environments import BRAKING, MERGING, OTHER, TAILGATING, environment_id, get_environments
-from teaching.strategies import (
+from teaching.domains.driving.environments import BRAKING, MERGING, OTHER, TAILGATING, environment_id, get_environments
+from teaching.domains.driving.strategies import (
     BRAKE_CHANGE,
     BRAKE_STAY,
     CLASS_OF_CLUSTER,

@@ -12,13 +12,13 @@ import numpy as np
 import pytest
 from numpy._core._multiarray_umath import __cpu_features__
 
-import teaching.build as build
-from teaching.build import PRESETS, build_chunk, build_table, chunk_key, chunks_of, table_identity
-from teaching.candidates import sample_thetas
-from teaching.environments import stratified_sample
-from teaching.features import default_normalisers
-from teaching.table import ARRAYS, TableError, TrajectoryTable, content_hash
-from teaching.world import THETA_STAR, WORLD, world_fingerprint
+from teaching.core.build import PRESETS, build_chunk, build_table, chunk_key, chunks_of, table_identity
+from teaching.core.candidates import sample_thetas
+from teaching.core.table import ARRAYS, TableError, TrajectoryTable, content_hash
+from teaching.domains.driving.domain import DOMAIN as DRIVING
+from teaching.domains.driving.environments import stratified_sample
+from teaching.domains.driving.features import default_normalisers
+from teaching.domains.driving.world import THETA_STAR, WORLD, world_fingerprint
 
 TINY = PRESETS["tiny"]
 
@@ -43,7 +43,7 @@ def file_bytes(path):
 def test_tiny_table_contents(built):
     out, table = built
     assert (table.n_envs, table.n_thetas) == (48, 24)
-    np.testing.assert_array_equal(table.thetas, sample_thetas(24, "log-uniform", 0))
+    np.testing.assert_array_equal(table.thetas, sample_thetas(24, "log-uniform", 0, theta_star=THETA_STAR))
     np.testing.assert_array_equal(table.theta_star, THETA_STAR)
     np.testing.assert_array_equal(table.env_ids, stratified_sample(48, seed=0))
     np.testing.assert_array_equal(table.normalisers, default_normalisers())
@@ -103,7 +103,7 @@ def test_one_altered_byte_is_refused(built, tmp_path):
 def test_a_table_verified_earlier_loads_by_its_recorded_hash(built, monkeypatch):
     out, table = built
     calls = []
-    monkeypatch.setattr("teaching.table.content_hash", lambda *a: calls.append(a) or content_hash(*a))
+    monkeypatch.setattr("teaching.core.table.content_hash", lambda *a: calls.append(a) or content_hash(*a))
     same = TrajectoryTable.load(out, verify=False, expected_hash=table.meta["content_hash"])
     assert not calls  # no byte re-read
     assert same.meta["content_hash"] == table.meta["content_hash"]
@@ -137,7 +137,7 @@ def test_rebuilding_computes_no_chunk_again_and_yields_identical_bytes(built, tm
     def no_planning(*args, **kwargs):
         raise AssertionError("a finished chunk was computed again")
 
-    monkeypatch.setattr(build, "plan_chunk", no_planning)
+    monkeypatch.setattr(DRIVING, "plan_chunk", no_planning)
     again = build_table(TINY, d)
     assert again.meta["content_hash"] == built[1].meta["content_hash"]
     assert file_bytes(d) == before
@@ -159,13 +159,13 @@ def test_a_missing_chunk_is_computed_and_only_it(built, tmp_path, monkeypatch):
     chunks = sorted((d / "chunks").glob("*.npz"))
     chunks[1].unlink()
     calls = []
-    real = build.plan_chunk
+    real = DRIVING.plan_chunk
 
     def counting(env_ids, *args, **kwargs):
         calls.append(np.asarray(env_ids).copy())
         return real(env_ids, *args, **kwargs)
 
-    monkeypatch.setattr(build, "plan_chunk", counting)
+    monkeypatch.setattr(DRIVING, "plan_chunk", counting)
     again = build_table(TINY, d)
     assert len(calls) == 1 and len(calls[0]) == TINY.chunk_size
     assert again.meta["content_hash"] == built[1].meta["content_hash"]
@@ -184,13 +184,14 @@ def test_a_chunk_that_does_not_match_its_key_is_refused(built, tmp_path):
 
 
 def test_chunk_keys_depend_on_identity_and_environments():
-    thetas = sample_thetas(4)
+    thetas = sample_thetas(4, theta_star=THETA_STAR)
     norm = default_normalisers()
     ident = table_identity(TINY, thetas, norm)
     ids = np.arange(5)
     assert chunk_key(ident, ids) == chunk_key(dict(ident), ids.copy())
     assert chunk_key(ident, ids) != chunk_key(ident, ids + 1)
-    assert chunk_key(ident, ids) != chunk_key(table_identity(TINY, sample_thetas(4, seed=1), norm), ids)
+    other = sample_thetas(4, seed=1, theta_star=THETA_STAR)
+    assert chunk_key(ident, ids) != chunk_key(table_identity(TINY, other, norm), ids)
     assert chunk_key(ident, ids) != chunk_key({**ident, "world": "other"}, ids)
 
 

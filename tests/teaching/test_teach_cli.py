@@ -6,9 +6,9 @@ import sys
 import numpy as np
 import pytest
 
-from teaching.selection import CONDITIONS
-from teaching.synthetic import synthetic_table
-from teaching.table import TrajectoryTable
+from teaching.core.selection import CONDITIONS
+from teaching.core.table import TrajectoryTable
+from teaching.domains.driving.synthetic import synthetic_table
 from teaching.teach import main
 
 

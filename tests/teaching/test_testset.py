@@ -4,19 +4,25 @@ import copy
 import numpy as np
 import pytest
 
-from teaching.selection import build_sequences
-from teaching.strategies import NO_STRATEGY
-from teaching.synthetic import synthetic_table
-from teaching.testset import (
+from teaching.core.domain import siblings
+from teaching.core.selection import build_sequences
+from teaching.core.testset import (
     MIN_OPTION_DISTANCE,
     MIN_REGRET,
     TestSetError,
     _distinct,
     pairwise_distance,
     select_test_set,
-    sibling,
     theta_star_regret,
 )
+from teaching.domains.driving.domain import DOMAIN as DRIVING
+from teaching.domains.driving.strategies import NO_STRATEGY
+from teaching.domains.driving.synthetic import synthetic_table
+
+
+def sibling(c: int) -> int:
+    (other,) = siblings(DRIVING, c)  # the car: two strategies per class
+    return int(other)
 
 
 @pytest.fixture(scope="module")
@@ -52,7 +58,7 @@ def test_six_environments_with_the_promised_options(table, training):
             assert o["regret"] == pytest.approx(regret[o["theta_index"]])
             if not o["is_theta_star"]:
                 assert o["regret"] >= MIN_REGRET
-        d = pairwise_distance(table.states(m, np.array(thetas)))
+        d = pairwise_distance(DRIVING, table.states(m, np.array(thetas)))
         assert d[np.triu_indices(4, 1)].min() >= MIN_OPTION_DISTANCE
         assert t["min_option_distance"] == pytest.approx(d[np.triu_indices(4, 1)].min())
 
@@ -79,7 +85,7 @@ def test_regret_and_distance_by_hand(table):
     assert theta_star_regret(table, m)[0] == 0
     s = np.zeros((2, 21, 5))
     s[1, :, 0] = 12.0  # one lane to the right all the time; x scale is 12
-    np.testing.assert_allclose(pairwise_distance(s), [[0, 1], [1, 0]])
+    np.testing.assert_allclose(pairwise_distance(DRIVING, s), [[0, 1], [1, 0]])
 
 
 def test_distinct_keeps_one_theta_per_trajectory(table):
@@ -106,5 +112,5 @@ def test_relaxed_options_only_when_no_environment_has_the_other_strategy(table, 
     opts = tests[0]["options"]
     assert all(o["cluster"] == 0 for o in opts)  # the class's strategies only: never NO_STRATEGY
     assert len({o["theta_index"] for o in opts}) == 4
-    d = pairwise_distance(masked.states(tests[0]["env_index"], np.array([o["theta_index"] for o in opts])))
+    d = pairwise_distance(DRIVING, masked.states(tests[0]["env_index"], np.array([o["theta_index"] for o in opts])))
     assert d[np.triu_indices(4, 1)].min() >= MIN_OPTION_DISTANCE

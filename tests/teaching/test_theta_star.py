@@ -7,8 +7,9 @@ labeller's: "in a lane" = the car's centre within 3 ft (a quarter lane) of a lan
 import numpy as np
 import pytest
 
-from teaching.environments import BRAKING, MERGING, OTHER, TAILGATING
-from teaching.strategies import (
+from teaching.core.table import TrajectoryTable
+from teaching.domains.driving.environments import BRAKING, MERGING, OTHER, TAILGATING, get_environments
+from teaching.domains.driving.strategies import (
     BRAKE_CHANGE,
     BRAKE_STAY,
     CLASS_OF_CLUSTER,
@@ -18,7 +19,6 @@ from teaching.strategies import (
     TAIL_CHANGE,
     TAIL_STAY,
 )
-from teaching.table import TrajectoryTable
 
 pytestmark = pytest.mark.slow
 LANES = np.array([-12.0, 0.0, 12.0])
@@ -28,7 +28,7 @@ LANES = np.array([-12.0, 0.0, 12.0])
 def star(demo_table):
     """theta*'s states (M, T+1, 5), environment classes and goals, and labels, from the demo table."""
     table = TrajectoryTable.load(demo_table)
-    envs = table.environments
+    envs = get_environments(table.env_ids)
     return table.states(slice(None), 0), table.env_class, envs.goal, np.asarray(table.strategy[:, 0])
 
 

@@ -16,8 +16,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from tqdm.auto import tqdm
 
+from .domain import n_clusters
 from .learners import MODEL_NAMES, Distances, LearnerModel, has_hyperparameter, make_model, p_curve
-from .strategies import N_CLUSTERS
 
 GRID = tuple(10.0 ** k for k in range(-5, 6))  # τ, λ ∈ {1e-5, ..., 1e5}
 MAX_EXAMPLES = 10
@@ -70,8 +70,9 @@ def theta_star_clusters(table) -> np.ndarray:
 
 def showable(table) -> np.ndarray:
     """(M,) bool: environments whose θ* trajectory shows one of its class's strategies.  The
-    others (NO_STRATEGY: e.g. a merge along the lane line) are never shown to participants."""
-    return theta_star_clusters(table) < N_CLUSTERS
+    others (the domain's "no strategy" label: a trajectory none of its class's strategies
+    describes) are never shown to participants."""
+    return theta_star_clusters(table) < n_clusters(table.domain)
 
 
 def _candidate_p(lik: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -117,18 +118,18 @@ def greedy(lik: np.ndarray, *, max_examples: int = MAX_EXAMPLES, allow_repeats: 
     return seq, w
 
 
-def coverage_augmented(lik: np.ndarray, clusters: np.ndarray, *, epsilon: float = COVERAGE_EPSILON,
+def coverage_augmented(lik: np.ndarray, clusters: np.ndarray, *, n_clusters: int, epsilon: float = COVERAGE_EPSILON,
                        max_examples: int = MAX_EXAMPLES, allow_repeats: bool = True) -> Sequence:
     """Greedy until the gain drops below ε, then one example per strategy cluster not yet shown.
 
-    clusters: (M,) θ*'s cluster per environment.  Each added example is the
+    clusters: (M,) θ*'s cluster per environment, n_clusters (C) meaning no strategy.  Each added example is the
     best under the model among environments of a missing cluster (the
     cluster whose best example gives the highest P(θ*) goes first).
     Clusters in which θ* never shows its trajectory cannot be covered and
     are skipped; environments where θ* shows no strategy (NO_STRATEGY) are
     never shown.
     """
-    eligible = clusters < N_CLUSTERS
+    eligible = clusters < n_clusters
     seq, w = greedy(lik, max_examples=max_examples, allow_repeats=allow_repeats, stop_gain=epsilon,
                     eligible=eligible)
     missing = set(np.unique(clusters[eligible]).tolist()) - set(clusters[seq.envs].tolist())
@@ -175,8 +176,9 @@ def _greedy(lik: np.ndarray, settings: SelectionSettings, eligible: np.ndarray) 
 
 
 def _coverage(lik: np.ndarray, table, settings: SelectionSettings) -> Sequence:
-    return coverage_augmented(lik, theta_star_clusters(table), epsilon=settings.epsilon,
-                              max_examples=settings.max_examples, allow_repeats=settings.allow_repeats)
+    return coverage_augmented(lik, theta_star_clusters(table), n_clusters=n_clusters(table.domain),
+                              epsilon=settings.epsilon, max_examples=settings.max_examples,
+                              allow_repeats=settings.allow_repeats)
 
 
 def choose_hyperparameter(rows: list[SweepRow], min_rise: float = MIN_RISE) -> tuple[float, bool]:
@@ -218,10 +220,10 @@ def _p_of(model, dist, seq) -> float:
     return float(curve[-1]) if len(curve) else 1.0 / dist.shape[1]
 
 
-def coverage_random(clusters: np.ndarray, rng: np.random.Generator) -> list[int]:
-    """One random environment from each cluster in which θ* appears, in cluster order."""
+def coverage_random(clusters: np.ndarray, rng: np.random.Generator, n_clusters: int) -> list[int]:
+    """One random environment from each cluster 0 .. n_clusters - 1 in which θ* appears, in cluster order."""
     out = []
-    for c in range(N_CLUSTERS):
+    for c in range(n_clusters):
         members = np.flatnonzero(clusters == c)
         if len(members):
             out.append(int(rng.choice(members)))
@@ -257,7 +259,7 @@ def random_draws(table, dist: Distances, seed: int):
     seeded stream: the random baseline draws first, coverage-random after it."""
     rng = np.random.default_rng(seed)
     envs, random_p, _ = random_baseline(dist, rng)
-    return envs, coverage_random(theta_star_clusters(table), rng), random_p
+    return envs, coverage_random(theta_star_clusters(table), rng, n_clusters(table.domain)), random_p
 
 
 def condition_sequence(table, name: str, *, seed: int = 0, approx_star: str = APPROX_STAR,

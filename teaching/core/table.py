@@ -1,19 +1,20 @@
-"""The trajectory table: the optimal trajectory of every (environment, theta).
+"""The trajectory table: the optimal trajectory of every (environment, theta), for one domain.
 
-Layout on disk (a directory)::
+Layout on disk (a directory); M environments, N thetas, D features::
 
-    meta.json                  identity: preset, sampler, seed, world fingerprint,
+    meta.json                  identity: domain, preset, sampler, seed, world fingerprint,
                                normalisers, shapes, chunk list, content hash
-    thetas.npy                 (N, 5) float64, thetas[0] is theta_star
+    thetas.npy                 (N, D) float64, thetas[0] is theta_star
     env_ids.npy                (M,) int64
-    controls.npy               (M, N, K, 2) float32 knot controls [steer rate, accel],
-                               as fractions of the bounds (teaching.dynamics)
-    features.npy               (M, N, 5) float64 normalised features
-    strategy.npy               (M, N) int8 cluster 0..7
+    controls.npy               (M, N, *trajectory_shape) the domain's encoding of each trajectory
+    features.npy               (M, N, D) float64 normalised features
+    strategy.npy               (M, N) int8 cluster 0..C-1, C = no strategy
     d_euclid.npy               (M, N) float32 distance of each theta's trajectory to theta_star's
 
-The content hash covers every array byte and the identity fields, so a
-table that was altered (or built under other world constants) is refused.
+The content hash covers every array byte and the identity fields, so a table that was altered
+(or built under other world constants) is refused.  The domain's name is not among the hashed
+fields (so tables built before domains kept their hashes); the world fingerprint is,
+and it is the domain's own, so a table cannot pass for another domain's.
 """
 from __future__ import annotations
 
@@ -25,10 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .dynamics import rollout_np
-from .environments import Environments, environment_class, get_environments, other_car_states
-from .features import reward
-from .world import world_fingerprint
+from .domain import Domain, get_domain
+from .rewards import reward
 
 ARRAYS = ("thetas", "env_ids", "controls", "features", "strategy", "d_euclid")
 FORMAT_VERSION = 1
@@ -64,12 +63,15 @@ class TrajectoryTable:
         return self.thetas[0]
 
     @property
-    def environments(self) -> Environments:
-        return get_environments(self.env_ids)
+    def domain(self) -> Domain:
+        """The domain the table was built in (meta.json's "domain"; tables from before domains
+        name none and are the default domain's)."""
+        return get_domain(self.meta.get("domain"))
 
     @property
     def env_class(self) -> np.ndarray:
-        return environment_class(self.environments)
+        """(M,) int8 class of each environment (index into the domain's class_names)."""
+        return self.domain.environment_class(np.asarray(self.env_ids))
 
     def rewards(self) -> np.ndarray:
         """(M, N) reward of each theta's own trajectory under that theta."""
@@ -80,14 +82,8 @@ class TrajectoryTable:
         return self.rewards() - reward(self.features[:, :1], self.thetas)
 
     def states(self, env_index, theta_index) -> np.ndarray:
-        """Robot states (..., T+1, 5) of the stored trajectories (rolled out from the controls)."""
-        return rollout_np(self.controls[env_index, theta_index])
-
-    def other_car(self, env_index) -> np.ndarray:
-        """Other car positions (..., T+1, 2)."""
-        idx = np.atleast_1d(env_index)
-        out = other_car_states(get_environments(self.env_ids[idx]))
-        return out if np.ndim(env_index) else out[0]
+        """Robot states (..., T+1, S) of the stored trajectories (rebuilt by the domain)."""
+        return self.domain.states(self.controls[env_index, theta_index])
 
     # --- persistence -------------------------------------------------------
     def save(self, path, arrays=ARRAYS) -> str:
@@ -111,8 +107,9 @@ class TrajectoryTable:
             os.replace(tmp, path / f"{name}.npy")
         meta = dict(self.meta)
         meta.update(
+            domain=self.domain.name,
             format_version=FORMAT_VERSION,
-            world=world_fingerprint(),
+            world=self.domain.fingerprint(),
             normalisers=[float(v) for v in self.normalisers],
             shape={"envs": self.n_envs, "thetas": self.n_thetas},
         )
@@ -144,10 +141,14 @@ class TrajectoryTable:
             raise TableError(
                 f"table at {path} (hash {str(meta.get('content_hash'))[:16]}) is not the one that was verified "
                 f"(hash {str(expected_hash)[:16]}): it was rebuilt or replaced since")
-        if meta.get("world") != world_fingerprint():
+        try:
+            domain = get_domain(meta.get("domain"))
+        except ValueError as exc:
+            raise TableError(f"table at {path}: {exc}") from None
+        if meta.get("world") != domain.fingerprint():
             raise TableError(
                 f"table at {path} was built with other world constants "
-                f"({meta.get('world')} != {world_fingerprint()}); rebuild it")
+                f"({meta.get('world')} != {domain.fingerprint()} of domain {domain.name!r}); rebuild it")
         try:
             arrays = {n: np.load(path / f"{n}.npy", mmap_mode="r" if mmap else None) for n in ARRAYS}
         except (FileNotFoundError, ValueError) as exc:

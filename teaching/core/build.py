@@ -16,6 +16,7 @@ import os
 import secrets
 import socket
 import time
+from collections.abc import Mapping
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -23,81 +24,94 @@ from pathlib import Path
 import numpy as np
 
 from .candidates import sample_thetas
-from .environments import N_ENVIRONMENTS, stratified_sample
-from .features import default_normalisers
-from .planner import PlannerSettings, plan_chunk, planner_identity
+from .domain import domain_names, get_domain
 from .table import TableError, TrajectoryTable
-from .world import THETA_STAR, WORLD, world_fingerprint
 
-PACKAGE_DIR = Path(__file__).resolve().parent
+CORE_DIR = Path(__file__).resolve().parent
 
 
-def source_files(root: Path = PACKAGE_DIR) -> list[Path]:
-    """Every module (.py file) under `root`, the teaching package by default, sorted by relative path."""
+def source_files(root: Path = CORE_DIR) -> list[Path]:
+    """Every module (.py file) under `root`, sorted by relative path."""
     root = Path(root)
     # hidden names are editors' lock and swap files, never modules
     files = (p for p in root.rglob("*.py") if "__pycache__" not in p.parts and not p.name.startswith("."))
     return sorted(files, key=lambda p: p.relative_to(root).as_posix())
 
 
-def code_fingerprint(root: Path = PACKAGE_DIR) -> str:
-    """16 hex digits of sha256 over every module of the package (relative path and source).
+def code_fingerprint(domain: str | None = None, roots: tuple[Path, ...] | None = None) -> str:
+    """16 hex digits of sha256 over every module that can decide a chunk's bytes in `domain`
+    (default: the default domain): teaching/core and the domain's own package, each module's
+    path (relative to its root) and source.
 
-    The whole package, not a hand-kept list of the modules that decide a chunk's bytes: a
-    module added later is covered without anyone remembering to list it, at the price of
-    machines on commits that differ only outside the planner refusing to share a table."""
-    root = Path(root)
+    Whole packages, not a hand-kept list of the modules that matter: a module added later is
+    covered without anyone remembering to list it.  Per domain, so an edit to one robot does not
+    make workers of another refuse to share its tables.  `roots` replaces the two packages (tests)."""
+    if roots is None:
+        roots = (CORE_DIR, Path(get_domain(domain).code_root))
     h = hashlib.sha256()
-    for path in source_files(root):
-        h.update(path.relative_to(root).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
+    for root in map(Path, roots):
+        for path in source_files(root):
+            h.update(f"{root.name}/{path.relative_to(root).as_posix()}".encode() + b"\0" + path.read_bytes() + b"\0")
     return h.hexdigest()[:16]
-
-
-def parse_theta_star(values) -> tuple[float, ...]:
-    """theta* from 5 numbers (a sequence, or "v1,v2,v3,v4,v5"): each finite and negative, since
-    all five features are costs (DESIGN §3).  Raises ValueError with a one-line message."""
-    if isinstance(values, str):
-        parts = [v for v in values.replace(" ", "").split(",") if v]
-        try:
-            values = [float(v) for v in parts]
-        except ValueError:
-            raise ValueError(f"theta* must be 5 numbers separated by commas, got {values!r}") from None
-    star = tuple(float(v) for v in values)
-    if len(star) != 5:
-        raise ValueError(f"theta* needs one weight per feature (5), got {len(star)}")
-    if not all(np.isfinite(v) and v < 0 for v in star):
-        raise ValueError(f"every weight of theta* must be a negative number (the features are costs), got {list(star)}")
-    return star
 
 
 @dataclass(frozen=True)
 class Preset:
+    """What to build: n_envs environments (the whole set when n_envs reaches the domain's count,
+    else a stratified sample) x n_thetas objectives, θ* first and the rest drawn by `sampler`.
+    domain and theta_star default to the default domain's (None: filled in on creation)."""
+
     name: str
-    n_envs: int  # N_ENVIRONMENTS = the whole grid, else a stratified sample
+    n_envs: int
     n_thetas: int
     sampler: str = "log-uniform"
     seed: int = 0
     chunk_size: int = 32
-    theta_star: tuple = tuple(float(v) for v in THETA_STAR)  # thetas[0]; in the identity via thetas_sha
+    theta_star: tuple | None = None  # thetas[0]; in the identity via thetas_sha
+    domain: str | None = None
 
-    def __post_init__(self):  # from JSON (a Celery job's spec) it arrives as a list
-        object.__setattr__(self, "theta_star", parse_theta_star(self.theta_star))
+    def __post_init__(self):  # from JSON (a Celery job's spec) it arrives as a list, or without domain
+        domain = get_domain(self.domain)
+        object.__setattr__(self, "domain", domain.name)
+        star = domain.theta_star if self.theta_star is None else self.theta_star
+        object.__setattr__(self, "theta_star", domain.parse_theta_star(star))
 
     def thetas(self) -> np.ndarray:
-        """The candidate objectives Theta (n_thetas, 5), theta* first."""
+        """The candidate objectives Theta (n_thetas, D), theta* first."""
         return sample_thetas(self.n_thetas, self.sampler, self.seed, theta_star=self.theta_star)
 
     def env_ids(self) -> np.ndarray:
-        if self.n_envs >= N_ENVIRONMENTS:
-            return np.arange(N_ENVIRONMENTS)
-        return stratified_sample(self.n_envs, seed=self.seed)
+        domain = get_domain(self.domain)
+        if self.n_envs >= domain.n_environments:
+            return np.arange(domain.n_environments)
+        return domain.stratified_sample(self.n_envs, seed=self.seed)
 
 
-PRESETS = {
-    "tiny": Preset("tiny", n_envs=48, n_thetas=24, chunk_size=16),
-    "demo": Preset("demo", n_envs=1200, n_thetas=200),
-    "paper": Preset("paper", n_envs=N_ENVIRONMENTS, n_thetas=1000),
-}
+def all_presets() -> dict[str, Preset]:
+    """Every registered domain's presets by name (names are unique across domains)."""
+    out = {}
+    for name in domain_names():
+        for preset in get_domain(name).presets:
+            if preset.name in out:
+                raise ValueError(f"preset name {preset.name!r} is used by two domains")
+            out[preset.name] = preset
+    return out
+
+
+class _Presets(Mapping):
+    """PRESETS["demo"]: :func:`all_presets`, read when used (domains register after this module loads)."""
+
+    def __getitem__(self, name: str) -> Preset:
+        return all_presets()[name]
+
+    def __iter__(self):
+        return iter(all_presets())
+
+    def __len__(self) -> int:
+        return len(all_presets())
+
+
+PRESETS: Mapping[str, Preset] = _Presets()
 
 
 def customised(preset: Preset, **changes) -> Preset:
@@ -107,22 +121,23 @@ def customised(preset: Preset, **changes) -> Preset:
     default output directory): ``demo-1200x200-log-uniform-s0`` plus ``-star<hash>`` for another theta*.
     """
     if changes.get("theta_star") is not None:
-        changes["theta_star"] = parse_theta_star(changes["theta_star"])
+        changes["theta_star"] = get_domain(preset.domain).parse_theta_star(changes["theta_star"])
     changes = {k: v for k, v in changes.items() if v is not None and v != getattr(preset, k)}
     if not changes:
         return preset
     p = replace(preset, **changes)
     name = f"{preset.name}-{p.n_envs}x{p.n_thetas}-{p.sampler}-s{p.seed}"
-    if p.theta_star != PRESETS.get(preset.name, preset).theta_star:
+    if p.theta_star != all_presets().get(preset.name, preset).theta_star:
         name += "-star" + hashlib.sha256(json.dumps(p.theta_star).encode()).hexdigest()[:6]
     return replace(p, name=name)
 
 
 def get_preset(name: str) -> Preset:
+    presets = all_presets()
     try:
-        return PRESETS[name]
+        return presets[name]
     except KeyError:
-        raise ValueError(f"unknown preset {name!r}; choose one of {', '.join(PRESETS)}") from None
+        raise ValueError(f"unknown preset {name!r}; choose one of {', '.join(presets)}") from None
 
 
 def chunk_key(identity: dict, env_ids: np.ndarray) -> str:
@@ -134,9 +149,9 @@ def chunk_key(identity: dict, env_ids: np.ndarray) -> str:
 def table_identity(preset: Preset, thetas: np.ndarray, normalisers: np.ndarray) -> dict:
     return {
         "preset": preset.name, "sampler": preset.sampler, "seed": preset.seed,
-        "world": world_fingerprint(), "normalisers": [float(v) for v in normalisers],
+        "world": get_domain(preset.domain).fingerprint(), "normalisers": [float(v) for v in normalisers],
         "thetas_sha": hashlib.sha256(np.ascontiguousarray(thetas).tobytes()).hexdigest()[:16],
-        "planner": planner_identity(),
+        "planner": get_domain(preset.domain).planner_identity(),
     }
 
 
@@ -148,14 +163,14 @@ def chunk_path(out, key: str) -> Path:
     return Path(out) / "chunks" / f"{key}.npz"
 
 
-def build_chunk(out: Path, identity: dict, env_ids, thetas, normalisers,
-                settings: PlannerSettings = PlannerSettings()) -> tuple[str, bool]:
-    """Compute one chunk unless it is already stored.  Returns (key, computed)."""
+def build_chunk(out: Path, identity: dict, env_ids, thetas, normalisers, domain: str | None = None) -> tuple[str, bool]:
+    """Compute one chunk of `domain` (None: the default one) unless it is already stored.
+    Returns (key, computed)."""
     key = chunk_key(identity, env_ids)
     path = chunk_path(out, key)
     if path.exists():
         return key, False
-    result = plan_chunk(env_ids, thetas, normalisers, settings)
+    result = get_domain(domain).plan_chunk(np.asarray(env_ids), thetas, normalisers)
     path.parent.mkdir(parents=True, exist_ok=True)
     # unique across machines sharing the chunk directory, not just across processes
     tmp = path.with_name(f".{key}.{socket.gethostname()}.{os.getpid()}.{secrets.token_hex(4)}.tmp.npz")
@@ -191,14 +206,14 @@ def build_table(preset: Preset, out, progress=None, jobs: int = 1) -> Trajectory
     out = Path(out)
     check_writable(out)
     thetas = preset.thetas()
-    normalisers = default_normalisers()
+    normalisers = get_domain(preset.domain).default_normalisers()
     identity = table_identity(preset, thetas, normalisers)
     env_ids = preset.env_ids()
     chunks = chunks_of(env_ids, preset.chunk_size)
     done = 0
     if jobs == 1:
         for chunk in chunks:
-            build_chunk(out, identity, chunk, thetas, normalisers)
+            build_chunk(out, identity, chunk, thetas, normalisers, preset.domain)
             done += len(chunk)
             if progress:
                 progress(done, len(env_ids))
@@ -207,7 +222,7 @@ def build_table(preset: Preset, out, progress=None, jobs: int = 1) -> Trajectory
         threads = max(1, (os.cpu_count() or 1) // jobs)
         with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn"),
                                  initializer=_worker_threads, initargs=(threads,)) as pool:
-            sizes = {pool.submit(build_chunk, out, identity, chunk, thetas, normalisers): len(chunk)
+            sizes = {pool.submit(build_chunk, out, identity, chunk, thetas, normalisers, preset.domain): len(chunk)
                      for chunk in chunks}
             try:
                 for future in as_completed(sizes):
@@ -229,8 +244,10 @@ def _worker_threads(n: int) -> None:
 
 def assemble(out: Path, preset: Preset, identity: dict, env_ids, thetas, normalisers) -> TrajectoryTable:
     """Concatenate the stored chunks into the table's memory-mapped arrays and publish it."""
-    M, N, K = len(env_ids), len(thetas), WORLD.n_knots
-    shapes = {"controls": ((M, N, K, 2), np.float32), "features": ((M, N, 5), np.float64),
+    domain = get_domain(preset.domain)
+    M, N, D = len(env_ids), len(thetas), len(domain.feature_names)
+    shapes = {"controls": ((M, N, *domain.trajectory_shape), domain.trajectory_dtype),
+              "features": ((M, N, D), np.float64),
               "strategy": ((M, N), np.int8), "d_euclid": ((M, N), np.float32)}
     # Create each .npy with its header, then write chunk rows with plain file
     # writes: the data goes through the page cache, not this process's memory.
@@ -261,7 +278,7 @@ def assemble(out: Path, preset: Preset, identity: dict, env_ids, thetas, normali
         os.replace(out / f".{name}.build.npy", out / f"{name}.npy")
     table = TrajectoryTable(
         thetas=thetas, env_ids=np.asarray(env_ids, np.int64), normalisers=normalisers,
-        meta={"preset": preset.name, "sampler": preset.sampler, "seed": preset.seed,
+        meta={"domain": domain.name, "preset": preset.name, "sampler": preset.sampler, "seed": preset.seed,
               "theta_star": [float(v) for v in thetas[0]], "planner": identity["planner"],
               "built_at": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())},
         **{name: np.load(out / f"{name}.npy", mmap_mode="r") for name in shapes},

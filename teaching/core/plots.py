@@ -8,9 +8,6 @@ matplotlib.use("Agg")  # figures are written to files; no display on servers
 import matplotlib.pyplot as plt
 import numpy as np
 
-from .environments import CLASS_NAMES
-from .strategies import CLUSTER_NAMES
-
 
 def _ink(value: float, vmax: float) -> str:
     return "white" if value > 0.5 * vmax else "black"
@@ -35,11 +32,14 @@ def plot_ideal_users(matrix: np.ndarray, sequence_names, user_names, path, title
     plt.close(fig)
 
 
-def plot_examples_shown(grids: np.ndarray, names, path, vmax: float | None = None) -> None:
-    """The paper's Fig. "examples_shown": one 2 × 4 grid per sequence (S, 2, 4).
+def plot_examples_shown(grids: np.ndarray, names, path, domain, vmax: float | None = None) -> None:
+    """The paper's Fig. "examples_shown": one grid per sequence (S, k, n_classes), laid out by
+    evaluation.cluster_grid (2 × 4 in the paper).  `domain` names the classes and clusters.
 
     White = 0 examples, black = vmax (4 as in the paper, or more if a sequence shows more).
     """
+    n_rows, n_classes = grids.shape[1:]
+    of = np.asarray(domain.class_of_cluster)
     vmax = float(max(4, grids.max()) if vmax is None else vmax)
     n = len(names)
     cols = min(4, n)
@@ -51,14 +51,16 @@ def plot_examples_shown(grids: np.ndarray, names, path, vmax: float | None = Non
             continue
         g = grids[k]
         ax.imshow(g, cmap="Greys", vmin=0, vmax=vmax)
-        for r in range(2):
-            for c in range(4):
+        for r in range(n_rows):
+            for c in range(n_classes):
                 ax.text(c, r, str(int(g[r, c])), ha="center", va="center", fontsize=8, color=_ink(g[r, c], vmax))
         ax.set_title(names[k], fontsize=9)
-        ax.set_xticks(range(4), CLASS_NAMES, fontsize=7)
-        ax.set_yticks([0, 1], ["1st", "2nd"], fontsize=7)
-    rows_doc = "; ".join(f"{CLUSTER_NAMES[2 * c].split(':')[0]}: {CLUSTER_NAMES[2 * c].split(': ')[1]} / "
-                         f"{CLUSTER_NAMES[2 * c + 1].split(': ')[1]}" for c in range(4))
+        ax.set_xticks(range(n_classes), domain.class_names, fontsize=7)
+        ax.set_yticks(range(n_rows), ["1st", "2nd", "3rd", *(f"{i}th" for i in range(4, n_rows + 1))][:n_rows],
+                      fontsize=7)
+    rows_doc = "; ".join(
+        f"{name}: " + " / ".join(domain.cluster_names[i].split(": ")[-1] for i in np.flatnonzero(of == c))
+        for c, name in enumerate(domain.class_names))
     fig.suptitle(f"examples per strategy cluster, white = 0, black = {vmax:g}\nrows 1st / 2nd: {rows_doc}",
                  fontsize=8)
     fig.tight_layout()

@@ -28,9 +28,9 @@ from matplotlib.colors import to_rgba
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch, Polygon, Rectangle
 
-from .environments import CLASS_NAMES
+from ...core.table import TrajectoryTable
+from .environments import CLASS_NAMES, get_environments, other_car_states
 from .strategies import CLUSTER_NAMES
-from .table import TrajectoryTable
 from .world import GOAL_MERGE, GOAL_NAMES, WORLD
 
 COLORS = {"grass": "#dfe9d8", "road": "#5b6068", "line": "#f4f4f4", "goal": "#2563eb",
@@ -114,7 +114,7 @@ def sheet_rows(*, table, conditions, tests, columns: int) -> list[tuple[str, lis
     row_of = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
     cls = np.asarray(table.env_class)
     strat = np.asarray(table.strategy)
-    goal = np.asarray(table.environments.goal)
+    goal = get_environments(np.asarray(table.env_ids)).goal
 
     def head(m: int) -> str:
         return f"env {int(table.env_ids[m])} · {CLASS_NAMES[cls[m]]} · {GOAL_NAMES[goal[m]]}"
@@ -218,8 +218,8 @@ def render_sheet(*, table, conditions: dict[str, list[int]], tests: list[dict] |
     panels = [p for _, ps in rows for p in ps]
     idx = np.array([p.env_index for p in panels], dtype=np.int64)
     robot = np.asarray(table.states(idx, np.array([p.theta_index for p in panels], dtype=np.int64)))
-    other = np.asarray(table.other_car(idx)) if len(idx) else np.zeros((0, WORLD.horizon + 1, 2))
-    goal = np.asarray(table.environments.goal)
+    other = other_car_states(get_environments(np.asarray(table.env_ids)[idx]))
+    goal = get_environments(np.asarray(table.env_ids)).goal
     ys = robot[..., 1] if len(panels) else np.zeros(1)
     window = (min(0.0, float(ys.min())) - 25.0, float(ys.max()) + 25.0)
     xs = np.abs(robot[..., 0]).max() if len(panels) else 0.0  # a table's cars stay on the road; others show

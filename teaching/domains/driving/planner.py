@@ -43,7 +43,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from . import constrained, detmath, kernels
+from ...core import detmath
+from . import constrained, kernels
 from .dynamics import rollout_np
 from .environments import get_environments, other_car_states
 from .features import raw_features, reward

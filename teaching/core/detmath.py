@@ -29,7 +29,7 @@ import numpy as np
 from numba import njit
 
 # pi/2 = PIO2_1 + PIO2_2 + PIO2_3, the first two with 33 significant bits, so k * PIO2_i is
-# exact for |k| < 2**20 (|x| < 1.6e6 rad: far beyond any heading or steering angle here).
+# exact for |k| < 2**20 (|x| < 1.6e6 rad: far beyond any angle a domain needs).
 PIO2_1 = float.fromhex("0x1.921fb54400000p+0")
 PIO2_2 = float.fromhex("0x1.0b4611a600000p-34")
 PIO2_3 = float.fromhex("0x1.3198a2e037073p-69")

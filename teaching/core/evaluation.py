@@ -16,7 +16,6 @@ import numpy as np
 
 from .learners import MODEL_NAMES, Distances, LearnerModel, p_theta_star
 from .selection import DEFAULT_SETTINGS, SelectionSettings, fitted_model
-from .strategies import N_CLUSTERS
 
 # The paper's 8 sequences: one per model (prob-strategy's equals det-strategy's) and random.
 SEQUENCE_NAMES = MODEL_NAMES + ("random",)
@@ -52,19 +51,40 @@ def study_matrix(table, sequences: dict[str, list[int]], hyperparameters: dict |
     return ideal_user_matrix(models, sequences, dist, sequence_names=list(sequences), user_names=user_names), models
 
 
-def cluster_counts(clusters: np.ndarray, envs) -> np.ndarray:
-    """(8,) int: how many of ``envs`` (table rows) show θ* in each strategy cluster.
+def cluster_counts(clusters: np.ndarray, envs, n_clusters: int) -> np.ndarray:
+    """(C,) int: how many of ``envs`` (table rows) show θ* in each strategy cluster 0 .. C - 1.
 
-    clusters: (M,) θ*'s cluster per environment.  Repeated examples count each time.
+    clusters: (M,) θ*'s cluster per environment (C: no strategy, not counted).  Repeated
+    examples count each time.
     """
-    return np.bincount(clusters[np.asarray(envs, dtype=np.int64)], minlength=N_CLUSTERS)[:N_CLUSTERS]
+    return np.bincount(clusters[np.asarray(envs, dtype=np.int64)], minlength=n_clusters)[:n_clusters]
 
 
-def cluster_grid(counts: np.ndarray) -> np.ndarray:
-    """(8,) -> (2, 4): column = class (merging, braking, tailgating, other), row = strategy 1 / 2."""
-    return np.asarray(counts).reshape(4, 2).T.copy()
+def cluster_grid(counts: np.ndarray, class_of_cluster) -> np.ndarray:
+    """(C,) -> (k, n_classes): column = class, row = the class's first, second, ... cluster
+    (k = most clusters of one class; a class with fewer leaves zeros): (2, 4) for the paper's four
+    classes of two strategies each."""
+    class_of_cluster = np.asarray(class_of_cluster)
+    n_classes = int(class_of_cluster.max()) + 1
+    rows = np.zeros(len(class_of_cluster), np.int64)  # each cluster's rank within its class
+    for c in range(n_classes):
+        members = np.flatnonzero(class_of_cluster == c)
+        rows[members] = np.arange(len(members))
+    grid = np.zeros((int(rows.max()) + 1, n_classes), np.asarray(counts).dtype)
+    grid[rows, class_of_cluster] = counts
+    return grid
 
 
-def examples_per_cluster(clusters: np.ndarray, sequences: dict[str, list[int]], names=SEQUENCE_NAMES) -> np.ndarray:
-    """(S, 2, 4) int grids for the sequences ``names``."""
-    return np.stack([cluster_grid(cluster_counts(clusters, sequences[n])) for n in names])
+def grid_layout(domain) -> str:
+    """How to read :func:`cluster_grid`'s grids, in words (written beside them)."""
+    of = np.asarray(domain.class_of_cluster)
+    rows = ("1st/2nd strategy (cluster 2*col+row)" if np.array_equal(of, np.arange(len(of)) // 2)
+            else "the class's 1st, 2nd, ... strategy cluster, in cluster order")
+    return f"grid[row][col]: col = class ({', '.join(domain.class_names)}), row = {rows}"
+
+
+def examples_per_cluster(clusters: np.ndarray, sequences: dict[str, list[int]], names=SEQUENCE_NAMES, *,
+                         class_of_cluster) -> np.ndarray:
+    """(S, k, n_classes) int grids (:func:`cluster_grid`) for the sequences ``names``."""
+    n = len(class_of_cluster)
+    return np.stack([cluster_grid(cluster_counts(clusters, sequences[n_], n), class_of_cluster) for n_ in names])

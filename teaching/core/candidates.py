@@ -7,13 +7,12 @@ from __future__ import annotations
 import numpy as np
 
 from . import detmath
-from .world import THETA_STAR
 
 SAMPLERS = ("log-uniform", "sphere")
 
 
-def sample_thetas(n: int, sampler: str = "log-uniform", seed: int = 0, theta_star=THETA_STAR) -> np.ndarray:
-    """(n, 5) candidate thetas, row 0 = theta_star.
+def sample_thetas(n: int, sampler: str = "log-uniform", seed: int = 0, *, theta_star) -> np.ndarray:
+    """(n, D) candidate thetas, row 0 = theta_star (D,), the domain's objective (every weight negative).
 
     log-uniform: each component negative, |theta_i| = |theta*_i| * 10^U(-1, 1)
     (within one decade either side).  sphere: uniform on the negative orthant

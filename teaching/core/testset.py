@@ -1,25 +1,24 @@
 """Test environments for the study (paper, "Dependent Measures"; DESIGN §6).
 
-Six environments, one per strategy cluster of the informative classes
-(merging, braking, tailgating): in the environment for cluster c, θ* shows
-strategy c.  Each gets 4 options, every one the optimal trajectory of some
-θ ∈ Θ: θ*'s own, one more from cluster c and two from the other cluster of
-the class.  An alternative must be clearly worse under θ*:
+One environment per strategy cluster in the domain's ``test_clusters`` (the paper: six, the
+strategies of its three informative classes): in the environment for cluster c, θ* shows
+strategy c.  Each gets 4 options, every one the optimal trajectory of some θ ∈ Θ: θ*'s own,
+one more from cluster c and two from a sibling cluster (another strategy of the class).
+An alternative must be clearly worse under θ*:
 
     regret = θ*·φ(ξ^θ*) - θ*·φ(ξ^θ) >= MIN_REGRET
 
 and any two options must look different:
 
-    (1/T) Σ_{t=1..T} ‖(s_t - s'_t) / WORLD.state_scale‖₂ >= MIN_OPTION_DISTANCE
+    d_euclid(ξ, ξ') >= MIN_OPTION_DISTANCE
 
-(the Euclidean learner's distance, DESIGN §5).  Environments are drawn at
+(the Euclidean learner's distance, DESIGN §5, as the domain defines it).  Environments are drawn at
 random (seeded) from those not used in any training sequence; for each, up
 to MAX_TRIES random option sets are drawn and the first one meeting the
 thresholds is kept (rejection sampling); environments with none are skipped.
 
 When no unused environment of cluster c has two θ in Θ taking the other
-strategy (on the demo table no θ ever merges on the other side of the car
-than θ* does: docs/decisions.md), the two remaining options may come from
+strategy (it happens on the paper's demo table: docs/decisions.md), the two remaining options may come from
 either strategy of the class (``"rule": "relaxed"`` in the test's entry,
 ``"design"`` otherwise).  Trajectories that show no strategy are never options.
 """
@@ -27,16 +26,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from .environments import CLASS_NAMES
-from .planner import euclidean_distance
-from .strategies import CLASS_OF_CLUSTER, CLUSTER_NAMES
+from .domain import siblings
 
 MIN_REGRET = 1e-3  # θ*-reward units; on the demo table |θ*·φ(ξ^θ*)| has median 0.039 (see docs/teaching.md)
-MIN_OPTION_DISTANCE = 0.5  # scaled state units: ~6 ft average lateral separation, or its equivalent
+MIN_OPTION_DISTANCE = 0.5  # scaled state units, the domain's euclidean_distance (docs/teaching.md)
 # option sets drawn per environment: 50 missed sets that exist (on the planner-9 demo table no
-# tailgating-stay environment passed in 50, one 0.87 apart passed in 200)
+# environment of one cluster passed in 50, one 0.87 apart passed in 200)
 MAX_TRIES = 200
-TEST_CLUSTERS = tuple(range(6))  # merging ahead/behind, braking stay/change, tailgating change/stay
 
 
 class TestSetError(ValueError):
@@ -45,20 +41,15 @@ class TestSetError(ValueError):
     __test__ = False  # not a pytest test class despite the name
 
 
-def sibling(cluster: int) -> int:
-    """The other strategy cluster of the same environment class."""
-    return cluster ^ 1
-
-
 def theta_star_regret(table, env_index: int) -> np.ndarray:
     """(N,) θ*·φ(ξ^θ*) - θ*·φ(ξ^θ) in one environment: how much worse each θ's trajectory is for θ*."""
     f = np.asarray(table.features[env_index], np.float64)
     return (f[0] - f) @ np.asarray(table.theta_star, np.float64)
 
 
-def pairwise_distance(states: np.ndarray) -> np.ndarray:
-    """(k, T+1, 5) -> (k, k) d_euclid between every pair of trajectories (the Euclidean learner's distance)."""
-    return euclidean_distance(states[:, None], states[None])
+def pairwise_distance(domain, states: np.ndarray) -> np.ndarray:
+    """(k, T+1, S) -> (k, k) d_euclid between every pair of trajectories (the Euclidean learner's distance)."""
+    return domain.euclidean_distance(states[:, None], states[None])
 
 
 def _distinct(table, env_index: int, thetas: np.ndarray) -> np.ndarray:
@@ -77,12 +68,12 @@ def _draw_options(table, env_index: int, cluster: int, rng, min_regret, min_dist
     regret = theta_star_regret(table, env_index)
     strat = np.asarray(table.strategy[env_index])
     same = _distinct(table, env_index, np.flatnonzero((strat == cluster) & (regret >= min_regret)))
-    wanted = (strat == sibling(cluster)) | ((strat == cluster) if relaxed else False)
+    wanted = np.isin(strat, siblings(table.domain, cluster)) | ((strat == cluster) if relaxed else False)
     other = _distinct(table, env_index, np.flatnonzero(wanted & (regret >= min_regret)))
     if len(same) < 1 or len(other) < 2 + relaxed:
         return None
     pool = np.concatenate([[0], same, other])
-    dist = pairwise_distance(np.asarray(table.states(env_index, pool), np.float64))
+    dist = pairwise_distance(table.domain, np.asarray(table.states(env_index, pool), np.float64))
     pos = {int(t): i for i, t in enumerate(pool)}
     for _ in range(max_tries):
         first = int(rng.choice(same))
@@ -99,7 +90,7 @@ def _draw_options(table, env_index: int, cluster: int, rng, min_regret, min_dist
 
 def select_test_set(table, training_env_ids: list[list[int]], seed: int = 0, min_regret: float = MIN_REGRET,
                     min_distance: float = MIN_OPTION_DISTANCE, max_tries: int = MAX_TRIES) -> list[dict]:
-    """Six test environments (one per cluster in TEST_CLUSTERS), disjoint from every training sequence.
+    """One test environment per cluster of the domain's test_clusters, disjoint from every training sequence.
 
     Returns, in cluster order, dicts with env_id, env_index, cluster,
     cluster_name, env_class, min_option_distance and options: 4 dicts
@@ -107,14 +98,15 @@ def select_test_set(table, training_env_ids: list[list[int]], seed: int = 0, min
     Raises TestSetError when some cluster has no acceptable environment.
     """
     rng = np.random.default_rng(seed)
+    domain = table.domain
     used = {int(e) for seq in training_env_ids for e in seq}
     env_ids = np.asarray(table.env_ids)
     star_cluster = np.asarray(table.strategy[:, 0])
     env_class = np.asarray(table.env_class)
     free = ~np.isin(env_ids, list(used))
     out = []
-    for c in TEST_CLUSTERS:
-        cand = np.flatnonzero(free & (star_cluster == c) & (env_class == CLASS_OF_CLUSTER[c]))
+    for c in domain.test_clusters:
+        cand = np.flatnonzero(free & (star_cluster == c) & (env_class == domain.class_of_cluster[c]))
         drawn = None
         for rule in ("design", "relaxed"):
             for m in rng.permutation(cand):
@@ -126,7 +118,7 @@ def select_test_set(table, training_env_ids: list[list[int]], seed: int = 0, min
                 break
         else:
             raise TestSetError(
-                f"no test environment for cluster '{CLUSTER_NAMES[c]}': {len(cand)} unused environments "
+                f"no test environment for cluster '{domain.cluster_names[c]}': {len(cand)} unused environments "
                 f"show it, none has 3 alternatives of its class's strategies (at least 1 of this one) with "
                 f"θ*-regret >= {min_regret:g} that are pairwise >= {min_distance:g} apart")
         pick, regret, dmin = drawn
@@ -135,6 +127,7 @@ def select_test_set(table, training_env_ids: list[list[int]], seed: int = 0, min
                     "regret": float(regret[t])} for t in pick]
         options = [options[i] for i in rng.permutation(4)]
         out.append({"env_id": int(env_ids[m]), "env_index": int(m), "cluster": c,
-                    "cluster_name": CLUSTER_NAMES[c], "env_class": CLASS_NAMES[CLASS_OF_CLUSTER[c]], "rule": rule,
+                    "cluster_name": domain.cluster_names[c],
+                    "env_class": domain.class_names[domain.class_of_cluster[c]], "rule": rule,
                     "min_option_distance": dmin, "options": options})
     return out

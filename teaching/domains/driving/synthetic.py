@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...core.table import TrajectoryTable
 from .environments import N_ENVIRONMENTS, OTHER, environment_class, get_environments, stratified_sample
 from .strategies import OTHER_FORWARD, OTHER_MERGE
-from .table import TrajectoryTable
 from .world import GOAL_MERGE, THETA_STAR, WORLD
 
 

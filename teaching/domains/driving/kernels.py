@@ -30,7 +30,7 @@ import numpy as np
 from numba import njit, prange
 from numba.core import config as numba_config
 
-from . import detmath
+from ...core import detmath
 from .world import WORLD, world_fingerprint
 
 # The kernels freeze the world's constants when they compile, but Numba's disk

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...core.rewards import reward  # noqa: F401  (the planner's and the tests' name for it)
 from . import dynamics, kernels
 from .dynamics import HEADING, X
 from .world import WORLD, World
@@ -30,18 +31,6 @@ def raw_features(knots: np.ndarray, other_xy: np.ndarray, goal: np.ndarray) -> n
                                np.ascontiguousarray(other_xy[..., 1], dtype=np.float64),
                                np.asarray(goal, dtype=np.int64), out)
     return out
-
-
-def reward(features: np.ndarray, thetas: np.ndarray) -> np.ndarray:
-    """theta . phi over the last axis, broadcast.  Every reward comparison that
-    must hold exactly (d_reward >= 0) goes through this one function, so the
-    same numbers are always summed in the same order: left to right, one product at a time, as
-    kernels.pool_best does too (a BLAS product or np.sum may reorder the sum by CPU)."""
-    features, thetas = np.asarray(features, np.float64), np.asarray(thetas, np.float64)
-    r = features[..., 0] * thetas[..., 0]
-    for i in range(1, features.shape[-1]):
-        r = r + features[..., i] * thetas[..., i]
-    return r
 
 
 def calibration_controls(world: World = WORLD, n_random: int = 200_000, seed: int = 0) -> np.ndarray:

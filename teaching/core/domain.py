@@ -1,0 +1,147 @@
+"""The one thing the teaching core knows about a robot: the :class:`Domain` interface.
+
+The core (learners, selection, evaluation, test set, tables and their building) works on a
+table of optimal trajectories and on the labels and distances a domain gives it; it never
+looks inside a trajectory.  A domain is the robot and its world: which environments exist,
+how an objective θ turns into an optimal trajectory there, which *strategy* a trajectory
+shows, and how far apart two trajectories are.  ``teaching/domains/<name>/`` holds one each;
+docs/domains.md walks through adding one.
+
+Vocabulary (the paper's, made general):
+
+* **environment** - one situation the robot acts in, named by a stable integer id
+  0 .. n_environments - 1 (the id's meaning is the domain's, and must never change: tables,
+  studies and answers store ids);
+* **class** - a kind of environment (the paper's four); classes are indexed into ``class_names``;
+* **cluster** - a strategy, the coverage unit of the paper: what a trajectory *does*.
+  Clusters 0 .. C-1 each belong to one class (``class_of_cluster``); two clusters of one
+  class are *siblings* (the alternatives a test's options contrast); label C marks a
+  trajectory showing none of its class's strategies (``n_clusters(domain)``);
+* **features** - φ(ξ) (D,), normalised; an objective θ (D,) scores a trajectory by θ·φ(ξ);
+* **states** - what the Euclidean learner compares, (..., T+1, S) per trajectory, already in
+  the units ``euclidean_distance`` scales.
+
+A table stores, per (environment, θ), the trajectory's *encoding* (``trajectory_shape``,
+``trajectory_dtype``: a control sequence, a sequence of moves, ...) from which
+the domain rebuilds its states, plus φ, the cluster and the distance to θ*'s trajectory.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+
+@runtime_checkable
+class Domain(Protocol):
+    """A robot and its world, as the teaching core uses them.  Shapes: n environments,
+    N objectives, D features, C clusters."""
+
+    name: str  # registry key; stored in every table's meta.json
+    n_environments: int  # environment ids are 0 .. n_environments - 1
+    class_names: tuple[str, ...]  # (n_classes,) environment classes, the last one the uninformative "other"
+    cluster_names: tuple[str, ...]  # (C + 1,): the C strategy clusters, then the name of "no strategy"
+    class_of_cluster: np.ndarray  # (C,) int: the class each cluster belongs to
+    test_clusters: tuple[int, ...]  # the clusters the test set covers, one test environment each
+    feature_names: tuple[str, ...]  # (D,) what θ weighs, in order
+    theta_star: np.ndarray  # (D,) the default objective the robot teaches
+    trajectory_shape: tuple[int, ...]  # one stored trajectory's encoding, per (environment, θ)
+    trajectory_dtype: np.dtype
+    code_root: Path  # the package whose source decides a table's bytes (with teaching/core)
+    presets: tuple  # its teaching.core.build.Preset objects (names unique across domains)
+
+    def fingerprint(self) -> str:
+        """16 hex digits over the world's constants: a table built under others is refused."""
+        ...
+
+    def parse_theta_star(self, values) -> tuple[float, ...]:
+        """θ* from D numbers (a sequence or "v1,v2,..."), checked for this domain's signs and
+        length; ValueError with a one-line message otherwise."""
+        ...
+
+    def environment_class(self, env_ids: np.ndarray) -> np.ndarray:
+        """(n,) ids -> (n,) int8 class index into ``class_names``."""
+        ...
+
+    def stratified_sample(self, n: int, seed: int = 0) -> np.ndarray:
+        """(n,) sorted int64 ids: a seeded sample with a share for every class."""
+        ...
+
+    def default_normalisers(self) -> np.ndarray:
+        """(D,) float64 feature scales (part of a table's identity)."""
+        ...
+
+    def planner_identity(self) -> dict:
+        """What decides the planner's output (version, settings): part of a chunk's key."""
+        ...
+
+    def plan_chunk(self, env_ids: np.ndarray, thetas: np.ndarray, normalisers: np.ndarray) -> dict:
+        """Optimal trajectories of every (environment, θ): env_ids (n,), thetas (N, D) with
+        θ* = thetas[0].  Returns controls (n, N, *trajectory_shape) trajectory_dtype, features
+        (n, N, D) float64 normalised, strategy (n, N) int8 cluster (C = none), d_euclid (n, N)
+        float32 distance of each trajectory to θ*'s."""
+        ...
+
+    def states(self, controls: np.ndarray) -> np.ndarray:
+        """Stored encodings (..., *trajectory_shape) -> states (..., T+1, S) float64."""
+        ...
+
+    def euclidean_distance(self, states_a: np.ndarray, states_b: np.ndarray) -> np.ndarray:
+        """(..., T+1, S) x (..., T+1, S) -> (...) the Euclidean learner's distance, in scaled
+        state units, broadcast over the leading axes."""
+        ...
+
+
+def n_clusters(domain: Domain) -> int:
+    """C: the real strategy clusters (label C is "no strategy")."""
+    return len(domain.class_of_cluster)
+
+
+def siblings(domain: Domain, cluster: int) -> np.ndarray:
+    """The other clusters of `cluster`'s class: the strategies a test contrasts it with."""
+    same = np.flatnonzero(np.asarray(domain.class_of_cluster) == domain.class_of_cluster[cluster])
+    return same[same != cluster]
+
+
+# --- the registry -------------------------------------------------------------------------
+# Domains plug in by name (healthchecks' TRANSPORTS): teaching/domains registers the built-in
+# ones with a loader, so a domain's modules (and its compiled kernels) load only when used.
+_LOADERS: dict[str, Callable[[], Domain]] = {}
+_LOADED: dict[str, Domain] = {}
+_DEFAULT: list[str] = []
+
+
+def register(name: str, loader: Callable[[], Domain], default: bool = False) -> None:
+    """Make `name` available to :func:`get_domain`; `loader()` returns the Domain on first use.
+    default: the domain of tables and presets that name none (those built before domains)."""
+    _LOADERS[name] = loader
+    if default:
+        _DEFAULT[:] = [name]
+
+
+def domain_names() -> tuple[str, ...]:
+    return tuple(_LOADERS)
+
+
+def default_domain_name() -> str:
+    if not _DEFAULT:
+        raise LookupError("no default domain is registered (import teaching.domains)")
+    return _DEFAULT[0]
+
+
+def get_domain(name: str | None = None) -> Domain:
+    """The registered domain `name` (None: the default one).  ValueError for an unknown name."""
+    name = default_domain_name() if name is None else name
+    if name not in _LOADED:
+        try:
+            loader = _LOADERS[name]
+        except KeyError:
+            known = ", ".join(_LOADERS) or "(none registered)"
+            raise ValueError(f"unknown domain {name!r}; choose one of {known}") from None
+        domain = loader()
+        if domain.name != name:
+            raise ValueError(f"domain registered as {name!r} calls itself {domain.name!r}")
+        _LOADED[name] = domain
+    return _LOADED[name]

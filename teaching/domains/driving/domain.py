@@ -1,0 +1,86 @@
+"""The paper's car behind the :class:`~teaching.core.domain.Domain` interface.
+
+A bicycle-model car on a 3-lane highway beside one other car (DESIGN §2-4): 21,216
+environments in 4 classes, 8 strategy clusters (two per class), 5 cost features.  Everything
+here delegates to the driving modules; this class only names them for the core.
+"""
+from __future__ import annotations
+
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+
+from ...core.build import Preset
+from . import dynamics, environments, features, planner, strategies
+from .world import FEATURE_NAMES, THETA_STAR, WORLD, world_fingerprint
+
+
+def parse_theta_star(values) -> tuple[float, ...]:
+    """theta* from 5 numbers (a sequence, or "v1,v2,v3,v4,v5"): each finite and negative, since
+    all five features are costs (DESIGN §3).  Raises ValueError with a one-line message."""
+    if isinstance(values, str):
+        parts = [v for v in values.replace(" ", "").split(",") if v]
+        try:
+            values = [float(v) for v in parts]
+        except ValueError:
+            raise ValueError(f"theta* must be 5 numbers separated by commas, got {values!r}") from None
+    star = tuple(float(v) for v in values)
+    if len(star) != 5:
+        raise ValueError(f"theta* needs one weight per feature (5), got {len(star)}")
+    if not all(np.isfinite(v) and v < 0 for v in star):
+        raise ValueError(f"every weight of theta* must be a negative number (the features are costs), got {list(star)}")
+    return star
+
+
+class DrivingDomain:
+    name = "driving"
+    n_environments = environments.N_ENVIRONMENTS
+    class_names = environments.CLASS_NAMES
+    cluster_names = strategies.CLUSTER_NAMES
+    class_of_cluster = strategies.CLASS_OF_CLUSTER[:strategies.N_CLUSTERS]
+    test_clusters = (strategies.MERGE_AHEAD, strategies.MERGE_BEHIND, strategies.BRAKE_STAY,
+                     strategies.BRAKE_CHANGE, strategies.TAIL_CHANGE, strategies.TAIL_STAY)
+    feature_names = FEATURE_NAMES
+    theta_star = THETA_STAR
+    trajectory_shape = (WORLD.n_knots, 2)  # knot controls [steer rate, accel] as fractions of the bounds
+    trajectory_dtype = np.dtype(np.float32)
+    code_root = Path(__file__).resolve().parent
+
+    @cached_property
+    def presets(self) -> tuple[Preset, ...]:
+        # built on first use: a Preset looks its domain up, which must be registered by then
+        n_all = environments.N_ENVIRONMENTS
+        return (Preset("tiny", n_envs=48, n_thetas=24, chunk_size=16, domain=self.name),
+                Preset("demo", n_envs=1200, n_thetas=200, domain=self.name),
+                Preset("paper", n_envs=n_all, n_thetas=1000, domain=self.name))
+
+    def fingerprint(self) -> str:
+        return world_fingerprint()
+
+    def parse_theta_star(self, values) -> tuple[float, ...]:
+        return parse_theta_star(values)
+
+    def environment_class(self, env_ids) -> np.ndarray:
+        return environments.environment_class(environments.get_environments(env_ids))
+
+    def stratified_sample(self, n: int, seed: int = 0) -> np.ndarray:
+        return environments.stratified_sample(n, seed=seed)
+
+    def default_normalisers(self) -> np.ndarray:
+        return features.default_normalisers()
+
+    def planner_identity(self) -> dict:
+        return planner.planner_identity()
+
+    def plan_chunk(self, env_ids, thetas, normalisers) -> dict:
+        return planner.plan_chunk(env_ids, thetas, normalisers)
+
+    def states(self, controls) -> np.ndarray:
+        return dynamics.rollout_np(controls)
+
+    def euclidean_distance(self, states_a, states_b) -> np.ndarray:
+        return planner.euclidean_distance(states_a, states_b)
+
+
+DOMAIN = DrivingDomain()
