@@ -1,7 +1,7 @@
 """`bench/planner.py --reference hard`: a table against the hard-constraint reference (issue 22).
 
-teaching/reference_hard.py enforces the world's limits as hard constraints with its own
-rollout, features, starts and SLSQP, so unlike teaching/reference.py it sees what the
+teaching/domains/driving/reference_hard.py enforces the world's limits as hard constraints with its own
+rollout, features, starts and SLSQP, so unlike teaching/domains/driving/reference.py it sees what the
 planner's soft penalty costs.  This prints the default mode's optimality summary (share
 within 1e-8 ... 1e-3, quantiles, worst gaps with env id / theta index) plus:
 
@@ -94,7 +94,7 @@ def summarise(results: list[dict], pairs, env_ids, seconds: float, n_jobs: int) 
     fig["worst"] = [{"gap": float(gap[i]), "env_id": int(env_ids[pairs[i, 0]]), "theta_index": int(pairs[i, 1]),
                      "offset": bool(offset[i])} for i in order]
     print(f"\noptimality on {len(results):,} random (E, theta) pairs against the HARD-constraint reference "
-          f"(teaching/reference_hard.py; {seconds:.0f} s with {n_jobs} workers = "
+          f"(teaching/domains/driving/reference_hard.py; {seconds:.0f} s with {n_jobs} workers = "
           f"{seconds / len(results):.1f} s per pair):")
     print_gaps(fig["gap_quantiles"], within)
     print("  worst: " + "; ".join(f"{w['gap']:.2e} (env {w['env_id']}, theta {w['theta_index']}"

@@ -1,5 +1,5 @@
 """Planner benchmark (issue 2, issue 10): speed against per-problem SciPy, projected paper time,
-peak memory, and optimality against the independent reference (teaching/reference.py).
+peak memory, and optimality against the independent reference (teaching/domains/driving/reference.py).
 
     python bench/planner.py [--envs 64] [--pairs 1000] [--scipy-problems 40] [--jobs 2]
                             [--seed 2024] [--no-assembly] [--json PATH]
@@ -11,7 +11,7 @@ quote (--json writes them all, to regenerate docs/benchmarks.md).  Bars: >= 100x
 per-problem SciPy baseline; projected `paper` table <= 30 min on this 2-core machine (goal
 <= 20 min); peak memory <= 6 GB; on --pairs random (E, theta) pairs, >= 99 % within 1e-6 of the
 independent reference and 100 % within 1e-4.  The reference takes ~1 s per pair with 2 workers.
-With --reference hard only the optimality check runs, against teaching/reference_hard.py (the
+With --reference hard only the optimality check runs, against teaching/domains/driving/reference_hard.py (the
 world's limits as hard constraints, nothing shared with the planner; bench/hard_reference.py),
 on a stored table (--table) or on --envs freshly planned environments (~3-10 s per pair).
 """
@@ -125,7 +125,7 @@ def markdown(fig: dict) -> str:
     head = (f"`{fig['command']}`, {fig['date']} UTC, {fig['envs']} environments drawn uniformly from the grid × "
             f"the paper preset's 1,000 θ, on {fig['cores']} cores (load average {fig['load_average_start']:.2f} at "
             f"the start, {fig['load_average_end']:.2f} at the end: other work slows every figure).  Gaps are in "
-            "normalised reward units, (reference − table) / ‖θ‖; the reference (`teaching/reference.py`) shares "
+            "normalised reward units, (reference − table) / ‖θ‖; the reference (`driving/reference.py`) shares "
             "neither the planner's seeds nor its Newton: 53 starts of its own, L-BFGS-B, its own projected Newton "
             "to a projected gradient of 1e-10.  Generated from the run's `--json` output by "
             "`python bench/planner.py --update-doc JSON docs/benchmarks.md`.")

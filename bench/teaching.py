@@ -2,7 +2,7 @@
 
     .venv/bin/python bench/teaching.py [--envs 21216] [--thetas 1000] [--candidates 6]
 
-Uses a synthetic table of the paper's shape (teaching.synthetic); building it
+Uses a synthetic table of the paper's shape (teaching.domains.driving.synthetic); building it
 is timed separately.  Prints wall time per stage and peak memory (Python
 allocations by tracemalloc, and the process's peak RSS).
 """

@@ -1,7 +1,7 @@
 """One study condition's teaching sequence, and a study's simulated pilot, as a worker's JSON.
 
-The selection itself is ``teaching.selection.condition_sequence`` (the same
-steps ``teach`` composes for all conditions), the pilot ``teaching.evaluation.study_matrix``
+The selection itself is ``teaching.core.selection.condition_sequence`` (the same
+steps ``teach`` composes for all conditions), the pilot ``teaching.core.evaluation.study_matrix``
 (teach.py's ideal-user matrix); this module only shapes their results for the job record and
 the study.  No Django here.
 """
@@ -14,10 +14,10 @@ from teaching.api import condition_sequence as select
 
 
 def condition_sequence(table, name: str, **kwargs) -> dict:
-    """The sequence of condition `name` (one of teaching.selection.CONDITIONS) as JSON-able data:
+    """The sequence of condition `name` (one of teaching.core.selection.CONDITIONS) as JSON-able data:
     env_ids (in the order shown), env_indices, p (P(θ*) after each example), prior, model,
     value (τ / λ), rule_met (the hyperparameter rule held), added_for_coverage (env ids).
-    Keyword arguments go to ``teaching.selection.condition_sequence``."""
+    Keyword arguments go to ``teaching.core.selection.condition_sequence``."""
     seq, model, rule_met = select(table, name, **kwargs)
     ids = np.asarray(table.env_ids)
     value = model.value if has_hyperparameter(model) else None

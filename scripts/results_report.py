@@ -110,7 +110,7 @@ def section_strategies(table, h) -> list[str]:
             "(`table.strategy[:, 0]`).", "", *md_table(("cluster", "strategy", "environments"), rows),
             f"{n_show:,} of {table.n_envs:,} environments are showable; in the other "
             f"{table.n_envs - n_show:,} θ* shows none of its class's strategies (label {N_CLUSTERS}), and "
-            "they are never shown as examples or used as tests (`teaching.selection.showable`).", ""]
+            "they are never shown as examples or used as tests (`teaching.core.selection.showable`).", ""]
 
 
 def section_hyper(data, h) -> list[str]:
@@ -136,7 +136,7 @@ def section_hyper(data, h) -> list[str]:
                 f"{v[0]:g}" + (f"…{v[-1]:g}" if len(v) > 1 else "") + f": {d}") for v, d, c in parts)
         rows.append((name, chosen, {True: "yes", False: "**no**", None: "—"}[hp.get("rule_met")], sweep_s))
     return [f"{h} Chosen hyperparameters", "",
-            "Rule (`teaching.selection.choose_hyperparameter`): among grid values whose P(θ*) rises by "
+            "Rule (`teaching.core.selection.choose_hyperparameter`): among grid values whose P(θ*) rises by "
             f"≥ {MIN_RISE:g} from after the first to after the last example, the one showing the most unique examples "
             "(ties: higher final P(θ*), then the smaller value). Sweep entries read "
             "value: examples/unique, P(θ*) after first → after last; the chosen value is in bold.", "",
@@ -207,7 +207,7 @@ def section_tests(data, h) -> list[str]:
         "One environment per cluster, in no training sequence; options in `test_set.json`'s order. "
         "Regret = θ*·φ(ξ^θ*) − θ*·φ(ξ^θ). Rule \"relaxed\" means no unused environment of that cluster had "
         "two θ taking the sibling strategy, so the two remaining options may come from either strategy of "
-        f"the class (`teaching/testset.py`); {n_relaxed} of {len(tests)} tests use it.", "",
+        f"the class (`teaching/core/testset.py`); {n_relaxed} of {len(tests)} tests use it.", "",
         *md_table(("env id", "cluster under test", "rule", "min option distance", "option", "θ index", "θ*",
                    "strategy", "regret"), rows)]
 
@@ -257,7 +257,7 @@ def section_tolerance(rows, conditions, exact_envs, precision, h) -> list[str]:
                   + " the exact condition's in `sequences.json`.")
     return [f"{h} Exact IRL's tolerance", "",
             "Exact IRL counts θ as consistent with an example when d_reward / |θ| ≤ ε (normalised reward units; "
-            f"`teaching.learners.ExactIRL.tolerance`, default EXACT_TOLERANCE = {EXACT_TOLERANCE:g}). For each ε, "
+            f"`teaching.core.learners.ExactIRL.tolerance`, default EXACT_TOLERANCE = {EXACT_TOLERANCE:g}). For each ε, "
             "computed here on this table: the exact-IRL greedy sequence over showable environments and its P(θ*); "
             "the single environments that alone leave P(θ*) = 1 (eliminate every other θ; showable ones in "
             "brackets); the share of (environment, θ≠θ*) pairs with 0 < d_reward/|θ| ≤ ε, which survive only "

@@ -41,7 +41,7 @@ LONG_COLUMNS = PARTICIPANT_COLUMNS + [
     ("step", "Index of the step in the participant's flow (0 = consent)."),
     ("kind", "consent, instructions, training, test, attention or demographics."),
     ("item", "Index of the training environment or test (0-based) within its kind; empty otherwise."),
-    ("env_id", "Environment id (teaching.environments enumeration) for training and test rows."),
+    ("env_id", "Environment id (teaching.domains.driving.environments enumeration) for training and test rows."),
     ("chosen_option", "Test: canonical index (0-3) of the option chosen as matching the car's style."),
     ("chosen_display_position", "Test: position (0-3, shown as A-D) at which the chosen option was displayed."),
     ("chosen_is_theta_star", "Test: 1 if the chosen option is theta*'s trajectory."),

@@ -17,7 +17,7 @@ Spec (a JSON file for ``manage.py create_study``)::
 
 Every trajectory a participant sees is read from the table: theta*'s optimal
 trajectory in each training environment, and each test option's (the ``test_set``
-as produced by ``teaching.testset.select_test_set``).  A spec without a table is
+as produced by ``teaching.core.testset.select_test_set``).  A spec without a table is
 refused: nothing else could say what theta* does.  ``table_spec`` runs the whole
 pipeline (selection and test set) on a table, for the demo and the tests.
 
@@ -320,8 +320,8 @@ def build_study(spec: dict, replace: bool = False) -> Study:
 def table_spec(table_path, *, slug: str, sequences: dict | None = None, seed: int = 0, **test_set_kw) -> dict:
     """A spec whose conditions and test set come from the real pipeline on the table at `table_path`.
 
-    sequences: {condition: env_ids}; by default ``teaching.selection.build_sequences`` (the paper's
-    nine conditions).  The test set is ``teaching.testset.select_test_set`` (its thresholds in
+    sequences: {condition: env_ids}; by default ``teaching.core.selection.build_sequences`` (the paper's
+    nine conditions).  The test set is ``teaching.core.testset.select_test_set`` (its thresholds in
     `test_set_kw`: min_regret, min_distance), disjoint from every sequence.  A table that cannot
     give a test set is a SpecError naming why.
     """

@@ -19,10 +19,10 @@ teaching's ``WORLD`` (static/studyapp/scene.js has no sizes of its own).
 A test adds ``options``: ``[{"theta_index", "is_theta_star", "cluster", "robot"}] * 4``
 in canonical order (the display order is drawn per participant).
 
-Both read a real ``teaching.table.TrajectoryTable``: :func:`training_from_table`
+Both read a real ``teaching.core.table.TrajectoryTable``: :func:`training_from_table`
 (theta*'s optimal trajectory in each training environment) and
 :func:`test_set_from_table` (each test option's, from
-``teaching.testset.select_test_set``).  No trajectory is drawn from anywhere else.
+``teaching.core.testset.select_test_set``).  No trajectory is drawn from anywhere else.
 """
 from __future__ import annotations
 
@@ -150,7 +150,7 @@ def training_from_table(table, env_ids) -> list[dict]:
 
 
 def test_set_from_table(table, test_set) -> list[dict]:
-    """Payloads of a test set from ``teaching.testset.select_test_set``."""
+    """Payloads of a test set from ``teaching.core.testset.select_test_set``."""
     out = []
     for test in test_set:
         i = _env_index(table, int(test["env_id"]))

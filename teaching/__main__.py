@@ -45,8 +45,9 @@ def main(argv=None) -> int:
     b.add_argument("--preset", required=True, help=f"one of: {', '.join(PRESETS)}")
     b.add_argument("--out", required=True, help="output directory")
     b.add_argument("--thetas", type=int, help="override the number of candidate thetas (>= 2)")
-    b.add_argument("--theta-star", help="the robot's objective theta*: 5 negative weights, written "
-                   "--theta-star=v1,v2,v3,v4,v5 (closeness, acceleration, speed, turning, goal; default: DESIGN §3's)")
+    b.add_argument("--theta-star", help="the robot's objective theta*: one negative weight per feature of the "
+                   "preset's domain, written --theta-star=v1,v2,... (driving: closeness, acceleration, speed, "
+                   "turning, goal; gridworld: carry moves, cart moves, mud, near dog; default: the domain's)")
     b.add_argument("--sampler", choices=SAMPLERS, help="override how the other thetas are drawn")
     b.add_argument("--seed", type=int, help="override the seed of the theta (and environment) sample")
     b.add_argument("--jobs", type=int, default=1,
@@ -84,7 +85,7 @@ def main(argv=None) -> int:
             print(f"built {n * preset.n_thetas:,} trajectories in {time.time() - start:.1f} s -> {args.out}")
         elif args.command == "sheet":
             # matplotlib loads only for this command
-            from .domains.driving.sheet import make_sheet  # noqa: PLC0415
+            from .core.sheet import make_sheet  # noqa: PLC0415
 
             if args.columns < 1 or args.dpi < 10:
                 raise ValueError(f"--columns must be >= 1 and --dpi >= 10, got {args.columns} and {args.dpi}")

@@ -70,7 +70,7 @@ Learners and selection (DESIGN §5-6)
     MIN_REGRET, MIN_OPTION_DISTANCE  the test set's default thresholds: θ*-reward units (1e-3), and
                              scaled state units between options (0.5)
 
-Ideal users (the paper's simulated learners; teaching.evaluation)
+Ideal users (the paper's simulated learners; teaching.core.evaluation)
     USER_NAMES               the matrix's columns: the 7 learner models (MODEL_NAMES)
     study_matrix(table, sequences, hyperparameters=None)  sequences {name: table row indices} ->
                              ((S, 7) float64 P_user(θ* | sequence's θ* demonstrations), {user: model
@@ -98,7 +98,8 @@ from .core.evaluation import USER_NAMES, study_matrix
 from .core.learners import MODEL_NAMES, has_hyperparameter, make_model, parse_hyperparameters
 from .core.selection import APPROX_STAR, CONDITIONS, SelectionSettings, build_sequences, condition_sequence
 from .core.table import TableError, TrajectoryTable
-from .core.testset import MIN_OPTION_DISTANCE, MIN_REGRET, select_test_set
+from .core.testset import MIN_REGRET, select_test_set
+from .domains.driving.domain import DOMAIN as _DRIVING
 from .domains.driving.environments import (
                     CLASS_NAMES,
                     N_ENVIRONMENTS,
@@ -110,6 +111,8 @@ from .domains.driving.environments import (
 from .domains.driving.features import default_normalisers
 from .domains.driving.strategies import CLUSTER_NAMES, N_CLUSTERS, strategy_labels
 from .domains.driving.world import GOAL_NAMES, WORLD
+
+MIN_OPTION_DISTANCE = _DRIVING.min_option_distance  # the car's; a table's own: table.domain.min_option_distance
 
 __all__ = [
     "APPROX_STAR", "CLASS_NAMES", "CLUSTER_NAMES", "CONDITIONS", "GOAL_NAMES", "MIN_OPTION_DISTANCE", "MIN_REGRET",

@@ -26,7 +26,7 @@ from .core.evaluation import SEQUENCE_NAMES, USER_NAMES, examples_per_cluster, g
 from .core.learners import Distances, model_names, parse_hyperparameters
 from .core.selection import APPROX_STAR, CONDITIONS, COVERAGE_EPSILON, SelectionSettings, teach, theta_star_clusters
 from .core.table import TableError, TrajectoryTable
-from .core.testset import MIN_OPTION_DISTANCE, MIN_REGRET, TestSetError, select_test_set
+from .core.testset import MIN_REGRET, TestSetError, select_test_set
 
 EXIT_BAD_INPUT = 2
 
@@ -45,13 +45,14 @@ def parse_args(argv=None) -> argparse.Namespace:
                    help="fix τ or λ of a model instead of sweeping (repeatable)")
     p.add_argument("--epsilon", type=float, default=COVERAGE_EPSILON, help="coverage gain threshold ε")
     p.add_argument("--min-regret", type=float, default=MIN_REGRET)
-    p.add_argument("--min-option-distance", type=float, default=MIN_OPTION_DISTANCE)
+    p.add_argument("--min-option-distance", type=float, default=None,
+                   help="test options at least this far apart (default: the table's domain's; the car: 0.5)")
     p.add_argument("--no-progress", action="store_true")
     return p.parse_args(argv)
 
 
 def parse_hyper(items: list[str]) -> dict[str, float]:
-    """--hyper MODEL=VALUE items (teaching.learners.parse_hyperparameters), bad ones as InputError."""
+    """--hyper MODEL=VALUE items (teaching.core.learners.parse_hyperparameters), bad ones as InputError."""
     try:
         return parse_hyperparameters(items)
     except ValueError as exc:

@@ -27,7 +27,7 @@ PAPER_SEQUENCES = {
     "coverage-random": [1149, 14251, 586, 20293, 12825, 16137]}
 # The test set's thresholds on the tiny table: with 24 θ few environments have three alternatives
 # 0.5 apart (the study default), so the app's tests accept options 0.1 apart; the selection itself
-# is the real one (teaching.testset.select_test_set).
+# is the real one (teaching.core.testset.select_test_set).
 TINY_TEST_SET = {"min_distance": 0.1}
 
 

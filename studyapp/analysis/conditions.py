@@ -10,7 +10,7 @@ import pandas as pd
 
 from teaching.api import APPROX_STAR, CLUSTER_NAMES, CONDITIONS, N_CLUSTERS
 
-APPROX_STAR_DEFAULT = APPROX_STAR  # the analysis' default is the selectors' (teaching.selection)
+APPROX_STAR_DEFAULT = APPROX_STAR  # the analysis' default is the selectors' (teaching.core.selection)
 COVERAGE_APPROX = "coverage-approx*"
 COVERAGE_RANDOM = "coverage-random"
 PAPER_CONDITIONS = CONDITIONS  # the teaching selectors' names, in the paper's order

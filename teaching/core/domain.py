@@ -47,6 +47,7 @@ class Domain(Protocol):
     test_clusters: tuple[int, ...]  # the clusters the test set covers, one test environment each
     feature_names: tuple[str, ...]  # (D,) what θ weighs, in order
     theta_star: np.ndarray  # (D,) the default objective the robot teaches
+    min_option_distance: float  # test options at least this far apart by default (euclidean_distance's units)
     trajectory_shape: tuple[int, ...]  # one stored trajectory's encoding, per (environment, θ)
     trajectory_dtype: np.dtype
     code_root: Path  # the package whose source decides a table's bytes (with teaching/core)
@@ -88,10 +89,33 @@ class Domain(Protocol):
         """Stored encodings (..., *trajectory_shape) -> states (..., T+1, S) float64."""
         ...
 
+    def render_sheet(self, *, table, conditions: dict, tests: list | None, out, no_tests: str | None, caption: str,
+                     columns: int, dpi: int) -> int:
+        """Draw the contact sheet (teaching.core.sheet: rows, layout) of these examples and tests to
+        the PNG `out`; returns the panels drawn."""
+        ...
+
     def euclidean_distance(self, states_a: np.ndarray, states_b: np.ndarray) -> np.ndarray:
         """(..., T+1, S) x (..., T+1, S) -> (...) the Euclidean learner's distance, in scaled
         state units, broadcast over the leading axes."""
         ...
+
+
+def parse_cost_weights(values, n: int) -> tuple[float, ...]:
+    """θ* from n numbers (a sequence, or "v1,v2,..."), each finite and negative: for a domain whose
+    features are all costs.  Raises ValueError with a one-line message."""
+    if isinstance(values, str):
+        parts = [v for v in values.replace(" ", "").split(",") if v]
+        try:
+            values = [float(v) for v in parts]
+        except ValueError:
+            raise ValueError(f"theta* must be {n} numbers separated by commas, got {values!r}") from None
+    star = tuple(float(v) for v in values)
+    if len(star) != n:
+        raise ValueError(f"theta* needs one weight per feature ({n}), got {len(star)}")
+    if not all(np.isfinite(v) and v < 0 for v in star):
+        raise ValueError(f"every weight of theta* must be a negative number (the features are costs), got {list(star)}")
+    return star
 
 
 def n_clusters(domain: Domain) -> int:

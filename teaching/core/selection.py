@@ -1,7 +1,7 @@
 """Teaching algorithms: choose the environments whose θ* trajectories to show (DESIGN §6).
 
 All selectors work on a likelihood matrix L (M, N) float32 = P(ξ^{θ*}_{E_m} | θ_n)
-from a :class:`~teaching.learners.LearnerModel`, and return environment
+from a :class:`~teaching.core.learners.LearnerModel`, and return environment
 *indices* (rows of the table); :func:`build_sequences` maps them to ids.
 
 With weights w_n = Π_{shown} L[E, n] (uniform prior), showing E next gives

@@ -10,7 +10,7 @@ An alternative must be clearly worse under θ*:
 
 and any two options must look different:
 
-    d_euclid(ξ, ξ') >= MIN_OPTION_DISTANCE
+    d_euclid(ξ, ξ') >= the domain's min_option_distance
 
 (the Euclidean learner's distance, DESIGN §5, as the domain defines it).  Environments are drawn at
 random (seeded) from those not used in any training sequence; for each, up
@@ -29,7 +29,6 @@ import numpy as np
 from .domain import siblings
 
 MIN_REGRET = 1e-3  # θ*-reward units; on the demo table |θ*·φ(ξ^θ*)| has median 0.039 (see docs/teaching.md)
-MIN_OPTION_DISTANCE = 0.5  # scaled state units, the domain's euclidean_distance (docs/teaching.md)
 # option sets drawn per environment: 50 missed sets that exist (on the planner-9 demo table no
 # environment of one cluster passed in 50, one 0.87 apart passed in 200)
 MAX_TRIES = 200
@@ -89,7 +88,7 @@ def _draw_options(table, env_index: int, cluster: int, rng, min_regret, min_dist
 
 
 def select_test_set(table, training_env_ids: list[list[int]], seed: int = 0, min_regret: float = MIN_REGRET,
-                    min_distance: float = MIN_OPTION_DISTANCE, max_tries: int = MAX_TRIES) -> list[dict]:
+                    min_distance: float | None = None, max_tries: int = MAX_TRIES) -> list[dict]:
     """One test environment per cluster of the domain's test_clusters, disjoint from every training sequence.
 
     Returns, in cluster order, dicts with env_id, env_index, cluster,
@@ -99,6 +98,8 @@ def select_test_set(table, training_env_ids: list[list[int]], seed: int = 0, min
     """
     rng = np.random.default_rng(seed)
     domain = table.domain
+    if min_distance is None:
+        min_distance = domain.min_option_distance
     used = {int(e) for seq in training_env_ids for e in seq}
     env_ids = np.asarray(table.env_ids)
     star_cluster = np.asarray(table.strategy[:, 0])

@@ -16,3 +16,4 @@ def _loader(module: str):
 
 # the paper's car is the default: tables and presets from before domains existed name no domain
 register("driving", _loader("driving"), default=True)
+register("gridworld", _loader("gridworld"))

@@ -21,7 +21,7 @@ SMALL = Preset("test-small", n_envs=16, n_thetas=16, chunk_size=4, seed=3)
 
 @pytest.fixture(scope="session")
 def reference(tmp_path_factory) -> Path:
-    """The one-process build of SMALL (teaching.build.build_table, Numba's default thread count)."""
+    """The one-process build of SMALL (teaching.core.build.build_table, Numba's default thread count)."""
     out = tmp_path_factory.mktemp("reference")
     build_table(SMALL, out)
     return out

@@ -160,7 +160,7 @@ def test_create_study_from_a_saved_table(tmp_path):
 
 
 def test_setup_demo_uses_the_table_when_the_pipeline_works(tmp_path, monkeypatch):
-    """With a table, the demo's conditions and tests come from teaching.core.selection / teaching.testset
+    """With a table, the demo's conditions and tests come from teaching.core.selection / teaching.core.testset
     (through teaching.api, which studyapp.studies imports them from)."""
     table = synthetic_table(n_envs=16, n_thetas=8, seed=3)
     table.save(tmp_path / "table")

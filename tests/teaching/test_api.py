@@ -46,7 +46,7 @@ def test_every_exported_name_exists():
 
 
 def _teaching_imports(path: Path) -> list[str]:
-    """The teaching modules `path` imports ("teaching.api", "teaching.table", ...)."""
+    """The teaching modules `path` imports ("teaching.api", "teaching.core.table", ...)."""
     found = []
     for node in ast.walk(ast.parse(path.read_text())):
         if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:

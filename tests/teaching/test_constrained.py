@@ -1,7 +1,7 @@
-"""The planner's hard-limit solve (teaching/constrained.py, issue 22): the Lagrangian and the limits
+"""The planner's hard-limit solve (teaching/domains/driving/constrained.py, issue 22): the Lagrangian and the limits
 have exact derivatives; the QP solver agrees with brute force over active sets; from the soft
 penalty's answer it reaches the optimum that the independent hard-constraint reference
-(teaching/reference_hard.py: its own rollout, starts and SLSQP) finds, where the penalty's answer
+(teaching/domains/driving/reference_hard.py: its own rollout, starts and SLSQP) finds, where the penalty's answer
 falls short; and a chunk planned (exact by default) is never worse than a penalised one, feasible to
 the stored precision."""
 import itertools

@@ -1,4 +1,4 @@
-"""Explicit-Euler bicycle rollout (teaching.dynamics / kernels.rollout_one) against hand integration.
+"""Explicit-Euler bicycle rollout (teaching.domains.driving.dynamics / kernels.rollout_one) against hand integration.
 
 Every expected number below is worked out in the test itself (plain arithmetic
 or math.cos/sin/tan), never with the kernels.

@@ -1,4 +1,4 @@
-"""The independent reference solver (teaching/reference.py): KKT points, never worse than its own starts,
+"""The independent reference solver (driving/reference.py): KKT points, never worse than its own starts,
 independent of the planner's strategy seeds, and the sign of reference_gap."""
 import inspect
 

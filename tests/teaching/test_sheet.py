@@ -15,7 +15,7 @@ from PIL import Image
 
 from teaching.__main__ import main
 from teaching.core.build import PRESETS, build_table
-from teaching.domains.driving.sheet import make_sheet
+from teaching.core.sheet import make_sheet
 from teaching.domains.driving.synthetic import synthetic_table
 from teaching.teach import main as teach_main
 

@@ -7,7 +7,6 @@ import pytest
 from teaching.core.domain import siblings
 from teaching.core.selection import build_sequences
 from teaching.core.testset import (
-    MIN_OPTION_DISTANCE,
     MIN_REGRET,
     TestSetError,
     _distinct,
@@ -18,6 +17,8 @@ from teaching.core.testset import (
 from teaching.domains.driving.domain import DOMAIN as DRIVING
 from teaching.domains.driving.strategies import NO_STRATEGY
 from teaching.domains.driving.synthetic import synthetic_table
+
+MIN_OPTION_DISTANCE = DRIVING.min_option_distance
 
 
 def sibling(c: int) -> int:

@@ -1,6 +1,6 @@
 """The optimum with the world's limits as hard constraints (issue 22), one trajectory at a time.
 
-The soft penalty of :mod:`teaching.kernels` finds the basins fast, but its minimiser lies a little
+The soft penalty of :mod:`teaching.domains.driving.kernels` finds the basins fast, but its minimiser lies a little
 inside each limit it presses against (0.16-0.36 ft from |x| = 12 in the planner-9 demo table, up to
 1.4e-3 normalised reward units short of the constrained optimum).  From that point (feasible, and
 near the optimum) :func:`constrained_one` runs sequential quadratic programming (:func:`sqp_one`):
@@ -47,7 +47,7 @@ from .kernels import (
 )
 
 _user_cache_dir = numba_config.CACHE_DIR
-numba_config.CACHE_DIR = WORLD_CACHE_DIR  # these kernels freeze the world's constants too (see teaching.kernels)
+numba_config.CACHE_DIR = WORLD_CACHE_DIR  # these kernels freeze the world's constants too (see kernels.py)
 
 LAM_NEGLIGIBLE = 1e-12  # a penalty force below this (units per ft: a limit >= ~0.65 ft away) moves no reward digit
 SQP_ITERS = 30

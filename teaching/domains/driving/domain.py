@@ -12,25 +12,9 @@ from pathlib import Path
 import numpy as np
 
 from ...core.build import Preset
+from ...core.domain import parse_cost_weights
 from . import dynamics, environments, features, planner, strategies
 from .world import FEATURE_NAMES, THETA_STAR, WORLD, world_fingerprint
-
-
-def parse_theta_star(values) -> tuple[float, ...]:
-    """theta* from 5 numbers (a sequence, or "v1,v2,v3,v4,v5"): each finite and negative, since
-    all five features are costs (DESIGN §3).  Raises ValueError with a one-line message."""
-    if isinstance(values, str):
-        parts = [v for v in values.replace(" ", "").split(",") if v]
-        try:
-            values = [float(v) for v in parts]
-        except ValueError:
-            raise ValueError(f"theta* must be 5 numbers separated by commas, got {values!r}") from None
-    star = tuple(float(v) for v in values)
-    if len(star) != 5:
-        raise ValueError(f"theta* needs one weight per feature (5), got {len(star)}")
-    if not all(np.isfinite(v) and v < 0 for v in star):
-        raise ValueError(f"every weight of theta* must be a negative number (the features are costs), got {list(star)}")
-    return star
 
 
 class DrivingDomain:
@@ -43,6 +27,7 @@ class DrivingDomain:
                      strategies.BRAKE_CHANGE, strategies.TAIL_CHANGE, strategies.TAIL_STAY)
     feature_names = FEATURE_NAMES
     theta_star = THETA_STAR
+    min_option_distance = 0.5  # ~6 ft average lateral separation, or its equivalent (docs/teaching.md)
     trajectory_shape = (WORLD.n_knots, 2)  # knot controls [steer rate, accel] as fractions of the bounds
     trajectory_dtype = np.dtype(np.float32)
     code_root = Path(__file__).resolve().parent
@@ -59,7 +44,7 @@ class DrivingDomain:
         return world_fingerprint()
 
     def parse_theta_star(self, values) -> tuple[float, ...]:
-        return parse_theta_star(values)
+        return parse_cost_weights(values, len(FEATURE_NAMES))  # all five are costs (DESIGN §3)
 
     def environment_class(self, env_ids) -> np.ndarray:
         return environments.environment_class(environments.get_environments(env_ids))
@@ -81,6 +66,11 @@ class DrivingDomain:
 
     def euclidean_distance(self, states_a, states_b) -> np.ndarray:
         return planner.euclidean_distance(states_a, states_b)
+
+    def render_sheet(self, **kwargs) -> int:
+        from .sheet import render_sheet  # noqa: PLC0415  (matplotlib loads only for a sheet)
+
+        return render_sheet(**kwargs)
 
 
 DOMAIN = DrivingDomain()

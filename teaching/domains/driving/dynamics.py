@@ -3,7 +3,7 @@
 State s = [x, y, heading, v, steer]; control u = [steer rate, acceleration].
 A trajectory is stored as its knot controls z (K, 2), each a fraction of the
 bound ([-1, 1] x [steer_rate_max, accel_max]), held for steps_per_knot steps;
-the compiled step itself is in :mod:`teaching.kernels`.
+the compiled step itself is in :mod:`teaching.domains.driving.kernels`.
 """
 from __future__ import annotations
 

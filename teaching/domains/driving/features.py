@@ -1,6 +1,6 @@
 """Reward features phi(xi) of DESIGN §3 (gamma = 1) and their normalisation.
 
-The arithmetic is compiled in :mod:`teaching.kernels` (shared with the
+The arithmetic is compiled in :mod:`teaching.domains.driving.kernels` (shared with the
 planner's objective so the two can never disagree); this module is the
 batched NumPy entry and the calibration.  Feature
 1 (closeness) is left raw; features 2-5 are divided by constants fixed once

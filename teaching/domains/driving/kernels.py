@@ -40,7 +40,7 @@ from .world import WORLD, world_fingerprint
 _user_cache_dir = numba_config.CACHE_DIR
 WORLD_CACHE_DIR = os.path.join(_user_cache_dir or os.path.join(os.path.dirname(__file__), "__pycache__"),
                                f"numba-world-{world_fingerprint()}")
-numba_config.CACHE_DIR = WORLD_CACHE_DIR  # teaching.constrained's kernels use it too
+numba_config.CACHE_DIR = WORLD_CACHE_DIR  # teaching.domains.driving.constrained's kernels use it too
 
 DT = WORLD.dt
 WB = WORLD.wheelbase
@@ -95,7 +95,7 @@ def overshoot_penalty(o):
 def limit_term(o, lam, hard):
     """The objective's term for one limit o <= 0 (o in ft), with d/do and d2/do2: the soft penalty
     (overshoot_penalty), which finds the basins, or, if hard, the Lagrangian's term lam * o with the
-    limit's multiplier lam >= 0 (normalised reward units per ft; teaching.constrained)."""
+    limit's multiplier lam >= 0 (normalised reward units per ft; teaching.domains.driving.constrained)."""
     if hard:
         return lam * o, lam, 0.0
     return overshoot_penalty(o)

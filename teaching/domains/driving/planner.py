@@ -25,13 +25,13 @@ a local optimiser alone is wrong.  For one chunk of environments:
    where a hop did better, with these as extra candidates.
 
 6. **exact**: every theta's trajectory is solved again with the world's limits as hard
-   constraints (:mod:`teaching.constrained`, sequential quadratic programming from the penalty's
+   constraints (:mod:`teaching.domains.driving.constrained`, sequential quadratic programming from the penalty's
    answer, which lies a little inside each limit it presses against), and steps 3-4 run again
    among those trajectories (docs/decisions.md, "The world's limits as hard constraints").
 
 After step 3 every theta's stored trajectory is at least as good under theta as
 theta*'s, so d_reward >= 0 holds exactly on the stored (float32) trajectories.
-Newton uses exact Hessians (:mod:`teaching.kernels`); it is parallel over
+Newton uses exact Hessians (:mod:`teaching.domains.driving.kernels`); it is parallel over
 problems with Numba threads and holds no state between calls, so it is safe in
 a forked worker as long as the parent process has not run it (docs/decisions.md).
 """
@@ -54,7 +54,7 @@ from .world import WORLD
 PLANNER_VERSION = 10  # bump whenever a change alters the trajectories it returns
 NEWTON_TOL = 1e-7  # max |projected gradient|, normalised reward units per unit of z (1e-9 changed no gap)
 REFINE_GAIN = 1e-6  # normalised reward units: exact IRL's tolerance (1e-7 and 1e-8 changed no measured gap)
-FEAS_TOL = 1e-9  # ft: how far past a limit the constrained solve may end (teaching.constrained)
+FEAS_TOL = 1e-9  # ft: how far past a limit the constrained solve may end (teaching.domains.driving.constrained)
 STORED_FEAS_TOL = 1e-4  # ft: ... and a stored (float32) trajectory that may be handed over (measured: < 2e-5)
 
 
@@ -70,7 +70,7 @@ class PlannerSettings:
     hop_min_crossings: int = 5  # lane-line crossings that make a trajectory hop (step 5): across all three lanes
     #                             and back; 3 (one lane, then two back) found 7 more of 128,000 pairs at 1.07x the time
     hop_shifts: tuple = (-1,)  # knots; (-1, +1) found 2 more pairs above 1e-4 in 128,000, at 1.17x the time
-    exact: bool = True  # step 6: the world's limits as hard constraints (teaching.constrained; issue 22)
+    exact: bool = True  # step 6: the world's limits as hard constraints (constrained.py; issue 22)
 
 
 def planner_identity(settings: PlannerSettings = None) -> dict:
@@ -147,7 +147,7 @@ def solve(z0, other_xy, goal, weights, maxiter):
 
 
 def solve_constrained(z0, other_xy, goal, weights, maxiter, from_penalty_optimum=False):
-    """The hard-limit optimum from z0 (B, K, 2) (teaching.constrained; from_penalty_optimum: z0 already
+    """The hard-limit optimum from z0 (B, K, 2) (teaching.domains.driving.constrained; from_penalty_optimum: z0 already
     minimises the penalised F, so the penalised Newton is skipped); returns (z, w . phi_raw, iterations,
     status: 0 no limit pressed, 1 exact, 2 the penalty's answer kept)."""
     z = np.ascontiguousarray(z0, dtype=np.float64).copy()

@@ -1,7 +1,7 @@
 """An independent reference solver for one (environment, theta) problem: a
 global multi-start search that shares nothing with the planner's search (not
 its strategy seeds, anchors, warm starts or Newton kernel), only the exact
-objective F(z) of :mod:`teaching.kernels` (penalties included) and its exact
+objective F(z) of :mod:`teaching.domains.driving.kernels` (penalties included) and its exact
 derivatives.  Slow by design; used by bench/planner.py and the tests.
 
 **Starts** (:func:`reference_starts`, 53 by default, generated here):

@@ -1,9 +1,9 @@
 """A hard-constraint reference solver for one (environment, theta) problem (issue 22).
 
-teaching/reference.py minimises the planner's own penalised objective, so it cannot
+teaching/domains/driving/reference.py minimises the planner's own penalised objective, so it cannot
 see what the soft penalty costs.  This module shares nothing with the planner: its
 rollout, features and their derivatives are written here in NumPy from DESIGN §2-3
-and teaching/world.py, and the world's limits are HARD constraints:
+and teaching/domains/driving/world.py, and the world's limits are HARD constraints:
 
 * |x_t| <= WORLD.x_limit at every step t = 1..T (ft);
 * |x_T - c| <= lane_end_band for the end lane's centre c: the right lane's for the

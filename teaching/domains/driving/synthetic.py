@@ -45,7 +45,7 @@ def sample_thetas(n: int, rng: np.random.Generator, theta_star=THETA_STAR) -> np
 
 def euler_rollout(knots: np.ndarray, world=WORLD) -> np.ndarray:
     """NumPy explicit Euler of DESIGN §2, knots as fractions of the control bounds
-    (the stored convention of teaching.dynamics): (..., K, 2) -> states (..., T+1, 5)."""
+    (the stored convention of teaching.domains.driving.dynamics): (..., K, 2) -> states (..., T+1, 5)."""
     u = np.repeat(np.asarray(knots, np.float64), world.steps_per_knot, axis=-2) * world.control_bounds
     lead = u.shape[:-2]
     s = np.zeros(lead + (world.horizon + 1, 5))

@@ -1,0 +1,188 @@
+"""Contact sheets: every training example and test option a participant will see, in one PNG.
+
+    python -m teaching sheet --table var/tables/demo --teach var/teaching/demo --out sheet.png
+
+One row per condition (its examples in the order shown, θ*'s trajectory in each; long sequences
+wrap onto more rows), then one row per test environment (its 4 options in the order
+test_set.json stores them, labelled A-D).  What is shared by every domain is here: reading and
+checking the teach output, the rows and titles, the page layout.  Each domain draws its own
+panels (its ``render_sheet``, e.g. teaching/domains/<name>/sheet.py).
+"""
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")  # figures are written to files; no display on servers
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from .table import TrajectoryTable
+
+OPTION_LETTERS = "ABCD"
+
+
+class SheetError(ValueError):
+    """Inputs the sheet cannot be drawn from: reported as one line, exit status 2."""
+
+
+@dataclass(frozen=True)
+class Panel:
+    """One drawing: θ `theta_index`'s trajectory in the table's environment row `env_index`."""
+
+    env_index: int
+    theta_index: int
+    title: str
+
+
+def cluster_name(domain, c: int) -> str:
+    """The strategy cluster's name in `domain`, or 'cluster c' if it has none."""
+    return domain.cluster_names[c] if 0 <= c < len(domain.cluster_names) else f"cluster {c}"
+
+
+def _read_json(path: Path):
+    try:
+        return json.loads(path.read_text())
+    except FileNotFoundError:
+        raise SheetError(f"no teach output at {path.parent} ({path.name} missing; "
+                         f"run python -m teaching.teach --table TABLE --out {path.parent})") from None
+    except (OSError, ValueError) as exc:
+        raise SheetError(f"{path} is unreadable or not valid JSON: {exc}") from None
+
+
+def load_teach(*, teach_dir, table) -> tuple[dict[str, list[int]], list[dict] | None, str | None]:
+    """Read and check ``teach_dir`` (the output of ``python -m teaching.teach``) against ``table``.
+
+    Returns (conditions: name -> environment ids in showing order, tests: test_set.json's list or
+    None, why there are no tests or None).  Raises SheetError when the directory is missing or
+    malformed, or was made from another table (sequences.json's content hash differs).
+    """
+    teach_dir = Path(teach_dir)
+    seqs = _read_json(teach_dir / "sequences.json")
+    if not isinstance(seqs, dict) or not isinstance(seqs.get("conditions"), dict):
+        raise SheetError(f"{teach_dir / 'sequences.json'} is not a teach output (no 'conditions')")
+    made_from = (seqs.get("table") or {}).get("content_hash")
+    ours = table.meta.get("content_hash")
+    if made_from and made_from != ours:
+        raise SheetError(f"teach output at {teach_dir} was made from another table (content hash "
+                         f"{made_from[:16]} != {str(ours)[:16]}, the table's)")
+    row_of = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
+    try:
+        conditions = {str(k): [int(e) for e in v["env_ids"]] for k, v in seqs["conditions"].items()}
+    except (TypeError, KeyError, ValueError):
+        raise SheetError(f"{teach_dir / 'sequences.json'}: a condition has no list of env_ids") from None
+    for name, ids in conditions.items():
+        missing = [e for e in ids if e not in row_of]
+        if missing:
+            raise SheetError(f"condition {name!r} shows environments not in the table: {missing[:5]}")
+    tests = _read_json(teach_dir / "test_set.json")
+    if isinstance(tests, dict) and "error" in tests:
+        return conditions, None, str(tests["error"])
+    try:
+        for t in tests:
+            if row_of.get(int(t["env_id"])) is None or len(t["options"]) != 4:
+                raise ValueError
+            if any(not 0 <= int(o["theta_index"]) < table.n_thetas or not np.isfinite(float(o.get("regret", 0)))
+                   for o in t["options"]):
+                raise ValueError
+    except (TypeError, KeyError, ValueError):
+        raise SheetError(f"{teach_dir / 'test_set.json'} does not match the table (an environment it "
+                         f"tests is not in the table, or its options are not 4 θ indices of it)") from None
+    return conditions, tests, None
+
+
+def sheet_rows(*, table, conditions, tests, columns: int, head=None) -> list[tuple[str, list[Panel]]]:
+    """(row label, panels) for every condition (wrapped at `columns` panels) and every test.
+    head(m): the first line of table row m's panel titles (default: its id and class)."""
+    row_of = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
+    cls = np.asarray(table.env_class)
+    strat = np.asarray(table.strategy)
+    domain = table.domain
+    if head is None:
+        def head(m: int) -> str:
+            return f"env {int(table.env_ids[m])} · {domain.class_names[cls[m]]}"
+
+    rows = []
+    for name, ids in conditions.items():
+        panels = [Panel(row_of[e], 0,
+                        f"{k + 1}. {head(row_of[e])}\nθ* → {cluster_name(domain, int(strat[row_of[e], 0]))}")
+                  for k, e in enumerate(ids)]
+        if not panels:
+            rows.append((f"{name}\n(no examples)", []))
+        for lo in range(0, len(panels), columns):
+            label = f"{name}\n{len(panels)} example{'s' * (len(panels) != 1)}" if lo == 0 else f"{name}\n(cont.)"
+            rows.append((label, panels[lo:lo + columns]))
+    for j, t in enumerate(tests or []):
+        m = row_of[int(t["env_id"])]
+        panels = []
+        for letter, o in zip(OPTION_LETTERS, t["options"], strict=False):
+            th = int(o["theta_index"])
+            who = "θ* (θ0)" if th == 0 else f"θ{th}"
+            regret = f" · regret {o['regret']:.3g}" if "regret" in o and th != 0 else ""
+            shows = cluster_name(domain, int(strat[m, th]))
+            panels.append(Panel(m, th, f"{letter}. {head(m)}\n{who} → {shows}{regret}"))
+        rows.append((f"test {j + 1}\n" + str(t.get("cluster_name", "")).replace(": ", ":\n"), panels))
+    return rows
+
+
+def render_rows(*, rows: list[tuple[str, list[Panel]]], draw: Callable, out, columns: int, panel_width: float,
+                panel_height: float, dpi: int, header: list[str], legend: list, no_tests: str | None = None) -> int:
+    """Lay `rows` out on one page and save it as the PNG `out`; returns the panels drawn.
+
+    draw(ax, panel, k) draws the k-th panel (in row order) on its axes; panel_width, panel_height:
+    inches; header: lines of text at the top; legend: matplotlib handles under them."""
+    title_h, label_w, head_h = 0.38, 1.4, 1.0
+    n_rows = max(len(rows), 1)
+    fig_w = label_w + columns * (panel_width + 0.15)
+    fig_h = head_h + n_rows * (panel_height + title_h) + (0.4 if no_tests else 0)
+    fig = plt.figure(figsize=(fig_w, fig_h))
+    k = 0
+    for r, (label, ps) in enumerate(rows):
+        top = fig_h - head_h - r * (panel_height + title_h) - title_h
+        fig.text(0.1 / fig_w, (top - panel_height / 2) / fig_h, label, ha="left", va="center", fontsize=8,
+                 weight="bold" if not label.endswith("(cont.)") else "normal")
+        for c, p in enumerate(ps):
+            ax = fig.add_axes(((label_w + c * (panel_width + 0.15)) / fig_w, (top - panel_height) / fig_h,
+                               panel_width / fig_w, panel_height / fig_h))
+            draw(ax, p, k)
+            ax.set_title(p.title, fontsize=7.5, loc="left", pad=2, linespacing=1.15)
+            k += 1
+    if no_tests:
+        fig.text(label_w / fig_w, 0.2 / fig_h, f"no test set in this teach output: {no_tests}", fontsize=8,
+                 color="#b00020", va="center")
+    fig.text(0.1 / fig_w, 1 - 0.1 / fig_h, "\n".join(header), ha="left", va="top", fontsize=7.5, linespacing=1.4)
+    fig.legend(handles=legend, loc="upper left", ncol=4, fontsize=7.5, frameon=False,
+               bbox_to_anchor=(0.05 / fig_w, 1 - 0.62 / fig_h))
+    try:
+        fig.savefig(out, dpi=dpi)
+    finally:
+        plt.close(fig)
+    return k
+
+
+def make_sheet(*, table_dir, teach_dir, out, **kwargs) -> tuple[int, str | None]:
+    """Load and check the table and teach output, write the PNG `out` (drawn by the table's domain).
+
+    Returns (panels drawn, why the teach output has no tests or None).  Raises SheetError
+    (or teaching.core.table.TableError) for unusable inputs or an unwritable `out`.
+    """
+    table = TrajectoryTable.load(table_dir)
+    conditions, tests, no_tests = load_teach(teach_dir=teach_dir, table=table)
+    out = Path(out)
+    if out.suffix.lower() != ".png":
+        raise SheetError(f"--out must name a .png file, got {out}")
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        caption = (f"Contact sheet: table {table_dir} (domain {table.domain.name}, preset {table.meta.get('preset')}, "
+                   f"hash {str(table.meta.get('content_hash'))[:16]}), teach output {teach_dir}")
+        n = table.domain.render_sheet(table=table, conditions=conditions, tests=tests, out=out, no_tests=no_tests,
+                                      caption=caption, **kwargs)
+    except OSError as exc:
+        where = f" ({exc.filename})" if exc.filename and str(exc.filename) != str(out) else ""
+        raise SheetError(f"cannot write {out}: {exc.strerror or exc}{where}") from None
+    return n, no_tests
