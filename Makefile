@@ -50,6 +50,7 @@ test: venv browser-deps serve-deps
 bench: venv
 	$(PY) bench/planner.py
 	$(PY) bench/teaching.py
+	$(PY) bench/gridworld.py
 	$(PY) bench/precompute.py
 	$(PY) bench/exports.py
 
