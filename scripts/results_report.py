@@ -2,7 +2,7 @@
 
     .venv/bin/python scripts/results_report.py --table var/tables/demo --teach var/teaching/demo \
         --out docs/results.md [--figures docs/figures] [--planner-precision TEXT] \
-        [--paper-table DIR --paper-teach DIR]
+        [--paper-table DIR --paper-teach DIR] [--gridworld-table DIR --gridworld-teach DIR]
 
 Every number in the document comes from the table, the teach outputs, or a computation on the
 table made here (the exact-IRL tolerance section); nothing is typed by hand.  Bad input (a
@@ -27,17 +27,17 @@ ROOT = Path(__file__).resolve().parent.parent
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from teaching.core.domain import get_domain, n_clusters  # noqa: E402
 from teaching.core.learners import EXACT_TOLERANCE, Distances, make_model, p_theta_star  # noqa: E402
 from teaching.core.selection import MIN_RISE, greedy, showable  # noqa: E402
 from teaching.core.table import TableError, TrajectoryTable  # noqa: E402
-from teaching.domains.driving.environments import CLASS_NAMES, N_ENVIRONMENTS  # noqa: E402
-from teaching.domains.driving.strategies import CLUSTER_NAMES, N_CLUSTERS  # noqa: E402
 
 TOLERANCES = (0.0, 1e-7, 1e-6, 1e-5)
 TEACH_FILES = ("sequences.json", "matrix.json", "examples_per_cluster.json", "test_set.json")
 FIGURES = ("sim_users.png", "examples_shown.png")
-GRID_COLUMNS = ("merging ahead", "merging behind", "braking stay", "braking change",
-                "tailgating change", "tailgating stay", "other merge", "other forward")
+GRIDWORLD_PRECISION = ("exact by construction: every non-dominated path of each yard, found by a "
+                       "label-setting search and checked against brute-force enumeration and an independent "
+                       "Dijkstra in tests/teaching/test_gridworld.py (docs/domains.md)")
 EXIT_BAD_INPUT = 2
 
 
@@ -103,13 +103,14 @@ def section_identity(table, data) -> list[str]:
 
 
 def section_strategies(table, h) -> list[str]:
-    counts = np.bincount(np.asarray(table.strategy[:, 0], np.int64), minlength=N_CLUSTERS + 1)
-    rows = [(c, CLUSTER_NAMES[c], f"{counts[c]:,}") for c in range(len(CLUSTER_NAMES))]
+    names, none = table.domain.cluster_names, n_clusters(table.domain)
+    counts = np.bincount(np.asarray(table.strategy[:, 0], np.int64), minlength=none + 1)
+    rows = [(c, names[c], f"{counts[c]:,}") for c in range(len(names))]
     n_show = int(showable(table).sum())
     return [f"{h} θ*'s strategy per environment", "", "Cluster of θ*'s own trajectory in each environment "
             "(`table.strategy[:, 0]`).", "", *md_table(("cluster", "strategy", "environments"), rows),
             f"{n_show:,} of {table.n_envs:,} environments are showable; in the other "
-            f"{table.n_envs - n_show:,} θ* shows none of its class's strategies (label {N_CLUSTERS}), and "
+            f"{table.n_envs - n_show:,} θ* shows none of its class's strategies (label {none}), and "
             "they are never shown as examples or used as tests (`teaching.core.selection.showable`).", ""]
 
 
@@ -145,8 +146,9 @@ def section_hyper(data, h) -> list[str]:
 
 def _env_label(table, env_id, index_of) -> str:
     m = index_of[env_id]
-    c = int(table.strategy[m, 0])
-    return f"{env_id} ({CLUSTER_NAMES[c] if c < N_CLUSTERS else CLASS_NAMES[table.env_class[m]] + ': none'})"
+    c, domain = int(table.strategy[m, 0]), table.domain
+    none = domain.class_names[table.env_class[m]] + ": none"
+    return f"{env_id} ({domain.cluster_names[c] if c < n_clusters(domain) else none})"
 
 
 def section_sequences(table, data, index_of, h) -> list[str]:
@@ -170,12 +172,14 @@ def section_sequences(table, data, index_of, h) -> list[str]:
             *md_table(("condition", "examples (unique)", "environments in order", "final P(θ*) (model)"), rows)]
 
 
-def section_clusters(data, fig_links, h) -> list[str]:
+def section_clusters(domain, data, fig_links, h) -> list[str]:
     grids = data["examples_per_cluster"]["grids"]
-    rows = [(n, *(int(v) for v in np.asarray(g).T.reshape(-1))) for n, g in grids.items()]
+    of = np.asarray(domain.class_of_cluster)
+    rank = [int((of[:c] == of[c]).sum()) for c in range(len(of))]  # row of cluster c in its class's column
+    rows = [(n, *(int(np.asarray(g)[rank[c], of[c]]) for c in range(len(of)))) for n, g in grids.items()]
     return [f"{h} Examples per strategy cluster", "",
             "How many of each sequence's examples show θ* in each cluster (repeats counted).", "",
-            *md_table(("sequence",) + GRID_COLUMNS, rows),
+            *md_table(("sequence", *domain.cluster_names[:len(of)]), rows),
             f"![examples shown per cluster]({fig_links['examples_shown.png']})", ""]
 
 
@@ -194,13 +198,13 @@ def section_matrix(data, fig_links, h) -> list[str]:
             f"![ideal-user matrix]({fig_links['sim_users.png']})", ""]
 
 
-def section_tests(data, h) -> list[str]:
+def section_tests(domain, data, h) -> list[str]:
     tests = data["test_set"]
     head = [f"{h} Test set", ""]
     if isinstance(tests, dict):
         return head + [f"No test set on this table: {tests.get('error')}", ""]
     rows = [(*((t["env_id"], t["cluster_name"], t["rule"], f"{t['min_option_distance']:.3f}") if k == 0 else [""] * 4),
-             "ABCD"[k], o["theta_index"], "**yes**" if o["is_theta_star"] else "no", CLUSTER_NAMES[o["cluster"]],
+             "ABCD"[k], o["theta_index"], "**yes**" if o["is_theta_star"] else "no", domain.cluster_names[o["cluster"]],
              f"{o['regret']:.3g}") for t in tests for k, o in enumerate(t["options"])]
     n_relaxed = sum(t["rule"] == "relaxed" for t in tests)
     return head + [
@@ -278,8 +282,8 @@ def table_sections(table_dir, teach_dir, out_dir, figures, prefix, h, precision)
     links = {n: Path(os.path.relpath(figures / (prefix + n), out_dir)).as_posix() for n in FIGURES}
     tol = tolerance_study(table, data, index_of, Distances(table))
     return (section_identity(table, data) + section_strategies(table, h) + section_hyper(data, h)
-            + section_sequences(table, data, index_of, h) + section_clusters(data, links, h)
-            + section_matrix(data, links, h) + section_tests(data, h)
+            + section_sequences(table, data, index_of, h) + section_clusters(table.domain, data, links, h)
+            + section_matrix(data, links, h) + section_tests(table.domain, data, h)
             + section_tolerance(tol, list(data["sequences"]["conditions"]),
                                 data["sequences"]["conditions"]["exact"]["env_ids"], precision, h))
 
@@ -290,7 +294,8 @@ def section_paper(args, out_dir, figures) -> list[str]:
            f"there is no table at {args.paper_table}" if not (Path(args.paper_table) / "meta.json").is_file() else
            "no teach outputs (--paper-teach) were given for it" if not args.paper_teach else None)
     if why is not None:
-        return head + [f"The paper-scale table ({N_ENVIRONMENTS:,} environments) has not been rebuilt under the "
+        return head + [f"The paper-scale table ({get_domain('driving').n_environments:,} environments) has not been "
+                       "rebuilt under the "
                        f"current world and planner ({why}), so no paper-scale results are reported here; the "
                        "paper-scale results published before described an older world.", ""]
     try:
@@ -301,10 +306,21 @@ def section_paper(args, out_dir, figures) -> list[str]:
                        "described an older world.", ""]
 
 
+def section_gridworld(args, out_dir, figures) -> list[str]:
+    head = ["## The delivery gridworld", "",
+            "The second domain (docs/domains.md): a delivery robot in a yard, 4 cost features, classes mud, dog, "
+            "cart and other. Its table and teach outputs go through the same core as the car's.", ""]
+    if not (args.gridworld_table and args.gridworld_teach):
+        return head + ["No gridworld table was given to this report (--gridworld-table, --gridworld-teach).", ""]
+    return head + table_sections(args.gridworld_table, args.gridworld_teach, out_dir, figures, "gridworld_", "###",
+                                 GRIDWORLD_PRECISION)
+
+
 def build_report(args) -> str:
     out = Path(args.out)
     figures = Path(args.figures) if args.figures else out.parent / "figures"
-    flags = ("table", "teach", "out", "figures", "planner_precision", "paper_table", "paper_teach")
+    flags = ("table", "teach", "out", "figures", "planner_precision", "paper_table", "paper_teach",
+             "gridworld_table", "gridworld_teach")
     argv = ["scripts/results_report.py"] + [a for f in flags if getattr(args, f)
                                              for a in ("--" + f.replace("_", "-"), getattr(args, f))]
     body = table_sections(args.table, args.teach, out.parent, figures, "", "##", args.planner_precision)
@@ -315,7 +331,8 @@ def build_report(args) -> str:
             f".venv/bin/python -m teaching build --preset {preset} --out {args.table}",
             f".venv/bin/python -m teaching.teach --table {args.table} --out {args.teach}",
             ".venv/bin/python " + shlex.join(argv), "```", ""]
-    return "\n".join(head + body + section_paper(args, out.parent, figures))
+    return "\n".join(head + body + section_paper(args, out.parent, figures)
+                     + section_gridworld(args, out.parent, figures))
 
 
 def parse_args(argv=None):
@@ -327,6 +344,8 @@ def parse_args(argv=None):
     p.add_argument("--planner-precision", help="the planner's measured precision, quoted verbatim")
     p.add_argument("--paper-table")
     p.add_argument("--paper-teach")
+    p.add_argument("--gridworld-table", help="a gridworld table (e.g. its demo preset) for a section of its own")
+    p.add_argument("--gridworld-teach")
     return p.parse_args(argv)
 
 
