@@ -28,6 +28,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 from teaching.core.domain import get_domain, n_clusters  # noqa: E402
+from teaching.core.evaluation import grid_cells  # noqa: E402
 from teaching.core.learners import EXACT_TOLERANCE, Distances, make_model, p_theta_star  # noqa: E402
 from teaching.core.selection import MIN_RISE, greedy, showable  # noqa: E402
 from teaching.core.table import TableError, TrajectoryTable  # noqa: E402
@@ -174,12 +175,11 @@ def section_sequences(table, data, index_of, h) -> list[str]:
 
 def section_clusters(domain, data, fig_links, h) -> list[str]:
     grids = data["examples_per_cluster"]["grids"]
-    of = np.asarray(domain.class_of_cluster)
-    rank = [int((of[:c] == of[c]).sum()) for c in range(len(of))]  # row of cluster c in its class's column
-    rows = [(n, *(int(np.asarray(g)[rank[c], of[c]]) for c in range(len(of)))) for n, g in grids.items()]
+    cells = grid_cells(domain.class_of_cluster)  # each cluster's (row, column) in the grids
+    rows = [(n, *(int(v) for v in np.asarray(g)[cells])) for n, g in grids.items()]
     return [f"{h} Examples per strategy cluster", "",
             "How many of each sequence's examples show θ* in each cluster (repeats counted).", "",
-            *md_table(("sequence", *domain.cluster_names[:len(of)]), rows),
+            *md_table(("sequence", *domain.cluster_names[:n_clusters(domain)]), rows),
             f"![examples shown per cluster]({fig_links['examples_shown.png']})", ""]
 
 

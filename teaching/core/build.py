@@ -147,11 +147,12 @@ def chunk_key(identity: dict, env_ids: np.ndarray) -> str:
 
 
 def table_identity(preset: Preset, thetas: np.ndarray, normalisers: np.ndarray) -> dict:
+    domain = get_domain(preset.domain)
     return {
         "preset": preset.name, "sampler": preset.sampler, "seed": preset.seed,
-        "world": get_domain(preset.domain).fingerprint(), "normalisers": [float(v) for v in normalisers],
+        "world": domain.fingerprint(), "normalisers": [float(v) for v in normalisers],
         "thetas_sha": hashlib.sha256(np.ascontiguousarray(thetas).tobytes()).hexdigest()[:16],
-        "planner": get_domain(preset.domain).planner_identity(),
+        "planner": domain.planner_identity(),
     }
 
 

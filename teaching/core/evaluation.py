@@ -60,18 +60,21 @@ def cluster_counts(clusters: np.ndarray, envs, n_clusters: int) -> np.ndarray:
     return np.bincount(clusters[np.asarray(envs, dtype=np.int64)], minlength=n_clusters)[:n_clusters]
 
 
+def grid_cells(class_of_cluster) -> tuple[np.ndarray, np.ndarray]:
+    """Where each cluster stands in :func:`cluster_grid`'s grid: ((C,) row = its rank within its
+    class, (C,) column = its class)."""
+    cols = np.asarray(class_of_cluster, np.int64)
+    rows = np.array([np.count_nonzero(cols[:c] == cols[c]) for c in range(len(cols))], np.int64)
+    return rows, cols
+
+
 def cluster_grid(counts: np.ndarray, class_of_cluster) -> np.ndarray:
     """(C,) -> (k, n_classes): column = class, row = the class's first, second, ... cluster
     (k = most clusters of one class; a class with fewer leaves zeros): (2, 4) for the paper's four
     classes of two strategies each."""
-    class_of_cluster = np.asarray(class_of_cluster)
-    n_classes = int(class_of_cluster.max()) + 1
-    rows = np.zeros(len(class_of_cluster), np.int64)  # each cluster's rank within its class
-    for c in range(n_classes):
-        members = np.flatnonzero(class_of_cluster == c)
-        rows[members] = np.arange(len(members))
-    grid = np.zeros((int(rows.max()) + 1, n_classes), np.asarray(counts).dtype)
-    grid[rows, class_of_cluster] = counts
+    rows, cols = grid_cells(class_of_cluster)
+    grid = np.zeros((int(rows.max()) + 1, int(cols.max()) + 1), np.asarray(counts).dtype)
+    grid[rows, cols] = counts
     return grid
 
 

@@ -120,7 +120,7 @@ def euclidean_distance(states_a, states_b) -> np.ndarray:
 def _moves(s: np.ndarray) -> np.ndarray:
     """(..., L, 2) positions -> (...) moves made: the last step whose position differs from the end."""
     moving = np.any(s != s[..., -1:, :], axis=-1)  # (..., L): not yet at the end
-    return np.maximum(np.where(moving.any(-1), moving.shape[-1] - np.argmax(moving[..., ::-1], -1), 1), 1)
+    return np.where(moving.any(-1), moving.shape[-1] - np.argmax(moving[..., ::-1], -1), 1)
 
 
 def plan_chunk(env_ids, thetas, normalisers) -> dict:
@@ -137,10 +137,13 @@ def plan_chunk(env_ids, thetas, normalisers) -> dict:
         phi, paths = pareto_paths(get_yard(env_id))
         feats = phi / np.asarray(normalisers, np.float64)  # (P, 4)
         pick = np.argmax(reward(feats[None, :, :], thetas[:, None, :]), axis=1)  # first of equal rewards
+        # everything per front path (P <= 6), then each θ takes its path's
         encoded = np.stack([encode(p) for p in paths])
+        labels = strategy_labels(phi, np.full(len(phi), classes[k]))
+        pos = states(encoded)
+        to_star = euclidean_distance(pos, pos[pick[0]][None])  # (P,) to θ*'s path
         out["controls"][k] = encoded[pick]
         out["features"][k] = feats[pick]
-        out["strategy"][k] = strategy_labels(phi[pick], np.full(N, classes[k]))
-        pos = states(encoded)
-        out["d_euclid"][k] = euclidean_distance(pos[pick], pos[pick[0]][None])
+        out["strategy"][k] = labels[pick]
+        out["d_euclid"][k] = to_star[pick]
     return out

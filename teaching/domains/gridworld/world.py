@@ -37,7 +37,6 @@ FREE, WALL, MUD, DOG, CART = 0, 1, 2, 3, 4
 # moves in tie-break order: of two paths with the same features, the one whose move sequence comes
 # first in this order is kept (docs/domains.md)
 MOVES = ((0, 1), (-1, 0), (1, 0), (0, -1))  # (d_row, d_col): right, up, down, left
-MOVE_NAMES = ("right", "up", "down", "left")
 
 
 def world_fingerprint(grid: Grid = GRID) -> str:
