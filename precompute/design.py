@@ -17,14 +17,15 @@ from studyapp.studies import TEXT_FIELDS
 from teaching.api import (
     APPROX_STAR,
     CONDITIONS,
-    MIN_OPTION_DISTANCE,
     MIN_REGRET,
     MODEL_NAMES,
-    N_ENVIRONMENTS,
     PRESETS,
     SAMPLERS,
     TableError,
     TrajectoryTable,
+    default_domain_name,
+    domain_names,
+    get_domain,
     has_hyperparameter,
     make_model,
 )
@@ -41,7 +42,11 @@ def built_tables(root: Path | None = None) -> list[dict]:
         try:
             meta = json.loads(meta_path.read_text())
             shape = meta["shape"]
-            out.append({"path": str(meta_path.parent), "preset": meta.get("preset", "?"),
+            domain = meta.get("domain") or default_domain_name()  # a table built before domains: the car's
+            if domain not in domain_names():
+                continue  # a table of a domain this installation does not have
+            out.append({"path": str(meta_path.parent), "preset": meta.get("preset", "?"), "domain": domain,
+                        "features": get_domain(domain).feature_names,
                         "envs": int(shape["envs"]), "thetas": int(shape["thetas"]),
                         "theta_star": meta.get("theta_star"), "hash": str(meta.get("content_hash", ""))[:16],
                         "built_at": meta.get("built_at", "")})
@@ -60,13 +65,36 @@ def fixed_field(model: str) -> str:
 
 
 def table_label(t: dict) -> str:
-    star = ", ".join(f"{v:g}" for v in t["theta_star"] or [])
+    """e.g. "demo: 1,200 environments × 200 θ, θ* = (closeness -64, ...), hash ..." (θ*'s feature names
+    are its domain's)."""
+    star = ", ".join(f"{name} {v:g}" for name, v in zip(t["features"], t["theta_star"] or [], strict=False))
     return f"{t['preset']}: {t['envs']:,} environments × {t['thetas']:,} θ, θ* = ({star}), hash {t['hash']}"
+
+
+def table_choices(tables: list[dict]) -> list:
+    """The designer's table list, grouped by domain (the study's domain is its table's)."""
+    groups: dict[str, list] = {}
+    for t in tables:
+        groups.setdefault(t["domain"], []).append((t["path"], table_label(t)))
+    return [(f"{domain} ({len(items)} table{'s' if len(items) > 1 else ''})", items)
+            for domain, items in groups.items()]
+
+
+def preset_choices() -> list:
+    """Every domain's presets, grouped by domain, with θ*'s length and feature names."""
+    out = []
+    for domain in domain_names():
+        d = get_domain(domain)
+        items = [(n, f"{n}: {p.n_envs:,} environments × {p.n_thetas:,} θ") for n, p in PRESETS.items()
+                 if p.domain == domain]
+        out.append((f"{domain}: θ* has {len(d.feature_names)} weights ({', '.join(d.feature_names)})", items))
+    return out
 
 
 class StudyDesignForm(forms.Form):
     table = forms.ChoiceField(help_text="The trajectory table every condition and test is drawn from: one built "
-                                        "below, on the command line, or by a table job.")
+                                        "below, on the command line, or by a table job. Its domain (the robot "
+                                        "participants see) is the study's.")
     slug = forms.SlugField(max_length=50, help_text="The study's URL: /s/SLUG/.")
     name = forms.CharField(max_length=200, required=False, help_text="Title for researchers (default: the slug).")
     conditions = forms.MultipleChoiceField(
@@ -92,13 +120,14 @@ class StudyDesignForm(forms.Form):
                   "condition.")
     min_regret = forms.FloatField(min_value=0, initial=MIN_REGRET, label="Test set: minimum θ*-regret",
                                   help_text="Each wrong option is at least this much worse for θ* (reward units).")
-    min_distance = forms.FloatField(min_value=0, initial=MIN_OPTION_DISTANCE, label="Test set: minimum distance",
-                                    help_text="The four options are at least this far apart (scaled state units; "
-                                              "0.5 is about 6 ft on average).")
+    min_distance = forms.FloatField(min_value=0, required=False, label="Test set: minimum distance (optional)",
+                                    help_text="The four options are at least this far apart (scaled state units); "
+                                              "empty: the table's domain's default (driving 0.5, about 6 ft on "
+                                              "average; gridworld 0.3 cells per move).")
 
     def __init__(self, *args, tables: list[dict], **kwargs):
         super().__init__(*args, **kwargs)
-        self.fields["table"].choices = [(t["path"], table_label(t)) for t in tables]
+        self.fields["table"].choices = table_choices(tables)
         for model, symbol in TUNABLE:
             rule = "largest τ" if symbol == "τ" else "smallest λ"
             self.fields[fixed_field(model)] = forms.CharField(
@@ -176,20 +205,20 @@ class StudyDesignForm(forms.Form):
 
 class TableBuildForm(forms.Form):
     """A table to build on the workers: a preset, optionally changed (its own name then)."""
-    preset = forms.ChoiceField(choices=[(n, f"{n}: {p.n_envs:,} environments × {p.n_thetas:,} θ")
-                                        for n, p in PRESETS.items()], initial="demo",
-                               help_text="The size to start from; the fields below change it (the table then "
-                                         "gets a name of its own).")
-    envs = forms.IntegerField(required=False, min_value=4, max_value=N_ENVIRONMENTS, label="Environments (optional)",
-                              error_messages={"min_value": "A table needs at least 4 environments.",
-                                              "max_value": f"There are only {N_ENVIRONMENTS:,} environments."},
-                              help_text=f"How many driving scenes, 4 to {N_ENVIRONMENTS:,} (empty: the preset's).")
+    preset = forms.ChoiceField(choices=preset_choices, initial="demo",
+                               help_text="The domain and size to start from; the fields below change it (the "
+                                         "table then gets a name of its own).")
+    envs = forms.IntegerField(required=False, min_value=4, label="Environments (optional)",
+                              error_messages={"min_value": "A table needs at least 4 environments."},
+                              help_text="How many environments, 4 to all of the domain's (driving: 21,216 scenes; "
+                                        "gridworld: 17,460 yards); empty: the preset's.")
     thetas = forms.IntegerField(required=False, min_value=2, label="Number of θ (optional)",
                                 error_messages={"min_value": "A table needs at least 2 θ: θ* and one other."},
                                 help_text="How many candidate objectives, θ* included, at least 2 (empty: the "
                                           "preset's).")
     theta_star = forms.CharField(required=False, label="θ* (optional)",
-                                 help_text="5 negative weights, v1,v2,v3,v4,v5 (default: the paper's).")
+                                 help_text="One negative weight per feature of the preset's domain, comma-separated "
+                                           "(see the preset list; default: the domain's θ*).")
     sampler = forms.ChoiceField(required=False, choices=[("", "the preset's")] + [(s, s) for s in SAMPLERS],
                                 help_text="How the other θ are drawn around θ*.")
     seed = forms.IntegerField(required=False, min_value=0, label="Seed (optional)",

@@ -18,7 +18,7 @@ from kombu.exceptions import OperationalError
 from kombu.utils.url import maybe_sanitize_url
 from tqdm import tqdm
 
-from teaching.api import N_ENVIRONMENTS, SAMPLERS, Preset, customised, get_preset
+from teaching.api import SAMPLERS, Preset, customised, get_domain, get_preset
 
 from . import work
 from .canvases import default_queue, study_canvas, table_canvas
@@ -45,8 +45,9 @@ def table_preset(name: str, *, envs=None, thetas=None, seed=None, sampler=None, 
     one).  ValueError with a one-line message for a bad value: the command and the designer's
     table form share these rules."""
     preset = get_preset(name)
-    if envs is not None and not 4 <= envs <= N_ENVIRONMENTS:
-        raise ValueError(f"the number of environments must lie in [4, {N_ENVIRONMENTS}], got {envs}")
+    n_all = get_domain(preset.domain).n_environments  # the preset's domain's, not the car's
+    if envs is not None and not 4 <= envs <= n_all:
+        raise ValueError(f"the number of environments must lie in [4, {n_all:,}] ({preset.domain}), got {envs}")
     if thetas is not None and thetas < 2:
         raise ValueError(f"the number of thetas must be at least 2 (theta* and one other), got {thetas}")
     if sampler is not None and sampler not in SAMPLERS:

@@ -72,7 +72,8 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int =
     if not slug:
         raise StudyJobError("a study needs a slug")
     source = {"kind": "table", "table": str(table_path), "content_hash": table.meta.get("content_hash"),
-              "theta_star": [float(v) for v in table.theta_star], "seed": seed, "approx_star": approx_star,
+              "theta_star": [float(v) for v in table.theta_star], "domain": table.domain.name, "seed": seed,
+              "approx_star": approx_star,
               "hyperparameters": hyperparameters, "hand_picked": hand_picked, "test_set_thresholds": thresholds}
     with transaction.atomic():
         try:  # the study app's own rules for a new study (studyapp/studies.py)

@@ -93,7 +93,8 @@ def design(request):
             job = create_study_job(d["table"], d["slug"], name=d["name"] or None, seed=d["seed"],
                                    approx_star=d["approx_star"], hyperparameters=d["hyperparameters"],
                                    conditions=d["conditions"], hand_picked=hand_picked, open_when_done=False,
-                                   test_set_thresholds={k: d[k] for k in ("min_regret", "min_distance")},
+                                   test_set_thresholds={k: d[k] for k in ("min_regret", "min_distance")
+                                                        if d.get(k) is not None},
                                    target_per_condition=d["target_per_condition"], start=False,
                                    completion_code=d["completion_code"].strip(), recruitment=d["recruitment"],
                                    **{k: d[k] for k in TEXT_FIELDS})

@@ -58,8 +58,9 @@ LONG_COLUMNS = PARTICIPANT_COLUMNS + [
 ]
 N_TESTS_WIDE = 6
 WIDE_COLUMNS = PARTICIPANT_COLUMNS + [
-    ("attention_passed", "1 if exactly the two goals (merge right, drive forward) were chosen."),
-    ("attention_goals", "Goals chosen in the attention check, space separated."),
+    ("attention_passed", "1 if exactly the right answers were ticked (driving: merge right and drive forward; "
+                         "gridworld: deliver)."),
+    ("attention_goals", "Answers ticked in the attention check (its domain's values), space separated."),
     ("age", "Self-reported age in years."),
     ("gender", "Self-reported gender (female, male, non-binary, other, undisclosed)."),
     ("gender_text", "Self-description when gender is 'other'."),

@@ -13,16 +13,8 @@ from django import forms
 from django.core.exceptions import ValidationError
 
 from .models import StepKind
+from .trajectories import study_domain
 
-ATTENTION_CHOICES = [
-    ("merge", "Merge into the right lane"),
-    ("forward", "Drive forward"),
-    ("park", "Park on the shoulder"),
-    ("left", "Turn into the left lane and stop"),
-    ("exit", "Take the next exit"),
-    ("overtake", "Overtake every car it meets"),
-]
-ATTENTION_CORRECT = frozenset({"merge", "forward"})
 GENDER_CHOICES = [
     ("female", "Female"),
     ("male", "Male"),
@@ -106,14 +98,22 @@ class TrainingForm(StepForm):
 
 
 class AttentionForm(StepForm):
-    goals = forms.MultipleChoiceField(choices=ATTENTION_CHOICES, error_messages={
-        "required": "Please tick the goals you saw.",
-        "invalid_choice": "Please tick only goals from the list.",
-        "invalid_list": "Please tick only goals from the list."})
+    """The study's domain asks its question (Domain.texts); the answer is stored as "goals" (the
+    driving study's name for it, kept for every domain so exports read one column)."""
+
+    goals = forms.MultipleChoiceField(choices=[], error_messages={
+        "required": "Please tick your answer.",
+        "invalid_choice": "Please tick only answers from the list.",
+        "invalid_list": "Please tick only answers from the list."})
+
+    def __init__(self, data, participant, step):
+        super().__init__(data, participant, step)
+        self.texts = study_domain(participant.study).texts
+        self.fields["goals"].choices = self.texts.attention_choices
 
     def answer(self) -> dict:
         goals = set(self.cleaned_data["goals"])
-        return {"goals": sorted(goals), "passed": goals == ATTENTION_CORRECT}
+        return {"goals": sorted(goals), "passed": goals == self.texts.attention_correct}
 
 
 class DemographicsForm(StepForm):

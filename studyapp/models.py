@@ -19,15 +19,6 @@ PROLIFIC_COMPLETION_URL = "https://app.prolific.com/submissions/complete?cc={cod
 MTURK_SUBMIT_URL = "https://www.mturk.com/mturk/externalSubmit"
 
 
-DEFAULT_CONSENT = (
-    "This is a research study about how people understand the driving style of an autonomous car. "
-    "You will watch short animations of a yellow car driving on a three-lane road and then answer "
-    "questions about how it would drive in new situations.\n\n"
-    "We record your answers, the time you spend, your age and gender, and the identifier of the "
-    "recruiting platform (if any). The data are stored under a pseudonym and used only for research. "
-    "Taking part is voluntary; you may stop at any time by closing this page.")
-
-
 def new_token() -> str:
     return secrets.token_urlsafe(18)
 
@@ -36,12 +27,15 @@ def new_code() -> str:
     return secrets.token_hex(4).upper()
 
 
-_SPANS: dict[tuple, float] = {}  # Study.scene_span, per study version
+_VIEWS: dict[tuple, dict] = {}  # Study.scene_view, per study version
 
 
 class Study(models.Model):
     slug = models.SlugField(unique=True)
     name = models.CharField(max_length=200)
+    domain = models.CharField(
+        max_length=40, default="driving", editable=False,
+        help_text="The robot and world of its stimuli (a teaching domain): its table's, set when it is built.")
     is_open = models.BooleanField(default=True, help_text="Closed studies accept no new participants.")
     target_per_condition = models.PositiveIntegerField(default=30)
     active_timeout_minutes = models.PositiveIntegerField(
@@ -117,17 +111,22 @@ class Study(models.Model):
         """Where a finished Prolific participant is sent, exactly."""
         return self.prolific_completion_url.format(code=self.completion_code)
 
-    def scene_span(self) -> float:
-        """The along-road span (ft) every canvas of this study is scaled to hold (trajectories.study_span);
+    def scene_view(self) -> dict:
+        """What every canvas of this study shares (trajectories.study_view: driving's one scale);
         computed once per study version: the trajectories are frozen while it has participants."""
         key = (self.pk, self.created_at, len(self.test_set))
-        if key not in _SPANS:
-            from .trajectories import study_span  # noqa: PLC0415  (trajectories imports numpy and teaching)
-            _SPANS[key] = study_span([c.training for c in self.conditions.all()], self.test_set)
-        return _SPANS[key]
+        if key not in _VIEWS:
+            from .trajectories import study_domain, study_view  # noqa: PLC0415  (numpy and teaching)
+            _VIEWS[key] = study_view(study_domain(self), [c.training for c in self.conditions.all()], self.test_set)
+        return _VIEWS[key]
+
+    def default_consent(self) -> str:
+        from .trajectories import study_domain  # noqa: PLC0415  (teaching loads only for a page)
+
+        return study_domain(self).texts.consent
 
     def consent_paragraphs(self) -> list[str]:
-        text = self.consent_text.strip() or DEFAULT_CONSENT
+        text = self.consent_text.strip() or self.default_consent()
         return [p.strip() for p in text.split("\n\n") if p.strip()]
 
 

@@ -13,33 +13,36 @@ from django.shortcuts import get_object_or_404, render
 
 from .access import researcher_required
 from .models import Study
-from .trajectories import drawn_scene
+from .scenes import scene_context
+from .trajectories import drawn_scene, study_domain
 
 LETTERS = "ABCDEFGH"  # canonical option order (a participant sees them in an order drawn for them)
 
 
-def row_of_example(payload: dict, number: int) -> dict:
-    return {"number": number, "env_id": payload.get("env_id"), "goal_name": payload.get("goal_name", ""),
+def row_of_example(payload: dict, number: int, domain) -> dict:
+    return {"number": number, "env_id": payload.get("env_id"), "caption": domain.caption(payload),
             "class_name": payload.get("class_name", ""), "cluster_name": payload.get("cluster_name", ""),
-            "scene": drawn_scene(payload, robot=True)}
+            "scene": drawn_scene(payload, robot=True, domain=domain)}
 
 
-def row_of_test(test: dict, number: int) -> dict:
+def row_of_test(test: dict, number: int, domain) -> dict:
     options = [{"letter": LETTERS[k], "theta_index": o.get("theta_index"),
                 "is_theta_star": bool(o.get("is_theta_star")), "cluster_name": o.get("cluster_name", ""),
                 "robot": o["robot"]}
                for k, o in enumerate(test["options"])]
-    return {"number": number, "env_id": test.get("env_id"), "goal_name": test.get("goal_name", ""),
-            "class_name": test.get("class_name", ""), "scene": drawn_scene(test, robot=False), "options": options}
+    return {"number": number, "env_id": test.get("env_id"), "caption": domain.caption(test),
+            "class_name": test.get("class_name", ""), "scene": drawn_scene(test, robot=False, domain=domain),
+            "options": options}
 
 
 def sheet(study: Study) -> dict:
     """The page's data: per condition its examples in order, and the test set."""
+    domain = study_domain(study)
     conditions = [{"id": f"training-{c.pk}", "name": c.name,
-                   "examples": [row_of_example(p, i + 1) for i, p in enumerate(c.training)]}
+                   "examples": [row_of_example(p, i + 1, domain) for i, p in enumerate(c.training)]}
                   for c in study.conditions.order_by("position", "pk")]
-    tests = [row_of_test(t, j + 1) for j, t in enumerate(study.test_set)]
-    return {"conditions": conditions, "tests": tests, "study_span": study.scene_span(),
+    tests = [row_of_test(t, j + 1, domain) for j, t in enumerate(study.test_set)]
+    return {"conditions": conditions, "tests": tests, **scene_context(study),
             "n_examples": sum(len(c["examples"]) for c in conditions),
             "n_options": sum(len(t["options"]) for t in tests)}
 

@@ -38,7 +38,15 @@ from django.core.exceptions import ValidationError
 from django.core.validators import validate_slug
 from django.db import transaction
 
-from teaching.api import CONDITIONS, TableError, TrajectoryTable, build_sequences, select_test_set
+from teaching.api import (
+    CONDITIONS,
+    TableError,
+    TrajectoryTable,
+    build_sequences,
+    default_domain_name,
+    domain_names,
+    select_test_set,
+)
 
 from . import trajectories
 from .analysis.conditions import ConditionError, check_distinct_conditions
@@ -108,10 +116,10 @@ def check_spec_shape(spec) -> None:
                             and isinstance(o.get("is_theta_star"), bool) for o in t["options"])):
                 raise SpecError(f"test {j} must be an object with an 'env_id' and 'options' "
                                 "[{'theta_index': int, 'is_theta_star': bool}, ...]")
-    star = spec.get("theta_star")
-    if star is not None and not (isinstance(star, list) and len(star) == 5
+    star = spec.get("theta_star")  # its length is the table's domain's (checked with the table: _load_table)
+    if star is not None and not (isinstance(star, list) and star
                                  and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in star)):
-        raise SpecError(f"'theta_star' must be a list of 5 numbers, not {star!r}")
+        raise SpecError(f"'theta_star' must be a list of numbers, one per feature, not {star!r}")
     for key in ("target_per_condition", "estimated_minutes"):
         if key in spec and not (_is_int(spec[key]) and spec[key] > 0):
             raise SpecError(f"'{key}' must be a positive whole number, not {spec[key]!r}")
@@ -180,6 +188,12 @@ def _load_table(spec: dict):
     except (TableError, OSError, ValueError) as exc:
         raise SpecError(f"cannot use the table at {spec['table']}: {exc}") from None
     star = spec.get("theta_star")
+    if star is not None:
+        try:
+            table.domain.parse_theta_star(star)
+        except ValueError as exc:
+            raise SpecError(f"'theta_star' for the {table.domain.name} table at {spec['table']} "
+                            f"({', '.join(table.domain.feature_names)}): {exc}") from None
     if star is not None and not np.array_equal(np.asarray(table.theta_star, float), np.asarray(star, float)):
         raise SpecError(f"the table at {spec['table']} was built for theta* = {[float(v) for v in table.theta_star]}, "
                         f"not the study's theta* = {[float(v) for v in star]}")
@@ -209,7 +223,7 @@ def _payloads(spec: dict):
     except (ValueError, IndexError) as exc:
         raise SpecError(str(exc)) from None
     source = {"kind": "table", "table": str(spec["table"]), "content_hash": table.meta.get("content_hash"),
-              "theta_star": [float(v) for v in table.theta_star]}
+              "theta_star": [float(v) for v in table.theta_star], "domain": table.domain.name}
     if isinstance(spec.get("pilot"), dict):  # a teach output's ideal-user matrix (spec_from_teach)
         source["pilot"] = {**spec["pilot"], "prior": 1.0 / table.n_thetas}
     return conditions, training, tests, source
@@ -239,10 +253,19 @@ def new_study(*, slug: str, conditions: list[str], source: dict, name: str | Non
         if existing:
             existing.delete()
         study = Study.objects.create(slug=slug, name=name or slug, source=source, is_open=False, test_set=[],
-                                     **fields)
+                                     domain=source_domain(source), **fields)
         for i, c in enumerate(conditions):
             Condition.objects.create(study=study, name=c, position=i, training=[])
     return study
+
+
+def source_domain(source: dict) -> str:
+    """The domain a study's stimuli come from: its table's (source["domain"]; a source recorded
+    before domains is the driving table's)."""
+    name = source.get("domain") or default_domain_name()
+    if name not in domain_names():
+        raise SpecError(f"unknown domain {name!r}: this installation knows {', '.join(domain_names())}")
+    return name
 
 
 def _refuse_if_started(study: Study) -> None:

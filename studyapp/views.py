@@ -15,7 +15,8 @@ from django.views.decorators.http import require_GET, require_POST
 from . import flow, forms, security
 from .assignment import StudyClosed, assign
 from .models import Participant, StepKind, Study
-from .trajectories import drawn_scene
+from .scenes import instructions, scene_context
+from .trajectories import drawn_scene, study_domain
 
 MTURK_PREVIEW = "ASSIGNMENT_ID_NOT_AVAILABLE"
 MTURK_HOSTS = {"www.mturk.com", "workersandbox.mturk.com"}
@@ -101,7 +102,8 @@ def _platform_ids(request):
 def entry(request, slug):
     study = get_object_or_404(Study, slug=slug)
     if request.GET.get("assignmentId") == MTURK_PREVIEW:
-        return render(request, "studyapp/mturk_preview.html", {"study": study})
+        return render(request, "studyapp/mturk_preview.html",
+                      {"study": study, "summary": study_domain(study).texts.summary})
     try:
         platform, pid, ids = _platform_ids(request)
     except ValueError as exc:
@@ -154,25 +156,29 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
     }
     # The page gets what it draws and nothing else (drawn_scene): no theta, cluster or option
     # index, and no reference trajectory, so its source cannot tell theta*'s option apart.
-    if current.kind in (StepKind.TRAINING, StepKind.TEST):
-        ctx["study_span"] = participant.study.scene_span()  # one px/ft for every canvas of the study
-    if current.kind == StepKind.TRAINING:
+    domain = study_domain(participant.study)
+    if current.kind in (StepKind.INSTRUCTIONS, StepKind.TRAINING, StepKind.TEST):
+        ctx.update(scene_context(participant.study))  # the domain's scene module, palette, legend, texts
+    if current.kind == StepKind.INSTRUCTIONS:
+        ctx["instructions"] = instructions(participant.study, ctx["total_training"], ctx["total_tests"])
+    elif current.kind == StepKind.TRAINING:
         payload = participant.condition.training[current.item]
-        ctx["goal_name"] = payload["goal_name"]
-        ctx["env"] = drawn_scene(payload, robot=True)
+        ctx["caption"] = domain.caption(payload)
+        ctx["env"] = drawn_scene(payload, robot=True, domain=domain)
         ctx["number"] = current.item + 1
         ctx["seen_before"] = repeated_example(participant.condition.training, current.item)
     elif current.kind == StepKind.TEST:
         test = participant.study.test_set[current.item]
         shown = flow.option_letters(participant, current.item)
         ctx["number"] = current.item + 1
-        ctx["goal_name"] = test["goal_name"]
-        ctx["scene"] = drawn_scene(test, robot=False)
+        ctx["caption"] = domain.caption(test)
+        ctx["scene"] = drawn_scene(test, robot=False, domain=domain)
         ctx["options"] = [letter for letter, _ in shown]
         ctx["option_robots"] = {letter: test["options"][k]["robot"] for letter, k in shown}
         ctx["ratings"] = range(forms.RATING_MIN, forms.RATING_MAX + 1)
     elif current.kind == StepKind.ATTENTION:
-        ctx["choices"] = forms.ATTENTION_CHOICES
+        ctx["question"] = domain.texts.attention_question
+        ctx["choices"] = domain.texts.attention_choices
     elif current.kind == StepKind.DEMOGRAPHICS:
         ctx["genders"] = forms.GENDER_CHOICES
         ctx["age_min"], ctx["age_max"] = forms.AGE_MIN, forms.AGE_MAX

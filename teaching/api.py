@@ -30,8 +30,10 @@ Strategies (what a trajectory does; the paper's coverage clusters)
 
 Domains (teaching.core.domain)
     Domain                   the interface a robot implements (names, classes, clusters, features,
-                             planning); get_domain(name=None) the registered one (None: default),
-                             domain_names() every registered name
+                             planning, and the study's pages: scene payloads, palette, texts);
+                             get_domain(name=None) the registered one (None: default),
+                             domain_names() every registered name, default_domain_name()
+    ParticipantTexts, LegendEntry  what a domain's pages tell participants
 
 Tables (teaching.core.table: a directory of .npy arrays plus meta.json with its content hash)
     TrajectoryTable          .load(path, verify=True, expected_hash=None); thetas (N, D),
@@ -93,7 +95,7 @@ from .core.build import (
                     table_identity,
 )
 from .core.candidates import SAMPLERS
-from .core.domain import Domain, domain_names, get_domain
+from .core.domain import Domain, LegendEntry, ParticipantTexts, default_domain_name, domain_names, get_domain
 from .core.evaluation import USER_NAMES, study_matrix
 from .core.learners import MODEL_NAMES, has_hyperparameter, make_model, parse_hyperparameters
 from .core.selection import APPROX_STAR, CONDITIONS, SelectionSettings, build_sequences, condition_sequence
@@ -116,7 +118,7 @@ MIN_OPTION_DISTANCE = _DRIVING.min_option_distance  # the car's; a table's own: 
 
 __all__ = [
     "APPROX_STAR", "CLASS_NAMES", "CLUSTER_NAMES", "CONDITIONS", "GOAL_NAMES", "MIN_OPTION_DISTANCE", "MIN_REGRET",
-    "Domain", "domain_names", "get_domain",
+    "Domain", "LegendEntry", "ParticipantTexts", "default_domain_name", "domain_names", "get_domain",
     "MODEL_NAMES", "N_CLUSTERS", "USER_NAMES",
     "N_ENVIRONMENTS", "PRESETS", "SAMPLERS", "WORLD", "Preset", "SelectionSettings", "TableError",
     "TrajectoryTable", "assemble", "build_chunk", "build_sequences", "check_writable", "chunk_key", "chunk_path",

@@ -97,8 +97,10 @@ def answer_payload(participant, step):
         body = {"choice": [star], "played": [letter for letter, _ in shown]}
         body.update({f"rating_{letter}": ["6" if letter == star else "2"] for letter, _ in shown})
         return body
-    if step.kind == StepKind.ATTENTION:
-        return {"goals": ["merge", "forward"]}
+    if step.kind == StepKind.ATTENTION:  # exactly the study's domain's right answers
+        from teaching.api import get_domain  # noqa: PLC0415
+
+        return {"goals": sorted(get_domain(participant.study.domain).texts.attention_correct)}
     if step.kind == StepKind.DEMOGRAPHICS:
         return {"age": ["34"], "gender": ["female"]}
     raise ValueError(step.kind)
@@ -162,6 +164,22 @@ def demo_table(tmp_path_factory):
     """The `demo` preset built for real (1,200 environments × 200 θ, ~30 s), once per run."""
     out = tmp_path_factory.mktemp("demo-table")
     build_table(PRESETS["demo"], out)
+    return out
+
+
+@pytest.fixture(scope="session")
+def gridworld_table(tmp_path_factory):
+    """The `gridworld` preset (1,200 yards x 200 θ, a few seconds), once per run."""
+    out = tmp_path_factory.mktemp("gridworld-table")
+    build_table(PRESETS["gridworld"], out)
+    return out
+
+
+@pytest.fixture(scope="session")
+def gridworld_teach(gridworld_table, tmp_path_factory):
+    """`python -m teaching.teach` on the gridworld table."""
+    out = tmp_path_factory.mktemp("gridworld-teach")
+    assert teach.main(["--table", str(gridworld_table), "--out", str(out), "--no-progress"]) == 0
     return out
 
 

@@ -1,6 +1,8 @@
 // Test step: four animated options in a grid (each playable, or all together), one choice and a
 // 1-7 rating for each; continue only once each option was played and all are rated.
-import { lockOnSubmit, mountScene, readJSON, stepMemory } from "./scene.js";
+import { lockOnSubmit, mountScene, readJSON, sceneClass, stepMemory } from "./player.js";
+
+const Scene = await sceneClass();
 
 const scene = readJSON("scene-data");
 const robots = readJSON("option-robots");
@@ -44,7 +46,7 @@ function remember() {
 
 const players = options.map((section) => {
   const root = section.querySelector(".scene");
-  return mountScene(root, scene, robots[root.dataset.robot], () => {
+  return mountScene(Scene, root, scene, robots[root.dataset.robot], () => {
     markPlayed(section);
     remember();
     update();

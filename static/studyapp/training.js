@@ -1,5 +1,7 @@
 // Training step: one animated example; "continue" unlocks once it was played to the end.
-import { lockOnSubmit, mountScene, readJSON, stepMemory } from "./scene.js";
+import { lockOnSubmit, mountScene, readJSON, sceneClass, stepMemory } from "./player.js";
+
+const Scene = await sceneClass();
 
 const root = document.querySelector(".scene[data-scene]");
 const env = readJSON(root.dataset.scene);
@@ -14,7 +16,7 @@ function unlock() {
   hint.textContent = "You can replay the example or continue.";
 }
 
-const player = mountScene(root, env, env.robot, () => {
+const player = mountScene(Scene, root, env, env.robot, () => {
   memory.save({ played: true });
   unlock();
 });

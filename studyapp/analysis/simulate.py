@@ -14,6 +14,7 @@ from django.http import QueryDict
 
 from .. import assignment, flow, studies
 from ..models import StepKind
+from ..trajectories import study_domain
 
 EFFECT = {"coverage-approx*": 0.95, "det-euclid": 0.95, "det-euclidean": 0.95}
 BASE = 0.35
@@ -58,7 +59,10 @@ def run_participant(study, rng, attentive: bool = True, effect: dict | None = No
             ratings[f"rating_{letter[choice]}"] = int(rng.integers(5, 8))
             data = post(choice=letter[choice], played=list(letter.values()), **ratings)
         elif step.kind == StepKind.ATTENTION:
-            data = post(goals=["merge", "forward"] if attentive else ["park", "merge"])
+            texts = study_domain(study).texts  # right: exactly the correct answers; wrong: one more ticked
+            right = sorted(texts.attention_correct)
+            wrong = right + [next(v for v, _ in texts.attention_choices if v not in texts.attention_correct)]
+            data = post(goals=right if attentive else wrong)
         elif step.kind == StepKind.DEMOGRAPHICS:
             data = post(age=int(rng.integers(20, 60)), gender="female")
         else:

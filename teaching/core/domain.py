@@ -27,11 +27,43 @@ the domain rebuilds its states, plus φ, the cluster and the distance to θ*'s t
 """
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol, runtime_checkable
 
 import numpy as np
+
+
+@dataclass(frozen=True)
+class LegendEntry:
+    """One swatch of a page's legend: its label and the palette colours of its fill, edge and
+    (optionally) hatch, so the swatch looks like what the canvas draws."""
+
+    label: str
+    fill: str
+    edge: str
+    hatch: str = ""
+
+
+@dataclass(frozen=True)
+class ParticipantTexts:
+    """What a study's pages tell participants about this robot (plain text, no markup).
+
+    instructions: paragraphs; ``{n_training}``, ``{n_tests}``, ``{training_plural}`` and
+    ``{tests_plural}`` are filled in per participant.  The attention check asks one question with
+    checkboxes; it is passed when exactly ``attention_correct`` is ticked.  consent: the default
+    consent text (paragraphs separated by blank lines) a study without its own approved text shows."""
+
+    summary: str  # one sentence for a recruiting platform's preview: "you watch ... and answer ..."
+    consent: str
+    instructions: tuple[str, ...]
+    attention_question: str
+    attention_choices: tuple[tuple[str, str], ...]  # (value stored, label shown)
+    attention_correct: frozenset[str]
+    watch: str  # under a training example: what to watch
+    question: str  # a test's question: which option matches the robot
+    legend: tuple[LegendEntry, ...]
 
 
 @runtime_checkable
@@ -52,6 +84,10 @@ class Domain(Protocol):
     trajectory_dtype: np.dtype
     code_root: Path  # the package whose source decides a table's bytes (with teaching/core)
     presets: tuple  # its teaching.core.build.Preset objects (names unique across domains)
+    # --- the study's pages (docs/domains.md "The web side") ---
+    texts: ParticipantTexts
+    palette: Mapping[str, str]  # colour name -> CSS colour: the page's --scene-<name>, the canvas, the sheet
+    page_keys: tuple[str, ...]  # what a participant's page may carry of a stored scene payload
 
     def fingerprint(self) -> str:
         """16 hex digits over the world's constants: a table built under others is refused."""
@@ -93,6 +129,29 @@ class Domain(Protocol):
                      columns: int, dpi: int) -> int:
         """Draw the contact sheet (teaching.core.sheet: rows, layout) of these examples and tests to
         the PNG `out`; returns the panels drawn."""
+        ...
+
+    def scene_payload(self, env_id: int) -> dict:
+        """JSON of environment `env_id` that static/studyapp/scenes/<name>.js draws (with page_keys
+        among its keys; other keys are for researchers only and never reach a participant's page)."""
+        ...
+
+    def path_rows(self, states: np.ndarray) -> list:
+        """One trajectory's states (T+1, S) -> the JSON rows the scene animates, every payload's dt s."""
+        ...
+
+    def page_scene(self, payload: dict) -> dict:
+        """The page_keys of a stored payload: what a participant's page may carry of it."""
+        ...
+
+    def caption(self, payload: dict) -> tuple[str, str] | None:
+        """(label, value) a page shows above this environment's canvas, e.g. what the robot is asked
+        to do there; None: nothing beyond texts.watch."""
+        ...
+
+    def study_view(self, scenes: list[tuple[dict, list]]) -> dict:
+        """Values every canvas of one study shares, from all its (page scene, path rows): a common
+        scale, say, so the same motion looks the same in training and at test; {} if none."""
         ...
 
     def euclidean_distance(self, states_a: np.ndarray, states_b: np.ndarray) -> np.ndarray:

@@ -2,7 +2,7 @@
 example and test option of two built studies (the demo study and one on the tiny table):
 
 * no two labels or marks of a canvas overlap, at any row time, on a test option's canvas and on a
-  training canvas (scene.js keeps every box it drew on the scene: scene.boxes);
+  training canvas (scenes/driving.js keeps every box it drew on the scene: scene.boxes);
 * training and test are drawn at one scale: the px per ft measured from where the two cars land
   on the canvas (their screen gap over their gap in ft) differs by at most 15 % across every canvas
   of a study;
@@ -20,7 +20,8 @@ from PIL import Image
 from playwright.sync_api import sync_playwright
 
 from studyapp.assignment import assign
-from studyapp.trajectories import study_span
+from studyapp.scenes import palette_css
+from teaching.domains.driving.domain import DOMAIN as DRIVING
 from tests.browser.test_scenes import stimuli_of
 from tests.conftest import complete_flow
 
@@ -33,7 +34,7 @@ pytestmark = [pytest.mark.browser, pytest.mark.slow]
 # Every stimulus on every width: each row time's label boxes, and the px/ft measured from the cars'
 # screen positions (lastFrame) against their positions in ft, wherever they are far enough apart.
 COLLECT = """async ({stimuli, widths, span}) => {
-  const { Scene } = await import("/static/studyapp/scene.js");
+  const { Scene } = await import("/static/studyapp/scenes/driving.js");
   const out = [];
   for (const width of widths) {
     const canvas = document.createElement("canvas");
@@ -65,7 +66,7 @@ def overlap(a, b) -> bool:
 
 def test_labels_never_overlap_and_one_scale_per_study(studies, live_server):
     inputs = {study.slug: {"stimuli": stimuli_of(study), "widths": WIDTHS,
-                           "span": study_span([c.training for c in study.conditions.all()], study.test_set)}
+                           "span": study.scene_view()["study_span"]}
               for study in studies}
     first = studies[0].slug
     with sync_playwright() as pw:
@@ -74,6 +75,7 @@ def test_labels_never_overlap_and_one_scale_per_study(studies, live_server):
         errors = []
         page.on("pageerror", lambda exc: errors.append(str(exc)))
         page.goto(f"{live_server.url}/s/{first}/")  # a participant page: the study's CSS
+        page.add_style_tag(content=palette_css(DRIVING))  # the domain's palette (studyapp/scenes.py)
         drawn = {slug: page.evaluate(COLLECT, args) for slug, args in inputs.items()}
         browser.close()
     assert not errors, errors

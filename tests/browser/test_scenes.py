@@ -1,7 +1,7 @@
 """The animation's camera shows the interaction (issue 11): for every training example and every
 test option of the demo study, and of a study on a real table, the frame drawn at the cars'
 closest approach, and every frame while the other car is within the interaction range, has both
-cars inside the canvas.  The real static/studyapp/scene.js draws them in Debian's Chromium, on
+cars inside the canvas.  The real static/studyapp/scenes/driving.js draws them in Debian's Chromium, on
 canvases of the widths participants get (a phone's test grid, a laptop's training page).  And it
 draws the road, the lanes and the cars with the sizes the scene data carry, not sizes of its own."""
 from __future__ import annotations
@@ -12,18 +12,21 @@ from pathlib import Path
 import pytest
 from playwright.sync_api import sync_playwright
 
-from studyapp.trajectories import drawn_scene, scene_sizes
+from studyapp.scenes import palette_css
+from studyapp.trajectories import drawn_scene
+from teaching.domains.driving.domain import DOMAIN as DRIVING
+from teaching.domains.driving.page import scene_sizes
 
 CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 OUT = Path(__file__).resolve().parents[2] / "test-output"
-INTERACTION_FT = 150  # scene.js
+INTERACTION_FT = 150  # scenes/driving.js
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
 # For every stimulus and canvas width: draw the frame at each row time and at the closest approach,
 # and report where the cars landed (scene.lastFrame) against the canvas.
 CHECK = """async ({stimuli, widths}) => {
-  const { Scene } = await import("/static/studyapp/scene.js");
+  const { Scene } = await import("/static/studyapp/scenes/driving.js");
   const out = [];
   for (const width of widths) {
     const canvas = document.createElement("canvas");
@@ -47,7 +50,7 @@ CHECK = """async ({stimuli, widths}) => {
 
 
 GRID = """async (stimuli) => {
-  const { Scene } = await import("/static/studyapp/scene.js");
+  const { Scene } = await import("/static/studyapp/scenes/driving.js");
   const grid = document.createElement("div");
   grid.id = "closest-grid";
   grid.style.cssText = "display: grid; grid-template-columns: repeat(4, 220px); gap: 8px; padding: 8px";
@@ -73,11 +76,11 @@ def stimuli_of(study) -> list[dict]:
     for c in study.conditions.all():
         for i, env in enumerate(c.training):
             out.append({"name": f"{c.name} example {i + 1} (env {env['env_id']})",
-                        "env": drawn_scene(env, robot=False), "robot": env["robot"]})
+                        "env": drawn_scene(env, robot=False, domain=DRIVING), "robot": env["robot"]})
     for j, test in enumerate(study.test_set):
         for k, option in enumerate(test["options"]):
             out.append({"name": f"test {j + 1} option {k} (env {test['env_id']})",
-                        "env": drawn_scene(test, robot=False), "robot": option["robot"]})
+                        "env": drawn_scene(test, robot=False, domain=DRIVING), "robot": option["robot"]})
     return out
 
 
@@ -91,6 +94,7 @@ def test_both_cars_are_on_the_canvas_whenever_they_interact(studies, live_server
         errors = []
         page.on("pageerror", lambda exc: errors.append(str(exc)))
         page.goto(f"{live_server.url}/s/{studies[0].slug}/")  # a participant page: the study's CSS colours
+        page.add_style_tag(content=palette_css(DRIVING))  # the domain's palette (studyapp/scenes.py)
         frames = page.evaluate(CHECK, {"stimuli": stimuli, "widths": [160, 220, 320]})
         # what participants see at the closest approach, to look at: the real study's test options
         page.evaluate(GRID, real_tests)
@@ -113,7 +117,7 @@ SIZES = """async ({env, robot}) => {
   for (const [name, value] of Object.entries(palette)) {
     document.documentElement.style.setProperty(`--scene-${name}`, value);
   }
-  const { Scene } = await import("/static/studyapp/scene.js");
+  const { Scene } = await import("/static/studyapp/scenes/driving.js");
   const canvas = document.createElement("canvas");
   canvas.style.width = "300px";
   document.body.replaceChildren(canvas);
@@ -152,7 +156,7 @@ def at(got: int, origin: float, ft: float, scale: float) -> bool:
 
 
 def test_the_drawing_follows_the_payloads_sizes(live_server):
-    """scene.js draws the road, the lanes and the cars with the sizes the scene data carry
+    """scenes/driving.js draws the road, the lanes and the cars with the sizes the scene data carry
     (drawn_scene's "world"), not sizes of its own: with wider lanes, a wider road and a bigger car
     in the payload the road, the merge goal lane and the robot's car are drawn that wide."""
     rows = 21
@@ -169,9 +173,10 @@ def test_the_drawing_follows_the_payloads_sizes(live_server):
         errors = []
         page.on("pageerror", lambda exc: errors.append(str(exc)))
         page.goto(f"{live_server.url}/static/studyapp/study.css")  # same origin as scene.js, no page colours
+        page.add_style_tag(content=palette_css(DRIVING))  # the domain's palette (studyapp/scenes.py)
         drawn = {}
         for name, world in (("today", today), ("wide", wide)):
-            env = drawn_scene({**payload, "world": world}, robot=False)
+            env = drawn_scene({**payload, "world": world}, robot=False, domain=DRIVING)
             drawn[name] = page.evaluate(SIZES, {"env": env, "robot": robot})
         browser.close()
     assert not errors, errors

@@ -32,7 +32,8 @@ def test_design_build_on_a_worker_then_preview(inprocess_worker, transactional_d
     meta = json.loads((tables / "meta.json").read_text())
     page = staff_client.get("/precompute/design/").content.decode()
     assert "1,200 environments × 200 θ" in page and meta["content_hash"][:16] in page
-    assert "θ* = (-64, -0.1, -1, -0.1, -0.5)" in page
+    assert "θ* = (closeness -64, acceleration -0.1, speed_deviation -1, turning -0.1, goal_distance -0.5)" in page
+    assert 'optgroup label="driving (' in page  # tables are listed under their domain
 
     r = staff_client.post("/precompute/design/", dict(FORM, table=str(tables)))
     job = Job.objects.get(kind=Job.STUDY)
@@ -154,14 +155,17 @@ def test_build_a_table_from_the_designer_with_progress(inprocess_worker, transac
     job = jobs.wait(job, progress=False, timeout=180)
     assert job.status == Job.SUCCEEDED, job.error
     page = staff_client.get("/precompute/design/").content.decode()
-    assert "48 environments × 24 θ" in page and "θ* = (-32, -0.2, -1, -0.1, -0.5)" in page
+    assert "48 environments × 24 θ" in page
+    assert "θ* = (closeness -32, acceleration -0.2, speed_deviation -1, turning -0.1, goal_distance -0.5)" in page
     assert TrajectoryTable.load(job.params["out"]).meta["theta_star"] == [-32, -0.2, -1, -0.1, -0.5]
 
 
 @pytest.mark.parametrize("data, message", [
     ({"preset": "huge"}, "Select a valid choice"),
     ({"preset": "tiny", "envs": "2"}, "A table needs at least 4 environments."),
-    ({"preset": "tiny", "envs": "99999"}, "There are only 21,216 environments."),
+    ({"preset": "tiny", "envs": "99999"}, "must lie in [4, 21,216] (driving), got 99999"),
+    ({"preset": "gridworld-tiny", "envs": "20000"}, "must lie in [4, 17,460] (gridworld), got 20000"),
+    ({"preset": "gridworld-tiny", "theta_star": "-1,-1,-1,-1,-1"}, "θ* needs one weight per feature (4), got 5"),
     ({"preset": "tiny", "thetas": "1"}, "A table needs at least 2 θ: θ* and one other."),
     ({"preset": "tiny", "theta_star": "-1,-1"}, "θ* needs one weight per feature (5), got 2"),
     ({"preset": "tiny", "theta_star": "-1,-1,-1,-1,1"}, "must be a negative number"),
@@ -211,3 +215,20 @@ def test_every_designer_field_has_help_and_each_model_its_own_tau_or_lambda(db, 
     assert re.search(r"Seeds the θ and environment samples", page)
     assert StudyDesignForm(tables=[]).fields[fixed_field("prob-euclidean")].label == \
         "prob-euclidean: fixed λ (optional)"
+
+
+def test_the_designer_lists_tables_by_domain_with_thetas_feature_names(db, settings, tables, gridworld_table,
+                                                                       staff_client):
+    """A driving and a gridworld table side by side: each under its domain, θ* named by its features;
+    the table form offers both domains' presets, each saying how many weights its θ* has."""
+    import shutil  # noqa: PLC0415
+
+    root = tables.parent
+    if not (root / "yard").exists():
+        shutil.copytree(gridworld_table, root / "yard")
+    page = staff_client.get("/precompute/design/").content.decode()
+    assert 'optgroup label="driving (' in page and 'optgroup label="gridworld (' in page
+    assert "θ* = (carry_moves -1, cart_moves -0.3, mud -2.5, near_dog -1.2)" in page
+    assert "gridworld: θ* has 4 weights (carry_moves, cart_moves, mud, near_dog)" in html.unescape(page)
+    form = StudyDesignForm(dict(FORM, table=str(root / "yard")), tables=[])
+    assert not form.is_valid() and "table" in form.errors  # only listed tables can be chosen

@@ -172,7 +172,9 @@ def test_command_waits_with_a_progress_bar(inprocess_worker, transactional_db, t
 
 @pytest.mark.parametrize("argv, message", [
     (["--preset", "huge"], "unknown preset 'huge'; choose one of tiny, demo, paper"),
-    (["--preset", "tiny", "--envs", "2"], "the number of environments must lie in [4, 21216]"),
+    (["--preset", "tiny", "--envs", "2"], "the number of environments must lie in [4, 21,216] (driving)"),
+    (["--preset", "gridworld-tiny", "--envs", "20000"],
+     "the number of environments must lie in [4, 17,460] (gridworld)"),
     (["--preset", "tiny", "--thetas", "1"], "the number of thetas must be at least 2"),
     (["--preset", "tiny", "--chunk-size", "0"], "--chunk-size must be positive"),
     (["--preset", "tiny", "--chunk-size", "x"], "--chunk-size must be a whole number"),

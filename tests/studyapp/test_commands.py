@@ -182,7 +182,8 @@ def test_setup_demo_uses_the_table_when_the_pipeline_works(tmp_path, monkeypatch
     call_command("setup_demo", "--table", str(tmp_path / "table"), stdout=out)
     s = Study.objects.get(slug="demo")
     assert s.source == {"kind": "table", "table": str(tmp_path / "table"), "content_hash": table.meta["content_hash"],
-                        "theta_star": [float(v) for v in table.thetas[0]]}
+                        "theta_star": [float(v) for v in table.thetas[0]], "domain": "driving"}
+    assert s.domain == "driving"
     assert calls == {"sequences": (table.meta["content_hash"], 0), "tests": [ids[:2], ids[2:5]]}
     assert {c.name: c.env_ids for c in s.conditions.all()} == {"exact": ids[:2], "det-euclidean": ids[2:5]}
     assert [o["is_theta_star"] for o in s.test_set[0]["options"]] == [False, True, False, False]
@@ -233,7 +234,7 @@ def test_create_study_from_the_teach_output(demo_table, demo_teach, staff_client
     s = Study.objects.get(slug="pilot")
     pilot = s.source.pop("pilot")
     assert s.source == {"kind": "table", "table": str(demo_table), "content_hash": sequences["table"]["content_hash"],
-                        "theta_star": [-64.0, -0.1, -1.0, -0.1, -0.5]}
+                        "theta_star": [-64.0, -0.1, -1.0, -0.1, -0.5], "domain": "driving"}
     # the simulated pilot: matrix.json's rows of the study's conditions, shown on its dashboard page
     matrix = json.loads((demo_teach / "matrix.json").read_text())
     rows = dict(zip(matrix["extended_sequence_names"], matrix["extended_matrix"], strict=True))

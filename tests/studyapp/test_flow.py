@@ -59,7 +59,7 @@ def test_training_page_carries_the_trajectory(client, participant, answer_for):
     env = participant.condition.training[0]
     # what the page draws, and nothing else: no environment id, class or strategy cluster
     assert r.context["env"] == {k: env[k] for k in ("goal", "dt", "other", "robot", "world")}
-    assert r.context["goal_name"] == env["goal_name"]
+    assert r.context["caption"] == ("Goal in this situation", env["goal_name"])
     for leak in (b"cluster", b"env_id", b"class_name", b"theta"):
         assert leak not in r.content
     assert b'id="env-data"' in r.content and b"training.js" in r.content
@@ -194,8 +194,8 @@ def test_bad_test_answers_are_400_and_write_nothing(client, participant, answer_
     (StepKind.INSTRUCTIONS, {}, b"Please confirm that you have read the instructions."),
     (StepKind.TRAINING, {"played": "0"}, b"Please watch the whole animation before you continue."),
     (StepKind.TRAINING, {}, b"Please watch the whole animation before you continue."),
-    (StepKind.ATTENTION, {}, b"Please tick the goals you saw."),
-    (StepKind.ATTENTION, {"goals": ["merge", "fly"]}, b"Please tick only goals from the list."),
+    (StepKind.ATTENTION, {}, b"Please tick your answer."),
+    (StepKind.ATTENTION, {"goals": ["merge", "fly"]}, b"Please tick only answers from the list."),
     (StepKind.DEMOGRAPHICS, {"age": "17", "gender": "female"}, b"Your age must be a whole number from 18 to 120."),
     (StepKind.DEMOGRAPHICS, {"age": "121", "gender": "female"}, b"Your age must be a whole number from 18 to 120."),
     (StepKind.DEMOGRAPHICS, {"age": "thirty", "gender": "female"}, b"Your age must be a whole number from 18 to 120."),

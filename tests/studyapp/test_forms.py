@@ -1,6 +1,7 @@
 """The step forms (studyapp.forms) on their own, and StepKind as the one source of step kinds."""
 import re
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 from django.http import QueryDict
@@ -19,6 +20,7 @@ from studyapp.models import Answer, StepKind
 
 ROOT = Path(__file__).resolve().parents[2]
 SHOWN = [("A", 2), ("B", 0), ("C", 3), ("D", 1)]  # letter -> option index, as flow.option_letters gives
+DRIVING_PARTICIPANT = SimpleNamespace(study=SimpleNamespace(domain="driving"))  # what AttentionForm reads
 
 
 def post(**fields) -> QueryDict:
@@ -62,9 +64,9 @@ def test_steps_of_a_participant_are_step_kinds(participant):
     (InstructionsForm, {"ack": ""}, "Please confirm that you have read the instructions."),
     (TrainingForm, {"played": "0"}, "Please watch the whole animation before you continue."),
     (TrainingForm, {"played": " 1"}, "Please watch the whole animation before you continue."),
-    (AttentionForm, {}, "Please tick the goals you saw."),
-    (AttentionForm, {"goals": ["merge", ""]}, "Please tick only goals from the list."),
-    (AttentionForm, {"goals": ["fly"]}, "Please tick only goals from the list."),
+    (AttentionForm, {}, "Please tick your answer."),
+    (AttentionForm, {"goals": ["merge", ""]}, "Please tick only answers from the list."),
+    (AttentionForm, {"goals": ["fly"]}, "Please tick only answers from the list."),
     (DemographicsForm, {"age": "30"}, "Please choose an answer for gender (or 'Prefer not to say')."),
     (DemographicsForm, {"age": "30", "gender": "robot"}, "Please choose an answer for gender from the list."),
     (DemographicsForm, {"age": "", "gender": "male"}, "Please enter your age."),
@@ -76,14 +78,28 @@ def test_steps_of_a_participant_are_step_kinds(participant):
     (DemographicsForm, {"gender": "robot"}, "Please choose an answer for gender from the list."),  # first field first
 ])
 def test_each_bad_answer_gives_its_message(form_class, fields, message):
-    assert error(form_class(post(**fields), None, None)) == message
+    assert error(form_class(post(**fields), DRIVING_PARTICIPANT, None)) == message
 
 
 def test_good_answers_give_the_stored_data():
     assert ConsentForm(post(consent=" yes "), None, None).is_valid()
     assert InstructionsForm(post(ack="1"), None, None).is_valid()
-    attention = AttentionForm(post(goals=["forward", "merge", "merge"]), None, None)
+    attention = AttentionForm(post(goals=["forward", "merge", "merge"]), DRIVING_PARTICIPANT, None)
     assert attention.is_valid() and attention.answer() == {"goals": ["forward", "merge"], "passed": True}
+
+
+@pytest.mark.parametrize("domain, ticked, passed", [
+    ("driving", ["merge", "forward"], True), ("driving", ["merge"], False),
+    ("driving", ["merge", "forward", "exit"], False),
+    ("gridworld", ["deliver"], True), ("gridworld", ["deliver", "clean"], False), ("gridworld", ["charge"], False)])
+def test_the_attention_check_is_the_study_domains(domain, ticked, passed):
+    form = AttentionForm(post(goals=ticked), SimpleNamespace(study=SimpleNamespace(domain=domain)), None)
+    assert form.is_valid() and form.answer() == {"goals": sorted(ticked), "passed": passed}
+
+
+def test_one_domains_answers_are_not_anothers():
+    form = AttentionForm(post(goals=["deliver"]), DRIVING_PARTICIPANT, None)
+    assert error(form) == "Please tick only answers from the list."
     demo = DemographicsForm(post(age=" 34 ", gender="other", gender_text=" x" * 80), None, None)
     assert demo.is_valid() and demo.answer() == {"age": 34, "gender": "other", "gender_text": ("x " * 80)[:100]}
     demo = DemographicsForm(post(age="34", gender="female", gender_text="ignored"), None, None)

@@ -5,8 +5,11 @@ from django.core.exceptions import ValidationError
 from django.urls import reverse
 
 from studyapp import studies
-from studyapp.models import DEFAULT_CONSENT, Participant, Study
+from studyapp.models import Participant, Study
+from teaching.api import get_domain
 from tests.studyapp.helpers import snapshot
+
+DEFAULT_CONSENT = get_domain("driving").texts.consent
 
 pytestmark = pytest.mark.django_db
 

@@ -1,6 +1,7 @@
 """What participants' pages carry (issue 11): on a study built from a real trajectory table,
 nothing in a test page's HTML, embedded JSON or asset references tells theta*'s option apart
-from the other three, and a training page carries only what it draws."""
+from the other three, and a training page carries only what it draws: for every domain (issue 23),
+each with its own whitelist (Domain.page_keys)."""
 import json
 import re
 
@@ -16,6 +17,7 @@ from teaching.core.build import PRESETS, build_table
 from teaching.core.selection import showable
 from teaching.core.table import TrajectoryTable
 from teaching.domains.driving.strategies import CLUSTER_NAMES
+from teaching.domains.gridworld.labels import CLUSTER_NAMES as YARD_CLUSTER_NAMES
 from tests.conftest import answer_payload
 
 pytestmark = pytest.mark.django_db
@@ -23,17 +25,20 @@ pytestmark = pytest.mark.django_db
 N_TESTS = 4
 # words that would name what only the server may know: which option is theta*'s, its strategy
 FORBIDDEN = ["theta", "cluster", "is_theta_star", "env_id", "class_name", "env_class"] + [
-    n for n in CLUSTER_NAMES if ":" in n]
+    n for n in CLUSTER_NAMES + YARD_CLUSTER_NAMES if ":" in n]
+# per domain: its tiny preset, and what its pages draw (its whitelist, written out here by hand)
+DOMAINS = {"driving": ("tiny", ("goal", "dt", "other", "world"), (21, 5)),
+           "gridworld": ("gridworld-tiny", ("dt", "yard"), None)}
 JSON_SCRIPT = re.compile(r'<script id="([^"]+)" type="application/json">(.*?)</script>', re.S)
 OPTION_BLOCKS = (re.compile(r'<section class="option".*?</section>', re.S),
                  re.compile(r'<div class="rating" data-option.*?</div>', re.S))
 URL_ATTR = re.compile(r'(?<![-\w])(?:src|href|action)="([^"]*)"')
 
 
-@pytest.fixture(scope="module")
-def tiny_table(tmp_path_factory):
+@pytest.fixture(scope="module", params=sorted(DOMAINS))
+def tiny_table(request, tmp_path_factory):
     out = tmp_path_factory.mktemp("stimuli") / "table"
-    build_table(PRESETS["tiny"], out)
+    build_table(PRESETS[DOMAINS[request.param][0]], out)
     return TrajectoryTable.load(out), out
 
 
@@ -78,31 +83,35 @@ def walk(client, study, pid):
 def test_no_test_page_tells_theta_stars_option_apart(tiny_table):
     table, path = tiny_table
     study = build_study(real_spec(table, path))
-    assert study.source["kind"] == "table"
+    assert study.source["kind"] == "table" and study.domain == table.domain.name
+    _, keys, robot_shape = DOMAINS[study.domain]
     star_letters, asset_sets = [], set()
     for pid in ("p1", "p2", "p3", "p4"):
         for p, step, html in walk(Client(), study, pid):
             low = html.lower()
+            assert "{#" not in html and "{%" not in html, step.kind  # no template syntax reaches the page
             for word in FORBIDDEN:
                 assert word.lower() not in low, (step.kind, word)
             data = embedded(html)
             if step.kind == StepKind.TRAINING:
                 payload = p.condition.training[step.item]
-                assert data == {"env-data": {k: payload[k] for k in ("goal", "dt", "other", "robot", "world")}}
+                assert data == {"env-data": {k: payload[k] for k in (*keys, "robot")}, "scene-view": study.scene_view()}
             if step.kind != StepKind.TEST:
                 continue
             test = study.test_set[step.item]
             shown = flow.option_letters(p, step.item)
             assert '"robot"' not in html  # no trajectory outside the four options
             # the shared scene: the goal, the time step, the other car, the world's sizes; no reference trajectory
-            assert set(data) == {"scene-data", "option-robots"}
-            assert data["scene-data"] == {k: test[k] for k in ("goal", "dt", "other", "world")}
+            assert set(data) == {"scene-data", "option-robots", "scene-view"}
+            assert data["scene-data"] == {k: test[k] for k in keys}
+            assert set(data["scene-view"]) <= {"study_span"}  # one number shared by every canvas of the study
             # four robots under opaque letters, all of one shape; theta*'s is just one of them
             robots = data["option-robots"]
             assert sorted(robots) == ["A", "B", "C", "D"]
             assert {letter: robots[letter] for letter, _ in shown} == {
                 letter: test["options"][k]["robot"] for letter, k in shown}
-            assert all(np.shape(r) == (21, 5) for r in robots.values())
+            if robot_shape:  # a yard's paths differ in length (a longer detour takes more moves)
+                assert all(np.shape(r) == robot_shape for r in robots.values())
             assert test["robot"] in robots.values()  # theta*'s own trajectory appears only as its option
             # the four animations and the four rating rows are the same markup but for their letter
             for pattern in OPTION_BLOCKS:

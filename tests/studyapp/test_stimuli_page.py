@@ -11,6 +11,7 @@ from django.urls import reverse
 
 from studyapp.models import Participant, Study
 from studyapp.trajectories import drawn_scene
+from teaching.domains.driving.domain import DOMAIN as DRIVING
 
 pytestmark = pytest.mark.django_db
 JSON_SCRIPT = re.compile(r'<script id="([^"]+)" type="application/json">(.*?)</script>', re.S)
@@ -61,14 +62,15 @@ def test_every_example_and_every_option_is_in_the_page(staff_client, make_study,
         examples = data[f"training-{c.pk}"]
         assert len(examples) == len(c.training) > 0
         assert [e["env_id"] for e in examples] == c.env_ids
-        assert [e["scene"] for e in examples] == [drawn_scene(p, robot=True) for p in c.training]
+        assert [e["scene"] for e in examples] == [drawn_scene(p, robot=True, domain=DRIVING) for p in c.training]
         assert all("world" in e["scene"] for e in examples)
         assert f'data-condition="{c.name}"' in html
         assert html.count(f'data-scene="training-{c.pk}"') == len(c.training)
     tests = data["test-set"]
     assert len(tests) == len(study.test_set)
     for shown, stored in zip(tests, study.test_set, strict=True):
-        assert shown["env_id"] == stored["env_id"] and shown["scene"] == drawn_scene(stored, robot=False)
+        assert shown["env_id"] == stored["env_id"]
+        assert shown["scene"] == drawn_scene(stored, robot=False, domain=DRIVING)
         assert len(shown["options"]) == len(stored["options"]) == 4
         assert [o["letter"] for o in shown["options"]] == list("ABCD")
         for o, s in zip(shown["options"], stored["options"], strict=True):

@@ -6,7 +6,9 @@ import pytest
 
 from studyapp import trajectories as tj
 from teaching.api import TrajectoryTable
+from teaching.domains.driving.domain import DOMAIN as DRIVING
 from teaching.domains.driving.environments import environment_class, get_environments, other_car_states
+from teaching.domains.driving.page import scene_sizes
 from teaching.domains.driving.strategies import strategy_labels
 from teaching.domains.driving.synthetic import synthetic_table
 from teaching.domains.driving.world import WORLD
@@ -63,11 +65,11 @@ def test_training_is_theta_stars_optimal_trajectory_in_a_built_table(tiny_table)
 
 # --- the world's sizes a scene is drawn with (one source: WORLD) ---------------------------
 def test_payloads_carry_the_worlds_sizes_from_world():
-    """Every training and test payload carries the sizes scene.js draws with, equal to WORLD's."""
+    """Every training and test payload carries the sizes scenes/driving.js draws with, equal to WORLD's."""
     sizes = {"lane_width": WORLD.lane_width, "lane_centres": list(WORLD.lane_centres),
              "road_half_width": WORLD.road_half_width, "car_length": WORLD.car_length,
              "car_width": WORLD.car_width}
-    assert tj.scene_sizes() == sizes
+    assert scene_sizes() == sizes
     table = synthetic_table(n_envs=16, n_thetas=8, seed=1)
     ids = [int(e) for e in table.env_ids[:3]]
     spec = [{"env_id": ids[1], "options": [{"theta_index": k, "is_theta_star": k == 0} for k in (3, 0, 5, 1)]}]
@@ -82,7 +84,7 @@ def test_drawn_scene_passes_the_payloads_sizes():
     (p,) = tj.training_from_table(table, [int(table.env_ids[0])])
     p["world"] = {**p["world"], "lane_width": 16.0, "lane_centres": [-16.0, 0.0, 16.0]}  # the stored one wins
     for robot in (True, False):
-        scene = tj.drawn_scene(p, robot=robot)
+        scene = tj.drawn_scene(p, robot=robot, domain=DRIVING)
         assert scene["world"] == p["world"]
         assert set(scene) == {"goal", "dt", "other", "world"} | ({"robot"} if robot else set())
 
@@ -92,6 +94,32 @@ def test_drawn_scene_of_a_payload_stored_before_sizes_gets_todays():
     table = synthetic_table(n_envs=16, n_thetas=8, seed=1)
     (p,) = tj.training_from_table(table, [int(table.env_ids[0])])
     del p["world"]
-    scene = tj.drawn_scene(p, robot=True)
-    assert scene["world"] == tj.scene_sizes()
+    scene = tj.drawn_scene(p, robot=True, domain=DRIVING)
+    assert scene["world"] == scene_sizes()
     assert set(scene) == {"goal", "dt", "other", "robot", "world"}
+
+
+# --- the gridworld's payloads (issue 23): the domain's scene, the path up to its arrival --------------
+def test_gridworld_payloads_draw_the_tables_paths(tmp_path):
+    from teaching.core.build import PRESETS, build_table  # noqa: PLC0415
+    from teaching.domains.gridworld.environments import get_yard  # noqa: PLC0415
+
+    build_table(PRESETS["gridworld-tiny"], tmp_path / "t")
+    table = TrajectoryTable.load(tmp_path / "t")
+    grid = table.domain
+    ids = [int(e) for e in table.env_ids]
+    for i, p in enumerate(tj.training_from_table(table, ids)):
+        yard = get_yard(ids[i])
+        assert p["yard"]["cells"] == yard.cells.tolist()
+        assert p["yard"]["start"] == [yard.start[1], yard.start[0]]  # [col, row]
+        assert p["yard"]["goal"] == [yard.goal[1], yard.goal[0]]
+        assert p["class_name"] == grid.class_names[int(table.env_class[i])]
+        assert p["cluster"] == int(table.strategy[i, table.theta_star_index])
+        path = np.asarray(p["robot"])
+        assert path[0].tolist() == p["yard"]["start"] and path[-1].tolist() == p["yard"]["goal"]
+        assert (np.abs(np.diff(path, axis=0)).sum(axis=1) == 1).all()  # one cell per move, no waiting
+        stored = table.states(i, table.theta_star_index)  # padded by waiting at the drop-off
+        np.testing.assert_array_equal(stored[:len(path)], path)
+        assert (stored[len(path):] == path[-1]).all()
+        scene = tj.drawn_scene(p, robot=True, domain=grid)
+        assert set(scene) == {"dt", "yard", "robot"}  # the gridworld's whitelist: no id, class or cluster

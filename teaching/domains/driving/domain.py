@@ -13,7 +13,7 @@ import numpy as np
 
 from ...core.build import Preset
 from ...core.domain import parse_cost_weights
-from . import dynamics, environments, features, planner, strategies
+from . import dynamics, environments, features, page, planner, strategies
 from .world import FEATURE_NAMES, THETA_STAR, WORLD, world_fingerprint
 
 
@@ -31,6 +31,9 @@ class DrivingDomain:
     trajectory_shape = (WORLD.n_knots, 2)  # knot controls [steer rate, accel] as fractions of the bounds
     trajectory_dtype = np.dtype(np.float32)
     code_root = Path(__file__).resolve().parent
+    texts = page.TEXTS
+    palette = page.PALETTE
+    page_keys = page.PAGE_KEYS
 
     @cached_property
     def presets(self) -> tuple[Preset, ...]:
@@ -66,6 +69,21 @@ class DrivingDomain:
 
     def euclidean_distance(self, states_a, states_b) -> np.ndarray:
         return planner.euclidean_distance(states_a, states_b)
+
+    def scene_payload(self, env_id) -> dict:
+        return page.scene_payload(env_id)
+
+    def path_rows(self, states) -> list:
+        return page.path_rows(states)
+
+    def page_scene(self, payload) -> dict:
+        return page.page_scene(payload)
+
+    def caption(self, payload):
+        return page.caption(payload)
+
+    def study_view(self, scenes) -> dict:
+        return page.study_view(scenes)
 
     def render_sheet(self, **kwargs) -> int:
         from .sheet import render_sheet  # noqa: PLC0415  (matplotlib loads only for a sheet)

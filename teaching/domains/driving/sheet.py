@@ -2,10 +2,10 @@
 
 Each panel is the road seen from above, driving left to right (the right lane is at the bottom),
 drawn to scale: 1 ft along the road = 1 ft across, and every panel shows the same stretch of road,
-so panels can be compared directly.  Colours follow the study's canvas (static/studyapp/scene.js):
-yellow robot, gray other car, the goal tinted blue (the right lane for "merge right", the centre
-lane ahead plus an arrow for "drive forward").  Cars are drawn at a few moments, later ones more
-opaque (the paper's Fig. 2); the orange line is the robot's path.  Coordinates are feet
+so panels can be compared directly.  Colours are the study canvas's, from the one palette
+(``page.PALETTE``): yellow robot, dark gray other car, the goal tinted blue (the right lane for
+"merge right", the centre lane ahead plus an arrow for "drive forward").  Cars are drawn at a few
+moments, later ones more opaque (the paper's Fig. 2); the orange line is the robot's path.  Coordinates are feet
 (DESIGN §2): x across, y forward.
 """
 from __future__ import annotations
@@ -21,10 +21,12 @@ from matplotlib.patches import Patch, Polygon, Rectangle
 
 from ...core.sheet import render_rows, sheet_rows
 from .environments import CLASS_NAMES, get_environments, other_car_states
+from .page import PALETTE
 from .world import GOAL_MERGE, GOAL_NAMES, WORLD
 
-COLORS = {"grass": "#dfe9d8", "road": "#5b6068", "line": "#f4f4f4", "goal": "#2563eb",
-          "robot": "#f5c518", "other": "#c9ccd1", "outline": "#1f2328", "trail": "#ff7a1a"}
+# the one palette (page.PALETTE: the page's canvas and legend draw with the same colours)
+COLORS = {**{k: PALETTE[k] for k in ("grass", "road", "line", "goal", "robot", "other", "outline")},
+          "trail": PALETTE["path"]}
 ROAD_HALF = WORLD.road_half_width  # ft, three 12 ft lanes
 MARGIN = 9.0  # ft of grass on either side of the road (notes about an off-view other car go there)
 

@@ -1,6 +1,6 @@
 """The delivery gridworld behind the :class:`~teaching.core.domain.Domain` interface (docs/domains.md).
 
-5,220 yards in 4 classes (mud, dog, cart, other), 7 strategy clusters, 4 cost features; paths are
+17,460 yards in 4 classes (mud, dog, cart, other), 7 strategy clusters, 4 cost features; paths are
 exact (``planner``), so its tables are optimal by construction.
 """
 from __future__ import annotations
@@ -12,7 +12,7 @@ import numpy as np
 
 from ...core.build import Preset
 from ...core.domain import parse_cost_weights
-from . import environments, labels, planner
+from . import environments, labels, page, planner
 from .world import FEATURE_NAMES, GRID, THETA_STAR, world_fingerprint
 
 
@@ -30,6 +30,9 @@ class GridworldDomain:
     trajectory_shape = (GRID.max_moves + 1,)  # the cells visited, row * width + col
     trajectory_dtype = np.dtype(np.int8)
     code_root = Path(__file__).resolve().parent
+    texts = page.TEXTS
+    palette = page.PALETTE
+    page_keys = page.PAGE_KEYS
 
     @cached_property
     def presets(self) -> tuple[Preset, ...]:
@@ -64,6 +67,21 @@ class GridworldDomain:
 
     def euclidean_distance(self, states_a, states_b) -> np.ndarray:
         return planner.euclidean_distance(states_a, states_b)
+
+    def scene_payload(self, env_id) -> dict:
+        return page.scene_payload(env_id)
+
+    def path_rows(self, states) -> list:
+        return page.path_rows(states)
+
+    def page_scene(self, payload) -> dict:
+        return page.page_scene(payload)
+
+    def caption(self, payload):
+        return page.caption(payload)
+
+    def study_view(self, scenes) -> dict:
+        return page.study_view(scenes)
 
     def render_sheet(self, **kwargs) -> int:
         from .sheet import render_sheet  # noqa: PLC0415  (matplotlib loads only for a sheet)

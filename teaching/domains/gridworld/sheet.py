@@ -18,10 +18,10 @@ from matplotlib.patches import Circle, Patch, Rectangle
 
 from ...core.sheet import render_rows, sheet_rows
 from .environments import get_yard
+from .page import PALETTE
 from .world import CART, DOG, GRID, MUD, WALL
 
-COLORS = {"free": "#f4f1e8", "mud": "#8b5a2b", "wall": "#2f3338", "near": "#f3c4c4", "dog": "#c62828",
-          "cart": "#1d4ed8", "grid": "#c8c2b4", "path": "#ff7a1a", "text": "#111111"}
+COLORS = PALETTE  # the one palette: the page's canvas and legend draw with the same colours
 
 
 def draw_yard(ax, *, yard, cells_visited: np.ndarray) -> None:

@@ -1,13 +1,16 @@
-// Drawing and animating one driving scene on a canvas (plain ES module, no build step).
+// Drawing one driving scene on a canvas (plain ES module, no build step): the driving domain's
+// scene, which the generic player (../player.js) animates; it follows the contract every
+// scenes/<domain>.js does (docs/domains.md "The web side").
 //
 // World units are feet: x grows to the right, y forward (drawn upwards). The world's sizes
 // (lane width and centres, left to right; the road's half-width; the cars' length and width)
-// come with the scene data as env.world (studyapp.trajectories.scene_sizes, from teaching's
+// come with the scene data as env.world (teaching/domains/driving/page.py scene_sizes, from
 // WORLD), so this file holds none of its own. Robot states are [x, y, heading, v, steer]
 // rows every `dt` seconds; the other car's rows are [x, y]. Playback interpolates between
 // rows at the display's frame rate (requestAnimationFrame), so it is smooth at 60 fps.
 
-import { Layout, tag } from "./labels.js";
+import { Layout, tag } from "../labels.js";
+import { colors as palette } from "../palette.js";
 
 const VIEW_W_FT = 60;         // feet shown across the reference canvas
 // Every canvas of a study is drawn at one scale (px per ft): the one at which a test option's
@@ -21,25 +24,18 @@ const REF_W = 144;
 const INTERACTION_FT = 150;
 const MARGIN_FT = 10;         // road shown beyond each framed car
 const MAX_SQUEEZE = 3;        // the forward axis is compressed at most 3:1 against the lateral one
-// Colours come from the page's CSS (--scene-*), so the legend's swatches are the canvas's colours.
-// Not colour alone (issue 22): the goal lane is dark and hatched against a light road, the
-// autonomous car light with a black outline, the other car dark with a white outline, so each
-// stays apart in greyscale (tests/browser/test_scene_legibility.py measures it).
-const FALLBACK = {
-  grass: "#dfe9d8", road: "#959ca4", line: "#f4f4f4", goal: "#1e3a8a", goalHatch: "rgba(255, 255, 255, 0.38)",
-  goalEdge: "#ffffff", robot: "#f5c518", robotEdge: "#111111", other: "#2b2f36", otherEdge: "#ffffff",
-  outline: "#1f2328", refW: "",
-};
-let COLORS = null;
+// Colours are the domain's palette (../palette.js: the page's --scene-* properties), so the legend's
+// swatches are the canvas's colours. Not colour alone (issue 22): the goal lane is dark and hatched
+// against a light road, the autonomous car light with a black outline, the other car dark with a
+// white outline, so each stays apart in greyscale (tests/browser/test_scene_legibility.py measures it).
+const NAMES = ["grass", "road", "line", "goal", "goalHatch", "goalEdge", "outline", "robot", "robotEdge", "other",
+  "otherEdge"];
 function colors() {
-  if (!COLORS) {
-    const css = getComputedStyle(document.documentElement);
-    COLORS = Object.fromEntries(Object.entries(FALLBACK).map(([name, fallback]) => {
-      const value = css.getPropertyValue(`--scene-${name.replace(/[A-Z]/g, (c) => "-" + c.toLowerCase())}`).trim();
-      return [name, value || fallback];
-    }));
-  }
-  return COLORS;
+  return palette(NAMES);
+}
+// a test option's canvas width (study.css --scene-ref-w): every canvas is drawn at the px/ft it gives
+function refWidth() {
+  return parseFloat(getComputedStyle(document.documentElement).getPropertyValue("--scene-ref-w")) || REF_W;
 }
 
 function lerp(a, b, f) { return a + (b - a) * f; }
@@ -235,7 +231,7 @@ export class Scene {
   // px per ft across (xs) and along (ys) the road: the reference canvas's (or this one's, if smaller),
   // holding the study's largest framed span with room for the goal arrow above and the time below.
   scale() {
-    const refW = Math.min(this.w, parseFloat(colors().refW) || REF_W);
+    const refW = Math.min(this.w, refWidth());
     const base = refW / VIEW_W_FT;
     const usable = refW * 4 / 3 - 36;
     const ys = Math.min(base, usable / (this.viewSpan + this.world.car_length + 2 * MARGIN_FT));
@@ -299,110 +295,4 @@ export function framedSpan(robot, other) {
   const closest = Math.min(...gaps);
   const near = gaps.filter((g) => g <= INTERACTION_FT);
   return Math.max(closest, near.length ? Math.max(...near) : 0);
-}
-
-// Plays a Scene in real time; calls onPlayed once the animation has reached its end.
-export class Player {
-  constructor(scene, { onPlayed = () => {}, onState = () => {} } = {}) {
-    this.scene = scene;
-    this.onPlayed = onPlayed;
-    this.onState = onState;
-    this.playing = false;
-    this.played = false;
-    this.raf = 0;
-    scene.drawFrame(0);
-    if (typeof ResizeObserver !== "undefined") {
-      new ResizeObserver(() => { if (!this.playing) scene.redraw(); }).observe(scene.canvas);
-    }
-  }
-
-  play() {
-    cancelAnimationFrame(this.raf);
-    this.scene.mode = "frame";
-    this.playing = true;
-    this.onState("playing");
-    let start = null;
-    const tick = (now) => {
-      if (start === null) start = now;
-      const t = Math.min((now - start) / 1000, this.scene.duration);
-      this.scene.drawFrame(t);
-      if (t < this.scene.duration) {
-        this.raf = requestAnimationFrame(tick);
-      } else {
-        this.playing = false;
-        const first = !this.played;
-        this.played = true;
-        this.onState("ended");
-        if (first) this.onPlayed();
-      }
-    };
-    this.raf = requestAnimationFrame(tick);
-  }
-
-  showTrail(on) {
-    cancelAnimationFrame(this.raf);
-    if (this.playing) { this.playing = false; this.onState("stopped"); }
-    this.scene.mode = on ? "trail" : "frame";
-    if (on) this.scene.drawTrail(); else this.scene.drawFrame(this.played ? this.scene.duration : 0);
-  }
-}
-
-// Wire a .scene element's Play / Show trail buttons to a Player.
-export function mountScene(root, env, robot, onPlayed) {
-  const canvas = root.querySelector("canvas");
-  const playBtn = root.querySelector('[data-action="play"]');
-  const trailBtn = root.querySelector('[data-action="trail"]');
-  const baseLabel = playBtn.textContent.trim();
-  const trailLabel = trailBtn.textContent.trim();  // "Show trail" toggles to "Hide trail"; a short label stays
-  const scene = new Scene(canvas, env, robot);
-  canvas.scene = scene;  // for the browser tests, which read what each frame drew (lastFrame)
-  const player = new Player(scene, {
-    onPlayed,
-    onState: (state) => {
-      root.dataset.state = state;
-      if (state !== "playing") playBtn.textContent = baseLabel.replace(/^Play/, "Replay");
-    },
-  });
-  const trailText = (on) => (trailLabel === "Show trail" ? (on ? "Hide trail" : "Show trail") : trailLabel);
-  playBtn.addEventListener("click", () => {
-    trailBtn.setAttribute("aria-pressed", "false");
-    trailBtn.textContent = trailText(false);
-    player.play();
-  });
-  trailBtn.addEventListener("click", () => {
-    const on = trailBtn.getAttribute("aria-pressed") !== "true";
-    trailBtn.setAttribute("aria-pressed", String(on));
-    trailBtn.textContent = trailText(on);
-    player.showTrail(on);
-  });
-  return player;
-}
-
-export function readJSON(id) {
-  return JSON.parse(document.getElementById(id).textContent);
-}
-
-// Guard against double submission (the server is idempotent anyway).
-export function lockOnSubmit(form) {
-  form.addEventListener("submit", () => {
-    for (const b of form.querySelectorAll('button[type="submit"]')) b.disabled = true;
-  });
-}
-
-// Within-step progress kept in localStorage (keyed by the form's answer URL, which names the
-// participant and the step), so a reload or a second tab shows the step exactly as it was left.
-export function stepMemory(form) {
-  const key = `studyapp:${new URL(form.action, location.href).pathname}`;
-  const read = () => {
-    try { return JSON.parse(localStorage.getItem(key)) || {}; } catch (err) { return {}; }
-  };
-  return {
-    load: read,
-    save(patch) {
-      try { localStorage.setItem(key, JSON.stringify({ ...read(), ...patch })); } catch (err) { /* private mode */ }
-    },
-    clear() {
-      try { localStorage.removeItem(key); } catch (err) { /* ignore */ }
-    },
-  };
 }

@@ -1,0 +1,130 @@
+// The generic player (plain ES module, no build step): plays, pauses and shows the trail of any
+// domain's scene, mounts it on a page's .scene element, and keeps a step's progress across a reload.
+// The scene itself is the study's domain's (static/studyapp/scenes/<domain>.js, named by the page's
+// <meta name="scene-module">): a class Scene(canvas, env, robot) with duration, mode, t, boxes,
+// lastFrame, resize(), drawFrame(t), drawTrail() and redraw() (docs/domains.md "The web side").
+
+let SCENE = null;
+
+// The page's domain's Scene class (loaded once).
+export async function sceneClass() {
+  if (!SCENE) {
+    const meta = document.querySelector('meta[name="scene-module"]');
+    if (!meta) throw new Error("the page names no scene module (<meta name=\"scene-module\">)");
+    SCENE = (await import(meta.content)).Scene;
+  }
+  return SCENE;
+}
+
+// What every canvas of the study shares (the page's "scene-view" block: driving's study_span), added
+// to each scene's data.
+function withView(env) {
+  const block = document.getElementById("scene-view");
+  return block ? { ...JSON.parse(block.textContent), ...env } : env;
+}
+
+// Plays a Scene in real time; calls onPlayed once the animation has reached its end.
+export class Player {
+  constructor(scene, { onPlayed = () => {}, onState = () => {} } = {}) {
+    this.scene = scene;
+    this.onPlayed = onPlayed;
+    this.onState = onState;
+    this.playing = false;
+    this.played = false;
+    this.raf = 0;
+    scene.drawFrame(0);
+    if (typeof ResizeObserver !== "undefined") {
+      new ResizeObserver(() => { if (!this.playing) scene.redraw(); }).observe(scene.canvas);
+    }
+  }
+
+  play() {
+    cancelAnimationFrame(this.raf);
+    this.scene.mode = "frame";
+    this.playing = true;
+    this.onState("playing");
+    let start = null;
+    const tick = (now) => {
+      if (start === null) start = now;
+      const t = Math.min((now - start) / 1000, this.scene.duration);
+      this.scene.drawFrame(t);
+      if (t < this.scene.duration) {
+        this.raf = requestAnimationFrame(tick);
+      } else {
+        this.playing = false;
+        const first = !this.played;
+        this.played = true;
+        this.onState("ended");
+        if (first) this.onPlayed();
+      }
+    };
+    this.raf = requestAnimationFrame(tick);
+  }
+
+  showTrail(on) {
+    cancelAnimationFrame(this.raf);
+    if (this.playing) { this.playing = false; this.onState("stopped"); }
+    this.scene.mode = on ? "trail" : "frame";
+    if (on) this.scene.drawTrail(); else this.scene.drawFrame(this.played ? this.scene.duration : 0);
+  }
+}
+
+// Wire a .scene element's Play / Show trail buttons to a Player (Scene: sceneClass()'s).
+export function mountScene(Scene, root, env, robot, onPlayed) {
+  const canvas = root.querySelector("canvas");
+  const playBtn = root.querySelector('[data-action="play"]');
+  const trailBtn = root.querySelector('[data-action="trail"]');
+  const baseLabel = playBtn.textContent.trim();
+  const trailLabel = trailBtn.textContent.trim();  // "Show trail" toggles to "Hide trail"; a short label stays
+  const scene = new Scene(canvas, withView(env), robot);
+  canvas.scene = scene;  // for the browser tests, which read what each frame drew (lastFrame)
+  const player = new Player(scene, {
+    onPlayed,
+    onState: (state) => {
+      root.dataset.state = state;
+      if (state !== "playing") playBtn.textContent = baseLabel.replace(/^Play/, "Replay");
+    },
+  });
+  const trailText = (on) => (trailLabel === "Show trail" ? (on ? "Hide trail" : "Show trail") : trailLabel);
+  playBtn.addEventListener("click", () => {
+    trailBtn.setAttribute("aria-pressed", "false");
+    trailBtn.textContent = trailText(false);
+    player.play();
+  });
+  trailBtn.addEventListener("click", () => {
+    const on = trailBtn.getAttribute("aria-pressed") !== "true";
+    trailBtn.setAttribute("aria-pressed", String(on));
+    trailBtn.textContent = trailText(on);
+    player.showTrail(on);
+  });
+  return player;
+}
+
+export function readJSON(id) {
+  return JSON.parse(document.getElementById(id).textContent);
+}
+
+// Guard against double submission (the server is idempotent anyway).
+export function lockOnSubmit(form) {
+  form.addEventListener("submit", () => {
+    for (const b of form.querySelectorAll('button[type="submit"]')) b.disabled = true;
+  });
+}
+
+// Within-step progress kept in localStorage (keyed by the form's answer URL, which names the
+// participant and the step), so a reload or a second tab shows the step exactly as it was left.
+export function stepMemory(form) {
+  const key = `studyapp:${new URL(form.action, location.href).pathname}`;
+  const read = () => {
+    try { return JSON.parse(localStorage.getItem(key)) || {}; } catch (err) { return {}; }
+  };
+  return {
+    load: read,
+    save(patch) {
+      try { localStorage.setItem(key, JSON.stringify({ ...read(), ...patch })); } catch (err) { /* private mode */ }
+    },
+    clear() {
+      try { localStorage.removeItem(key); } catch (err) { /* ignore */ }
+    },
+  };
+}

@@ -1,0 +1,57 @@
+"""What a page needs to draw a study's domain: its scene module, palette, legend and texts.
+
+Every page that draws scenes (a participant's training and test steps, the staff stimulus sheet)
+gets :func:`scene_context` of its study's domain: the browser loads the generic player
+(static/studyapp/player.js), which imports ``static/studyapp/scenes/<domain>.js``; the domain's
+palette is written once into the page as CSS custom properties (``--scene-<name>``), which the
+canvas, the legend's swatches and (in Python) the contact sheet all use.
+"""
+from __future__ import annotations
+
+import re
+
+from django.templatetags.static import static
+
+from teaching.api import Domain
+
+from .trajectories import study_domain
+
+# a palette entry is a hex colour or an rgb()/rgba() one: nothing else reaches the page's <style>
+COLOUR = re.compile(r"^(#[0-9a-fA-F]{3,8}|rgba?\(\s*[\d.]+\s*(,\s*[\d.]+\s*){2,3}\))$")
+NAME = re.compile(r"^[a-z][a-z0-9-]*$")
+
+
+def palette_css(domain: Domain) -> str:
+    """``:root { --scene-<name>: <colour>; ... }`` of the domain's palette (checked, so a page's
+    <style> gets colours and nothing else)."""
+    for name, colour in domain.palette.items():
+        if not (NAME.match(name) and COLOUR.match(colour)):
+            raise ValueError(f"domain {domain.name!r}: palette entry {name!r}: {colour!r} is not a CSS colour")
+    return ":root { " + " ".join(f"--scene-{n}: {c};" for n, c in domain.palette.items()) + " }"
+
+
+def legend(domain: Domain) -> list[dict]:
+    """The legend's swatches: label and the CSS of a swatch drawn like the canvas draws that thing."""
+    out = []
+    for entry in domain.texts.legend:
+        style = f"background-color: var(--scene-{entry.fill}); border-color: var(--scene-{entry.edge});"
+        if entry.hatch:
+            style += (f" background-image: repeating-linear-gradient(-45deg, transparent 0 3px, "
+                      f"var(--scene-{entry.hatch}) 3px 5px);")
+        out.append({"label": entry.label, "style": style})
+    return out
+
+
+def scene_context(study) -> dict:
+    """Template context of a page that draws `study`'s scenes."""
+    domain = study_domain(study)
+    return {"domain": domain.name, "palette_css": palette_css(domain), "legend": legend(domain),
+            "scene_module": static(f"studyapp/scenes/{domain.name}.js"), "texts": domain.texts,
+            "scene_view": study.scene_view()}
+
+
+def instructions(study, n_training: int, n_tests: int) -> list[str]:
+    """The domain's instruction paragraphs, filled in for one participant."""
+    values = {"n_training": n_training, "n_tests": n_tests, "training_plural": "" if n_training == 1 else "s",
+              "tests_plural": "" if n_tests == 1 else "s"}
+    return [p.format(**values) for p in study_domain(study).texts.instructions]
