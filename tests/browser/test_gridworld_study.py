@@ -157,3 +157,25 @@ def test_one_dashboard_lists_both_domains(studies, staff_client):
     assert "Domain: <strong>gridworld</strong>" in detail
     sheet = staff_client.get(f"/dashboard/{yard.slug}/stimuli/").content.decode()
     assert "scenes/gridworld.js" in sheet and "--scene-mud:" in sheet
+
+
+def test_the_stimulus_sheet_draws_the_yards(studies, staff_cookie, live_server):
+    """The staff stimulus sheet of the gridworld study: every example and option drawn as its whole path."""
+    yard, _ = studies
+    n_cells = sum(len(c.training) for c in yard.conditions.all()) + sum(len(t["options"]) for t in yard.test_set)
+    host = live_server.url.split("//")[1].split(":")[0]
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
+        ctx = browser.new_context(viewport={"width": 1280, "height": 900})
+        ctx.add_cookies([{"name": "sessionid", "value": staff_cookie, "domain": host, "path": "/"}])
+        page = ctx.new_page()
+        errors = []
+        page.on("pageerror", lambda exc: errors.append(str(exc)))
+        page.goto(f"{live_server.url}/dashboard/{yard.slug}/stimuli/")
+        page.wait_for_selector("body[data-ready='1']")
+        modes = page.evaluate("() => [...document.querySelectorAll('.cell canvas')].map((c) => c.scene.mode)")
+        assert modes == ["trail"] * n_cells
+        OUT.mkdir(exist_ok=True)
+        page.screenshot(path=str(OUT / "gridworld_stimuli_sheet.png"), full_page=True)
+        browser.close()
+    assert not errors, errors

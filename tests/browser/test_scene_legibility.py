@@ -147,7 +147,7 @@ WHERE = """() => {
   const roadX = scene.env.goal === 0 ? lanes[1] : lanes[0];
   return {robot: scene.lastFrame.robot, other: scene.lastFrame.other, goal: scene.env.goal,
           goalX: scene.w / 2 + goalX * cam.xs, roadX: scene.w / 2 + roadX * cam.xs,
-          boxes: scene.boxes, h: scene.h};
+          boxes: scene.boxes, h: scene.h, viewSpan: scene.viewSpan};
 }"""
 
 
@@ -158,6 +158,9 @@ def test_goal_lane_and_cars_apart_in_greyscale_and_text_contrast(on_training, li
         page.goto(f"{live_server.url}{on_training.get_absolute_url()}")
         page.wait_for_selector("body[data-ready]", state="attached")
         w = page.evaluate(WHERE)
+        # the page hands the scene the study's one scale (its scene-view block): a training canvas is drawn
+        # at the span that holds every canvas of the study, not its own example's
+        assert w["viewSpan"] == pytest.approx(on_training.study.scene_view()["study_span"], abs=0.1)
         canvas = page.locator(".scene canvas")
         shot = grey(canvas.screenshot())
         OUT.mkdir(exist_ok=True)

@@ -9,7 +9,6 @@ import os
 from pathlib import Path
 
 import pytest
-from django.contrib.auth.models import User
 from django.urls import reverse
 from playwright.sync_api import sync_playwright
 
@@ -39,13 +38,6 @@ PIXELS = """() => [...document.querySelectorAll(".cell canvas")].map((canvas) =>
           pixels: canvas.width * canvas.height, opaque, colours: colours.size, yellow,
           mode: canvas.scene.mode};
 })"""
-
-
-@pytest.fixture
-def staff_cookie(transactional_db, client):
-    user = User.objects.create_user("researcher", password="pw-stimuli-1", is_staff=True)
-    client.force_login(user)
-    return client.cookies["sessionid"].value
 
 
 def test_every_stimulus_is_drawn_and_plays(staff_cookie, make_study, live_server):  # db first
