@@ -7,6 +7,18 @@ matplotlib.use("Agg")  # figures are written to files; no display on servers
 
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.patches import Rectangle
+
+from .evaluation import grid_cells
+
+
+def cell_labels(grid: np.ndarray, class_of_cluster) -> list[list[str]]:
+    """The numbers an examples-per-cluster grid (k, n_classes) shows: each cluster's count, and ""
+    where no cluster is (a class with fewer strategies than the most a class has)."""
+    exists = np.zeros(np.shape(grid), bool)
+    exists[grid_cells(np.asarray(class_of_cluster))] = True
+    return [[str(int(v)) if e else "" for v, e in zip(row, ok, strict=True)]
+            for row, ok in zip(grid, exists, strict=True)]
 
 
 def _ink(value: float, vmax: float) -> str:
@@ -36,7 +48,8 @@ def plot_examples_shown(grids: np.ndarray, names, path, domain, vmax: float | No
     """The paper's Fig. "examples_shown": one grid per sequence (S, k, n_classes), laid out by
     evaluation.cluster_grid (2 × 4 in the paper).  `domain` names the classes and clusters.
 
-    White = 0 examples, black = vmax (4 as in the paper, or more if a sequence shows more).
+    White = 0 examples, black = vmax (4 as in the paper, or more if a sequence shows more).  A cell
+    no cluster has (a class with fewer strategies than another) is hatched and left without a number.
     """
     n_rows, n_classes = grids.shape[1:]
     of = np.asarray(domain.class_of_cluster)
@@ -51,9 +64,14 @@ def plot_examples_shown(grids: np.ndarray, names, path, domain, vmax: float | No
             continue
         g = grids[k]
         ax.imshow(g, cmap="Greys", vmin=0, vmax=vmax)
+        labels = cell_labels(g, of)
         for r in range(n_rows):
             for c in range(n_classes):
-                ax.text(c, r, str(int(g[r, c])), ha="center", va="center", fontsize=8, color=_ink(g[r, c], vmax))
+                if labels[r][c]:
+                    ax.text(c, r, labels[r][c], ha="center", va="center", fontsize=8, color=_ink(g[r, c], vmax))
+                else:  # no such strategy: not "0 examples"
+                    ax.add_patch(Rectangle((c - 0.5, r - 0.5), 1, 1, facecolor="#f2f2f2", edgecolor="#bbbbbb",
+                                           hatch="////", linewidth=0))
         ax.set_title(names[k], fontsize=9)
         ax.set_xticks(range(n_classes), domain.class_names, fontsize=7)
         ax.set_yticks(range(n_rows), ["1st", "2nd", "3rd", *(f"{i}th" for i in range(4, n_rows + 1))][:n_rows],

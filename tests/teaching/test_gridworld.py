@@ -214,3 +214,16 @@ def test_the_core_teaches_from_a_gridworld_table(tmp_path):
     n, no_tests = make_sheet(table_dir=path, teach_dir=out, out=tmp_path / "sheet.png")
     assert no_tests is None and n == sum(len(v["env_ids"]) for v in seqs.values()) + 4 * len(tests)
     assert (tmp_path / "sheet.png").stat().st_size > 50_000
+
+
+def test_the_examples_grid_leaves_a_missing_strategy_blank():
+    """"other" has one strategy where the other classes have two: its second row is no cluster, shown
+    without a number (not "0 examples"); every real cluster shows its count."""
+    from teaching.core.evaluation import cluster_grid  # noqa: PLC0415
+    from teaching.core.plots import cell_labels  # noqa: PLC0415
+
+    of = get_domain("gridworld").class_of_cluster
+    grid = cluster_grid(np.arange(1, 8), of)  # counts 1..7 for the 7 clusters
+    assert cell_labels(grid, of) == [["1", "3", "5", "7"], ["2", "4", "6", ""]]
+    driving = get_domain("driving").class_of_cluster
+    assert cell_labels(cluster_grid(np.zeros(8, int), driving), driving) == [["0"] * 4, ["0"] * 4]
