@@ -232,3 +232,24 @@ def test_the_designer_lists_tables_by_domain_with_thetas_feature_names(db, setti
     assert "gridworld: θ* has 4 weights (carry_moves, cart_moves, mud, near_dog)" in html.unescape(page)
     form = StudyDesignForm(dict(FORM, table=str(root / "yard")), tables=[])
     assert not form.is_valid() and "table" in form.errors  # only listed tables can be chosen
+
+
+def test_design_a_gridworld_study_on_a_worker(inprocess_worker, transactional_db, settings, gridworld_table,
+                                              staff_client):
+    """The designer's Build on a gridworld table: the workers select its sequences and test set with the
+    gridworld's own test clusters and option distance (the empty field), and the study is a gridworld one."""
+    settings.TABLES_DIR = gridworld_table.parent
+    form = {k: v for k, v in FORM.items() if k != "min_distance"}  # empty: the domain's default
+    r = staff_client.post("/precompute/design/", dict(form, slug="yard-designed", table=str(gridworld_table)))
+    job = Job.objects.get(kind=Job.STUDY)
+    assert r.status_code == 302, r.content.decode()[-2000:]
+    job = jobs.wait(job, progress=False, timeout=180)
+    assert job.status == Job.SUCCEEDED, job.error
+    assert "min_distance" not in job.params["test_set_thresholds"]
+    study = Study.objects.get(slug="yard-designed")
+    assert study.domain == "gridworld" and study.source["domain"] == "gridworld"
+    assert len(study.test_set) == 4  # mud and dog strategies, one test each (the domain's test_clusters)
+    assert all(set(t) >= {"yard", "dt", "options"} for t in study.test_set)
+    for condition in study.conditions.all():  # every condition previews (its pages draw yards)
+        r = staff_client.post(f"/dashboard/yard-designed/preview/{condition.pk}/")
+        assert r.status_code == 302 and staff_client.get(r["Location"]).status_code == 200
