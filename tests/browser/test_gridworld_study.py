@@ -110,6 +110,13 @@ def test_a_gridworld_study_from_table_to_analysis(studies, live_server, monkeypa
             play_all(page, 14000)
             if j == 0:
                 page.screenshot(path=str(OUT / "gridworld_test.png"), full_page=True)
+            if j == 1:  # a phone: the yards beside their buttons, nothing wider than the screen
+                page.set_viewport_size({"width": 390, "height": 844})
+                page.reload()
+                ready(page)
+                assert page.evaluate("document.documentElement.scrollWidth") <= 390
+                page.screenshot(path=str(OUT / "gridworld_test_phone.png"), full_page=True)
+                page.set_viewport_size({"width": 1200, "height": 1000})
             page.locator('input[name="choice"][value="A"]').check(force=True)
             for letter in "ABCD":
                 page.locator(f'.rating[data-option="{letter}"] input[value="{5 if letter == "A" else 2}"]').check(
