@@ -35,6 +35,11 @@ Domains (teaching.core.domain)
                              domain_names() every registered name, default_domain_name()
     ParticipantTexts, LegendEntry  what a domain's pages tell participants
 
+Choice model (teaching.core.choice; docs/analysis.md)
+    option_choice(model, belief, table, env_index, options, lapse)  (K,) P(a learner of `model`
+                             believing `belief` (N,) picks option k), the options being the optimal
+                             trajectories of θ indices `options`; OptionDistances, choice_probabilities
+
 Tables (teaching.core.table: a directory of .npy arrays plus meta.json with its content hash)
     TrajectoryTable          .load(path, verify=True, expected_hash=None); thetas (N, D),
                              env_ids (M,) int64, features (M, N, D), strategy (M, N) int8,
@@ -95,6 +100,7 @@ from .core.build import (
                     table_identity,
 )
 from .core.candidates import SAMPLERS
+from .core.choice import OptionDistances, choice_probabilities, option_choice
 from .core.domain import Domain, LegendEntry, ParticipantTexts, default_domain_name, domain_names, get_domain
 from .core.evaluation import USER_NAMES, study_matrix
 from .core.learners import MODEL_NAMES, has_hyperparameter, make_model, parse_hyperparameters
@@ -126,4 +132,5 @@ __all__ = [
     "environment_class", "get_environments", "get_preset", "has_hyperparameter", "make_model", "other_car_states",
     "parse_hyperparameters", "select_test_set", "strategy_labels", "stratified_sample", "study_matrix",
     "table_identity",
+    "OptionDistances", "choice_probabilities", "option_choice",
 ]

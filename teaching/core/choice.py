@@ -1,0 +1,99 @@
+"""The choice model: which of a test's options a learner picks (issue 24, item 1; docs/analysis.md).
+
+After training examples S, learner model M believes P_M(θ | S) (:func:`learners.posterior`).  A test
+in environment E shows K options, each the optimal trajectory ξ_k of some θ_{o_k} there.  Option k's
+weight is the belief-weighted likelihood, under M, of ξ_k being the robot's trajectory:
+
+    w_k = Σ_θ P_M(θ | S) · P_M(ξ_k | θ, E)
+
+with P_M(ξ | θ, E) the same likelihood M uses to learn (exact IRL: ξ optimal for θ; det: the
+distance from θ's optimal trajectory to ξ within τ; prob: exp(-λ d)), here measured from θ's optimal
+trajectory to ξ_k instead of to θ*'s.  The choice probability mixes the normalised weights with a
+lapse rate ε (a uniform guess):
+
+    P(k | S, E) = (1 - ε) · w_k / Σ_j w_j + ε / K.
+
+When every w_k is 0 (no θ the learner believes in would produce any option), the learner has nothing to
+go by and guesses: P(k) = 1 / K.
+"""
+from __future__ import annotations
+
+from functools import cached_property
+
+import numpy as np
+
+from .learners import METRICS, LearnerModel
+
+
+class OptionDistances:
+    """How far each θ's optimal trajectory in one environment is from each of K option trajectories:
+    the :class:`learners.Distances` interface with rows = options, so every learner model's
+    ``likelihood`` gives (K, N) P_M(ξ_k | θ_n, E) unchanged.
+
+    table: a trajectory table; env_index: the environment (a row of the table); options: (K,) the
+    θ indices whose optimal trajectories the options are.
+    """
+
+    def __init__(self, table, env_index: int, options):
+        self.table = table
+        self.env_index = int(env_index)
+        self.options = np.asarray(options, np.int64)
+        if self.options.ndim != 1 or not len(self.options):
+            raise ValueError("options must be a non-empty list of theta indices")
+        if self.options.min() < 0 or self.options.max() >= table.n_thetas:
+            raise ValueError(f"option theta indices must lie in [0, {table.n_thetas})")
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return (len(self.options), self.table.n_thetas)
+
+    @cached_property
+    def theta_norms(self) -> np.ndarray:
+        return np.linalg.norm(np.asarray(self.table.thetas, np.float64), axis=1).astype(np.float32)
+
+    @cached_property
+    def reward(self) -> np.ndarray:
+        """θ_n·(φ(ξ^θn) - φ(ξ_k)) >= 0: how much reward θ n gives up if the robot takes option k."""
+        phi = np.asarray(self.table.features[self.env_index], np.float64)  # (N, D)
+        thetas = np.asarray(self.table.thetas, np.float64)
+        own = np.einsum("nd,nd->n", phi, thetas)  # (N,) θ_n·φ(ξ^θn)
+        return (own[None, :] - phi[self.options] @ thetas.T).astype(np.float32)
+
+    @cached_property
+    def euclidean(self) -> np.ndarray:
+        """The Euclidean learner's distance (the domain's) from θ n's trajectory to option k's."""
+        states = np.asarray(self.table.states(self.env_index, np.arange(self.table.n_thetas)))  # (N, T+1, S)
+        d = self.table.domain.euclidean_distance(states[None, :], states[self.options][:, None])
+        return np.asarray(d, np.float32)
+
+    @cached_property
+    def strategy(self) -> np.ndarray:
+        s = np.asarray(self.table.strategy[self.env_index])
+        return np.where(s[None, :] == s[self.options][:, None], np.float32(0), np.float32(np.inf))
+
+    def get(self, metric: str) -> np.ndarray:
+        if metric not in METRICS:
+            raise ValueError(f"unknown distance metric {metric!r}; choose from {METRICS}")
+        return getattr(self, metric)
+
+
+def choice_probabilities(belief: np.ndarray, likelihood: np.ndarray, lapse: float) -> np.ndarray:
+    """(N,) belief P(θ | S), (K, N) likelihoods P(ξ_k | θ), lapse ε in [0, 1] -> (K,) P(k).
+
+    The module's equation; a guess (1 / K each) when no option has any weight."""
+    if not 0 <= lapse <= 1:
+        raise ValueError(f"the lapse rate must lie in [0, 1], got {lapse}")
+    w = np.asarray(likelihood, np.float64) @ np.asarray(belief, np.float64)  # (K,)
+    k = len(w)
+    total = w.sum()
+    if not total > 0:
+        return np.full(k, 1.0 / k)
+    return (1.0 - lapse) * w / total + lapse / k
+
+
+def option_choice(model: LearnerModel, belief: np.ndarray, table, env_index: int, options,
+                  lapse: float) -> np.ndarray:
+    """(K,) P(participant picks option k) of a test in environment `env_index` whose options are the
+    optimal trajectories of θ indices `options`, for a learner of `model` believing `belief` (N,)."""
+    lik = model.likelihood(OptionDistances(table, env_index, options))
+    return choice_probabilities(belief, lik, lapse)
