@@ -23,13 +23,16 @@ function withView(env) {
   return block ? { ...JSON.parse(block.textContent), ...env } : env;
 }
 
-// Plays a Scene in real time; calls onPlayed once the animation has reached its end.
+// Plays a Scene in real time; calls onPlayed once the animation has reached its end. A running
+// animation can be paused where it is and resumed from there (togglePause: the canvas, clicked or
+// Space / Enter on it); Play always starts from the beginning.
 export class Player {
   constructor(scene, { onPlayed = () => {}, onState = () => {} } = {}) {
     this.scene = scene;
     this.onPlayed = onPlayed;
     this.onState = onState;
     this.playing = false;
+    this.paused = false;
     this.played = false;
     this.raf = 0;
     scene.drawFrame(0);
@@ -38,14 +41,15 @@ export class Player {
     }
   }
 
-  play() {
+  play(from = 0) {
     cancelAnimationFrame(this.raf);
     this.scene.mode = "frame";
     this.playing = true;
+    this.paused = false;
     this.onState("playing");
     let start = null;
     const tick = (now) => {
-      if (start === null) start = now;
+      if (start === null) start = now - from * 1000;
       const t = Math.min((now - start) / 1000, this.scene.duration);
       this.scene.drawFrame(t);
       if (t < this.scene.duration) {
@@ -61,8 +65,20 @@ export class Player {
     this.raf = requestAnimationFrame(tick);
   }
 
+  togglePause() {
+    if (this.playing) {
+      cancelAnimationFrame(this.raf);
+      this.playing = false;
+      this.paused = true;
+      this.onState("paused");
+    } else if (this.paused) {
+      this.play(this.scene.t);
+    }
+  }
+
   showTrail(on) {
     cancelAnimationFrame(this.raf);
+    this.paused = false;
     if (this.playing) { this.playing = false; this.onState("stopped"); }
     this.scene.mode = on ? "trail" : "frame";
     if (on) this.scene.drawTrail(); else this.scene.drawFrame(this.played ? this.scene.duration : 0);
@@ -96,6 +112,16 @@ export function mountScene(Scene, root, env, robot, onPlayed) {
     trailBtn.setAttribute("aria-pressed", String(on));
     trailBtn.textContent = trailText(on);
     player.showTrail(on);
+  });
+  // pause and resume: a click on the animation, or Space / Enter on it (it is in the tab order)
+  canvas.tabIndex = 0;
+  canvas.title = "Click (or press Space) to pause or resume the animation";
+  canvas.addEventListener("click", () => player.togglePause());
+  canvas.addEventListener("keydown", (event) => {
+    if (event.key === " " || event.key === "Enter") {
+      event.preventDefault();
+      player.togglePause();
+    }
   });
   return player;
 }

@@ -95,6 +95,20 @@ def test_a_gridworld_study_from_table_to_analysis(studies, live_server, monkeypa
             if i == 0:
                 page.clock.run_for(int(drawn["duration"] * 500))
                 page.screenshot(path=str(OUT / "gridworld_training.png"), full_page=True)
+            if i == 1:  # pause: a click on the animation stops it where it is, a second click goes on from there
+                scene = page.locator(".scene")
+                page.clock.run_for(800)
+                page.locator(".scene canvas").click()
+                expect(scene).to_have_attribute("data-state", "paused")
+                t_paused = page.evaluate("document.querySelector('.scene canvas').scene.t")
+                page.clock.run_for(3000)
+                assert page.evaluate("document.querySelector('.scene canvas').scene.t") == t_paused > 0
+                assert submit.is_disabled()  # paused is not watched
+                page.locator(".scene canvas").focus()
+                page.keyboard.press("Space")  # and by keyboard
+                expect(scene).to_have_attribute("data-state", "playing")
+                page.clock.run_for(300)
+                assert page.evaluate("document.querySelector('.scene canvas').scene.t") > t_paused
             play_all(page, int(drawn["duration"] * 1000) + 500)
             expect(submit).to_be_enabled()
             if i == 0:
