@@ -29,9 +29,10 @@ def study_domain(study) -> Domain:
     return get_domain(study.domain)
 
 
-def env_payload(domain: Domain, env_id: int, states, cluster: int) -> dict:
-    """JSON for one environment: its scene, and the path `states` (T+1, S) labelled `cluster`."""
-    cls = int(domain.environment_class(np.array([int(env_id)]))[0])
+def env_payload(domain: Domain, env_id: int, env_class: int, states, cluster: int) -> dict:
+    """JSON for one environment of class `env_class`: its scene, and the path `states` (T+1, S)
+    labelled `cluster`."""
+    cls = int(env_class)
     return {"env_id": int(env_id), "env_class": cls, "class_name": domain.class_names[cls],
             "cluster": int(cluster), "cluster_name": domain.cluster_names[int(cluster)],
             **domain.scene_payload(int(env_id)), "robot": domain.path_rows(states)}
@@ -88,7 +89,8 @@ def _env_index(table, env_id: int) -> int:
 def _star_payload(table, env_id: int) -> tuple[int, dict]:
     i = _env_index(table, int(env_id))
     star = table.theta_star_index
-    return i, env_payload(table.domain, int(env_id), table.states(i, star), table.strategy[i, star])
+    return i, env_payload(table.domain, int(env_id), table.env_class[i], table.states(i, star),
+                          table.strategy[i, star])
 
 
 def training_from_table(table, env_ids) -> list[dict]:
