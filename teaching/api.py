@@ -40,6 +40,16 @@ Choice model (teaching.core.choice; docs/analysis.md)
                              believing `belief` (N,) picks option k), the options being the optimal
                              trajectories of θ indices `options`; OptionDistances, choice_probabilities
 
+Fitting learner models to answers (teaching.core.fitting, .bms, .simulate; docs/analysis.md)
+    Question(env_index, options)  one test: a table row and the θ indices of its K options
+    Answers                  what a study collected: sequence_names, sequences (table rows), tests,
+                             group (P,), choice (P, T) option index or -1, ratings (P, T, K) or None
+    compare_models(table, answers, names=None) -> Comparison: .fits (ModelFit each: τ / λ, ε,
+                             log_lik, cv_log_lik, aic, bic, per participant), .bms (exceedance
+                             probabilities), .rows() one dict per model; FitError (one line) if unfittable
+    SimulatedLearner(model, value, lapse)  who a model-based simulated participant is; AnswerModel(
+                             table, learner, tests) its P(option) per test for a sequence, .answer()
+
 Tables (teaching.core.table: a directory of .npy arrays plus meta.json with its content hash)
     TrajectoryTable          .load(path, verify=True, expected_hash=None); thetas (N, D),
                              env_ids (M,) int64, features (M, N, D), strategy (M, N) int8,
@@ -63,6 +73,7 @@ Building a table in chunks (teaching.core.build; precompute/work.py runs one chu
 
 Learners and selection (DESIGN §5-6)
     MODEL_NAMES              the 7 learner models (the paper's ideal users)
+    model_names()            every registered model: the 7 and the hierarchical learner
     make_model(name, value=None)  a learner; value is τ or λ (> 0), ValueError if bad
     has_hyperparameter(model)  whether τ / λ changes that model's likelihoods
     parse_hyperparameters(["MODEL=VALUE", ...])  {model: τ or λ}, ValueError if bad
@@ -103,8 +114,10 @@ from .core.candidates import SAMPLERS
 from .core.choice import OptionDistances, choice_probabilities, option_choice
 from .core.domain import Domain, LegendEntry, ParticipantTexts, default_domain_name, domain_names, get_domain
 from .core.evaluation import USER_NAMES, study_matrix
-from .core.learners import MODEL_NAMES, has_hyperparameter, make_model, parse_hyperparameters
+from .core.fitting import Answers, Comparison, FitError, Question, compare_models
+from .core.learners import MODEL_NAMES, has_hyperparameter, make_model, model_names, parse_hyperparameters
 from .core.selection import APPROX_STAR, CONDITIONS, SelectionSettings, build_sequences, condition_sequence
+from .core.simulate import AnswerModel, SimulatedLearner
 from .core.table import TableError, TrajectoryTable
 from .core.testset import MIN_REGRET, select_test_set
 from .domains.driving.domain import DOMAIN as _DRIVING
@@ -133,4 +146,5 @@ __all__ = [
     "parse_hyperparameters", "select_test_set", "strategy_labels", "stratified_sample", "study_matrix",
     "table_identity",
     "OptionDistances", "choice_probabilities", "option_choice",
+    "AnswerModel", "Answers", "Comparison", "FitError", "Question", "SimulatedLearner", "compare_models", "model_names",
 ]

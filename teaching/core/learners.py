@@ -13,6 +13,15 @@ trajectory in environment m is from θ*'s — to a likelihood matrix in [0, 1]:
 with metric ∈ {reward, euclidean, strategy}; d_strategy is 0 within a cluster
 and ∞ across, so probabilistic × strategy equals deterministic × strategy.
 
+* hierarchical:            [same strategy] · exp(-λ d_euclidean)
+
+The paper's Discussion proposes the last one: people first determine which
+strategy the robot takes, then the most likely trajectory within that strategy
+cluster.  A θ whose optimal trajectory takes another strategy than the example
+is ruled out (the strategy learner), and among the rest closeness counts as for
+the probabilistic Euclidean learner.  It is not one of the paper's seven ideal
+users (MODEL_NAMES); every model registered is in :func:`model_names`.
+
 To add a model, subclass :class:`LearnerModel` (implement ``likelihood``) and
 :func:`register_model` a factory for it; the selectors only call
 ``likelihood``.
@@ -164,6 +173,23 @@ class Probabilistic(LearnerModel):
         return out
 
 
+@dataclass(frozen=True)
+class Hierarchical(LearnerModel):
+    """Strategy first, then the trajectory within it (the paper's Discussion)."""
+
+    value: float = 1.0
+    param: str = "lambda"
+    name: str = "hierarchical"
+
+    def likelihood(self, dist, rows=None, out=None):
+        d = _rows(dist.euclidean, rows)
+        out = np.empty(d.shape, np.float32) if out is None else out
+        np.multiply(d, np.float32(-self.value), out=out)
+        np.exp(out, out=out)
+        out[_rows(dist.strategy, rows) != 0] = 0  # another strategy: ruled out
+        return out
+
+
 _REGISTRY: dict[str, Callable[[float | None], LearnerModel]] = {
     "exact": lambda v: ExactIRL(),
     "det-reward": lambda v: Deterministic("reward", 1.0 if v is None else v),
@@ -175,6 +201,7 @@ _REGISTRY: dict[str, Callable[[float | None], LearnerModel]] = {
 }
 # The paper's 7 ideal users, in the order of its figures.
 MODEL_NAMES = tuple(_REGISTRY)
+_REGISTRY["hierarchical"] = lambda v: Hierarchical(1.0 if v is None else v)
 
 
 def register_model(name: str, factory: Callable[[float | None], LearnerModel]) -> None:

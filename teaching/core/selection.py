@@ -307,7 +307,7 @@ def teach(table, *, seed: int = 0, approx_star: str = APPROX_STAR, hyperparamete
     dist = dist or Distances(table)
     buffer = np.empty(dist.shape, np.float32)
     models, sequences, sweeps, rule_met = {}, {}, {}, {}
-    names = MODEL_NAMES
+    names = MODEL_NAMES + (() if approx_star in MODEL_NAMES else (approx_star,))
     eligible = showable(table)
     bar = tqdm(total=len(names) + 1, desc="teaching", disable=not progress)
     for name in names:

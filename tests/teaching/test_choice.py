@@ -68,6 +68,9 @@ def test_option_distances_by_hand():
      0.9 * np.array([0.75 + 0.25 * exp(-D_AB), 0.25 + 0.75 * exp(-D_AB), 0.75 + 0.25 * exp(-D_AB)])
      / (1.75 + 1.25 * exp(-D_AB)) + 0.1 / 3),
     ("det-strategy", None, [0.2, 0.6, 0.2], 0.0, np.array([0.4, 0.6, 0.4]) / 1.4),
+    # hierarchical: another strategy rules a θ out, so B gets only θ1's belief; within A, d = 0
+    ("hierarchical", 1.0, [0.5, 0.25, 0.25], 0.0, np.array([0.75, 0.25, 0.75]) / 1.75),
+    ("hierarchical", 1.0, [1 / 3] * 3, 0.1, 0.9 * np.array([2, 1, 2]) / 5 + 0.1 / 3),
 ])
 def test_choice_probabilities_by_hand(name, value, belief, lapse, expected):
     p = option_choice(make_model(name, value), np.array(belief), TABLE, 0, [0, 1, 2], lapse)
@@ -105,6 +108,16 @@ def test_theta_stars_option_has_the_tables_own_distances(preset, tmp_path):
         assert (d.strategy[0] == dist.strategy[m]).all()
         # and every model's choice over the options is a probability vector
         belief = np.full(table.n_thetas, 1.0 / table.n_thetas)
-        for name in ("exact", "det-reward", "prob-euclidean", "det-strategy"):
+        for name in ("exact", "det-reward", "prob-euclidean", "det-strategy", "hierarchical"):
             p = option_choice(make_model(name), belief, table, m, [0, 3, 5, 7], 0.1)
             assert p.shape == (4,) and p.sum() == pytest.approx(1.0) and (p >= 0.1 / 4 - 1e-12).all()
+
+
+def test_the_hierarchical_learner_is_strategy_then_closeness(tiny_table):
+    """Its likelihood is the strategy learner's 0/1 times the probabilistic Euclidean learner's exp(-λ d)."""
+    dist = Distances(TrajectoryTable.load(tiny_table))
+    for lam in (0.3, 3.0):
+        hier = make_model("hierarchical", lam).likelihood(dist)
+        expected = make_model("det-strategy").likelihood(dist) * make_model("prob-euclidean", lam).likelihood(dist)
+        np.testing.assert_array_equal(hier, expected)
+        assert (hier[:, 0] == 1).all()  # θ* always explains its own example

@@ -1,0 +1,334 @@
+"""Fitting learner models to participants' answers (issue 24; equations in docs/analysis.md).
+
+A participant i saw training examples S_i (table rows: their condition's sequence) and answered tests
+t = 1..T, each a choice c_it among the K options of a test in environment E_t.  Under learner model M
+with hyperparameter v (τ or λ) and lapse rate ε, the choice model (:mod:`.choice`) gives
+
+    P(c_it = k) = (1 - ε) q_M,v(k | S_i, E_t) + ε / K,
+
+so the log-likelihood of the answers is ℓ_i(v, ε) = Σ_t log P(c_it).  Everything below works on q, the
+(G, S, T, K) table of choice probabilities without lapse for every value v of a grid of G, every
+distinct training sequence s and every test: participants who saw the same examples share it, so the
+cost of a fit grows with the grid and the conditions, not with the participants.
+
+* **pooled fit**: (v, ε) maximising Σ_i ℓ_i on the grid (ε in steps of 1/200), then ε (and λ of a
+  probabilistic model) polished continuously; ``aic`` = 2k - 2ℓ, ``bic`` = k ln n - 2ℓ (k: 2 with a
+  hyperparameter that changes the model, else 1; n: answered tests).
+* **per participant**: the grid maximum of each ℓ_i; its BIC approximation ℓ_i - (k/2) ln n_i of the
+  log evidence feeds the random-effects model selection (:mod:`.bms`).
+* **leave-one-participant-out**: Σ_i ℓ_i at the pooled grid fit of everyone else.
+
+A deterministic model's ℓ is a step function of τ: every τ of the best step fits equally, and the fit
+reports the middle (geometric) of that step's grid values.  Models whose choice probabilities are equal
+at every grid value (the deterministic and probabilistic strategy learners: d_strategy is 0 or ∞) are
+one model here, reported once under both names.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+from scipy.stats import chi2, spearmanr
+
+from .bms import BMSResult, random_effects_bms
+from .choice import OptionDistances, choice_probabilities
+from .learners import Distances, LearnerModel, has_hyperparameter, make_model, model_names, posterior
+
+VALUE_GRID = tuple(10.0 ** (k / 4) for k in range(-20, 21))  # τ, λ ∈ 1e-5 .. 1e5, four per decade
+EPS_GRID = np.linspace(0.0, 1.0, 201)
+
+
+class FitError(ValueError):
+    """Answers that cannot be fitted: the message says why, in one line."""
+
+
+@dataclass(frozen=True)
+class Question:
+    """One test: its environment (a table row) and the θ indices whose optimal trajectories are its
+    options, in the order choices are stored."""
+
+    env_index: int
+    options: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class Answers:
+    """What a study collected, as the fit reads it.
+
+    sequences: name -> table rows shown (a condition's training examples); tests: the test set;
+    group: (P,) index into ``sequence_names`` of each participant's sequence; choice: (P, T) int,
+    the chosen option's index into the test's ``options`` (-1: not answered); ratings: (P, T, K)
+    float 1-7 (NaN: not answered), or None.
+    """
+
+    sequence_names: tuple[str, ...]
+    sequences: tuple[tuple[int, ...], ...]
+    tests: tuple[Question, ...]
+    group: np.ndarray
+    choice: np.ndarray
+    ratings: np.ndarray | None = None
+    participant_ids: tuple[str, ...] = ()
+
+    @property
+    def n_participants(self) -> int:
+        return len(self.group)
+
+    @property
+    def n_options(self) -> int:
+        return len(self.tests[0].options)
+
+    def check(self) -> None:
+        """FitError unless these answers can be fitted (the messages a researcher sees)."""
+        if not self.tests:
+            raise FitError("the study has no test set: there is nothing to fit")
+        if len({len(t.options) for t in self.tests}) != 1:
+            raise FitError("every test must offer the same number of options")
+        answered = self.choice >= 0
+        if self.n_participants == 0 or not answered.any():
+            raise FitError("no participant answered a test yet: nothing to fit")
+        used = np.unique(self.group[answered.any(1)])
+        if len({self.sequences[g] for g in used}) < 2:
+            raise FitError("every participant who answered saw the same training examples (one condition): "
+                           "the models' predictions then differ too little to compare; fit a study of two or more "
+                           "conditions")
+
+
+@dataclass
+class ModelFit:
+    """One model's fit (see the module's docstring); ``same_as``: models with identical predictions."""
+
+    name: str
+    param: str | None
+    value: float | None
+    lapse: float
+    log_lik: float
+    n_params: int
+    n_answers: int
+    cv_log_lik: float
+    per_participant_log_lik: np.ndarray  # (P,) ℓ_i at the participant's own grid fit
+    per_participant_value: np.ndarray  # (P,) (NaN without a hyperparameter)
+    per_participant_lapse: np.ndarray  # (P,)
+    log_evidence: np.ndarray  # (P,) ℓ_i - (k/2) ln n_i
+    predicted: np.ndarray  # (S, T, K) P(option) at the pooled fit, lapse included
+    rating_rho: float | None = None  # Spearman ρ of predicted probability and rating
+    same_as: list[str] = field(default_factory=list)
+    grid_q: np.ndarray | None = field(default=None, repr=False)  # (G, S, T, K): what merging compares
+
+    @property
+    def aic(self) -> float:
+        return 2 * self.n_params - 2 * self.log_lik
+
+    @property
+    def bic(self) -> float:
+        return self.n_params * np.log(self.n_answers) - 2 * self.log_lik
+
+    @property
+    def label(self) -> str:
+        return " = ".join([self.name] + self.same_as)
+
+
+def option_distances(table, tests) -> list[OptionDistances]:
+    """One OptionDistances per test (its distances are computed once and reused for every v)."""
+    return [OptionDistances(table, t.env_index, t.options) for t in tests]
+
+
+def choice_table(model: LearnerModel, dist: Distances, options: list[OptionDistances], sequences) -> np.ndarray:
+    """(S, T, K) float64 q(k | S_s, E_t): the choice model's probabilities without lapse."""
+    out = np.empty((len(sequences), len(options), options[0].shape[0]))
+    liks = [model.likelihood(o).astype(np.float64) for o in options]
+    for s, seq in enumerate(sequences):
+        belief = posterior(model, dist, list(seq))
+        for t, lik in enumerate(liks):
+            out[s, t] = choice_probabilities(belief, lik, 0.0)
+    return out
+
+
+def model_grid(model: LearnerModel, grid=VALUE_GRID) -> list[LearnerModel]:
+    """The model at every value of `grid`, or just itself when τ / λ change nothing."""
+    return [model.with_value(v) for v in grid] if has_hyperparameter(model) else [model]
+
+
+def _answer_log_lik(q: np.ndarray, answers: Answers, eps: np.ndarray) -> np.ndarray:
+    """q (G, S, T, K), eps (E,) -> (G, E, P) ℓ_i on the grid (a test not answered adds 0)."""
+    k = q.shape[-1]
+    out = np.zeros((q.shape[0], len(eps), answers.n_participants))
+    for t in range(q.shape[2]):
+        done = answers.choice[:, t] >= 0
+        if not done.any():
+            continue
+        p = q[:, answers.group[done], t, answers.choice[done, t]]  # (G, P_t)
+        with np.errstate(divide="ignore"):
+            out[:, :, done] += np.log((1 - eps)[None, :, None] * p[:, None, :] + (eps / k)[None, :, None])
+    return out
+
+
+def _grid_best(ll: np.ndarray, tunable: bool) -> tuple[int, int]:
+    """(g, e) maximising ll (G, E): the first best ε and, for a step function of τ, the middle of the
+    run of grid values that share the best ℓ (np.argmax gives the run's first)."""
+    g, e = np.unravel_index(int(np.argmax(ll)), ll.shape)
+    if not tunable:
+        return int(g), int(e)
+    last = g
+    while last + 1 < ll.shape[0] and ll[last + 1, e] >= ll[g, e] - 1e-9:
+        last += 1
+    return int(g + last) // 2, int(e)
+
+
+def _leave_one_out(ll: np.ndarray) -> np.ndarray:
+    """(G, E, P) Σ_{j≠i} ℓ_j: the total less participant i's (-inf only when another one's is; at ε = 0
+    an answer the model rules out is -inf, and -inf - -inf would be NaN)."""
+    bad = ~np.isfinite(ll)
+    finite = np.where(bad, 0.0, ll)
+    others_bad = bad.sum(-1, keepdims=True) - bad
+    return np.where(others_bad > 0, -np.inf, finite.sum(-1, keepdims=True) - finite)
+
+
+def _polish(q_of, answers: Answers, value, lapse, tunable: bool) -> tuple[float | None, float, float]:
+    """Continuous ε (and log λ) from the grid optimum, each a bounded 1-D search (ℓ is concave in ε;
+    λ is searched within a quarter decade of the grid's best); returns (value, lapse, ℓ)."""
+    tables = {}
+
+    def neg(eps, v):
+        if v not in tables:
+            tables[v] = q_of(v)[None]
+        return -float(_answer_log_lik(tables[v], answers, np.array([eps]))[0, 0].sum())
+
+    for _ in range(2 if tunable else 1):
+        v = value
+        res = minimize_scalar(lambda e, v=v: neg(e, v), bounds=(0.0, 1.0), method="bounded", options={"xatol": 1e-6})
+        if res.fun <= neg(lapse, value):
+            lapse = float(res.x)
+        if tunable:
+            lo, eps = np.log10(value) - 0.25, lapse
+            res = minimize_scalar(lambda lv, eps=eps: neg(eps, 10.0 ** lv), bounds=(lo, lo + 0.5), method="bounded",
+                                  options={"xatol": 1e-4})
+            if res.fun < neg(lapse, value):
+                value = float(10.0 ** res.x)
+    return value, lapse, -neg(lapse, value)
+
+
+def fit_model(name: str, table, answers: Answers, *, dist: Distances | None = None, options=None,
+              grid=VALUE_GRID) -> ModelFit:
+    """Fit learner model `name` to `answers` (the module's docstring says how)."""
+    dist = dist or Distances(table)
+    options = options or option_distances(table, answers.tests)
+    base = make_model(name)
+    models = model_grid(base, grid)
+    tunable = len(models) > 1
+    values = np.array([m.value for m in models]) if tunable else None
+    q = np.stack([choice_table(m, dist, options, answers.sequences) for m in models])  # (G, S, T, K)
+    ll = _answer_log_lik(q, answers, EPS_GRID)  # (G, E, P)
+    total = ll.sum(-1)
+    g, e = _grid_best(total, tunable)
+    n_i = (answers.choice >= 0).sum(1)
+    k = 2 if tunable else 1
+    # per participant: each one's own grid maximum
+    flat = ll.reshape(-1, ll.shape[-1])
+    best_i = np.argmax(flat, axis=0)
+    own_ll = flat[best_i, np.arange(flat.shape[1])]
+    gi, ei = np.unravel_index(best_i, ll.shape[:2])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        evidence = np.where(n_i > 0, own_ll - 0.5 * k * np.log(np.maximum(n_i, 1)), 0.0)
+    # leave one participant out: the grid fit of the others, scored on the one left out
+    rest = _leave_one_out(ll)
+    loo = np.argmax(rest.reshape(-1, rest.shape[-1]), axis=0)
+    cv = float(flat[loo, np.arange(flat.shape[1])].sum())
+
+    def q_of(v):
+        return choice_table(base.with_value(v) if tunable else base, dist, options, answers.sequences)
+
+    value, lapse, log_lik = _polish(q_of, answers, float(values[g]) if tunable else None, float(EPS_GRID[e]),
+                                    tunable and base.param == "lambda")
+    kk = answers.n_options
+    fit = ModelFit(name=name, param=base.param if tunable else None, value=value, lapse=lapse, log_lik=log_lik,
+                   n_params=k, n_answers=int(n_i.sum()), cv_log_lik=cv, per_participant_log_lik=own_ll,
+                   per_participant_value=values[gi] if tunable else np.full(len(n_i), np.nan),
+                   per_participant_lapse=EPS_GRID[ei], log_evidence=evidence,
+                   predicted=(1 - lapse) * q_of(value) + lapse / kk, grid_q=q)
+    fit.rating_rho = rating_correlation(fit.predicted, answers)
+    return fit
+
+
+def rating_correlation(predicted: np.ndarray, answers: Answers) -> float | None:
+    """Spearman ρ over every rated option of every answered test: the model's P(option) against the
+    participant's 1-7 rating of it (the ratings' link, docs/analysis.md); None without ratings."""
+    if answers.ratings is None:
+        return None
+    p = predicted[answers.group]  # (P, T, K)
+    ok = np.isfinite(answers.ratings) & (answers.choice >= 0)[:, :, None]
+    if ok.sum() < 3 or np.ptp(p[ok]) == 0 or np.ptp(answers.ratings[ok]) == 0:
+        return None
+    return float(spearmanr(p[ok], answers.ratings[ok]).statistic)
+
+
+def _merge_identical(fits: list[ModelFit]) -> list[ModelFit]:
+    """Keep one fit of each group of models whose q tables are equal at every grid value."""
+    kept: list[ModelFit] = []
+    for f in fits:
+        twin = next((k for k in kept if k.grid_q.shape == f.grid_q.shape
+                     and np.allclose(k.grid_q, f.grid_q, rtol=0, atol=1e-12)), None)
+        if twin is None:
+            kept.append(f)
+        else:
+            twin.same_as.append(f.name)
+    return kept
+
+
+def fit_models(table, answers: Answers, names=None, *, grid=VALUE_GRID, progress=None) -> list[ModelFit]:
+    """Every model in `names` (default: every registered one) fitted to `answers`, identical models
+    merged, best first by cross-validated log-likelihood.  FitError (one line) when the answers cannot
+    be fitted or when no model explains them better than guessing (every answer a lapse)."""
+    answers.check()
+    dist = Distances(table)
+    options = option_distances(table, answers.tests)
+    fits = []
+    for name in names or model_names():
+        fits.append(fit_model(name, table, answers, dist=dist, options=options, grid=grid))
+        if progress:
+            progress(name)
+    fits = _merge_identical(fits)
+    if not any(beats_guessing(f, answers.n_options, len(fits)) for f in fits):
+        raise FitError("no model explains these answers better than guessing (likelihood-ratio test against a "
+                       "uniform guess, p >= 0.05 after Bonferroni): the answers look like lapses")
+    return sorted(fits, key=lambda f: -f.cv_log_lik)
+
+
+def beats_guessing(fit: ModelFit, n_options: int, n_models: int = 1, alpha: float = 0.05) -> bool:
+    """Whether `fit` explains its answers better than a uniform guess over `n_options`: the likelihood-ratio
+    statistic 2(ℓ - ℓ_guess) against χ² with the fit's free parameters, at `alpha` / `n_models`."""
+    stat = 2 * (fit.log_lik - fit.n_answers * -np.log(n_options))
+    return bool(chi2.sf(max(stat, 0.0), fit.n_params) < alpha / n_models)
+
+
+@dataclass
+class Comparison:
+    """Every model's fit, best first by cross-validated log-likelihood, and the random-effects model
+    selection over them (``bms``: its arrays follow ``fits``' order; None for a single model)."""
+
+    fits: list[ModelFit]
+    bms: BMSResult | None
+    n_participants: int
+
+    def rows(self) -> list[dict]:
+        """One row per model (identical ones merged), for tables and CSV."""
+        best_bic = min(f.bic for f in self.fits)
+        nan = np.full(len(self.fits), np.nan)
+        freq, ep, pep = ((self.bms.frequency, self.bms.exceedance, self.bms.protected_exceedance) if self.bms
+                         else (nan, nan, nan))
+        return [{"model": f.label, "param": f.param or "", "value": f.value, "lapse": f.lapse,
+                 "log_lik": f.log_lik, "cv_log_lik": f.cv_log_lik, "aic": f.aic, "bic": f.bic,
+                 "delta_bic": f.bic - best_bic, "frequency": float(freq[i]), "exceedance": float(ep[i]),
+                 "protected_exceedance": float(pep[i]),
+                 "rating_rho": f.rating_rho, "n_answers": f.n_answers}
+                for i, f in enumerate(self.fits)]
+
+
+def compare_models(table, answers: Answers, names=None, **kwargs) -> Comparison:
+    """:func:`fit_models`, then random-effects model selection on the participants' log evidence
+    (only participants who answered a test count)."""
+    fits = fit_models(table, answers, names, **kwargs)
+    answered = (answers.choice >= 0).any(1)
+    log_ev = np.stack([f.log_evidence[answered] for f in fits])
+    bms = random_effects_bms(log_ev) if len(fits) > 1 else None
+    return Comparison(fits=fits, bms=bms, n_participants=int(answered.sum()))

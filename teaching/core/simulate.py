@@ -1,0 +1,86 @@
+"""Simulated participants who learn by a model (issue 24, item 3; docs/analysis.md).
+
+A simulated participant of learner model M (with τ / λ and lapse rate ε) watches its condition's
+training examples, so it believes P_M(θ | S); in each test it picks option k with the choice model's
+probability P(k | S, E) (:mod:`.choice`) and rates each option 1 + Binomial(6, P(k)): options it finds
+likelier get higher ratings, with the noise of a 7-point scale.  The web side runs such participants
+through the real assignment and flow (studyapp/analysis/simulate.py); :func:`simulate_answers` draws
+them directly, for model recovery (:mod:`.recovery`) and benchmarks.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from .choice import OptionDistances, choice_probabilities
+from .fitting import Answers, Question
+from .learners import Distances, LearnerModel, check_value, make_model, posterior
+
+RATING_STEPS = 6  # a rating is 1 + Binomial(6, P(option)): 1 .. 7
+
+
+@dataclass(frozen=True)
+class SimulatedLearner:
+    """Who a simulated participant is: a learner model, its τ / λ (None: the model's default or none) and
+    its lapse rate ε in [0, 1] (the chance of a uniform guess in each test)."""
+
+    model: str
+    value: float | None = None
+    lapse: float = 0.1
+
+    def __post_init__(self):
+        make_model(self.model, self.value)  # a ValueError naming a bad model or value
+        if not 0 <= float(self.lapse) <= 1:
+            raise ValueError(f"the lapse rate must lie in [0, 1], got {self.lapse}")
+        if self.value is not None:
+            check_value(self.model, self.value)
+
+    @property
+    def learner_model(self) -> LearnerModel:
+        return make_model(self.model, self.value)
+
+    def __str__(self) -> str:
+        return f"{self.learner_model} with lapse rate {self.lapse:g}"
+
+
+class AnswerModel:
+    """P(option) of every test for a learner who saw a given sequence, cached per sequence: what a
+    simulated participant draws its answers from.  table: a trajectory table; tests: TestItems."""
+
+    def __init__(self, table, learner: SimulatedLearner, tests, dist: Distances | None = None):
+        self.table, self.learner, self.tests = table, learner, tuple(tests)
+        self.dist = dist or Distances(table)
+        model = learner.learner_model
+        self._liks = [model.likelihood(OptionDistances(table, t.env_index, t.options)).astype(np.float64)
+                      for t in self.tests]
+        self.probabilities = lru_cache(maxsize=None)(self._probabilities)
+
+    def _probabilities(self, sequence: tuple[int, ...]) -> np.ndarray:
+        """(T, K) P(option k of test t) for a learner shown table rows `sequence`."""
+        belief = posterior(self.learner.learner_model, self.dist, list(sequence))
+        return np.stack([choice_probabilities(belief, lik, self.learner.lapse) for lik in self._liks])
+
+    def answer(self, sequence: tuple[int, ...], rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """One participant's answers: ((T,) chosen option, (T, K) ratings 1-7)."""
+        p = self.probabilities(tuple(int(s) for s in sequence))
+        choice = np.array([rng.choice(len(row), p=row / row.sum()) for row in p])
+        ratings = 1 + rng.binomial(RATING_STEPS, np.clip(p, 0, 1))
+        return choice, ratings.astype(np.float64)
+
+
+def simulate_answers(table, learner: SimulatedLearner, sequences: dict[str, list[int]], tests,
+                     n_per_sequence: int, rng: np.random.Generator, dist: Distances | None = None) -> Answers:
+    """`n_per_sequence` participants of `learner` per named sequence (table rows), answering `tests`."""
+    tests = tuple(t if isinstance(t, Question) else Question(int(t[0]), tuple(int(o) for o in t[1])) for t in tests)
+    model = AnswerModel(table, learner, tests, dist)
+    names = tuple(sequences)
+    group = np.repeat(np.arange(len(names)), n_per_sequence)
+    drawn = [model.answer(tuple(sequences[names[g]]), rng) for g in group]
+    k = len(tests[0].options)
+    return Answers(sequence_names=names, sequences=tuple(tuple(int(e) for e in sequences[n]) for n in names),
+                   tests=tests, group=group,
+                   choice=np.array([c for c, _ in drawn], np.int64).reshape(len(group), len(tests)),
+                   ratings=np.array([r for _, r in drawn]).reshape(len(group), len(tests), k),
+                   participant_ids=tuple(f"sim-{i}" for i in range(len(group))))

@@ -1,0 +1,158 @@
+"""Fitting learner models to answers (issue 24, item 4): parameter recovery from participants simulated
+by this file's own brute-force learner (loops over θ on the table's raw features and states, none of
+teaching's learner, choice or fitting code), model recovery on the demo study's design, merging of
+identical models, and the bad inputs a researcher can hit."""
+import numpy as np
+import pytest
+
+from teaching.core.fitting import Answers, FitError, Question, compare_models, fit_model, fit_models
+from teaching.core.selection import CONDITIONS, teach
+from teaching.core.simulate import SimulatedLearner, simulate_answers
+from teaching.core.table import TrajectoryTable
+from teaching.core.testset import select_test_set
+
+
+# --- a learner written out by hand, for simulating ---------------------------------------------------
+def brute_choice(table, metric, kind, value, lapse, sequence, env, options):
+    """(K,) P(option): belief over θ from `sequence`'s θ* examples, then each option's belief-weighted
+    likelihood, normalised, mixed with the lapse rate.  Every distance from the table's raw arrays."""
+    thetas = np.asarray(table.thetas, np.float64)
+    feats = np.asarray(table.features, np.float64)
+    n = len(thetas)
+
+    def dist(e, th, ref):  # how far θ th's optimal trajectory in e is from θ ref's
+        if metric == "reward":
+            return float(thetas[th] @ (feats[e, th] - feats[e, ref]))
+        return float(table.domain.euclidean_distance(table.states(e, th), table.states(e, ref)))
+
+    def lik(d):
+        return float(d <= value) if kind == "det" else float(np.exp(-value * d))
+
+    belief = np.array([np.prod([lik(dist(e, th, 0)) for e in sequence]) for th in range(n)])
+    belief /= belief.sum()
+    w = np.array([sum(belief[th] * lik(dist(env, th, o)) for th in range(n)) for o in options])
+    return (1 - lapse) * w / w.sum() + lapse / len(options)
+
+
+def brute_answers(table, metric, kind, value, lapse, sequences, tests, n_per_sequence, rng):
+    names = list(sequences)
+    group = np.repeat(np.arange(len(names)), n_per_sequence)
+    probs = {g: [brute_choice(table, metric, kind, value, lapse, sequences[names[g]], t.env_index, t.options)
+                 for t in tests] for g in range(len(names))}
+    choice = np.array([[rng.choice(len(p), p=p) for p in probs[g]] for g in group])
+    return Answers(sequence_names=tuple(names), sequences=tuple(tuple(sequences[n]) for n in names),
+                   tests=tuple(tests), group=group, choice=choice)
+
+
+@pytest.fixture(scope="module")
+def grid_design(gridworld_table):
+    """The gridworld table, its 9 conditions' sequences (table rows) and 12 tests of θ* and 3 other θ."""
+    table = TrajectoryTable.load(gridworld_table)
+    result = teach(table)
+    sequences = {c: result.sequences[c].envs for c in CONDITIONS}
+    rng = np.random.default_rng(5)
+    shown = {e for s in sequences.values() for e in s}
+    envs = rng.choice([e for e in range(table.n_envs) if e not in shown], 12, replace=False)
+    tests = [Question(int(e), (0,) + tuple(int(o) for o in rng.choice(np.arange(1, table.n_thetas), 3, replace=False)))
+             for e in envs]
+    return table, sequences, tests
+
+
+@pytest.mark.parametrize("name, metric, kind, value, lapse", [
+    ("prob-euclidean", "euclidean", "prob", 3.0, 0.15),
+    ("det-euclidean", "euclidean", "det", 0.3, 0.05),
+    ("prob-reward", "reward", "prob", 0.3, 0.25),
+])
+def test_a_fit_recovers_the_simulated_learners_parameters(grid_design, name, metric, kind, value, lapse):
+    table, sequences, tests = grid_design
+    answers = brute_answers(table, metric, kind, value, lapse, sequences, tests, 60, np.random.default_rng(1))
+    fit = fit_model(name, table, answers)
+    assert abs(fit.lapse - lapse) <= 0.05, fit
+    assert abs(np.log10(fit.value) - np.log10(value)) <= 1.0, fit
+    # the deterministic learner's likelihood is a step in τ: the fitted τ must lie on the true step
+    if kind == "det":
+        refit = fit_model(name, table, answers, grid=(value, fit.value))
+        assert refit.log_lik == pytest.approx(fit.log_lik, abs=1e-6)
+    assert fit.n_answers == 9 * 60 * 12
+    assert fit.n_params == 2 and fit.aic == pytest.approx(4 - 2 * fit.log_lik)
+    assert fit.bic == pytest.approx(2 * np.log(fit.n_answers) - 2 * fit.log_lik)
+    # cross-validated below in-sample, and not by much at 540 participants
+    assert fit.log_lik - 5 < fit.cv_log_lik < fit.log_lik
+
+
+@pytest.fixture(scope="module")
+def demo_design(demo_table):
+    """The demo table with its conditions' sequences and the study's own test set (select_test_set)."""
+    table = TrajectoryTable.load(demo_table)
+    result = teach(table)
+    sequences = {c: result.sequences[c].envs for c in CONDITIONS}
+    ids = np.asarray(table.env_ids)
+    test_set = select_test_set(table, [[int(ids[e]) for e in s] for s in sequences.values()])
+    tests = [Question(t["env_index"], tuple(o["theta_index"] for o in t["options"])) for t in test_set]
+    return table, result, sequences, tests
+
+
+@pytest.mark.parametrize("generator", ["det-euclidean", "prob-reward"])
+def test_data_simulated_from_a_model_is_best_explained_by_it(demo_design, generator):
+    """Two models the demo design tells apart: each one's simulated study is fitted best by itself."""
+    table, result, sequences, tests = demo_design
+    learner = SimulatedLearner(generator, result.models[generator].value, 0.1)
+    answers = simulate_answers(table, learner, sequences, tests, 30, np.random.default_rng(3))
+    fits = fit_models(table, answers)
+    assert fits[0].name == generator, [(f.label, f.cv_log_lik) for f in fits]
+    assert min(fits, key=lambda f: f.bic).name == generator
+    # the ratings follow the generating model's probabilities
+    assert fits[0].rating_rho > 0.5
+
+
+def test_identical_models_are_one_entry(demo_design):
+    table, result, sequences, tests = demo_design
+    answers = simulate_answers(table, SimulatedLearner("det-strategy", None, 0.1), sequences, tests, 10,
+                               np.random.default_rng(0))
+    fits = fit_models(table, answers)
+    labels = [f.label for f in fits]
+    assert "det-strategy = prob-strategy" in labels
+    assert not any(f.name == "prob-strategy" for f in fits)
+    assert len(fits) == 7  # eight models, two of them one
+
+
+# --- bad input -----------------------------------------------------------------------------------
+def test_no_answers_one_condition_and_lapses_give_one_line_messages(demo_design):
+    table, result, sequences, tests = demo_design
+    rng = np.random.default_rng(0)
+    answers = simulate_answers(table, SimulatedLearner("det-euclidean", 1.0, 0.1), sequences, tests, 4, rng)
+    unanswered = Answers(answers.sequence_names, answers.sequences, answers.tests, answers.group,
+                         np.full_like(answers.choice, -1))
+    with pytest.raises(FitError, match="no participant answered a test"):
+        fit_models(table, unanswered)
+    nobody = Answers(answers.sequence_names, answers.sequences, answers.tests, answers.group[:0],
+                     answers.choice[:0])
+    with pytest.raises(FitError, match="no participant answered"):
+        fit_models(table, nobody)
+    one = simulate_answers(table, SimulatedLearner("det-euclidean", 1.0, 0.1), {"exact": sequences["exact"]},
+                           tests, 30, rng)
+    with pytest.raises(FitError, match="one condition"):
+        fit_models(table, one)
+    guesses = Answers(answers.sequence_names, answers.sequences, answers.tests, np.repeat(np.arange(9), 20),
+                      rng.integers(0, 4, (180, len(tests))))
+    with pytest.raises(FitError, match="better than guessing") as err:
+        fit_models(table, guesses)
+    assert "\n" not in str(err.value)
+    with pytest.raises(FitError, match="no test set"):
+        fit_models(table, Answers(answers.sequence_names, answers.sequences, (), answers.group, answers.choice))
+
+
+def test_the_comparison_ranks_models_and_selects_across_participants(demo_design):
+    table, result, sequences, tests = demo_design
+    answers = simulate_answers(table, SimulatedLearner("det-euclidean", result.models["det-euclidean"].value, 0.1),
+                               sequences, tests, 20, np.random.default_rng(7))
+    comparison = compare_models(table, answers)
+    rows = comparison.rows()
+    assert [r["model"] for r in rows][0] == "det-euclidean"
+    assert [r["cv_log_lik"] for r in rows] == sorted((r["cv_log_lik"] for r in rows), reverse=True)
+    assert min(r["delta_bic"] for r in rows) == 0
+    assert sum(r["exceedance"] for r in rows) == pytest.approx(1)
+    assert rows[0]["exceedance"] == max(r["exceedance"] for r in rows)
+    assert comparison.n_participants == 180
+    single = compare_models(table, answers, ["det-euclidean"])
+    assert single.bms is None and np.isnan(single.rows()[0]["exceedance"])
