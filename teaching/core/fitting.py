@@ -275,12 +275,13 @@ def _merge_identical(fits: list[ModelFit]) -> list[ModelFit]:
     return kept
 
 
-def fit_models(table, answers: Answers, names=None, *, grid=VALUE_GRID, progress=None) -> list[ModelFit]:
+def fit_models(table, answers: Answers, names=None, *, grid=VALUE_GRID, progress=None,
+               dist: Distances | None = None) -> list[ModelFit]:
     """Every model in `names` (default: every registered one) fitted to `answers`, identical models
     merged, best first by cross-validated log-likelihood.  FitError (one line) when the answers cannot
     be fitted or when no model explains them better than guessing (every answer a lapse)."""
     answers.check()
-    dist = Distances(table)
+    dist = dist or Distances(table)
     options = option_distances(table, answers.tests)
     fits = []
     for name in names or model_names():

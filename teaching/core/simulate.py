@@ -15,7 +15,7 @@ from functools import lru_cache
 import numpy as np
 
 from .choice import OptionDistances, choice_probabilities
-from .fitting import Answers, Question
+from .fitting import Answers
 from .learners import Distances, LearnerModel, check_value, make_model, posterior
 
 RATING_STEPS = 6  # a rating is 1 + Binomial(6, P(option)): 1 .. 7
@@ -71,16 +71,18 @@ class AnswerModel:
 
 
 def simulate_answers(table, learner: SimulatedLearner, sequences: dict[str, list[int]], tests,
-                     n_per_sequence: int, rng: np.random.Generator, dist: Distances | None = None) -> Answers:
-    """`n_per_sequence` participants of `learner` per named sequence (table rows), answering `tests`."""
-    tests = tuple(t if isinstance(t, Question) else Question(int(t[0]), tuple(int(o) for o in t[1])) for t in tests)
+                     n_participants: int, rng: np.random.Generator, dist: Distances | None = None) -> Answers:
+    """`n_participants` simulated participants of `learner`, assigned to the named sequences (table rows) in
+    turn as a balanced study assigns them (the first ones get one more where they do not divide), each
+    answering every test of `tests` (Questions)."""
+    tests = tuple(tests)
     model = AnswerModel(table, learner, tests, dist)
     names = tuple(sequences)
-    group = np.repeat(np.arange(len(names)), n_per_sequence)
+    group = np.arange(n_participants) % len(names)
     drawn = [model.answer(tuple(sequences[names[g]]), rng) for g in group]
     k = len(tests[0].options)
     return Answers(sequence_names=names, sequences=tuple(tuple(int(e) for e in sequences[n]) for n in names),
                    tests=tests, group=group,
-                   choice=np.array([c for c, _ in drawn], np.int64).reshape(len(group), len(tests)),
-                   ratings=np.array([r for _, r in drawn]).reshape(len(group), len(tests), k),
-                   participant_ids=tuple(f"sim-{i}" for i in range(len(group))))
+                   choice=np.array([c for c, _ in drawn], np.int64).reshape(n_participants, len(tests)),
+                   ratings=np.array([r for _, r in drawn]).reshape(n_participants, len(tests), k),
+                   participant_ids=tuple(f"sim-{i}" for i in range(n_participants)))

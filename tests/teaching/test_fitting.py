@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from teaching.core.fitting import Answers, FitError, Question, compare_models, fit_model, fit_models
+from teaching.core.recovery import model_recovery
 from teaching.core.selection import CONDITIONS, teach
 from teaching.core.simulate import SimulatedLearner, simulate_answers
 from teaching.core.table import TrajectoryTable
@@ -97,7 +98,7 @@ def test_data_simulated_from_a_model_is_best_explained_by_it(demo_design, genera
     """Two models the demo design tells apart: each one's simulated study is fitted best by itself."""
     table, result, sequences, tests = demo_design
     learner = SimulatedLearner(generator, result.models[generator].value, 0.1)
-    answers = simulate_answers(table, learner, sequences, tests, 30, np.random.default_rng(3))
+    answers = simulate_answers(table, learner, sequences, tests, 270, np.random.default_rng(3))
     fits = fit_models(table, answers)
     assert fits[0].name == generator, [(f.label, f.cv_log_lik) for f in fits]
     assert min(fits, key=lambda f: f.bic).name == generator
@@ -107,7 +108,7 @@ def test_data_simulated_from_a_model_is_best_explained_by_it(demo_design, genera
 
 def test_identical_models_are_one_entry(demo_design):
     table, result, sequences, tests = demo_design
-    answers = simulate_answers(table, SimulatedLearner("det-strategy", None, 0.1), sequences, tests, 10,
+    answers = simulate_answers(table, SimulatedLearner("det-strategy", None, 0.1), sequences, tests, 90,
                                np.random.default_rng(0))
     fits = fit_models(table, answers)
     labels = [f.label for f in fits]
@@ -120,7 +121,7 @@ def test_identical_models_are_one_entry(demo_design):
 def test_no_answers_one_condition_and_lapses_give_one_line_messages(demo_design):
     table, result, sequences, tests = demo_design
     rng = np.random.default_rng(0)
-    answers = simulate_answers(table, SimulatedLearner("det-euclidean", 1.0, 0.1), sequences, tests, 4, rng)
+    answers = simulate_answers(table, SimulatedLearner("det-euclidean", 1.0, 0.1), sequences, tests, 36, rng)
     unanswered = Answers(answers.sequence_names, answers.sequences, answers.tests, answers.group,
                          np.full_like(answers.choice, -1))
     with pytest.raises(FitError, match="no participant answered a test"):
@@ -145,7 +146,7 @@ def test_no_answers_one_condition_and_lapses_give_one_line_messages(demo_design)
 def test_the_comparison_ranks_models_and_selects_across_participants(demo_design):
     table, result, sequences, tests = demo_design
     answers = simulate_answers(table, SimulatedLearner("det-euclidean", result.models["det-euclidean"].value, 0.1),
-                               sequences, tests, 20, np.random.default_rng(7))
+                               sequences, tests, 180, np.random.default_rng(7))
     comparison = compare_models(table, answers)
     rows = comparison.rows()
     assert [r["model"] for r in rows][0] == "det-euclidean"
@@ -156,3 +157,21 @@ def test_the_comparison_ranks_models_and_selects_across_participants(demo_design
     assert comparison.n_participants == 180
     single = compare_models(table, answers, ["det-euclidean"])
     assert single.bms is None and np.isnan(single.rows()[0]["exceedance"])
+
+
+def test_model_recovery_counts_winners_and_parameters(demo_design):
+    table, result, sequences, tests = demo_design
+    gens = {"det-euclidean": SimulatedLearner("det-euclidean", result.models["det-euclidean"].value, 0.15),
+            "prob-reward": SimulatedLearner("prob-reward", result.models["prob-reward"].value, 0.15),
+            "det-strategy": SimulatedLearner("det-strategy", None, 0.15)}
+    rec = model_recovery(table, sequences, tests, gens, 180, reps=2, seed=4)
+    assert rec.confusion.shape == (3, len(rec.fitted)) and rec.confusion.sum() + sum(rec.unfitted.values()) == 6
+    # columns in the registry's order, the strategy learners as one
+    assert rec.fitted.index("det-euclidean") < rec.fitted.index("prob-reward")
+    assert "det-strategy = prob-strategy" in rec.fitted
+    assert rec.recovered("det-euclidean") == rec.recovered("prob-reward") == 1.0
+    assert rec.column("det-strategy") == rec.fitted.index("det-strategy = prob-strategy")
+    assert rec.lapse_recovered("det-euclidean") == 1.0 and rec.value_recovered("prob-reward") == 1.0
+    assert rec.value_recovered("det-strategy") is None and len(rec.lapses["det-strategy"]) == 2
+    for gen, label, share in rec.confused(threshold=0.5):
+        assert gen == "det-strategy" and share >= 0.5  # the hierarchical learner nests it (λ -> 0)
