@@ -173,5 +173,5 @@ def test_model_recovery_counts_winners_and_parameters(demo_design):
     assert rec.column("det-strategy") == rec.fitted.index("det-strategy = prob-strategy")
     assert rec.lapse_recovered("det-euclidean") == 1.0 and rec.value_recovered("prob-reward") == 1.0
     assert rec.value_recovered("det-strategy") is None and len(rec.lapses["det-strategy"]) == 2
-    for gen, label, share in rec.confused(threshold=0.5):
+    for gen, _label, share in rec.confused(threshold=0.5):
         assert gen == "det-strategy" and share >= 0.5  # the hierarchical learner nests it (λ -> 0)
