@@ -1,20 +1,30 @@
-"""Simulated participants for a study, through the real assignment and flow (for tests and demos).
+"""Simulated participants for a study, through the real assignment and flow (for tests, demos and pilots).
 
 Each simulated participant arrives through :func:`studyapp.assignment.assign` and answers every
 step with :func:`studyapp.flow.record`, so scores, exclusions and completion are exactly the app's.
-In a test, a participant picks theta*'s option with probability ``p_correct[condition]``
-(default ``base``) and gives the chosen option a rating of 5-7 (others 1-3).  Participants who
-fail the attention check answer the opposite way (probability ``1 - p``), so an analysis that
-forgot the exclusions would see the effect shrink.
+Two kinds of participant answer the tests:
+
+* **learners** (``learner=SimulatedLearner(model, τ or λ, lapse)``): they learn from their condition's
+  training examples by that learner model and pick each test's option by the choice model, rating each
+  option 1 + Binomial(6, P(option)) (teaching.core.simulate; docs/analysis.md);
+* **fixed-probability bots** (no learner, for tests of the flow and the statistics): they pick θ*'s option
+  with probability ``p_correct[condition]`` (default ``base``) and rate the chosen option 5-7 (others 1-3).
+
+Participants who fail the attention check answer carelessly: a learner guesses uniformly, a bot answers
+the opposite way (probability ``1 - p``), so an analysis that forgot the exclusions would see the effect
+shrink.
 """
 from __future__ import annotations
 
 import numpy as np
 from django.http import QueryDict
 
+from teaching.api import AnswerModel, SimulatedLearner
+
 from .. import assignment, flow, studies
 from ..models import StepKind
 from ..trajectories import study_domain
+from .modelfit import study_design
 
 EFFECT = {"coverage-approx*": 0.95, "det-euclid": 0.95, "det-euclidean": 0.95}
 BASE = 0.35
@@ -36,12 +46,39 @@ def post(**fields) -> QueryDict:
     return q
 
 
-def run_participant(study, rng, attentive: bool = True, effect: dict | None = None, base: float = BASE):
-    """One simulated participant from arrival to completion; returns it."""
+class StudyLearner:
+    """What learner participants of one study answer: their model's P(option) per condition (cached)."""
+
+    def __init__(self, study, learner: SimulatedLearner):
+        self.design = study_design(study)
+        self.attentive = AnswerModel(self.design.table, learner, self.design.tests)
+        self.careless = AnswerModel(self.design.table, SimulatedLearner(learner.model, learner.value, 1.0),
+                                    self.design.tests, self.attentive.dist)
+
+    def answers(self, condition: str, attentive: bool, rng) -> tuple[np.ndarray, np.ndarray]:
+        """((T,) chosen option indices, (T, K) ratings) of one participant of `condition`."""
+        model = self.attentive if attentive else self.careless
+        return model.answer(self.design.sequences[condition], rng)
+
+
+def _bot_answer(options, rng, p_star: float) -> tuple[int, list[int]]:
+    star = [k for k, o in enumerate(options) if o["is_theta_star"]][0]
+    others = [k for k in range(len(options)) if k != star]
+    choice = star if rng.random() < p_star else int(rng.choice(others))
+    ratings = [int(rng.integers(1, 4)) for _ in options]
+    ratings[choice] = int(rng.integers(5, 8))
+    return choice, ratings
+
+
+def run_participant(study, rng, attentive: bool = True, effect: dict | None = None, base: float = BASE,
+                    learner: StudyLearner | None = None):
+    """One simulated participant from arrival to completion; returns it.  With `learner`, its tests are
+    answered by the learner model, else by a fixed-probability bot (the module's docstring)."""
     p = assignment.assign(study)
     p_star = (EFFECT if effect is None else effect).get(p.condition.name, base)
     if not attentive:
         p_star = 1 - p_star
+    learned = learner.answers(p.condition.name, attentive, rng) if learner else None
     for step in flow.steps_for(p):
         if step.kind == StepKind.CONSENT:
             data = post(consent="yes")
@@ -51,13 +88,13 @@ def run_participant(study, rng, attentive: bool = True, effect: dict | None = No
             data = post(played="1")
         elif step.kind == StepKind.TEST:
             options = study.test_set[step.item]["options"]
-            star = [k for k, o in enumerate(options) if o["is_theta_star"]][0]
-            others = [k for k in range(len(options)) if k != star]
-            choice = star if rng.random() < p_star else int(rng.choice(others))
+            if learned:
+                choice, ratings = int(learned[0][step.item]), [int(r) for r in learned[1][step.item]]
+            else:
+                choice, ratings = _bot_answer(options, rng, p_star)
             letter = dict((k, a) for a, k in flow.option_letters(p, step.item))  # the page posts letters
-            ratings = {f"rating_{letter[k]}": int(rng.integers(1, 4)) for k in range(len(options))}
-            ratings[f"rating_{letter[choice]}"] = int(rng.integers(5, 8))
-            data = post(choice=letter[choice], played=list(letter.values()), **ratings)
+            data = post(choice=letter[choice], played=list(letter.values()),
+                        **{f"rating_{letter[k]}": r for k, r in enumerate(ratings)})
         elif step.kind == StepKind.ATTENTION:
             texts = study_domain(study).texts  # right: exactly the correct answers; wrong: one more ticked
             right = sorted(texts.attention_correct)
@@ -71,11 +108,14 @@ def run_participant(study, rng, attentive: bool = True, effect: dict | None = No
     return p
 
 
-def simulate(study, n_per_condition: int = 9, seed: int = 1, fail_every: int = 7, effect: dict | None = None):
+def simulate(study, n_per_condition: int = 9, seed: int = 1, fail_every: int = 7, effect: dict | None = None,
+             learner: SimulatedLearner | None = None):
     """n_per_condition x (number of conditions) participants; every ``fail_every``-th fails the
-    attention check.  Returns the random generator (to simulate more later)."""
+    attention check.  With `learner` they learn by that model (else fixed-probability bots, `effect`).
+    Returns the random generator (to simulate more later)."""
     rng = np.random.default_rng(seed)
     n_cond = study.conditions.count()
+    answering = StudyLearner(study, learner) if learner else None
     for i in range(n_per_condition * n_cond):
-        run_participant(study, rng, attentive=(i % fail_every != 3), effect=effect)
+        run_participant(study, rng, attentive=(i % fail_every != 3), effect=effect, learner=answering)
     return rng

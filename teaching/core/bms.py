@@ -58,7 +58,8 @@ def _free_energy(log_ev: np.ndarray, alpha0: np.ndarray, alpha: np.ndarray, z: n
     """F1: the variational lower bound of log p(data | H1), Rigoux et al. 2014 eq. A20."""
     e_log_r = digamma(alpha) - digamma(alpha.sum())
     tiny = np.finfo(float).tiny
-    joint = (z * (log_ev + e_log_r[:, None])).sum() + ((alpha0 - 1) * e_log_r).sum()
+    weighted = np.where(z > 0, z * (log_ev + e_log_r[:, None]), 0.0)  # a ruled-out model (-inf) has z = 0
+    joint = weighted.sum() + ((alpha0 - 1) * e_log_r).sum()
     joint += gammaln(alpha0.sum()) - gammaln(alpha0).sum()
     entropy_z = -(z * np.log(z + tiny)).sum()
     entropy_r = gammaln(alpha).sum() - gammaln(alpha.sum()) - ((alpha - 1) * e_log_r).sum()
@@ -72,13 +73,14 @@ def _null_free_energy(log_ev: np.ndarray, alpha0: np.ndarray) -> float:
 
 def random_effects_bms(log_evidence: np.ndarray, alpha0: np.ndarray | None = None, *, tol: float = 1e-8,
                        max_iter: int = 1000) -> BMSResult:
-    """log_evidence: (K models, P participants) log p(answers of i | model m).  alpha0: (K,) prior
-    (default 1 each).  Returns :class:`BMSResult`."""
+    """log_evidence: (K models, P participants) log p(answers of i | model m), -inf where model m rules
+    participant i's answers out.  alpha0: (K,) prior (default 1 each).  Returns :class:`BMSResult`."""
     log_ev = np.asarray(log_evidence, np.float64)
     if log_ev.ndim != 2 or log_ev.shape[0] < 2 or log_ev.shape[1] < 1:
         raise ValueError("model selection needs log evidence for at least 2 models and 1 participant")
-    if not np.isfinite(log_ev).all():
-        raise ValueError("every log evidence must be finite")
+    if np.isnan(log_ev).any() or np.isposinf(log_ev).any() or not np.isfinite(log_ev).any(0).all():
+        raise ValueError("every participant needs a finite log evidence under some model (-inf: a model that "
+                         "rules their answers out)")
     alpha0 = np.ones(log_ev.shape[0]) if alpha0 is None else np.asarray(alpha0, np.float64)
     alpha = alpha0.copy()
     for _ in range(max_iter):

@@ -70,5 +70,14 @@ def test_equal_evidence_leaves_the_models_equally_likely():
 def test_bad_input_is_refused():
     with pytest.raises(ValueError, match="at least 2 models"):
         random_effects_bms(np.zeros((1, 5)))
-    with pytest.raises(ValueError, match="finite"):
-        random_effects_bms(np.array([[0.0, -np.inf], [0.0, 0.0]]))
+    with pytest.raises(ValueError, match="finite log evidence under some model"):
+        random_effects_bms(np.array([[0.0, -np.inf], [0.0, -np.inf]]))
+    with pytest.raises(ValueError, match="finite log evidence"):
+        random_effects_bms(np.array([[0.0, np.nan], [0.0, 0.0]]))
+
+
+def test_a_model_that_rules_a_participant_out_takes_none_of_them():
+    """Participant 2 is impossible under model 1 (-inf): attributed to model 2 with certainty."""
+    result = random_effects_bms(np.array([[-1.0, -np.inf, -1.0], [-1.0, -2.0, -1.0]]))
+    assert result.attribution[:, 1].tolist() == [0.0, 1.0]
+    assert np.isfinite(result.bor) and result.exceedance[1] > result.exceedance[0]

@@ -1,0 +1,175 @@
+"""Which learner model explains a study's answers (issue 24; docs/analysis.md "Fitting learner models").
+
+Reads the study's design (each condition's training examples and the test set, as table rows and θ
+indices of the trajectory table the study was built from) and its analysed participants' answers (status
+complete: finished and attentive, as the rest of the analysis), and fits every learner model with
+``teaching.api.compare_models``.  The result carries the models' table (ranked by cross-validated
+log-likelihood, with ΔBIC and exceedance probabilities) and, per condition and test, the accuracy the best
+models predict beside the accuracy observed.  Errors a researcher can meet are :class:`ModelFitError`,
+one line each.
+"""
+from __future__ import annotations
+
+import csv
+import io
+from dataclasses import dataclass
+
+import numpy as np
+from django.db.models import Q
+
+from teaching.api import Answers, Comparison, FitError, Question, TableError, TrajectoryTable, compare_models
+
+from ..models import Answer, Condition, Participant, StepKind, Study
+
+CSV_COLUMNS = ["model", "param", "value", "lapse", "log_lik", "cv_log_lik", "aic", "bic", "delta_bic", "frequency",
+               "exceedance", "protected_exceedance", "rating_rho", "n_answers"]
+
+
+class ModelFitError(ValueError):
+    """Why a study's answers cannot be fitted, in one line."""
+
+
+@dataclass
+class StudyDesign:
+    """A study's design on its table: sequences {condition: table rows}, tests (Questions, the study's
+    option order), star (T,) the option index of θ*'s trajectory in each test, clusters (T,) each test's
+    cluster (θ*'s strategy there)."""
+
+    table: TrajectoryTable
+    sequences: dict[str, tuple[int, ...]]
+    tests: tuple[Question, ...]
+    star: np.ndarray
+    clusters: list
+
+
+def study_table(study: Study) -> TrajectoryTable:
+    """The table `study` was built from (its recorded path and content hash); ModelFitError if gone."""
+    source = study.source or {}
+    if source.get("kind") != "table" or not source.get("table"):
+        raise ModelFitError("this study's trajectories do not come from a trajectory table: there is no model to fit")
+    try:
+        return TrajectoryTable.load(source["table"], verify=False, expected_hash=source.get("content_hash"))
+    except TableError as exc:
+        raise ModelFitError(f"the study's trajectory table cannot be read: {exc}") from None
+
+
+def study_design(study: Study, table: TrajectoryTable | None = None) -> StudyDesign:
+    table = table or study_table(study)
+    row = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
+    try:
+        sequences = {c.name: tuple(row[int(e)] for e in c.env_ids)
+                     for c in Condition.objects.filter(study=study).order_by("position", "pk")}
+        tests = tuple(Question(row[int(t["env_id"])], tuple(int(o["theta_index"]) for o in t["options"]))
+                      for t in study.test_set or [])
+    except KeyError as exc:
+        raise ModelFitError(f"environment {exc} of this study is not in its trajectory table") from None
+    star = np.array([next(k for k, o in enumerate(t["options"]) if o["is_theta_star"]) for t in study.test_set or []],
+                    np.int64)
+    return StudyDesign(table, sequences, tests, star, [t.get("cluster") for t in study.test_set or []])
+
+
+def study_answers(study: Study, design: StudyDesign) -> Answers:
+    """The analysed participants' choices and ratings (complete: finished, attention check passed)."""
+    names = tuple(design.sequences)
+    people = list(Participant.objects.filter(study=study, completed_at__isnull=False, excluded=False)
+                  .exclude(platform=Participant.PREVIEW).order_by("pk").values_list("pk", "condition__name"))
+    index = {pk: i for i, (pk, _) in enumerate(people)}
+    n_tests, k = len(design.tests), len(design.tests[0].options) if design.tests else 0
+    choice = np.full((len(people), n_tests), -1, np.int64)
+    ratings = np.full((len(people), n_tests, k), np.nan)
+    rows = (Answer.objects.filter(Q(participant_id__in=list(index)), kind=StepKind.TEST)
+            .values_list("participant_id", "item", "chosen_option", "data"))
+    for pid, item, chosen, data in rows:
+        if item is None or chosen is None or not 0 <= int(item) < n_tests:
+            continue
+        i, t = index[pid], int(item)
+        choice[i, t] = int(chosen)
+        given = (data or {}).get("ratings") or []
+        if len(given) == k:
+            ratings[i, t] = [float(r) for r in given]
+    return Answers(sequence_names=names, sequences=tuple(design.sequences[n] for n in names), tests=design.tests,
+                   group=np.array([names.index(c) for _, c in people], np.int64), choice=choice, ratings=ratings,
+                   participant_ids=tuple(str(pk) for pk, _ in people))
+
+
+@dataclass
+class StudyFit:
+    """A study's model comparison and, per condition × test, observed and predicted accuracy."""
+
+    comparison: Comparison
+    design: StudyDesign
+    answers: Answers
+
+    def accuracy(self, n_models: int = 3) -> list[dict]:
+        """One dict per condition × test: n (answers), observed share choosing θ*, and each of the best
+        `n_models` models' predicted P(θ*'s option) at its pooled fit."""
+        out = []
+        fits = self.comparison.fits[:n_models]
+        for s, name in enumerate(self.answers.sequence_names):
+            members = self.answers.group == s
+            for t in range(len(self.design.tests)):
+                answered = members & (self.answers.choice[:, t] >= 0)
+                if not answered.any():
+                    continue
+                correct = self.answers.choice[answered, t] == self.design.star[t]
+                out.append({"condition": name, "test": t, "cluster": self.design.clusters[t],
+                            "n": int(answered.sum()), "observed": float(correct.mean()),
+                            "predicted": {f.label: float(f.predicted[s, t, self.design.star[t]]) for f in fits}})
+        return out
+
+    def csv(self) -> str:
+        buf = io.StringIO()
+        writer = csv.DictWriter(buf, fieldnames=CSV_COLUMNS, lineterminator="\n")
+        writer.writeheader()
+        for row in self.comparison.rows():
+            writer.writerow({k: _cell(row[k]) for k in CSV_COLUMNS})
+        return buf.getvalue()
+
+
+def _cell(v):
+    if v is None or (isinstance(v, float) and np.isnan(v)):
+        return ""
+    return f"{v:.6g}" if isinstance(v, float) else v
+
+
+def fit_study(study: Study, names=None) -> StudyFit:
+    """Every learner model (or those in `names`) fitted to `study`'s analysed answers."""
+    design = study_design(study)
+    if not design.tests:
+        raise ModelFitError("this study has no test set: there is nothing to fit")
+    answers = study_answers(study, design)
+    if not (answers.choice >= 0).any():
+        raise ModelFitError("no participant has finished this study yet (finished and passed the attention "
+                            "check): there is nothing to fit")
+    try:
+        comparison = compare_models(design.table, answers, names)
+    except (FitError, ValueError) as exc:
+        raise ModelFitError(str(exc)) from None
+    return StudyFit(comparison, design, answers)
+
+
+def accuracy_figure(fit: StudyFit, n_models: int = 3):
+    """Predicted vs observed accuracy (share choosing θ*'s option), one point per condition × test (its
+    area: the answers behind it), one panel per best model; the diagonal is a perfect prediction."""
+    import matplotlib.pyplot as plt  # noqa: PLC0415  (matplotlib loads only for a figure)
+
+    cells = fit.accuracy(n_models)
+    labels = [f.label for f in fit.comparison.fits[:n_models]]
+    fig, axes = plt.subplots(1, len(labels), figsize=(3.6 * len(labels), 3.6), squeeze=False, sharey=True)
+    observed = np.array([c["observed"] for c in cells])
+    size = np.array([c["n"] for c in cells], float)
+    for ax, label in zip(axes[0], labels, strict=True):
+        predicted = np.array([c["predicted"][label] for c in cells])
+        ax.plot([0, 1], [0, 1], color="#999999", lw=1, ls="--", zorder=1)
+        ax.scatter(predicted, observed, s=12 + 60 * size / max(size.max(), 1), color="#4c72b0", alpha=0.7,
+                   edgecolor="white", zorder=2)
+        r = np.corrcoef(predicted, observed)[0, 1] if len(cells) > 2 and np.ptp(predicted) > 0 else np.nan
+        ax.set_title(f"{label}\nr = {r:.2f}" if np.isfinite(r) else label, fontsize=9)
+        ax.set_xlim(0, 1)
+        ax.set_ylim(0, 1)
+        ax.set_xlabel("predicted P(θ*'s option)")
+        ax.set_aspect("equal")
+    axes[0][0].set_ylabel("observed share choosing θ*")
+    fig.suptitle("Each point: one condition × test", fontsize=9, y=0.02, va="bottom")
+    fig.tight_layout(rect=(0, 0.05, 1, 1))
+    return fig

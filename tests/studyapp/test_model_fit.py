@@ -1,0 +1,93 @@
+"""Fitting learner models to a study's stored answers (issue 24, item 6): participants who learn by a model go
+through the real assignment and flow into the database, and `manage.py fit_models` reads them back from
+there (another path than teaching's simulate-and-fit), finds the model that generated them, and writes the
+CSV and figure; bad input ends in one line."""
+from __future__ import annotations
+
+import csv
+import io
+import random
+
+import numpy as np
+import pytest
+from django.core.management import call_command
+from django.core.management.base import CommandError
+
+from studyapp import assignment
+from studyapp.analysis.modelfit import CSV_COLUMNS, ModelFitError, fit_study, study_answers, study_design
+from studyapp.analysis.simulate import make_study, simulate
+from studyapp.models import Participant
+from teaching.api import SimulatedLearner
+
+pytestmark = pytest.mark.django_db
+
+
+@pytest.fixture(autouse=True)
+def seeded_assignment(monkeypatch):
+    monkeypatch.setattr(assignment, "_rng", random.Random(20261125), raising=False)
+
+
+def run(*args) -> str:
+    out = io.StringIO()
+    call_command("fit_models", *args, stdout=out)
+    return out.getvalue()
+
+
+@pytest.mark.parametrize("model, value", [("det-euclidean", 1.0), ("prob-reward", 100.0)])
+def test_the_generating_model_is_found_in_the_stored_answers(demo_table, tmp_path, model, value):
+    study = make_study(demo_table, f"fit-{model}")
+    simulate(study, n_per_condition=24, seed=2, learner=SimulatedLearner(model, value, 0.1))
+    answers = study_answers(study, study_design(study))
+    excluded = Participant.objects.filter(study=study, excluded=True).count()
+    assert excluded > 0 and answers.n_participants == 9 * 24 - excluded  # the analysed set only
+    out = run(study.slug, "--csv", str(tmp_path / "m.csv"), "--figure", str(tmp_path / "m.png"))
+    first = out.splitlines()[2]
+    assert first.startswith(model), out
+    rows = list(csv.DictReader((tmp_path / "m.csv").open()))
+    assert list(rows[0]) == CSV_COLUMNS and rows[0]["model"] == model
+    assert abs(float(rows[0]["lapse"]) - 0.1) < 0.06
+    assert float(rows[0]["delta_bic"]) == 0 and float(rows[0]["exceedance"]) > 0.5
+    assert "det-strategy = prob-strategy" in {r["model"] for r in rows}
+    assert (tmp_path / "m.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_accuracy_cells_compare_prediction_and_observation(demo_table):
+    study = make_study(demo_table, "fit-cells")
+    simulate(study, n_per_condition=12, seed=3, learner=SimulatedLearner("det-euclidean", 1.0, 0.1))
+    fit = fit_study(study)
+    cells = fit.accuracy()
+    assert len(cells) == 9 * len(study.test_set)
+    for c in cells:
+        assert 0 <= c["observed"] <= 1 and c["n"] > 0
+        assert set(c["predicted"]) == {f.label for f in fit.comparison.fits[:3]}
+    # observed by hand from the stored answers: the share of a condition's analysed participants choosing θ*
+    people = Participant.objects.filter(study=study, completed_at__isnull=False, excluded=False,
+                                        condition__name="exact")
+    by_hand = np.mean([a.correct for p in people for a in p.answers.filter(kind="test", item=0)])
+    assert next(c for c in cells if c["condition"] == "exact" and c["test"] == 0)["observed"] == pytest.approx(by_hand)
+
+
+def test_bad_input_gives_one_line(demo_table, tiny_table):
+    study = make_study(demo_table, "fit-empty")
+    with pytest.raises(CommandError, match="no participant has finished") as err:
+        run(study.slug)
+    assert "\n" not in str(err.value)
+    with pytest.raises(CommandError, match="no study 'nope'"):
+        run("nope")
+    one = make_study(demo_table, "fit-one", {"exact": [int(e) for e in study.conditions.get(name="exact").env_ids]})
+    simulate(one, n_per_condition=10, seed=1, learner=SimulatedLearner("det-euclidean", 1.0, 0.1))
+    with pytest.raises(CommandError, match="one condition"):
+        run(one.slug)
+    simulate(study, n_per_condition=12, seed=4, learner=SimulatedLearner("det-euclidean", 1.0, 1.0))
+    with pytest.raises(CommandError, match="better than guessing"):
+        run(study.slug)
+    with pytest.raises(CommandError, match="unknown learner model 'bogus'"):
+        run(study.slug, "--models", "det-euclidean,bogus")
+
+
+def test_a_study_whose_table_is_gone_says_so(demo_table):
+    study = make_study(demo_table, "fit-gone")
+    study.source = {**study.source, "table": "/nonexistent/table"}
+    study.save()
+    with pytest.raises(ModelFitError, match="trajectory table cannot be read: no trajectory table at"):
+        fit_study(study)
