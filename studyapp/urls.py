@@ -14,6 +14,8 @@ urlpatterns = [
     path("dashboard/<slug:slug>/toggle/", dashboard.toggle, name="dashboard_toggle"),
     path("dashboard/<slug:slug>/preview/<int:condition_id>/", dashboard.preview, name="dashboard_preview"),
     path("dashboard/<slug:slug>/analysis/", analysis_views.report, name="dashboard_analysis"),
+    path("dashboard/<slug:slug>/analysis/models/", analysis_views.models, name="dashboard_models"),
+    path("dashboard/<slug:slug>/analysis/models.csv", analysis_views.models_csv, name="dashboard_models_csv"),
     path("dashboard/<slug:slug>/stimuli/", stimuli.stimuli, name="dashboard_stimuli"),
     re_path(r"^dashboard/(?P<slug>[-\w]+)/export/(?P<kind>long|wide|dictionary)\.csv$", dashboard.export,
             name="dashboard_export"),

@@ -165,11 +165,10 @@ def accuracy_figure(fit: StudyFit, n_models: int = 3):
                    edgecolor="white", zorder=2)
         r = np.corrcoef(predicted, observed)[0, 1] if len(cells) > 2 and np.ptp(predicted) > 0 else np.nan
         ax.set_title(f"{label}\nr = {r:.2f}" if np.isfinite(r) else label, fontsize=9)
-        ax.set_xlim(0, 1)
-        ax.set_ylim(0, 1)
+        ax.set_xlim(-0.03, 1.03)
+        ax.set_ylim(-0.03, 1.03)
         ax.set_xlabel("predicted P(θ*'s option)")
         ax.set_aspect("equal")
     axes[0][0].set_ylabel("observed share choosing θ*")
-    fig.suptitle("Each point: one condition × test", fontsize=9, y=0.02, va="bottom")
-    fig.tight_layout(rect=(0, 0.05, 1, 1))
+    fig.tight_layout()
     return fig

@@ -15,6 +15,11 @@ fragment in when the server answers 200 instead of 304.  ``?compare=a:b`` (repea
 researcher-named Welch comparisons (a pair of the study's conditions not compared already: else
 a 400 with the message, ComparisonsForm); ``?incomplete=1`` also analyses unfinished participants.
 A study whose conditions include two names of one condition is not analysed: the page says why.
+
+``GET .../analysis/models/`` is the learner-model panel (modelfit.py: every model fitted, ranked,
+with the predicted-vs-observed figure), fetched by the page after the report and again whenever the
+report changes; cached under the same fingerprint, with an ETag.  ``.../analysis/models.csv`` is its
+table.  A study that cannot be fitted gets the reason in one line, never a traceback.
 """
 from __future__ import annotations
 
@@ -25,11 +30,14 @@ from django import forms
 from django.core.cache import cache
 from django.http import HttpResponse
 from django.shortcuts import get_object_or_404, render
+from django.template.loader import render_to_string
 from django.utils.cache import get_conditional_response
 
 from ..access import researcher_required
 from ..models import Study
 from . import data as D
+from . import figures as FIG
+from . import modelfit as MF
 from . import report as R
 from . import stats as S
 
@@ -126,3 +134,61 @@ def _refused(request, study, errors, status, bad_compare=False):
     if request.GET.get("fragment") == "1":
         return render(request, "studyapp/analysis/_errors.html", context, status=status)
     return render(request, "studyapp/analysis/dashboard.html", context, status=status)
+
+
+# --- the learner-model panel ---------------------------------------------------------------------
+def _models_key(fp: str) -> str:
+    return f"studyapp.analysis.models:{fp}"
+
+
+def render_models(study: Study, fingerprint: str | None = None) -> str:
+    """HTML fragment of the model comparison (or the one-line reason there is none); cached like the report."""
+    key = _models_key(fingerprint or D.fingerprint(study))
+    html = _cached(cache.get, key)
+    if html is None:
+        try:
+            fit = MF.fit_study(study)
+        except MF.ModelFitError as exc:
+            context = {"study": study, "error": str(exc)}
+        else:
+            context = {"study": study, **models_context(fit)}
+        html = render_to_string("studyapp/analysis/_models.html", context)
+        _cached(cache.set, key, html, CACHE_SECONDS)
+    return html
+
+
+def models_context(fit: MF.StudyFit) -> dict:
+    rows = fit.comparison.rows()
+    for r in rows:
+        r["value_label"] = ("" if r["value"] is None or not r["param"]
+                            else f"{'τ' if r['param'] == 'tau' else 'λ'} = {r['value']:.3g}")
+    figure = MF.accuracy_figure(fit)
+    return {"rows": rows, "n_participants": fit.comparison.n_participants,
+            "n_answers": rows[0]["n_answers"] if rows else 0, "best": rows[0]["model"] if rows else "",
+            "figure": FIG.data_uri(FIG.to_bytes(figure)), "bms": fit.comparison.bms is not None}
+
+
+@researcher_required
+def models(request, slug):
+    study = get_object_or_404(Study, slug=slug)
+    fp = D.fingerprint(study)
+    etag = '"' + hashlib.sha1(_models_key(fp).encode()).hexdigest()[:20] + '"'
+    not_modified = get_conditional_response(request, etag=etag)
+    if not_modified is not None:
+        return not_modified
+    response = HttpResponse(render_models(study, fp))
+    response["ETag"] = etag
+    response["Cache-Control"] = "no-cache"
+    return response
+
+
+@researcher_required
+def models_csv(request, slug):
+    study = get_object_or_404(Study, slug=slug)
+    try:
+        body = MF.fit_study(study).csv()
+    except MF.ModelFitError as exc:
+        return HttpResponse(f"No model fit for this study: {exc}\n", status=409, content_type="text/plain; charset=utf-8")
+    response = HttpResponse(body, content_type="text/csv; charset=utf-8")
+    response["Content-Disposition"] = f'attachment; filename="{slug}-models.csv"'
+    return response

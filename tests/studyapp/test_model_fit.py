@@ -91,3 +91,47 @@ def test_a_study_whose_table_is_gone_says_so(demo_table):
     study.save()
     with pytest.raises(ModelFitError, match="trajectory table cannot be read: no trajectory table at"):
         fit_study(study)
+
+
+# --- the analysis page's panel and CSV --------------------------------------------------------------------
+def test_the_panel_ranks_the_models_and_serves_the_csv(demo_table, staff_client):
+    from django.urls import reverse  # noqa: PLC0415
+
+    study = make_study(demo_table, "fit-panel")
+    url = reverse("dashboard_models", args=[study.slug])
+    empty = staff_client.get(url)
+    assert empty.status_code == 200
+    assert b"No model fit: no participant has finished this study yet" in empty.content
+    simulate(study, n_per_condition=12, seed=5, learner=SimulatedLearner("det-euclidean", 1.0, 0.1))
+    page = staff_client.get(url)
+    html = page.content.decode()
+    assert page.status_code == 200 and 'id="model-fit-table"' in html
+    assert html.index("<td>det-euclidean</td>") < html.index("<td>exact</td>")  # ranked: the generator first
+    assert "data:image/png;base64," in html and "Download the table (CSV)" in html
+    again = staff_client.get(url, HTTP_IF_NONE_MATCH=page["ETag"])
+    assert again.status_code == 304  # nothing new: not fitted again
+    csv_response = staff_client.get(reverse("dashboard_models_csv", args=[study.slug]))
+    assert csv_response.status_code == 200 and csv_response["Content-Type"].startswith("text/csv")
+    assert "no-store" in csv_response["Cache-Control"]
+    rows = list(csv.DictReader(io.StringIO(csv_response.content.decode())))
+    assert rows[0]["model"] == "det-euclidean"
+    # the analysis page loads the panel from that URL
+    analysis = staff_client.get(reverse("dashboard_analysis", args=[study.slug])).content.decode()
+    assert f'data-url="{url}"' in analysis
+
+
+def test_the_panel_is_for_researchers_only(demo_table, client):
+    from django.urls import reverse  # noqa: PLC0415
+
+    study = make_study(demo_table, "fit-private")
+    for name in ("dashboard_models", "dashboard_models_csv"):
+        response = client.get(reverse(name, args=[study.slug]))
+        assert response.status_code in (302, 403)
+
+
+def test_a_csv_of_an_unfittable_study_says_why(demo_table, staff_client):
+    from django.urls import reverse  # noqa: PLC0415
+
+    study = make_study(demo_table, "fit-nocsv")
+    response = staff_client.get(reverse("dashboard_models_csv", args=[study.slug]))
+    assert response.status_code == 409 and b"no participant has finished" in response.content
