@@ -188,7 +188,8 @@ def models_csv(request, slug):
     try:
         body = MF.fit_study(study).csv()
     except MF.ModelFitError as exc:
-        return HttpResponse(f"No model fit for this study: {exc}\n", status=409, content_type="text/plain; charset=utf-8")
+        return HttpResponse(f"No model fit for this study: {exc}\n", status=409,
+                            content_type="text/plain; charset=utf-8")
     response = HttpResponse(body, content_type="text/csv; charset=utf-8")
     response["Content-Disposition"] = f'attachment; filename="{slug}-models.csv"'
     return response
