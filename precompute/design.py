@@ -15,12 +15,14 @@ from studyapp.analysis.conditions import aliased_pairs
 from studyapp.models import Study
 from studyapp.studies import TEXT_FIELDS
 from teaching.api import (
+    ALL_CONDITIONS,
     APPROX_STAR,
     CONDITIONS,
     MIN_REGRET,
     MODEL_NAMES,
     PRESETS,
     SAMPLERS,
+    USER_NAMES,
     TableError,
     TrajectoryTable,
     default_domain_name,
@@ -57,7 +59,7 @@ def built_tables(root: Path | None = None) -> list[dict]:
 
 # The learner models whose τ (deterministic) or λ (probabilistic) the researcher may fix: one
 # optional field each, so an error is said under the model it is about.
-TUNABLE = [(m, "τ" if make_model(m).param == "tau" else "λ") for m in MODEL_NAMES if has_hyperparameter(make_model(m))]
+TUNABLE = [(m, "τ" if make_model(m).param == "tau" else "λ") for m in USER_NAMES if has_hyperparameter(make_model(m))]
 
 
 def fixed_field(model: str) -> str:
@@ -98,8 +100,10 @@ class StudyDesignForm(forms.Form):
     slug = forms.SlugField(max_length=50, help_text="The study's URL: /s/SLUG/.")
     name = forms.CharField(max_length=200, required=False, help_text="Title for researchers (default: the slug).")
     conditions = forms.MultipleChoiceField(
-        choices=[(c, c) for c in CONDITIONS], initial=list(CONDITIONS), widget=forms.CheckboxSelectMultiple,
-        required=False, help_text="The paper's conditions: each selects its own training examples for θ*.")
+        choices=[(c, c) for c in ALL_CONDITIONS], initial=list(CONDITIONS), widget=forms.CheckboxSelectMultiple,
+        required=False, help_text="The paper's nine conditions (ticked) and the hierarchical learner's (strategy "
+                                  "first, then the trajectory within it): each selects its own training examples "
+                                  "for θ*.")
     target_per_condition = forms.IntegerField(
         min_value=2, max_value=100_000, initial=30,
         help_text="Participants wanted per condition; new arrivals go to the condition furthest from it.")

@@ -16,7 +16,7 @@ from pathlib import Path
 from django.db import transaction
 
 from studyapp.studies import SpecError, new_study
-from teaching.api import APPROX_STAR, CONDITIONS, TrajectoryTable, make_model
+from teaching.api import ALL_CONDITIONS, APPROX_STAR, CONDITIONS, TrajectoryTable, make_model
 
 from .jobs import launch
 from .models import Job
@@ -45,9 +45,9 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int =
     table_path = Path(table_path).resolve()
     table = TrajectoryTable.load(table_path)  # TableError: missing, altered, other world constants
     conditions = list(conditions or ([] if hand_picked else CONDITIONS))
-    unknown = [c for c in conditions if c not in CONDITIONS]
+    unknown = [c for c in conditions if c not in ALL_CONDITIONS]
     if unknown:
-        raise StudyJobError(f"unknown condition(s) {', '.join(unknown)}; choose from {', '.join(CONDITIONS)}")
+        raise StudyJobError(f"unknown condition(s) {', '.join(unknown)}; choose from {', '.join(ALL_CONDITIONS)}")
     hand_picked = {str(k): [int(e) for e in v] for k, v in (hand_picked or {}).items()}
     in_table = {int(e) for e in table.env_ids}
     for condition, ids in hand_picked.items():

@@ -29,7 +29,7 @@ if str(ROOT) not in sys.path:
 
 from teaching.core.domain import get_domain, n_clusters  # noqa: E402
 from teaching.core.evaluation import grid_cells  # noqa: E402
-from teaching.core.learners import EXACT_TOLERANCE, Distances, make_model, p_theta_star  # noqa: E402
+from teaching.core.learners import EXACT_TOLERANCE, MODEL_NAMES, Distances, make_model, p_theta_star  # noqa: E402
 from teaching.core.selection import MIN_RISE, greedy, showable  # noqa: E402
 from teaching.core.table import TableError, TrajectoryTable  # noqa: E402
 
@@ -186,15 +186,19 @@ def section_clusters(domain, data, fig_links, h) -> list[str]:
 def section_matrix(data, fig_links, h) -> list[str]:
     mx = data["matrix"]
     users, base = mx["user_names"], set(mx["sequence_names"])
-    approx = [i for i, u in enumerate(users) if u != "exact"]
+    paper = [i for i, u in enumerate(users) if u in MODEL_NAMES]  # the means are over the paper's users
+    approx = [i for i in paper if users[i] != "exact"]
     rows = [(name if name in base else "*{}*".format(name.replace("*", "\\*")), *(f"{v:.3f}" for v in r),
-             f"{r.mean():.3f}", f"{r[approx].mean():.3f}")
+             f"{r[paper].mean():.3f}", f"{r[approx].mean():.3f}")
             for name, r in zip(mx["extended_sequence_names"], np.asarray(mx["extended_matrix"]), strict=False)]
     return [f"{h} Ideal-user matrix", "",
             "Entry = P_user(θ* | the sequence of the row), 3 decimals. Rows in italics are the coverage "
-            "conditions (extended matrix; not in the paper's figure). Users use the chosen τ/λ: "
+            "conditions (extended matrix; not in the paper's figure); the hierarchical learner (row and column) "
+            "is the paper's Discussion's, not in its figure either, and the means leave it out. "
+            "Users use the chosen τ/λ: "
             + ", ".join(f"`{m}`" for m in mx["models"].values()) + ".", "",
-            *md_table(("sequence \\ user", *users, "mean", f"mean of {len(approx)} approximate"), rows),
+            *md_table(("sequence \\ user", *users, f"mean of the paper's {len(paper)}",
+                       f"mean of {len(approx)} approximate"), rows),
             f"![ideal-user matrix]({fig_links['sim_users.png']})", ""]
 
 

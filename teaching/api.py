@@ -78,6 +78,8 @@ Learners and selection (DESIGN §5-6)
     has_hyperparameter(model)  whether τ / λ changes that model's likelihoods
     parse_hyperparameters(["MODEL=VALUE", ...])  {model: τ or λ}, ValueError if bad
     CONDITIONS               the study's 9 conditions, in the paper's order
+    ALL_CONDITIONS           those and the conditions a study may add ("hierarchical": its learner's
+                             greedy sequence)
     APPROX_STAR              "det-euclidean": the model coverage-approx* augments by default
     SelectionSettings        frozen: grid (τ / λ values swept), epsilon, max_examples, allow_repeats
     build_sequences(table, seed=0, ...)  {condition: environment ids in the order shown}
@@ -89,9 +91,10 @@ Learners and selection (DESIGN §5-6)
                              scaled state units between options (0.5)
 
 Ideal users (the paper's simulated learners; teaching.core.evaluation)
-    USER_NAMES               the matrix's columns: the 7 learner models (MODEL_NAMES)
+    USER_NAMES               the matrix's columns: the 7 learner models (MODEL_NAMES) and the
+                             hierarchical learner
     study_matrix(table, sequences, hyperparameters=None)  sequences {name: table row indices} ->
-                             ((S, 7) float64 P_user(θ* | sequence's θ* demonstrations), {user: model
+                             ((S, 8) float64 P_user(θ* | sequence's θ* demonstrations), {user: model
                              with its τ / λ: fixed in hyperparameters, else the paper's rule})
 """
 from __future__ import annotations
@@ -116,7 +119,14 @@ from .core.domain import Domain, LegendEntry, ParticipantTexts, default_domain_n
 from .core.evaluation import USER_NAMES, study_matrix
 from .core.fitting import Answers, Comparison, FitError, Question, compare_models
 from .core.learners import MODEL_NAMES, has_hyperparameter, make_model, model_names, parse_hyperparameters
-from .core.selection import APPROX_STAR, CONDITIONS, SelectionSettings, build_sequences, condition_sequence
+from .core.selection import (
+                    ALL_CONDITIONS,
+                    APPROX_STAR,
+                    CONDITIONS,
+                    SelectionSettings,
+                    build_sequences,
+                    condition_sequence,
+)
 from .core.simulate import AnswerModel, SimulatedLearner
 from .core.table import TableError, TrajectoryTable
 from .core.testset import MIN_REGRET, select_test_set
@@ -136,7 +146,8 @@ from .domains.driving.world import GOAL_NAMES, WORLD
 MIN_OPTION_DISTANCE = _DRIVING.min_option_distance  # the car's; a table's own: table.domain.min_option_distance
 
 __all__ = [
-    "APPROX_STAR", "CLASS_NAMES", "CLUSTER_NAMES", "CONDITIONS", "GOAL_NAMES", "MIN_OPTION_DISTANCE", "MIN_REGRET",
+    "ALL_CONDITIONS", "APPROX_STAR", "CLASS_NAMES", "CLUSTER_NAMES", "CONDITIONS", "GOAL_NAMES", "MIN_OPTION_DISTANCE",
+    "MIN_REGRET",
     "Domain", "LegendEntry", "ParticipantTexts", "default_domain_name", "domain_names", "get_domain",
     "MODEL_NAMES", "N_CLUSTERS", "USER_NAMES",
     "N_ENVIRONMENTS", "PRESETS", "SAMPLERS", "WORLD", "Preset", "SelectionSettings", "TableError",

@@ -107,7 +107,9 @@ def run(args) -> dict:
     _write(out / "sequences.json", seq_json)
 
     try:
-        tests = select_test_set(table, [ids[e].tolist() for e in envs.values()], seed=args.seed,
+        # disjoint from what the study's conditions train on (every learner's sequence but the
+        # hierarchical one is a condition's: adding that learner left the test set as it was)
+        tests = select_test_set(table, [ids[envs[c]].tolist() for c in CONDITIONS], seed=args.seed,
                                 min_regret=args.min_regret, min_distance=args.min_option_distance)
     except TestSetError as exc:
         tests = {"error": str(exc)}

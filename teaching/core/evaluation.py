@@ -1,8 +1,9 @@
 """Ideal-user evaluation (paper, "Analysis of Approximate Inference Models with Ideal Users").
 
 * the matrix P_M(θ* | sequence chosen for model M') for every sequence M'
-  (rows: the 7 models' greedy sequences + random, as in the paper's figure)
-  and every ideal user M (columns: the 7 models);
+  (rows: the learners' greedy sequences + random, as in the paper's figure)
+  and every ideal user M (columns: the paper's 7 models and the hierarchical learner of its
+  Discussion, learners.LEARNER_NAMES);
 * the number of examples of each strategy cluster in each sequence, laid out
   as the paper's 2 × 4 grid (column = environment class, row = its first /
   second strategy).
@@ -14,12 +15,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from .learners import MODEL_NAMES, Distances, LearnerModel, p_theta_star
+from .learners import LEARNER_NAMES, Distances, LearnerModel, p_theta_star
 from .selection import DEFAULT_SETTINGS, SelectionSettings, fitted_model
 
-# The paper's 8 sequences: one per model (prob-strategy's equals det-strategy's) and random.
-SEQUENCE_NAMES = MODEL_NAMES + ("random",)
-USER_NAMES = MODEL_NAMES
+# The paper's 8 sequences (one per model: prob-strategy's equals det-strategy's, and random) with the
+# hierarchical learner's before random; the paper's figure is the matrix without that row and column.
+SEQUENCE_NAMES = LEARNER_NAMES + ("random",)
+USER_NAMES = LEARNER_NAMES
 
 
 def ideal_user_matrix(models: dict[str, LearnerModel], sequences: dict[str, list[int]], dist: Distances,

@@ -118,7 +118,7 @@ class ModelFit:
     predicted: np.ndarray  # (S, T, K) P(option) at the pooled fit, lapse included
     rating_rho: float | None = None  # Spearman ρ of predicted probability and rating
     same_as: list[str] = field(default_factory=list)
-    grid_q: np.ndarray | None = field(default=None, repr=False)  # (G, S, T, K): what merging compares
+    grid_q: np.ndarray | None = field(default=None, repr=False)  # (G, S, T, K): what pooling identical models compares
 
     @property
     def aic(self) -> float:
@@ -266,7 +266,7 @@ def rating_correlation(predicted: np.ndarray, answers: Answers) -> float | None:
     return float(spearmanr(p[ok], answers.ratings[ok]).statistic)
 
 
-def _merge_identical(fits: list[ModelFit]) -> list[ModelFit]:
+def _pool_identical(fits: list[ModelFit]) -> list[ModelFit]:
     """Keep one fit of each group of models whose q tables are equal at every grid value."""
     kept: list[ModelFit] = []
     for f in fits:
@@ -282,7 +282,7 @@ def _merge_identical(fits: list[ModelFit]) -> list[ModelFit]:
 def fit_models(table, answers: Answers, names=None, *, grid=VALUE_GRID, progress=None,
                dist: Distances | None = None) -> list[ModelFit]:
     """Every model in `names` (default: every registered one) fitted to `answers`, identical models
-    merged, best first by cross-validated log-likelihood.  FitError (one line) when the answers cannot
+    pooled, best first by cross-validated log-likelihood.  FitError (one line) when the answers cannot
     be fitted or when no model explains them better than guessing (every answer a lapse)."""
     answers.check()
     dist = dist or Distances(table)
@@ -292,7 +292,7 @@ def fit_models(table, answers: Answers, names=None, *, grid=VALUE_GRID, progress
         fits.append(fit_model(name, table, answers, dist=dist, options=options, grid=grid))
         if progress:
             progress(name)
-    fits = _merge_identical(fits)
+    fits = _pool_identical(fits)
     if not any(beats_guessing(f, answers.n_options, len(fits)) for f in fits):
         raise FitError("no model explains these answers better than guessing (likelihood-ratio test against a "
                        "uniform guess, p >= 0.05 after Bonferroni): the answers look like lapses")
@@ -316,7 +316,7 @@ class Comparison:
     n_participants: int
 
     def rows(self) -> list[dict]:
-        """One row per model (identical ones merged), for tables and CSV."""
+        """One row per model (identical ones pooled), for tables and CSV."""
         best_bic = min(f.bic for f in self.fits)
         nan = np.full(len(self.fits), np.nan)
         freq, ep, pep = ((self.bms.frequency, self.bms.exceedance, self.bms.protected_exceedance) if self.bms

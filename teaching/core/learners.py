@@ -18,7 +18,7 @@ and ∞ across, so probabilistic × strategy equals deterministic × strategy.
 The paper's Discussion proposes the last one: people first determine which
 strategy the robot takes, then the most likely trajectory within that strategy
 cluster.  A θ whose optimal trajectory takes another strategy than the example
-is ruled out (the strategy learner), and among the rest closeness counts as for
+is ruled out (the strategy learner), and among the rest nearness counts as for
 the probabilistic Euclidean learner.  It is not one of the paper's seven ideal
 users (MODEL_NAMES); every model registered is in :func:`model_names`.
 
@@ -202,6 +202,8 @@ _REGISTRY: dict[str, Callable[[float | None], LearnerModel]] = {
 # The paper's 7 ideal users, in the order of its figures.
 MODEL_NAMES = tuple(_REGISTRY)
 _REGISTRY["hierarchical"] = lambda v: Hierarchical(1.0 if v is None else v)
+# The ideal users the platform evaluates and teaches for: the paper's seven and the hierarchical learner.
+LEARNER_NAMES = MODEL_NAMES + ("hierarchical",)
 
 
 def register_model(name: str, factory: Callable[[float | None], LearnerModel]) -> None:

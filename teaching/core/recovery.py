@@ -21,7 +21,7 @@ VALUE_TOLERANCE = 1.0  # decades: a recovered τ / λ within this of the true on
 
 @dataclass
 class Recovery:
-    """generators: {label: SimulatedLearner}; fitted: the fitted models' labels (identical ones merged);
+    """generators: {label: SimulatedLearner}; fitted: the fitted models' labels (identical ones pooled);
     confusion: (G, F) int, how often each fitted model won (highest cross-validated log-likelihood) on a
     study simulated by each generator (a row may sum to less than ``reps``: studies no model explains
     better than guessing are counted in ``unfitted``); values, lapses: {generator: the generator's own
@@ -37,7 +37,7 @@ class Recovery:
     lapses: dict[str, list[float]] = field(default_factory=dict)
 
     def column(self, generator: str) -> int:
-        """The fitted column a generator's model is in (its merged label may name others too)."""
+        """The fitted column a generator's model is in (its pooled label may name others too)."""
         name = self.generators[generator].model
         return next(i for i, label in enumerate(self.fitted) if name in label.split(" = "))
 

@@ -17,7 +17,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from .domain import n_clusters
-from .learners import MODEL_NAMES, Distances, LearnerModel, has_hyperparameter, make_model, p_curve
+from .learners import LEARNER_NAMES, Distances, LearnerModel, has_hyperparameter, make_model, p_curve
 
 GRID = tuple(10.0 ** k for k in range(-5, 6))  # τ, λ ∈ {1e-5, ..., 1e5}
 MAX_EXAMPLES = 10
@@ -28,6 +28,9 @@ RANDOM_DRAWS, RANDOM_LENGTH = 1000, 8
 IMPROVEMENT_RTOL = 1e-6
 CONDITIONS = ("exact", "det-reward", "det-euclidean", "det-strategy", "prob-reward", "prob-euclidean",
               "random", "coverage-approx*", "coverage-random")
+# Conditions a study may add to the paper's nine: a learner model's greedy sequence, like the six above.
+EXTRA_CONDITIONS = ("hierarchical",)
+ALL_CONDITIONS = CONDITIONS + EXTRA_CONDITIONS
 # approx*: the model coverage-approx* augments (and coverage-random is scored under).  The paper
 # uses its best approximate learner, det-euclidean; every default in the project names this one.
 APPROX_STAR = "det-euclidean"
@@ -234,7 +237,7 @@ def coverage_random(clusters: np.ndarray, rng: np.random.Generator, n_clusters: 
 class TeachingResult:
     """Everything the selectors produce for one table (indices are table rows)."""
 
-    models: dict[str, LearnerModel]  # the 7 user models with their chosen τ / λ
+    models: dict[str, LearnerModel]  # the 8 user models (LEARNER_NAMES) with their chosen τ / λ
     sequences: dict[str, Sequence]  # per model name, plus random / coverage conditions
     sweeps: dict[str, list[SweepRow]]
     rule_met: dict[str, bool]
@@ -267,8 +270,8 @@ def condition_sequence(table, name: str, *, seed: int = 0, approx_star: str = AP
                        dist: Distances | None = None):
     """One condition's sequence on its own (the unit of a worker's task): the same result as
     ``teach(...).sequences[name]``.  Returns (Sequence, its model, rule met or None)."""
-    if name not in CONDITIONS:
-        raise ValueError(f"unknown condition {name!r}; choose from {', '.join(CONDITIONS)}")
+    if name not in ALL_CONDITIONS:
+        raise ValueError(f"unknown condition {name!r}; choose from {', '.join(ALL_CONDITIONS)}")
     hyperparameters = dict(hyperparameters or {})
     dist = dist or Distances(table)
     buffer = np.empty(dist.shape, np.float32)
@@ -290,7 +293,7 @@ def condition_sequence(table, name: str, *, seed: int = 0, approx_star: str = AP
 def teach(table, *, seed: int = 0, approx_star: str = APPROX_STAR, hyperparameters: dict | None = None,
           settings: SelectionSettings = DEFAULT_SETTINGS, progress: bool = False,
           dist: Distances | None = None) -> TeachingResult:
-    """Run every selector on ``table``: hyperparameter sweeps, the 7 model sequences,
+    """Run every selector on ``table``: hyperparameter sweeps, the 8 learners' sequences,
     random, coverage-approx* and coverage-random.  Seeded and deterministic.
 
     hyperparameters: {model name: τ or λ} fixes a value instead of sweeping.  settings: the
@@ -307,7 +310,7 @@ def teach(table, *, seed: int = 0, approx_star: str = APPROX_STAR, hyperparamete
     dist = dist or Distances(table)
     buffer = np.empty(dist.shape, np.float32)
     models, sequences, sweeps, rule_met = {}, {}, {}, {}
-    names = MODEL_NAMES + (() if approx_star in MODEL_NAMES else (approx_star,))
+    names = LEARNER_NAMES + (() if approx_star in LEARNER_NAMES else (approx_star,))
     eligible = showable(table)
     bar = tqdm(total=len(names) + 1, desc="teaching", disable=not progress)
     for name in names:

@@ -208,7 +208,8 @@ def test_every_designer_field_has_help_and_each_model_its_own_tau_or_lambda(db, 
     for form in (StudyDesignForm(tables=[]), TableBuildForm()):
         missing = [name for name, field in form.fields.items() if not field.help_text]
         assert not missing, f"{type(form).__name__}: no help text for {missing}"
-    assert [m for m, _ in TUNABLE] == ["det-reward", "det-euclidean", "prob-reward", "prob-euclidean"]
+    assert [m for m, _ in TUNABLE] == ["det-reward", "det-euclidean", "prob-reward", "prob-euclidean", "hierarchical"]
+    assert dict(TUNABLE)["hierarchical"] == "λ"  # its λ within the strategy
     assert dict(TUNABLE)["det-euclidean"] == "τ" and dict(TUNABLE)["prob-reward"] == "λ"
     settings.TABLES_DIR = tmp_path
     page = staff_client.get("/precompute/design/").content.decode()

@@ -50,7 +50,7 @@ def test_the_study_job_stores_the_ideal_user_matrix_of_its_conditions(inprocess_
     assert np.array_equal(np.array(pilot["matrix"]), direct)
     assert pilot["models"] == {u: str(m) for u, m in result.models.items()}
     assert pilot["models"]["det-euclidean"] == "det-euclidean(tau=0.5)"
-    assert direct.shape == (5, 7) and 0 <= direct.min() and direct.max() <= 1 and direct.max() > pilot["prior"]
+    assert direct.shape == (5, 8) and 0 <= direct.min() and direct.max() <= 1 and direct.max() > pilot["prior"]
 
     # the dashboard page shows it, before the study is opened
     assert not study.is_open

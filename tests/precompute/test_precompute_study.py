@@ -13,7 +13,7 @@ from precompute.sequences import condition_sequence
 from precompute.study import create_study_job
 from precompute.tasks import study_condition, study_finish
 from studyapp.models import Study
-from teaching.core.selection import CONDITIONS, build_sequences
+from teaching.core.selection import ALL_CONDITIONS, CONDITIONS, build_sequences, teach
 from teaching.core.table import TableError, TrajectoryTable
 from teaching.core.testset import select_test_set
 from teaching.domains.driving.synthetic import synthetic_table
@@ -80,6 +80,28 @@ def test_build_study_subset_closed(inprocess_worker, transactional_db, table_pat
     study = Study.objects.get(slug="two")
     assert not study.is_open and len(study.test_set) == 6
     assert [c.name for c in study.conditions.all()] == ["exact", "random"]
+
+
+def test_the_hierarchical_condition_is_the_hierarchical_learners_greedy_sequence(table_path):
+    """The condition a study may add beside the paper's nine: alone on a worker as in the whole run."""
+    table = TrajectoryTable.load(table_path)
+    whole = teach(table, seed=7)
+    ids = table.env_ids
+    one = condition_sequence(table, "hierarchical", seed=7)
+    assert one["env_ids"] == [int(ids[e]) for e in whole.sequences["hierarchical"].envs]
+    assert one["value"] == whole.models["hierarchical"].value
+    assert "hierarchical" in ALL_CONDITIONS and "hierarchical" not in CONDITIONS
+
+
+@pytest.mark.slow
+def test_a_study_with_the_hierarchical_condition(inprocess_worker, transactional_db, table_path):
+    call_command("build_study", "--table", str(table_path), "--slug", "hier", "--conditions", "exact,hierarchical",
+                 "--wait", "--no-progress", "--timeout", "180", stdout=io.StringIO())
+    study = Study.objects.get(slug="hier")
+    hier = study.conditions.get(name="hierarchical")
+    assert hier.env_ids == condition_sequence(TrajectoryTable.load(table_path), "hierarchical")["env_ids"]
+    # the test set keeps clear of what this condition trains on, as of every other condition's
+    assert not set(hier.env_ids) & {t["env_id"] for t in study.test_set}
 
 
 def test_a_study_job_verifies_its_table_once(db, table_path, monkeypatch):

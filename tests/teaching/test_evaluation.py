@@ -11,7 +11,7 @@ from teaching.core.evaluation import (
     examples_per_cluster,
     ideal_user_matrix,
 )
-from teaching.core.learners import Distances, make_model
+from teaching.core.learners import MODEL_NAMES, Distances, make_model
 from teaching.core.plots import plot_examples_shown, plot_ideal_users
 from teaching.core.selection import teach, theta_star_clusters
 from teaching.domains.driving.domain import DOMAIN as DRIVING
@@ -68,7 +68,12 @@ def test_paper_matrix_shape_and_diagonal(result):
     table, dist, res = result
     envs = {k: s.envs for k, s in res.sequences.items()}
     m = ideal_user_matrix(res.models, envs, dist)
-    assert m.shape == (8, 7) and SEQUENCE_NAMES[-1] == "random" and len(USER_NAMES) == 7
+    # the paper's 8 x 7 figure and the hierarchical learner's row (before random) and column (last)
+    assert m.shape == (9, 8) and SEQUENCE_NAMES[-1] == "random" and USER_NAMES[-1] == "hierarchical"
+    assert USER_NAMES[:7] == MODEL_NAMES and SEQUENCE_NAMES[:7] + SEQUENCE_NAMES[8:] == MODEL_NAMES + ("random",)
+    paper = ideal_user_matrix({k: res.models[k] for k in MODEL_NAMES}, envs, dist,
+                              sequence_names=MODEL_NAMES + ("random",), user_names=MODEL_NAMES)
+    np.testing.assert_array_equal(paper, np.delete(m, 7, axis=0)[:, :7])
     assert np.all((m >= 0) & (m <= 1))
     # prob-strategy and det-strategy are the same user and the same sequence
     np.testing.assert_allclose(m[:, 3], m[:, 6])

@@ -32,8 +32,14 @@ def test_full_run_writes_every_output(saved, tmp_path, capsys):
     tests = json.loads((out / "test_set.json").read_text())
     assert len(tests) == 6 and all(len(t["options"]) == 4 for t in tests)
     matrix = json.loads((out / "matrix.json").read_text())
-    assert np.array(matrix["matrix"]).shape == (8, 7)
-    assert np.array(matrix["extended_matrix"]).shape == (10, 7)
+    # the paper's 8 x 7 with the hierarchical learner's row and column; + the two coverage rows
+    assert np.array(matrix["matrix"]).shape == (9, 8) and matrix["user_names"][-1] == "hierarchical"
+    assert np.array(matrix["extended_matrix"]).shape == (11, 8)
+    # the hierarchical learner is taught like the others but is no condition of the paper's study:
+    # the test set keeps clear of the nine conditions' training, as it did before that learner
+    assert "hierarchical" in seqs["model_sequences"] and "hierarchical" not in seqs["conditions"]
+    trained = {e for c in seqs["conditions"].values() for e in c["env_ids"]}
+    assert not trained & {t["env_id"] for t in tests}
     grids = json.loads((out / "examples_per_cluster.json").read_text())["grids"]
     assert np.array(grids["random"]).sum() == 8
     for png in ("sim_users.png", "examples_shown.png"):

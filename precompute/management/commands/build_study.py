@@ -16,7 +16,7 @@ from django.core.management.base import BaseCommand, CommandError
 
 from precompute import jobs
 from precompute.study import StudyJobError, create_study_job
-from teaching.api import APPROX_STAR, CONDITIONS, TableError, parse_hyperparameters
+from teaching.api import ALL_CONDITIONS, APPROX_STAR, CONDITIONS, TableError, parse_hyperparameters
 
 from ._waiting import wait_for_job
 
@@ -35,7 +35,8 @@ class Command(BaseCommand):
         parser.add_argument("--approx-star", default=APPROX_STAR, help="model that coverage-approx* augments")
         parser.add_argument("--hyper", action="append", default=[], metavar="MODEL=VALUE",
                             help="fix τ or λ of a model instead of sweeping (repeatable)")
-        parser.add_argument("--conditions", help=f"comma-separated subset of {','.join(CONDITIONS)} (default: all)")
+        parser.add_argument("--conditions", help=f"comma-separated subset of {','.join(ALL_CONDITIONS)} "
+                                                 f"(default: the paper's {len(CONDITIONS)})")
         parser.add_argument("--target-per-condition", type=int, default=30)
         parser.add_argument("--closed", action="store_true", help="leave the study closed when done")
         parser.add_argument("--replace", action="store_true", help="rebuild an existing study without participants")
