@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from teaching.api import USER_NAMES, has_hyperparameter, study_matrix
+from teaching.api import USER_NAMES, has_hyperparameter, pilot_predictions, study_matrix
 from teaching.api import condition_sequence as select
 
 
@@ -34,19 +34,25 @@ def condition_sequence(table, name: str, **kwargs) -> dict:
     }
 
 
-def pilot_matrix(table, conditions: dict[str, list[int]], hyperparameters: dict | None = None) -> dict:
+def pilot_matrix(table, conditions: dict[str, list[int]], hyperparameters: dict | None = None,
+                 test_set: list[dict] | None = None) -> dict:
     """The simulated pilot of a study: P_user(θ*) after each condition's examples, for every ideal
-    user (teach.py's matrix.json, restricted to exactly these conditions).
+    user (teach.py's matrix.json, restricted to exactly these conditions), and, given the study's
+    `test_set`, what participants who learn as each user would choose in its tests.
 
     conditions: {name: environment *ids* in the order shown}; rows follow its order.
     hyperparameters: {model: τ or λ} for the users; a model not in it gets the paper's rule.
     Returns small JSON: conditions, users, matrix (rows x users), models (user -> "name(tau=...)"),
-    prior (1 / number of θ: what a user who learned nothing assigns to θ*)."""
+    prior (1 / number of θ: what a user who learned nothing assigns to θ*), and with a test set
+    predicted (teaching's pilot_predictions: θ*'s option per test, P(option) per user and condition)."""
     index = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
     missing = sorted({int(e) for ids in conditions.values() for e in ids} - set(index))
     if missing:
         raise ValueError(f"environments {missing[:10]} are not in the table")
     rows = {name: [index[int(e)] for e in ids] for name, ids in conditions.items()}
     matrix, models = study_matrix(table, rows, hyperparameters)
-    return {"conditions": list(rows), "users": list(USER_NAMES), "matrix": matrix.tolist(),
-            "models": {u: str(models[u]) for u in USER_NAMES}, "prior": 1.0 / table.n_thetas}
+    pilot = {"conditions": list(rows), "users": list(USER_NAMES), "matrix": matrix.tolist(),
+             "models": {u: str(models[u]) for u in USER_NAMES}, "prior": 1.0 / table.n_thetas}
+    if test_set:
+        pilot["predicted"] = pilot_predictions(table, models, rows, test_set)
+    return pilot

@@ -206,14 +206,14 @@ def study_condition(self, job_id, spec, name, index):
     return {"condition": name, "computed": True, "env_ids": result["env_ids"]}
 
 
-def study_pilot(table, conditions, spec: StudyJobSpec, job_id) -> dict:
-    """The study's simulated pilot: the ideal-user matrix for exactly its conditions.  Each user's
-    τ / λ is the one its condition's task chose (or the researcher fixed), so only a model no
-    condition used is swept again."""
+def study_pilot(table, conditions, spec: StudyJobSpec, job_id, tests: list[dict]) -> dict:
+    """The study's simulated pilot: the ideal-user matrix for exactly its conditions and what learners of
+    each model would choose in its `tests`.  Each user's τ / λ is the one its condition's task chose (or
+    the researcher fixed), so only a model no condition used is swept again."""
     chosen = {r["model"]: r["value"] for r in Part.objects.filter(job_id=job_id).values_list("result", flat=True)
               if r.get("model") and r.get("value") is not None}
     return pilot_matrix(table, {c.name: c.env_ids for c in conditions},
-                        {**chosen, **spec.hyperparameters})
+                        {**chosen, **spec.hyperparameters}, test_set=tests)
 
 
 @shared_task(base=JobTask, bind=True, name="precompute.study_finish")
@@ -230,7 +230,7 @@ def study_finish(self, job_id, spec):
     t0 = time.perf_counter()
     table = _table(spec)
     tests = select_test_set(table, [c.env_ids for c in conditions], seed=spec.seed, **spec.test_set_thresholds)
-    store_pilot(study, study_pilot(table, conditions, spec, job_id))
+    store_pilot(study, study_pilot(table, conditions, spec, job_id, tests))
     freeze_test_set(study, test_set_from_table(table, tests), open_study=spec.open_when_done)
     record_part(job_id, "test-set", len(conditions), True, time.perf_counter() - t0,
                 result={"env_ids": [t["env_id"] for t in tests]})

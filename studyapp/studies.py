@@ -176,8 +176,13 @@ def _teach_pilot(teach_dir: Path, names: list[str]) -> dict | None:
     m = _read_json(path)
     try:
         rows = dict(zip(m["extended_sequence_names"], m["extended_matrix"], strict=True))
-        return {"conditions": names, "users": list(m["user_names"]), "matrix": [rows[n] for n in names],
-                "models": dict(m.get("models", {})), "from": f"teach output ({path})"}
+        pilot = {"conditions": names, "users": list(m["user_names"]), "matrix": [rows[n] for n in names],
+                 "models": dict(m.get("models", {})), "from": f"teach output ({path})"}
+        if "predicted" in m:  # the learners' choices in the tests (the teach output's own test set)
+            predicted = m["predicted"]
+            choice = {u: {n: by_name[n] for n in names} for u, by_name in predicted["choice"].items()}
+            pilot["predicted"] = {"theta_star_option": list(predicted["theta_star_option"]), "choice": choice}
+        return pilot
     except (KeyError, TypeError, ValueError) as exc:
         raise SpecError(f"{path} is not a teach output's matrix ({exc})") from None
 

@@ -49,6 +49,10 @@ Fitting learner models to answers (teaching.core.fitting, .bms, .simulate; docs/
                              probabilities), .rows() one dict per model; FitError (one line) if unfittable
     SimulatedLearner(model, value, lapse)  who a model-based simulated participant is; AnswerModel(
                              table, learner, tests) its P(option) per test for a sequence, .answer()
+    pilot_predictions(table, models, sequences, test_set)  a study's model-based pilot as JSON: each
+                             model's (T, K) P(option) with no lapse after each condition's examples
+    predicted_scores(choice (T, K), star (T,), lapse) -> PredictedScores(accuracy, mean, sd): what
+                             those participants score (the confidence score, -7 .. 7), in expectation
 
 Tables (teaching.core.table: a directory of .npy arrays plus meta.json with its content hash)
     TrajectoryTable          .load(path, verify=True, expected_hash=None); thetas (N, D),
@@ -127,7 +131,7 @@ from .core.selection import (
                     build_sequences,
                     condition_sequence,
 )
-from .core.simulate import AnswerModel, SimulatedLearner
+from .core.simulate import AnswerModel, PredictedScores, SimulatedLearner, pilot_predictions, predicted_scores
 from .core.table import TableError, TrajectoryTable
 from .core.testset import MIN_REGRET, select_test_set
 from .domains.driving.domain import DOMAIN as _DRIVING
@@ -158,4 +162,5 @@ __all__ = [
     "table_identity",
     "OptionDistances", "choice_probabilities", "option_choice",
     "AnswerModel", "Answers", "Comparison", "FitError", "Question", "SimulatedLearner", "compare_models", "model_names",
+    "PredictedScores", "pilot_predictions", "predicted_scores",
 ]

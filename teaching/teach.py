@@ -25,6 +25,7 @@ import numpy as np
 from .core.evaluation import SEQUENCE_NAMES, USER_NAMES, examples_per_cluster, grid_layout, ideal_user_matrix
 from .core.learners import Distances, model_names, parse_hyperparameters
 from .core.selection import APPROX_STAR, CONDITIONS, COVERAGE_EPSILON, SelectionSettings, teach, theta_star_clusters
+from .core.simulate import pilot_predictions
 from .core.table import TableError, TrajectoryTable
 from .core.testset import MIN_REGRET, TestSetError, select_test_set
 
@@ -118,10 +119,13 @@ def run(args) -> dict:
     matrix = ideal_user_matrix(result.models, envs, dist)
     ext_names = SEQUENCE_NAMES + ("coverage-approx*", "coverage-random")
     extended = ideal_user_matrix(result.models, envs, dist, sequence_names=ext_names)
-    _write(out / "matrix.json", {"sequence_names": list(SEQUENCE_NAMES), "user_names": list(USER_NAMES),
-                                 "matrix": matrix.tolist(), "extended_sequence_names": list(ext_names),
-                                 "extended_matrix": extended.tolist(),
-                                 "models": {k: str(m) for k, m in result.models.items()}})
+    pilot = {"sequence_names": list(SEQUENCE_NAMES), "user_names": list(USER_NAMES),
+             "matrix": matrix.tolist(), "extended_sequence_names": list(ext_names),
+             "extended_matrix": extended.tolist(), "models": {k: str(m) for k, m in result.models.items()}}
+    if "error" not in tests:  # what learners of each model choose in the tests, for a study's pilot
+        pilot["predicted"] = pilot_predictions(table, {u: result.models[u] for u in USER_NAMES},
+                                               {n: envs[n] for n in ext_names}, tests, dist)
+    _write(out / "matrix.json", pilot)
     domain = table.domain
     grids = examples_per_cluster(theta_star_clusters(table), envs, ext_names, class_of_cluster=domain.class_of_cluster)
     _write(out / "examples_per_cluster.json", {"layout": grid_layout(domain),

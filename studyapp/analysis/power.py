@@ -148,16 +148,33 @@ def power_with(d: float, n_per_condition: int, *, alpha: float = 0.05) -> float:
     return _power(d, n_per_condition, alpha)
 
 
+def cohens_d(mean_a: float, sd_a: float, mean_b: float, sd_b: float) -> float | None:
+    """Cohen's d of two equal groups, (mean_a - mean_b) / sqrt((sd_a² + sd_b²) / 2); None when neither
+    group varies (a model that predicts every participant's score exactly)."""
+    pooled = math.sqrt((sd_a ** 2 + sd_b ** 2) / 2)
+    return (mean_a - mean_b) / pooled if pooled > 0 else None
+
+
 def power_table(*, alpha: float = 0.05, power: float = 0.8, n_per_condition: int | None = None,
-                effects: dict[str, float] | None = None) -> list[dict]:
-    """One row per effect (the paper's, then the researcher's `effects`, name -> d): d, the
-    participants per condition needed, and the power at `n_per_condition` if given."""
+                effects: dict[str, float] | None = None, predicted: list[dict] | None = None) -> list[dict]:
+    """One row per effect (the paper's, then the researcher's `effects`, name -> d, then the `predicted`
+    rows, each {comparison, d, source} with d possibly None or of any size): d, the participants per
+    condition needed, and the power at `n_per_condition` if given.  A predicted |d| below the smallest
+    effect planned for (D_MIN) needs no number: its row's "needed" and power are None; one above D_MAX
+    is planned as D_MAX (2 per condition suffice for either)."""
     rows = [{"comparison": e.comparison, "d": e.d, "source": f"p = {e.p:g} with {e.n1} + {e.n2} ({e.where})"}
             for e in PAPER_EFFECTS]
     rows += [{"comparison": name, "d": float(d), "source": "chosen by the researcher"}
              for name, d in (effects or {}).items()]
+    rows += [dict(row, predicted=True) for row in predicted or []]
     for row in rows:
-        row["needed"] = participants_needed(row["d"], alpha=alpha, power=power)
+        d = row["d"]  # the paper's and the researcher's are checked (a ValueError names the bound)
+        if row.get("predicted"):
+            d = None if d is None else min(abs(d), D_MAX)
+            if d is None or d < D_MIN:
+                row["needed"], row["power_at_n"] = None, None
+                continue
+        row["needed"] = participants_needed(d, alpha=alpha, power=power)
         if n_per_condition:  # one per group has no variance: no t-test, no power
-            row["power_at_n"] = power_with(row["d"], n_per_condition, alpha=alpha) if n_per_condition >= N_MIN else 0.0
+            row["power_at_n"] = power_with(d, n_per_condition, alpha=alpha) if n_per_condition >= N_MIN else 0.0
     return rows

@@ -15,7 +15,7 @@ from functools import lru_cache
 import numpy as np
 
 from .choice import OptionDistances, choice_probabilities
-from .fitting import Answers
+from .fitting import Answers, Question
 from .learners import Distances, LearnerModel, check_value, make_model, posterior
 
 RATING_STEPS = 6  # a rating is 1 + Binomial(6, P(option)): 1 .. 7
@@ -86,3 +86,69 @@ def simulate_answers(table, learner: SimulatedLearner, sequences: dict[str, list
                    choice=np.array([c for c, _ in drawn], np.int64).reshape(n_participants, len(tests)),
                    ratings=np.array([r for _, r in drawn]).reshape(n_participants, len(tests), k),
                    participant_ids=tuple(f"sim-{i}" for i in range(n_participants)))
+
+
+# --- what such participants score, in expectation (the designer's pilot and power table) ----------------
+@dataclass(frozen=True)
+class PredictedScores:
+    """What participants of one learner model who saw one sequence score on a test set, by the answer model
+    above: accuracy, the expected share of tests in which they pick θ*'s option; mean, the expected mean
+    confidence score (−7 .. 7: the chosen option's rating, negated unless it is θ*'s; the paper's measure);
+    sd, that mean's standard deviation across participants (tests are drawn independently)."""
+
+    accuracy: float
+    mean: float
+    sd: float
+
+
+def choice_table(table, models: dict[str, LearnerModel], sequences: dict[str, list[int]], tests,
+                 dist: Distances | None = None) -> dict[str, dict[str, np.ndarray]]:
+    """{model label: {sequence name: (T, K) P(option) with no lapse}} for learners of each model (with its
+    τ / λ) shown each sequence (table rows), on `tests` (Questions).  With no lapse these are all a pilot
+    needs to predict scores at any lapse rate (:func:`predicted_scores`) without the table."""
+    dist = dist or Distances(table)
+    out = {}
+    for label, model in models.items():
+        answers = AnswerModel(table, SimulatedLearner(model.name, model.value if model.param else None, 0.0),
+                              tests, dist)
+        out[label] = {name: answers.probabilities(tuple(int(e) for e in rows)) for name, rows in sequences.items()}
+    return out
+
+
+def predicted_scores(choice: np.ndarray, star: np.ndarray, lapse: float) -> PredictedScores:
+    """Expected accuracy and confidence score of the participants :meth:`AnswerModel.answer` draws.
+
+    choice: (T, K) P(option) with no lapse; star: (T,) the position of θ*'s option in each test; lapse: ε in
+    [0, 1].  With lapse, P = (1 − ε) P₀ + ε / K (the choice model's mixture).  The chosen option k's rating
+    is 1 + Binomial(6, P_k), drawn apart from the choice, so a test's score s = ±r has
+    E[s] = Σ_k P_k σ_k (1 + 6 P_k) and E[s²] = Σ_k P_k (6 P_k (1 − P_k) + (1 + 6 P_k)²), σ_k = +1 for θ*'s
+    option and −1 for the others; the mean over T independent tests has variance Σ_t Var(s_t) / T²."""
+    if not 0 <= lapse <= 1:
+        raise ValueError(f"the lapse rate must lie in [0, 1], got {lapse}")
+    p0 = np.asarray(choice, np.float64)
+    t, k = p0.shape
+    p = (1.0 - lapse) * p0 + lapse / k
+    sign = np.full((t, k), -1.0)
+    sign[np.arange(t), np.asarray(star, np.int64)] = 1.0
+    rating = 1.0 + RATING_STEPS * p
+    first = (p * sign * rating).sum(axis=1)
+    second = (p * (RATING_STEPS * p * (1.0 - p) + rating ** 2)).sum(axis=1)
+    return PredictedScores(accuracy=float(p[np.arange(t), star].mean()), mean=float(first.mean()),
+                           sd=float(np.sqrt(max(float((second - first ** 2).sum()), 0.0)) / t))
+
+
+def pilot_predictions(table, models: dict[str, LearnerModel], sequences: dict[str, list[int]], test_set,
+                      dist: Distances | None = None) -> dict:
+    """A study's model-based pilot as small JSON: what learners of each model choose in each test after each
+    sequence, with no lapse, so that scores at any lapse rate follow from it alone (:func:`predicted_scores`).
+
+    models: {user label: model with its τ / λ}; sequences: {condition: table rows shown}; test_set: the study's
+    tests as ``select_test_set`` gives them (env_id; options with theta_index and is_theta_star).  Returns
+    {"theta_star_option": [T] the position of θ*'s option per test, "choice": {label: {condition: (T, K)}}}."""
+    row = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
+    questions = [Question(row[int(t["env_id"])], tuple(int(o["theta_index"]) for o in t["options"])) for t in test_set]
+    star = [[bool(o["is_theta_star"]) for o in t["options"]].index(True) for t in test_set]
+    choice = choice_table(table, models, sequences, questions, dist)
+    return {"theta_star_option": star,
+            "choice": {label: {name: np.round(p, 6).tolist() for name, p in by_name.items()}
+                       for label, by_name in choice.items()}}

@@ -240,8 +240,14 @@ def test_create_study_from_the_teach_output(demo_table, demo_teach, staff_client
     rows = dict(zip(matrix["extended_sequence_names"], matrix["extended_matrix"], strict=True))
     assert pilot["conditions"] == list(sequences["conditions"]) and pilot["users"] == matrix["user_names"]
     assert pilot["matrix"] == [rows[n] for n in sequences["conditions"]] and pilot["prior"] == 1 / 200
+    # and what learners of each model choose in its tests (matrix.json's, for exactly its conditions)
+    assert pilot["predicted"]["theta_star_option"] == [
+        [o["is_theta_star"] for o in t["options"]].index(True) for t in tests]
+    assert pilot["predicted"]["choice"] == {u: {n: by_name[n] for n in sequences["conditions"]}
+                                            for u, by_name in matrix["predicted"]["choice"].items()}
     page = staff_client.get("/dashboard/pilot/").content.decode()
     assert 'id="no-pilot"' not in page and "Ideal users" in page
+    assert 'id="predicted-scores"' in page and 'id="no-predicted"' not in page
     assert {c.name: c.env_ids for c in s.conditions.all()} == {
         name: c["env_ids"] for name, c in sequences["conditions"].items()}
     assert [c.name for c in s.conditions.all()] == list(sequences["conditions"])  # in the teach output's order

@@ -35,6 +35,12 @@ def test_full_run_writes_every_output(saved, tmp_path, capsys):
     # the paper's 8 x 7 with the hierarchical learner's row and column; + the two coverage rows
     assert np.array(matrix["matrix"]).shape == (9, 8) and matrix["user_names"][-1] == "hierarchical"
     assert np.array(matrix["extended_matrix"]).shape == (11, 8)
+    # each user's P(option) in the 6 tests after each sequence, for a study's model-based pilot
+    predicted = matrix["predicted"]
+    assert set(predicted["choice"]) == set(matrix["user_names"]) and len(predicted["theta_star_option"]) == 6
+    assert all(np.array(p).shape == (6, 4) and np.allclose(np.sum(p, axis=1), 1, atol=1e-5)
+               for by_name in predicted["choice"].values() for p in by_name.values())
+    assert set(predicted["choice"]["exact"]) == set(matrix["extended_sequence_names"])
     # the hierarchical learner is taught like the others but is no condition of the paper's study:
     # the test set keeps clear of the nine conditions' training, as it did before that learner
     assert "hierarchical" in seqs["model_sequences"] and "hierarchical" not in seqs["conditions"]
