@@ -15,7 +15,7 @@ from functools import lru_cache
 import numpy as np
 
 from .choice import OptionDistances, choice_probabilities
-from .fitting import Answers, Question
+from .fitting import Answers, Question, choice_table, option_distances
 from .learners import Distances, LearnerModel, check_value, make_model, posterior
 
 RATING_STEPS = 6  # a rating is 1 + Binomial(6, P(option)): 1 .. 7
@@ -101,18 +101,16 @@ class PredictedScores:
     sd: float
 
 
-def choice_table(table, models: dict[str, LearnerModel], sequences: dict[str, list[int]], tests,
-                 dist: Distances | None = None) -> dict[str, dict[str, np.ndarray]]:
+def model_choices(table, models: dict[str, LearnerModel], sequences: dict[str, list[int]], tests,
+                  dist: Distances | None = None) -> dict[str, dict[str, np.ndarray]]:
     """{model label: {sequence name: (T, K) P(option) with no lapse}} for learners of each model (with its
-    τ / λ) shown each sequence (table rows), on `tests` (Questions).  With no lapse these are all a pilot
-    needs to predict scores at any lapse rate (:func:`predicted_scores`) without the table."""
+    τ / λ) shown each sequence (table rows), on `tests` (Questions): the fit's choice table.  With no lapse
+    these are all a pilot needs to predict scores at any lapse rate (:func:`predicted_scores`)."""
     dist = dist or Distances(table)
-    out = {}
-    for label, model in models.items():
-        answers = AnswerModel(table, SimulatedLearner(model.name, model.value if model.param else None, 0.0),
-                              tests, dist)
-        out[label] = {name: answers.probabilities(tuple(int(e) for e in rows)) for name, rows in sequences.items()}
-    return out
+    options = option_distances(table, tests)
+    names = list(sequences)
+    return {label: dict(zip(names, choice_table(model, dist, options, [sequences[n] for n in names]), strict=True))
+            for label, model in models.items()}
 
 
 def predicted_scores(choice: np.ndarray, star: np.ndarray, lapse: float) -> PredictedScores:
@@ -148,7 +146,7 @@ def pilot_predictions(table, models: dict[str, LearnerModel], sequences: dict[st
     row = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
     questions = [Question(row[int(t["env_id"])], tuple(int(o["theta_index"]) for o in t["options"])) for t in test_set]
     star = [[bool(o["is_theta_star"]) for o in t["options"]].index(True) for t in test_set]
-    choice = choice_table(table, models, sequences, questions, dist)
+    choice = model_choices(table, models, sequences, questions, dist)
     return {"theta_star_option": star,
             "choice": {label: {name: np.round(p, 6).tolist() for name, p in by_name.items()}
                        for label, by_name in choice.items()}}

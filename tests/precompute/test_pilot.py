@@ -23,7 +23,7 @@ from teaching.core.evaluation import USER_NAMES, ideal_user_matrix
 from teaching.core.fitting import Question
 from teaching.core.learners import Distances
 from teaching.core.selection import teach
-from teaching.core.simulate import choice_table, predicted_scores
+from teaching.core.simulate import model_choices, predicted_scores
 from teaching.core.table import TrajectoryTable
 
 CONDITIONS = ["exact", "prob-reward", "random", "coverage-approx*"]
@@ -63,7 +63,7 @@ def test_the_study_job_stores_the_ideal_user_matrix_of_its_conditions(inprocess_
     star = [[o["is_theta_star"] for o in t["options"]].index(True) for t in study.test_set]
     assert predicted["theta_star_option"] == star and set(predicted["choice"]) == set(USER_NAMES)
     questions = [Question(row[t["env_id"]], tuple(o["theta_index"] for o in t["options"])) for t in study.test_set]
-    direct_choice = choice_table(table, result.models, sequences, questions)
+    direct_choice = model_choices(table, result.models, sequences, questions)
     for u in USER_NAMES:
         for c in names:
             np.testing.assert_allclose(predicted["choice"][u][c], direct_choice[u][c], atol=1e-6)

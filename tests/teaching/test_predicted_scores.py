@@ -6,7 +6,7 @@ import pytest
 from teaching.core.fitting import Question
 from teaching.core.learners import make_model
 from teaching.core.selection import teach
-from teaching.core.simulate import AnswerModel, SimulatedLearner, choice_table, predicted_scores
+from teaching.core.simulate import AnswerModel, SimulatedLearner, model_choices, predicted_scores
 from teaching.core.testset import select_test_set
 from teaching.domains.driving.synthetic import synthetic_table
 
@@ -44,7 +44,7 @@ def test_the_closed_form_is_what_drawn_participants_score(design, model, lapse):
     rating, negative unless it is θ*'s): their mean and spread match the closed form."""
     table, result, sequences, questions, star = design
     learner = result.models[model]
-    no_lapse = choice_table(table, {model: learner}, sequences, questions)[model]
+    no_lapse = model_choices(table, {model: learner}, sequences, questions)[model]
     drawn = AnswerModel(table, SimulatedLearner(model, learner.value if learner.param else None, lapse), questions)
     rng = np.random.default_rng(3)
     for name, rows in sequences.items():
@@ -61,13 +61,13 @@ def test_the_closed_form_is_what_drawn_participants_score(design, model, lapse):
         assert np.std(scores) == pytest.approx(want.sd, rel=0.05, abs=0.02), name
 
 
-def test_the_choice_table_is_the_answer_models_without_lapse(design):
+def test_the_models_choices_are_the_answer_models_without_lapse(design):
     table, result, sequences, questions, _ = design
     models = {"exact": make_model("exact"), "det-euclidean": result.models["det-euclidean"]}
-    got = choice_table(table, models, sequences, questions)
+    got = model_choices(table, models, sequences, questions)
     assert set(got) == set(models) and all(set(v) == set(sequences) for v in got.values())
     for label, model in models.items():
         answers = AnswerModel(table, SimulatedLearner(label, model.value if model.param else None, 0.0), questions)
         for name, rows in sequences.items():
             assert got[label][name].shape == (len(questions), 4)
-            np.testing.assert_array_equal(got[label][name], answers.probabilities(tuple(int(e) for e in rows)))
+            np.testing.assert_allclose(got[label][name], answers.probabilities(tuple(int(e) for e in rows)), atol=1e-12)
