@@ -2,6 +2,8 @@
 
     .venv/bin/python bench/fitting.py --table var/tables/demo --paper-table var/tables/paper \\
         [--reps 25] [--json docs/bench_fitting.json] [--update-doc docs/analysis.md]
+    .venv/bin/python bench/fitting.py --paper-only --paper-table var/tables/paper --json docs/bench_fitting.json
+        # adds the paper table's figures to an earlier run's recovery figures (that table takes ~50 min to build)
 
 The design is what a study built on --table gets (teaching.build_sequences' nine conditions and
 select_test_set's test set, seed 0).  Every distinct learner model generates --reps simulated studies of
@@ -147,12 +149,17 @@ def main() -> None:
     p.add_argument("--reps", type=int, default=25)
     p.add_argument("--json", default=None)
     p.add_argument("--update-doc", default=None, help="rewrite this document's generated section from --json")
+    p.add_argument("--paper-only", action="store_true",
+                   help="keep the recovery figures of --json and (re)measure only the paper table's fit")
     p.add_argument("--paper-child", default=None, help=argparse.SUPPRESS)
     args = p.parse_args()
     if args.paper_child:
         print(json.dumps(paper_fit(args.paper_child)))
         return
-    figures = {"recovery": recovery_figures(TrajectoryTable.load(args.table), args.reps)}
+    if args.paper_only and not (args.json and Path(args.json).exists() and args.paper_table):
+        p.error("--paper-only needs --paper-table and an earlier run's --json")
+    figures = ({"recovery": json.loads(Path(args.json).read_text())["recovery"]} if args.paper_only
+               else {"recovery": recovery_figures(TrajectoryTable.load(args.table), args.reps)})
     if args.paper_table:
         child = subprocess.run([sys.executable, __file__, "--paper-child", args.paper_table], check=True,
                                capture_output=True, text=True)

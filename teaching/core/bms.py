@@ -58,7 +58,9 @@ def _free_energy(log_ev: np.ndarray, alpha0: np.ndarray, alpha: np.ndarray, z: n
     """F1: the variational lower bound of log p(data | H1), Rigoux et al. 2014 eq. A20."""
     e_log_r = digamma(alpha) - digamma(alpha.sum())
     tiny = np.finfo(float).tiny
-    weighted = np.where(z > 0, z * (log_ev + e_log_r[:, None]), 0.0)  # a ruled-out model (-inf) has z = 0
+    # a ruled-out model (log evidence -inf) has z = 0: its term is 0, not 0 * -inf
+    weighted = np.zeros_like(z)
+    np.multiply(z, log_ev + e_log_r[:, None], out=weighted, where=z > 0)
     joint = weighted.sum() + ((alpha0 - 1) * e_log_r).sum()
     joint += gammaln(alpha0.sum()) - gammaln(alpha0).sum()
     entropy_z = -(z * np.log(z + tiny)).sum()
