@@ -1,7 +1,10 @@
 """Fixtures the browser tests share."""
 from __future__ import annotations
 
+import os
+
 import pytest
+from playwright.sync_api import sync_playwright
 
 from studyapp.studies import build_study, demo_spec
 from teaching.core.table import TrajectoryTable
@@ -26,3 +29,22 @@ def studies(transactional_db, demo_table, tiny_table, monkeypatch):
     demo = build_study(demo_spec())
     real = build_study(real_spec(TrajectoryTable.load(tiny_table), tiny_table))
     return [demo, real]
+
+
+@pytest.fixture
+def staff_page(staff_cookie, live_server, monkeypatch):
+    """A researcher's page in Debian's Chromium (1280 × 900, logged in) for the live server, and the list of
+    JavaScript errors it meets: yields (page, errors)."""
+    host = live_server.url.split("//")[1].split(":")[0]
+    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")  # ORM calls in a test run beside Playwright's loop
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=os.environ.get("CHROMIUM", "/usr/bin/chromium"), headless=True)
+        try:
+            ctx = browser.new_context(viewport={"width": 1280, "height": 900})
+            ctx.add_cookies([{"name": "sessionid", "value": staff_cookie, "domain": host, "path": "/"}])
+            page = ctx.new_page()
+            errors = []
+            page.on("pageerror", lambda e: errors.append(str(e)))
+            yield page, errors
+        finally:
+            browser.close()
