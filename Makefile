@@ -53,6 +53,7 @@ bench: venv
 	$(PY) bench/gridworld.py
 	$(PY) bench/precompute.py
 	$(PY) bench/exports.py
+	$(PY) bench/fitting.py
 
 clean:
 	rm -rf var/ test-output/ .pytest_cache
