@@ -17,7 +17,8 @@ from studyapp import assignment
 from studyapp.analysis.modelfit import CSV_COLUMNS, ModelFitError, fit_study, study_answers, study_design
 from studyapp.analysis.simulate import make_study, simulate
 from studyapp.models import Participant
-from teaching.api import SimulatedLearner
+from teaching.api import SimulatedLearner, TrajectoryTable
+from teaching.core.selection import teach
 
 pytestmark = pytest.mark.django_db
 
@@ -135,3 +136,22 @@ def test_a_csv_of_an_unfittable_study_says_why(demo_table, staff_client):
     study = make_study(demo_table, "fit-nocsv")
     response = staff_client.get(reverse("dashboard_models_csv", args=[study.slug]))
     assert response.status_code == 409 and b"no participant has finished" in response.content
+
+
+def test_a_study_with_the_hierarchical_condition_is_analysed_and_fitted(demo_table, tmp_path):
+    """The condition a study may add (the hierarchical learner's greedy sequence): answered by hierarchical
+    learners through the real flow, `analyze` reports it as a group of its own and `fit_models` ranks the
+    hierarchical learner first."""
+    table = TrajectoryTable.load(demo_table)
+    ids = table.env_ids
+    whole = teach(table)
+    sequences = {c: [int(ids[e]) for e in whole.sequences[c].envs] for c in ("exact", "random", "hierarchical")}
+    study = make_study(demo_table, "fit-hier", sequences=sequences)
+    simulate(study, n_per_condition=30, seed=7,
+             learner=SimulatedLearner("hierarchical", whole.models["hierarchical"].value, 0.1))
+    out = io.StringIO()
+    call_command("analyze", study.slug, "--out", str(tmp_path / "report"), stdout=out)
+    conditions = (tmp_path / "report" / "conditions.csv").read_text()
+    assert conditions.count("\nhierarchical,") == 1, conditions
+    first = run(study.slug, "--csv", str(tmp_path / "m.csv"), "--figure", str(tmp_path / "m.png")).splitlines()[2]
+    assert first.startswith("hierarchical"), first
