@@ -176,6 +176,8 @@ class PowerForm(forms.Form):
         data = super().clean()
         if data.get("lapse") is None and "lapse" not in self.errors:
             data["lapse"] = DEFAULT_LAPSE
+        if not data.get("model") and "model" not in self.errors:
+            data["model"] = self.fields["model"].initial
         alpha, power = data.get("alpha"), data.get("power")
         if alpha is not None and power is not None and power_problem(power, alpha):
             self.add_error("power", f"Power must be above α ({alpha:g}): at a vanishing effect a test's power "
