@@ -28,7 +28,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench.doc_section import rewrite_section
-from teaching.core.fitting import Question, fit_models
+from teaching.core.fitting import fit_models, questions_of
 from teaching.core.learners import Distances
 from teaching.core.recovery import LAPSE_TOLERANCE, VALUE_TOLERANCE, model_recovery
 from teaching.core.selection import CONDITIONS, fitted_model, teach
@@ -49,8 +49,7 @@ def design(table):
     sequences = {c: result.sequences[c].envs for c in CONDITIONS}
     ids = np.asarray(table.env_ids)
     test_set = select_test_set(table, [[int(ids[e]) for e in s] for s in sequences.values()], 0)
-    tests = [Question(t["env_index"], tuple(o["theta_index"] for o in t["options"])) for t in test_set]
-    return sequences, tests, result
+    return sequences, list(questions_of(table, test_set)[0]), result
 
 
 def generators(table, result) -> dict[str, SimulatedLearner]:

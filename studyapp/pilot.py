@@ -113,8 +113,8 @@ def predicted_rows(stored: dict | None, lapse: float) -> dict | None:
     users = list(stored["choice"])
     scores = {u: predicted_by_condition(stored, u, lapse) for u in users}
     # a user's best condition, unless every condition ties (as in the matrix above)
-    best = {u: max(means) if max(means) > min(means) else None
-            for u, means in ((u, [s.mean for s in scores[u].values()]) for u in users)}
+    means = {u: [s.mean for s in scores[u].values()] for u in users}
+    best = {u: max(m) if max(m) > min(m) else None for u, m in means.items()}
     return {"users": users, "lapse": lapse, "tests": len(stored["star"]),
             "rows": [{"condition": c, "cells": [{"accuracy": scores[u][c].accuracy, "mean": scores[u][c].mean,
                                                  "best": scores[u][c].mean == best[u]} for u in users]}

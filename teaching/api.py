@@ -42,6 +42,7 @@ Choice model (teaching.core.choice; docs/analysis.md)
 
 Fitting learner models to answers (teaching.core.fitting, .bms, .simulate; docs/analysis.md)
     Question(env_index, options)  one test: a table row and the θ indices of its K options
+    questions_of(table, test_set) -> (Questions, (T,) position of θ*'s option): a study's test set
     Answers                  what a study collected: sequence_names, sequences (table rows), tests,
                              group (P,), choice (P, T) option index or -1, ratings (P, T, K) or None
     compare_models(table, answers, names=None) -> Comparison: .fits (ModelFit each: τ / λ, ε,
@@ -121,15 +122,15 @@ from .core.candidates import SAMPLERS
 from .core.choice import OptionDistances, choice_probabilities, option_choice
 from .core.domain import Domain, LegendEntry, ParticipantTexts, default_domain_name, domain_names, get_domain
 from .core.evaluation import USER_NAMES, study_matrix
-from .core.fitting import Answers, Comparison, FitError, Question, compare_models
+from .core.fitting import Answers, Comparison, FitError, Question, compare_models, questions_of
 from .core.learners import MODEL_NAMES, has_hyperparameter, make_model, model_names, parse_hyperparameters
 from .core.selection import (
-                    ALL_CONDITIONS,
-                    APPROX_STAR,
-                    CONDITIONS,
-                    SelectionSettings,
-                    build_sequences,
-                    condition_sequence,
+    ALL_CONDITIONS,
+    APPROX_STAR,
+    CONDITIONS,
+    SelectionSettings,
+    build_sequences,
+    condition_sequence,
 )
 from .core.simulate import AnswerModel, PredictedScores, SimulatedLearner, pilot_predictions, predicted_scores
 from .core.table import TableError, TrajectoryTable
@@ -162,5 +163,5 @@ __all__ = [
     "table_identity",
     "OptionDistances", "choice_probabilities", "option_choice",
     "AnswerModel", "Answers", "Comparison", "FitError", "Question", "SimulatedLearner", "compare_models", "model_names",
-    "PredictedScores", "pilot_predictions", "predicted_scores",
+    "PredictedScores", "pilot_predictions", "predicted_scores", "questions_of",
 ]

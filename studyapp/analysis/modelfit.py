@@ -17,7 +17,16 @@ from dataclasses import dataclass
 import numpy as np
 from django.db.models import Q
 
-from teaching.api import Answers, Comparison, FitError, Question, TableError, TrajectoryTable, compare_models
+from teaching.api import (
+    Answers,
+    Comparison,
+    FitError,
+    Question,
+    TableError,
+    TrajectoryTable,
+    compare_models,
+    questions_of,
+)
 
 from ..models import Answer, Condition, Participant, StepKind, Study
 
@@ -59,12 +68,9 @@ def study_design(study: Study, table: TrajectoryTable | None = None) -> StudyDes
     try:
         sequences = {c.name: tuple(row[int(e)] for e in c.env_ids)
                      for c in Condition.objects.filter(study=study).order_by("position", "pk")}
-        tests = tuple(Question(row[int(t["env_id"])], tuple(int(o["theta_index"]) for o in t["options"]))
-                      for t in study.test_set or [])
+        tests, star = questions_of(table, study.test_set or [])
     except KeyError as exc:
         raise ModelFitError(f"environment {exc} of this study is not in its trajectory table") from None
-    star = np.array([next(k for k, o in enumerate(t["options"]) if o["is_theta_star"]) for t in study.test_set or []],
-                    np.int64)
     return StudyDesign(table, sequences, tests, star, [t.get("cluster") for t in study.test_set or []])
 
 

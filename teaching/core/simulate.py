@@ -15,7 +15,7 @@ from functools import lru_cache
 import numpy as np
 
 from .choice import OptionDistances, choice_probabilities
-from .fitting import Answers, Question, choice_table, option_distances
+from .fitting import Answers, choice_table, option_distances, questions_of
 from .learners import Distances, LearnerModel, check_value, make_model, posterior
 
 RATING_STEPS = 6  # a rating is 1 + Binomial(6, P(option)): 1 .. 7
@@ -143,10 +143,8 @@ def pilot_predictions(table, models: dict[str, LearnerModel], sequences: dict[st
     models: {user label: model with its τ / λ}; sequences: {condition: table rows shown}; test_set: the study's
     tests as ``select_test_set`` gives them (env_id; options with theta_index and is_theta_star).  Returns
     {"theta_star_option": [T] the position of θ*'s option per test, "choice": {label: {condition: (T, K)}}}."""
-    row = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
-    questions = [Question(row[int(t["env_id"])], tuple(int(o["theta_index"]) for o in t["options"])) for t in test_set]
-    star = [[bool(o["is_theta_star"]) for o in t["options"]].index(True) for t in test_set]
+    questions, star = questions_of(table, test_set)
     choice = model_choices(table, models, sequences, questions, dist)
-    return {"theta_star_option": star,
+    return {"theta_star_option": star.tolist(),
             "choice": {label: {name: np.round(p, 6).tolist() for name, p in by_name.items()}
                        for label, by_name in choice.items()}}
