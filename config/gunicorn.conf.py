@@ -34,7 +34,8 @@ threads = int(os.environ.get("GUNICORN_THREADS", "4"))
 # so a deploy or Ctrl-C never cuts an answer being saved.
 timeout = int(os.environ.get("GUNICORN_TIMEOUT", "30"))
 graceful_timeout = 30
-# Keep idle connections a little longer than the gap between a page and its static files.
+# Keep idle connections a little longer than the gap between a page and its static files, and
+# longer than nginx keeps its idle connections to gunicorn (2 s, config/nginx.conf.template).
 keepalive = 5
 # Recycle workers now and then so that slow leaks in a long recruitment never build up;
 # the jitter keeps them from restarting all at once.

@@ -35,8 +35,7 @@ from django.db.models import F
 from django.utils import timezone
 
 from studyapp.models import Condition, Study
-from studyapp.pilot import store_pilot
-from studyapp.studies import freeze_condition, freeze_test_set
+from studyapp.studies import freeze_condition, freeze_test_set, store_pilot
 from studyapp.trajectories import test_set_from_table, training_from_table
 from teaching.api import TrajectoryTable, select_test_set
 

@@ -35,8 +35,8 @@ from .analysis.power import (
     power_table,
 )
 from .models import Study
+from .studies import PILOT_KEY
 
-PILOT_KEY = "pilot"
 YOUR_EFFECT = "your effect size"
 SYMBOLS = {"tau": "τ", "lambda": "λ"}
 DEFAULT_EFFECT = PAPER_EFFECTS[0]  # approx* vs exact: the default of the researcher's effect size
@@ -47,13 +47,7 @@ DEFAULT_LAPSE = 0.1
 MODEL_COMPARISONS = (*default_comparisons(APPROX_STAR), ("hierarchical", APPROX_STAR))
 
 
-# --- the stored matrix ---------------------------------------------------------------------------
-def store_pilot(study: Study, pilot: dict) -> None:
-    """Keep the simulated pilot with the study (its source JSON), replacing an older one."""
-    study.source = {**(study.source or {}), PILOT_KEY: pilot}
-    study.save(update_fields=["source"])
-
-
+# --- the stored matrix (the study job stores it: studies.store_pilot) ----------------------------
 def pilot_matrix_rows(study: Study) -> dict | None:
     """The stored matrix laid out for the page: users (with τ / λ), and one row per condition with
     each user's P(θ*) and whether it is that user's best condition.  None if the study has none."""

@@ -63,6 +63,7 @@ DEMO_TABLE_NAME = "demo"  # the demo table is settings.TABLES_DIR/demo, where `m
 # The per-study texts of the consent page a spec may set (models.Study; defaults there).
 TEXT_FIELDS = ("consent_text", "estimated_minutes", "payment", "contact", "ethics_reference")
 DEMO_COMPLETION_CODE = "DEMO2026"  # Prolific rejects a per-participant code: the demo sets one
+PILOT_KEY = "pilot"  # study.source["pilot"]: the simulated pilot (studyapp/pilot.py)
 
 
 class SpecError(ValueError):
@@ -230,7 +231,7 @@ def _payloads(spec: dict):
     source = {"kind": "table", "table": str(spec["table"]), "content_hash": table.meta.get("content_hash"),
               "theta_star": [float(v) for v in table.theta_star], "domain": table.domain.name}
     if isinstance(spec.get("pilot"), dict):  # a teach output's ideal-user matrix (spec_from_teach)
-        source["pilot"] = {**spec["pilot"], "prior": 1.0 / table.n_thetas}
+        source[PILOT_KEY] = {**spec["pilot"], "prior": 1.0 / table.n_thetas}
     return conditions, training, tests, source
 
 
@@ -290,6 +291,13 @@ def freeze_condition(condition: Condition, training: list[dict], target: int | N
         condition.target = target
         fields.append("target")
     condition.save(update_fields=fields)
+
+
+def store_pilot(study: Study, pilot: dict) -> None:
+    """Keep the simulated pilot (studyapp/pilot.py reads it) with the study's source JSON,
+    replacing an older one."""
+    study.source = {**(study.source or {}), PILOT_KEY: pilot}
+    study.save(update_fields=["source"])
 
 
 def freeze_test_set(study: Study, tests: list[dict], open_study: bool = True) -> None:

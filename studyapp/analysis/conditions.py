@@ -5,10 +5,14 @@ the analysis choices in :mod:`studyapp.analysis.stats`.
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import pandas as pd
 
 from teaching.api import APPROX_STAR, CLUSTER_NAMES, CONDITIONS, N_CLUSTERS
+
+if TYPE_CHECKING:  # the worker and the participant pages import this module, and pandas costs 0.3 s
+    import pandas as pd
 
 APPROX_STAR_DEFAULT = APPROX_STAR  # the analysis' default is the selectors' (teaching.core.selection)
 COVERAGE_APPROX = "coverage-approx*"

@@ -34,7 +34,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import minimize_scalar
-from scipy.stats import chi2, spearmanr
 
 from .bms import BMSResult, random_effects_bms
 from .choice import OptionDistances, choice_probabilities
@@ -274,6 +273,8 @@ def rating_correlation(predicted: np.ndarray, answers: Answers) -> float | None:
     ok = np.isfinite(answers.ratings) & (answers.choice >= 0)[:, :, None]
     if ok.sum() < 3 or np.ptp(p[ok]) == 0 or np.ptp(answers.ratings[ok]) == 0:
         return None
+    from scipy.stats import spearmanr  # noqa: PLC0415 (scipy.stats: ~0.5 s at every worker's boot)
+
     return float(spearmanr(p[ok], answers.ratings[ok]).statistic)
 
 
@@ -314,6 +315,8 @@ def beats_guessing(fit: ModelFit, n_options: int, n_models: int = 1, alpha: floa
     """Whether `fit` explains its answers better than a uniform guess over `n_options`: the likelihood-ratio
     statistic 2(ℓ - ℓ_guess) against χ² with the fit's free parameters, at `alpha` / `n_models`."""
     stat = 2 * (fit.log_lik - fit.n_answers * -np.log(n_options))
+    from scipy.stats import chi2  # noqa: PLC0415 (as above)
+
     return bool(chi2.sf(max(stat, 0.0), fit.n_params) < alpha / n_models)
 
 

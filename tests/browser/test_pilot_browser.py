@@ -9,7 +9,7 @@ import pytest
 
 from precompute.sequences import pilot_matrix
 from studyapp.analysis.simulate import make_study
-from studyapp.pilot import store_pilot
+from studyapp.studies import store_pilot
 from teaching.api import TrajectoryTable
 
 OUT = Path(__file__).resolve().parents[2] / "test-output"

@@ -18,7 +18,7 @@ from precompute.models import Job
 from precompute.study import create_study_job
 from studyapp.analysis.power import PAPER_EFFECTS, participants_needed
 from studyapp.models import Study
-from studyapp.pilot import store_pilot
+from studyapp.studies import store_pilot
 from teaching.core.evaluation import USER_NAMES, ideal_user_matrix
 from teaching.core.fitting import Question
 from teaching.core.learners import Distances
