@@ -55,6 +55,18 @@ Fitting learner models to answers (teaching.core.fitting, .bms, .simulate; docs/
     predicted_scores(choice (T, K), star (T,), lapse) -> PredictedScores(accuracy, mean, sd): what
                              those participants score (the confidence score, -7 .. 7), in expectation
 
+Closed-loop teaching (teaching.core.closedloop; docs/study.md)
+    ClosedLoopSpec(model, value, lapse, max_examples, check_every, feedback, stop_at)  how a
+                             closed-loop condition teaches; ClosedLoopError (one line) if bad
+    select_checks(table, final_tests, seed=1)  check questions, dicts as select_test_set's, on
+                             environments apart from the final tests; check_questions(table, checks)
+                             their Questions
+    ClosedLoop.build(table, spec, checks, exclude=final test rows)  .decide(events) -> Decision: the
+                             next step (example / check / feedback / done, a table row) with what it
+                             was based on; .replay(events, decisions) -> a line per disagreement
+    Event(kind, env_index, question=None, answer=None)  what a participant was shown or answered
+    run_learner(loop, table, learner, rng)  a SimulatedLearner through the loop: (events, decisions)
+
 Tables (teaching.core.table: a directory of .npy arrays plus meta.json with its content hash)
     TrajectoryTable          .load(path, verify=True, expected_hash=None); thetas (N, D),
                              env_ids (M,) int64, features (M, N, D), strategy (M, N) int8,
@@ -120,6 +132,16 @@ from .core.build import (
 )
 from .core.candidates import SAMPLERS
 from .core.choice import OptionDistances, choice_probabilities, option_choice
+from .core.closedloop import (
+    ClosedLoop,
+    ClosedLoopError,
+    ClosedLoopSpec,
+    Decision,
+    Event,
+    check_questions,
+    run_learner,
+    select_checks,
+)
 from .core.domain import Domain, LegendEntry, ParticipantTexts, default_domain_name, domain_names, get_domain
 from .core.evaluation import USER_NAMES, study_matrix
 from .core.fitting import Answers, Comparison, FitError, Question, compare_models, questions_of
@@ -164,4 +186,6 @@ __all__ = [
     "OptionDistances", "choice_probabilities", "option_choice",
     "AnswerModel", "Answers", "Comparison", "FitError", "Question", "SimulatedLearner", "compare_models", "model_names",
     "PredictedScores", "pilot_predictions", "predicted_scores", "questions_of",
+    "ClosedLoop", "ClosedLoopError", "ClosedLoopSpec", "Decision", "Event", "check_questions", "run_learner",
+    "select_checks",
 ]

@@ -88,13 +88,15 @@ def _draw_options(table, env_index: int, cluster: int, rng, min_regret, min_dist
 
 
 def select_test_set(table, training_env_ids: list[list[int]], seed: int = 0, min_regret: float = MIN_REGRET,
-                    min_distance: float | None = None, max_tries: int = MAX_TRIES) -> list[dict]:
+                    min_distance: float | None = None, max_tries: int = MAX_TRIES,
+                    skip_missing: bool = False) -> list[dict]:
     """One test environment per cluster of the domain's test_clusters, disjoint from every training sequence.
 
     Returns, in cluster order, dicts with env_id, env_index, cluster,
     cluster_name, env_class, min_option_distance and options: 4 dicts
     {theta_index, is_theta_star, cluster, regret} in a seeded random order.
-    Raises TestSetError when some cluster has no acceptable environment.
+    Raises TestSetError when some cluster has no acceptable environment, unless ``skip_missing``
+    (closed-loop check questions: as many clusters as the environments left over allow).
     """
     rng = np.random.default_rng(seed)
     domain = table.domain
@@ -118,6 +120,8 @@ def select_test_set(table, training_env_ids: list[list[int]], seed: int = 0, min
             if drawn is not None:
                 break
         else:
+            if skip_missing:
+                continue
             raise TestSetError(
                 f"no test environment for cluster '{domain.cluster_names[c]}': {len(cand)} unused environments "
                 f"show it, none has 3 alternatives of its class's strategies (at least 1 of this one) with "
