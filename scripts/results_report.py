@@ -15,6 +15,7 @@ import argparse
 import datetime
 import json
 import os
+import re
 import shlex
 import shutil
 import sys
@@ -339,6 +340,17 @@ def build_report(args) -> str:
                      + section_gridworld(args, out.parent, figures))
 
 
+BENCH_SECTION = re.compile(r"<!-- (bench/[\w.]+): begin -->.*?<!-- \1: end -->", re.S)
+
+
+def bench_sections(old_report: Path) -> list[str]:
+    """The sections a bench wrote into the report (bench/closedloop.py: between its markers), carried over
+    as they are: the report's own inputs cannot recompute them, and the bench rewrites them in place."""
+    if not old_report.exists():
+        return []
+    return [m.group(0) for m in BENCH_SECTION.finditer(old_report.read_text())]
+
+
 def parse_args(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--table", required=True)
@@ -356,7 +368,7 @@ def parse_args(argv=None):
 def main(argv=None) -> int:
     args = parse_args(argv)
     try:
-        text = build_report(args)
+        text = "\n\n".join([build_report(args), *bench_sections(Path(args.out))])
         Path(args.out).parent.mkdir(parents=True, exist_ok=True)
         Path(args.out).write_text(text)
     except (ReportError, TableError, OSError, KeyError) as exc:

@@ -9,6 +9,9 @@
   answer is caught.
 """
 import json
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -29,12 +32,14 @@ from teaching.core.closedloop import (
     run_learner,
     select_checks,
 )
+from teaching.core.closedloop_pack import load_pack, write_pack
 from teaching.core.fitting import Question
 from teaching.core.learners import Distances, model_names
 from teaching.core.selection import greedy, showable
 from teaching.core.simulate import SimulatedLearner
 from teaching.core.table import TrajectoryTable
 from teaching.core.testset import select_test_set
+from teaching.domains.driving.synthetic import synthetic_table
 
 # Four θ (θ0 = θ*), four environments.  E0 rules θ3 out; E1 and E2 each make one of θ1, θ2 five times
 # less likely; E3 (the check's environment) tells nothing.
@@ -204,3 +209,54 @@ def test_simulated_participants_replay_from_their_stored_answers(demo_loop):
                         assert loop.replay(altered, de)
                         caught += 1
     assert len(seen_answers) > 1 and caught > 10  # the answers did vary, and mattered
+
+
+def test_the_comparison_bench_writes_its_section_from_its_own_figures(tmp_path):
+    """bench/closedloop.py on a small synthetic table: a row per distinct learner model, and the document's
+    section rewritten between its markers from the JSON it printed."""
+    synthetic_table(200, 40, n_candidates=6, seed=8).save(tmp_path / "table")
+    doc = tmp_path / "results.md"
+    doc.write_text("# Results\n\nkept\n\n<!-- bench/closedloop.py: begin -->\nold\n<!-- bench/closedloop.py: end -->\n")
+    bench = Path(__file__).resolve().parents[2] / "bench" / "closedloop.py"
+    out = subprocess.run([sys.executable, str(bench), "--table", str(tmp_path / "table"), "--participants", "4",
+                          "--json", str(tmp_path / "cl.json"), "--update-doc", str(doc)],
+                         capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    fig = json.loads((tmp_path / "cl.json").read_text())
+    assert [r["model"] for r in fig["rows"]] == ["exact", "det-reward", "det-euclidean", "det-strategy",
+                                                 "prob-reward", "prob-euclidean", "hierarchical"]
+    for r in fig["rows"]:
+        assert 0.25 * 0.1 <= r["approx*"] <= 1 and 0 <= r["closed loop + feedback"] <= 1
+    text = doc.read_text()
+    assert "kept" in text and "old" not in text and "## Closed-loop teaching on simulated learners" in text
+    first = fig["rows"][0]
+    assert f"| {first['learner']} | {first['approx*']:.3f} | {first['coverage-approx*']:.3f} |" in text
+    assert f"p95 {fig['latency_ms']['p95']:.2f} ms" in text
+
+
+def test_a_pack_on_disk_decides_as_the_loop_it_was_written_from(tiny_table, tmp_path):
+    """What a web worker maps (closedloop_pack): the same decisions, θ*'s own trajectories, read-only maps."""
+    table = TrajectoryTable.load(tiny_table)
+    dist = Distances(table)
+    tests = select_test_set(table, [], seed=0, skip_missing=True)
+    loop = ClosedLoop.build(table, ClosedLoopSpec(model="prob-reward", value=1.0, max_examples=4, check_every=1),
+                            check_questions(table, select_checks(table, tests)),
+                            exclude=[t["env_index"] for t in tests], dist=dist)
+    assert write_pack(tmp_path / "pack", table, loop) == table.meta["content_hash"]
+    pack = load_pack(tmp_path / "pack", expected_hash=table.meta["content_hash"])
+    assert isinstance(pack.loop.lik, np.memmap) and not pack.loop.lik.flags.writeable
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        events, decisions = run_learner(loop, table, SimulatedLearner("prob-euclidean", 1.0, 0.3), rng, dist)
+        assert pack.loop.replay(events, decisions) == []
+    star = table.theta_star_index
+    for i in (0, 7, table.n_envs - 1):
+        np.testing.assert_array_equal(pack.star_states[i], table.states(i, star))
+        assert pack.row_of(int(table.env_ids[i])) == i and pack.star_cluster[i] == table.strategy[i, star]
+    with pytest.raises(ClosedLoopError, match="built on table"):
+        load_pack(tmp_path / "pack", expected_hash="0" * 64)
+    with pytest.raises(ClosedLoopError, match="no closed-loop condition at"):
+        load_pack(tmp_path / "nothing")
+    (tmp_path / "pack" / "lik.npy").unlink()
+    with pytest.raises(ClosedLoopError, match="incomplete or corrupt"):
+        load_pack(tmp_path / "pack")

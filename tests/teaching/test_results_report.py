@@ -86,3 +86,16 @@ def test_missing_teach_dir_is_one_line_error(inputs, tmp_path):
     assert proc.returncode == 2
     assert proc.stderr.startswith("error:") and proc.stderr.count("\n") == 1 and "Traceback" not in proc.stderr
     assert not (tmp_path / "r.md").exists()
+
+
+def test_a_bench_section_is_carried_over_when_the_report_is_regenerated(inputs, tmp_path):
+    """bench/closedloop.py writes its section into docs/results.md between markers; the report's own inputs
+    cannot recompute it, so regenerating the report keeps it as it is."""
+    out = tmp_path / "results.md"
+    section = ("<!-- bench/closedloop.py: begin -->\n\n## Closed loop\n\n| a | 0.5 |\n\n"
+               "<!-- bench/closedloop.py: end -->")
+    out.write_text("# an older report\n\nstale text\n\n" + section)
+    assert report.main(["--table", str(inputs / "table"), "--teach", str(inputs / "teach"), "--out", str(out)]) == 0
+    text = out.read_text()
+    assert "stale text" not in text and text.startswith("# Results")
+    assert text.count(section) == 1 and text.endswith(section)
