@@ -33,6 +33,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from bench.doc_section import rewrite_section
 from bench.fitting import design, generators
 from teaching.core.closedloop import (
+    CHECK,
     DONE,
     EXAMPLE,
     FEEDBACK,
@@ -58,23 +59,25 @@ def accuracy(answers: AnswerModel, star: np.ndarray, shown) -> float:
     return float(p[np.arange(len(star)), star].mean())
 
 
+# (the model the robot assumes, feedback, η: the chance an example was not taken in)
+VARIANTS = (("det-euclidean", True, 0.1), ("det-euclidean", False, 0.1), ("prob-euclidean", True, 0.1),
+            ("det-euclidean", True, 0.0))
+
+
 def comparison(table, participants: int, seed: int = 0) -> dict:
     sequences, tests, result = design(table)
     ids = np.asarray(table.env_ids)
-    test_dicts = [{"env_id": int(ids[t.env_index]), "options": [{"theta_index": o, "is_theta_star": o == 0}
-                                                                for o in t.options]} for t in tests]
+    test_dicts = [{"env_id": int(ids[t.env_index])} for t in tests]
     star = np.array([t.options.index(0) for t in tests])
     checks = check_questions(table, select_checks(table, test_dicts))
     dist = Distances(table)
-    approx = result.models[APPROX_STAR]
     n_examples = len(sequences[APPROX_STAR])
-    loops, lik = {}, None
-    for feedback in (True, False):
-        spec = ClosedLoopSpec(model=APPROX_STAR, value=approx.value, lapse=LAPSE, max_examples=n_examples,
-                              check_every=CHECK_EVERY, feedback=feedback)
-        loops[feedback] = ClosedLoop.build(table, spec, checks, exclude=[t.env_index for t in tests], dist=dist,
-                                           lik=lik)
-        lik = loops[feedback].lik
+    loops = {}
+    for model, feedback, eta in VARIANTS:
+        spec = ClosedLoopSpec(model=model, value=result.models[model].value, lapse=LAPSE, example_lapse=eta,
+                              max_examples=n_examples, check_every=CHECK_EVERY, feedback=feedback)
+        loops[variant_label(model, feedback, eta)] = ClosedLoop.build(table, spec, checks,
+                                                                 exclude=[t.env_index for t in tests], dist=dist)
     learners = {name: SimulatedLearner(g.model, g.value, LAPSE) for name, g in generators(table, result).items()}
     rng = np.random.default_rng(seed)
     rows, latencies = [], []
@@ -82,60 +85,72 @@ def comparison(table, participants: int, seed: int = 0) -> dict:
         answers = AnswerModel(table, learner, tests, dist)
         row = {"learner": str(learner), "model": name,
                "approx*": accuracy(answers, star, sequences[APPROX_STAR]),
-               "coverage-approx*": accuracy(answers, star, sequences["coverage-approx*"])}
-        for feedback, loop in loops.items():
-            scores, shown_n, checks_right = [], [], []
+               "coverage-approx*": accuracy(answers, star, sequences["coverage-approx*"]), "closed": {}}
+        for label, loop in loops.items():
+            scores, shown_n, checks_right, seen = [], [], [], set()
             for _ in range(participants):
                 events, decisions = run_learner(loop, table, learner, rng, dist)
                 shown = [e.env_index for e in events if e.kind in (EXAMPLE, FEEDBACK)]
+                seen.add(tuple(shown))
                 scores.append(accuracy(answers, star, shown))
                 shown_n.append(sum(e.kind == EXAMPLE for e in events))
-                checks_right.extend(loop.checks[e.question].options[e.answer] == 0 for e in events if e.kind == "check")
-            label = "closed loop" + (" + feedback" if feedback else "")
-            row[label] = float(np.mean(scores))
-            row[label + " se"] = float(np.std(scores, ddof=1) / np.sqrt(len(scores)))
-            row[label + " examples"] = float(np.mean(shown_n))
-            row[label + " checks right"] = float(np.mean(checks_right)) if checks_right else None
+                checks_right.extend(loop.checks[e.question].options[e.answer] == 0 for e in events if e.kind == CHECK)
+            row["closed"][label] = {"mean": float(np.mean(scores)),
+                                    "se": float(np.std(scores, ddof=1) / np.sqrt(len(scores))),
+                                    "examples": float(np.mean(shown_n)), "sequences": len(seen),
+                                    "checks_right": float(np.mean(checks_right)) if checks_right else None}
         rows.append(row)
         print(f"{name:16s} approx* {row['approx*']:.3f}  coverage-approx* {row['coverage-approx*']:.3f}  "
-              f"closed loop {row['closed loop']:.3f} ± {row['closed loop se']:.3f}  "
-              f"+ feedback {row['closed loop + feedback']:.3f} ± {row['closed loop + feedback se']:.3f}")
+              + "  ".join(f"{label} {c['mean']:.3f} ± {c['se']:.3f} ({c['sequences']} sequences)"
+                          for label, c in row["closed"].items()))
         # the latency of every decision one participant of this learner needed, recomputed from its events
-        events, _ = run_learner(loops[True], table, learner, rng, dist)
-        for s in range(len(events) + 1):
-            t0 = time.perf_counter()
-            d = loops[True].decide(events[:s])
-            latencies.append(time.perf_counter() - t0)
-            assert s < len(events) or d.kind == DONE
+        for loop in loops.values():
+            events, _ = run_learner(loop, table, learner, rng, dist)
+            for s in range(len(events) + 1):
+                t0 = time.perf_counter()
+                d = loop.decide(events[:s])
+                latencies.append(time.perf_counter() - t0)
+                assert s < len(events) or d.kind == DONE
     ms = np.array(latencies) * 1e3
+    first = next(iter(loops.values()))
     return {"table": table.meta["content_hash"], "n_envs": table.n_envs, "n_thetas": table.n_thetas,
             "participants": participants, "lapse": LAPSE, "check_every": CHECK_EVERY, "max_examples": n_examples,
-            "robot": str(loops[True].spec.learner_model), "checks": len(checks), "rows": rows,
+            "robots": {label: str(loop.spec.learner_model) for label, loop in loops.items()},
+            "checks": len(checks), "rows": rows,
             "latency_ms": {"n": len(ms), "p50": float(np.percentile(ms, 50)), "p95": float(np.percentile(ms, 95)),
                            "max": float(ms.max())},
-            "lik_mb": loops[True].lik.nbytes / 2**20}
+            "lik_mb": first.lik.nbytes / 2**20}
+
+
+def variant_label(model: str, feedback: bool, eta: float) -> str:
+    return f"closed loop ({model}, {'feedback' if feedback else 'no feedback'}, η = {eta:g})"
 
 
 def markdown(fig: dict) -> str:
     lat = fig["latency_ms"]
+    labels = list(fig["rows"][0]["closed"])
+    robots = "; ".join(f"{label}: {robot}" for label, robot in fig["robots"].items())
     lines = [BEGIN, "", "## Closed-loop teaching on simulated learners", "",
              f"Generated by `bench/closedloop.py` on the table {fig['table'][:16]} ({fig['n_envs']:,} environments × "
-             f"{fig['n_thetas']:,} θ).  The robot assumes {fig['robot']} with a lapse rate of {fig['lapse']} and "
-             f"shows at most {fig['max_examples']} examples (approx*'s open-loop length), a check question after "
-             f"every {fig['check_every']} ({fig['checks']} reserved apart from the final tests).  Each learner "
-             f"learns by its own model and answers with a lapse rate of {fig['lapse']}.  Cells: expected accuracy "
-             f"on the final tests (P(θ*'s option)); closed loop: mean ± standard error over "
-             f"{fig['participants']} simulated participants, with the mean number of examples shown "
-             f"(feedback not counted) and the share of checks answered right.", "",
-             "| learner | approx* | coverage-approx* | closed loop | examples | checks right | closed loop + feedback "
-             "| examples | checks right |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             f"{fig['n_thetas']:,} θ).  Each closed loop shows at most {fig['max_examples']} examples (approx\\*'s "
+             f"open-loop length), with a check question after every {fig['check_every']} "
+             f"({fig['checks']} reserved apart from the final tests), the robot assuming a lapse rate of "
+             f"{fig['lapse']} for check answers, η for examples (the chance one was not taken in) and the learner "
+             f"model named ({robots}).  Each simulated learner learns by its own "
+             f"model and answers with a lapse rate of {fig['lapse']}.", "",
+             f"Cells: expected accuracy on the final tests (P(θ\\*'s option)).  Closed loops: mean ± standard error "
+             f"over {fig['participants']} simulated participants, then the number of distinct sequences they saw "
+             f"(1: the answers never changed what the robot showed), the mean number of examples (feedback not "
+             f"counted) and the share of checks answered right.", "",
+             "| learner | approx\\* | coverage-approx\\* | " + " | ".join(labels) + " |",
+             "|---|---|---|" + "---|" * len(labels)]
     for r in fig["rows"]:
         cells = [f"{r['approx*']:.3f}", f"{r['coverage-approx*']:.3f}"]
-        for label in ("closed loop", "closed loop + feedback"):
-            right = r[label + " checks right"]
-            cells += [f"{r[label]:.3f} ± {r[label + ' se']:.3f}", f"{r[label + ' examples']:.1f}",
-                      "—" if right is None else f"{right:.2f}"]
+        for label in labels:
+            c = r["closed"][label]
+            right = "—" if c["checks_right"] is None else f"{c['checks_right']:.2f}"
+            cells.append(f"{c['mean']:.3f} ± {c['se']:.3f} ({c['sequences']} seq., {c['examples']:.1f} ex., "
+                         f"{right} right)")
         lines.append(f"| {r['learner']} | " + " | ".join(cells) + " |")
     lines += ["", f"One decision took p50 {lat['p50']:.2f} ms, p95 {lat['p95']:.2f} ms, max {lat['max']:.2f} ms "
               f"({lat['n']} decisions, one process); the likelihood matrix a web worker maps read-only is "

@@ -14,8 +14,9 @@ from dataclasses import dataclass
 from django.db import IntegrityError, transaction
 from django.utils import timezone
 
+from . import closedloop
 from .forms import STEP_FORMS, TestForm
-from .models import Answer, Participant, StepKind, new_code
+from .models import Answer, LoopStep, Participant, StepKind, new_code
 
 logger = logging.getLogger(__name__)
 
@@ -45,8 +46,16 @@ MOVED_ON = ("That page was out of date (perhaps answered in another tab or windo
 
 
 def steps_for(participant: Participant) -> list[Step]:
+    """The participant's steps.  A closed-loop condition's teaching steps are decided one at a time
+    (studyapp.closedloop): its list ends at the step the participant stands on until the loop is done."""
     kinds = [(StepKind.CONSENT, None), (StepKind.INSTRUCTIONS, None)]
-    kinds += [(StepKind.TRAINING, i) for i in range(len(participant.condition.training))]
+    if closedloop.is_closed_loop(participant.condition):
+        loop = closedloop.loop_steps(participant, first_step=len(kinds))
+        kinds += [(closedloop.STEP_KINDS[s.kind], s.index) for s in loop if s.kind != LoopStep.DONE]
+        if not loop or loop[-1].kind != LoopStep.DONE:
+            return [Step(i, kind, item) for i, (kind, item) in enumerate(kinds)]
+    else:
+        kinds += [(StepKind.TRAINING, i) for i in range(len(participant.condition.training))]
     kinds += [(StepKind.TEST, j) for j in range(len(participant.study.test_set))]
     kinds += [(StepKind.ATTENTION, None), (StepKind.DEMOGRAPHICS, None), (StepKind.DONE, None)]
     return [Step(i, kind, item) for i, (kind, item) in enumerate(kinds)]
@@ -63,7 +72,8 @@ def clean_answer(participant: Participant, step: Step, post) -> dict:
     if form_class is None:
         raise AnswerError("This page takes no answer.", status=409)
     if form_class is TestForm:
-        form = TestForm(post, participant, step, shown=option_letters(participant, step.item))
+        form = TestForm(post, participant, step, shown=option_letters(participant, step.item, step.kind),
+                        env_id=question_of(participant, step.kind, step.item)["env_id"])
     else:
         form = form_class(post, participant, step)
     if not form.is_valid():
@@ -71,17 +81,28 @@ def clean_answer(participant: Participant, step: Step, post) -> dict:
     return form.answer()
 
 
-def option_letters(participant: Participant, j: int) -> list[tuple[str, int]]:
-    """(letter, option index) of test j's options as this participant sees them, top to bottom.
+def option_letters(participant: Participant, j: int, kind: StepKind = StepKind.TEST) -> list[tuple[str, int]]:
+    """(letter, option index) of test j's (or, for a CHECK, loop step j's) options as this participant
+    sees them, top to bottom.
 
     The page names options only by these letters, so nothing in it tells theta*'s option
     apart (the option indices, where theta*'s may sit first, stay on the server)."""
-    return [(LETTERS[pos], k) for pos, k in enumerate(participant.option_orders[j])]
+    order = (participant.loop_steps.get(index=j).option_order if kind == StepKind.CHECK
+             else participant.option_orders[j])
+    return [(LETTERS[pos], k) for pos, k in enumerate(order)]
 
 
-def score_test(participant: Participant, j: int, data: dict) -> tuple[bool, int]:
+def question_of(participant: Participant, kind: StepKind, j: int) -> dict:
+    """The stored test (or check question, for a CHECK step j) the participant answers."""
+    if kind == StepKind.CHECK:
+        step = participant.loop_steps.get(index=j)
+        return participant.condition.closed_loop["checks"][step.question]
+    return participant.study.test_set[j]
+
+
+def score_test(participant: Participant, j: int, data: dict, kind: StepKind = StepKind.TEST) -> tuple[bool, int]:
     """(correct, confidence score): the chosen option's rating, negated if it is not theta*'s."""
-    option = participant.study.test_set[j]["options"][data["choice"]]
+    option = question_of(participant, kind, j)["options"][data["choice"]]
     rating = data["ratings"][data["choice"]]
     correct = bool(option["is_theta_star"])
     return correct, rating if correct else -rating
@@ -116,9 +137,9 @@ def record(participant: Participant, step_index: int, post) -> Participant:
             raise AnswerError(f"You are on step {locked.position + 1}, not step {step_index + 1}.", status=409,
                               moved=True)
         answer = Answer(participant=locked, step=step_index, kind=step.kind, item=step.item, data=data)
-        if step.kind == StepKind.TEST:
+        if step.kind in (StepKind.TEST, StepKind.CHECK):
             answer.chosen_option = data["choice"]
-            answer.correct, answer.confidence_score = score_test(locked, step.item, data)
+            answer.correct, answer.confidence_score = score_test(locked, step.item, data, step.kind)
         try:
             with transaction.atomic():
                 answer.save()
@@ -129,7 +150,8 @@ def record(participant: Participant, step_index: int, post) -> Participant:
         locked.last_seen_at = now
         if step.kind == StepKind.ATTENTION:
             locked.excluded = not data["passed"]
-        finished = steps[locked.position].kind == StepKind.DONE
+        # a closed-loop participant's next teaching step is decided when they reach it (steps_for)
+        finished = locked.position < len(steps) and steps[locked.position].kind == StepKind.DONE
         if finished:
             locked.completed_at = now
             locked.completion_code = locked.study.completion_code or locked.completion_code or _code()

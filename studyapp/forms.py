@@ -94,6 +94,8 @@ class TrainingForm(StepForm):
         "invalid_choice": "Please watch the whole animation before you continue."})
 
     def answer(self) -> dict:
+        if self.participant.condition.closed_loop:  # a closed-loop example or feedback: its stored step
+            return {"env_id": self.participant.loop_steps.get(index=self.step.item).env_id}
         return {"env_id": self.participant.condition.training[self.step.item]["env_id"]}
 
 
@@ -132,14 +134,14 @@ class DemographicsForm(StepForm):
 
 
 class TestForm(StepForm):
-    """Test step.item: every option played, one chosen, each rated; options go by the letters the
+    """Test (or check question) step.item: every option played, one chosen, each rated; options go by the letters the
     participant sees (`shown`: (letter, option index), top to bottom; flow.option_letters)."""
 
     __test__ = False  # a study's test step, not a pytest class
 
-    def __init__(self, data, participant, step, shown: list[tuple[str, int]]):
+    def __init__(self, data, participant, step, shown: list[tuple[str, int]], env_id: int):
         super().__init__(data, participant, step)
-        self.shown = shown
+        self.shown, self.env_id = shown, env_id
         letters = [(letter, letter) for letter, _ in shown]
         listed = ", ".join(letter for letter, _ in shown)
         self.reload = f"This question has options {listed} only; please reload the page."
@@ -168,15 +170,14 @@ class TestForm(StepForm):
         return self.cleaned_data["choice"]
 
     def answer(self) -> dict:
-        j, order = self.step.item, self.participant.option_orders[self.step.item]
         ratings = [0] * len(self.shown)
         for letter, k in self.shown:
             ratings[k] = self.cleaned_data[f"rating_{letter}"]
         return {
-            "env_id": self.participant.study.test_set[j]["env_id"],
+            "env_id": self.env_id,
             "choice": dict(self.shown)[self.cleaned_data["choice"]],
             "ratings": ratings,
-            "order": order,
+            "order": [k for _, k in self.shown],
         }
 
 
@@ -185,6 +186,8 @@ STEP_FORMS: dict[StepKind, type[StepForm]] = {
     StepKind.CONSENT: ConsentForm,
     StepKind.INSTRUCTIONS: InstructionsForm,
     StepKind.TRAINING: TrainingForm,
+    StepKind.CHECK: TestForm,  # a closed-loop check question is answered as a test is
+    StepKind.FEEDBACK: TrainingForm,  # and its feedback watched as an example is
     StepKind.TEST: TestForm,
     StepKind.ATTENTION: AttentionForm,
     StepKind.DEMOGRAPHICS: DemographicsForm,

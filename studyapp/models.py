@@ -114,6 +114,9 @@ class Study(models.Model):
     def scene_view(self) -> dict:
         """What every canvas of this study shares (trajectories.study_view: driving's one scale);
         computed once per study version: the trajectories are frozen while it has participants."""
+        stored = (self.source or {}).get("scene_view")  # closed loops: computed at build over every example
+        if stored is not None:
+            return stored
         key = (self.pk, self.created_at, len(self.test_set))
         if key not in _VIEWS:
             from .trajectories import study_domain, study_view  # noqa: PLC0415  (numpy and teaching)
@@ -136,6 +139,10 @@ class Condition(models.Model):
     position = models.PositiveIntegerField(default=0)
     target = models.PositiveIntegerField(null=True, blank=True, help_text="Blank: the study's target.")
     training = models.JSONField(default=list, help_text="Frozen training environments, in order.")
+    closed_loop = models.JSONField(
+        null=True, blank=True,
+        help_text="A closed-loop condition (studyapp.closedloop): its settings, the files its decisions are "
+                  "computed from and its check questions; empty for a fixed sequence.")
 
     class Meta:
         ordering = ["study", "position", "pk"]
@@ -204,6 +211,8 @@ class StepKind(models.TextChoices):
     CONSENT = "consent"
     INSTRUCTIONS = "instructions"
     TRAINING = "training"
+    CHECK = "check"  # closed-loop conditions: a check question between examples
+    FEEDBACK = "feedback"  # closed-loop conditions: θ*'s trajectory after a check
     TEST = "test"
     ATTENTION = "attention"
     DEMOGRAPHICS = "demographics"
@@ -230,3 +239,29 @@ class Answer(models.Model):
 
     def __str__(self):
         return f"{self.participant} step {self.step} ({self.kind})"
+
+
+class LoopStep(models.Model):
+    """One step of a participant's closed-loop teaching (studyapp.closedloop): decided once, from their
+    answers so far, stored, and served again on every reload, Back or second tab.  ``decision`` is
+    teaching's Decision (what it was based on), ``payload`` what the page draws."""
+
+    EXAMPLE, CHECK, FEEDBACK, DONE = "example", "check", "feedback", "done"
+
+    participant = models.ForeignKey(Participant, models.CASCADE, related_name="loop_steps")
+    index = models.PositiveIntegerField(help_text="0, 1, ... within the participant's closed-loop teaching.")
+    kind = models.CharField(max_length=10)
+    env_id = models.IntegerField(null=True, blank=True)
+    question = models.IntegerField(null=True, blank=True, help_text="Check questions: which one.")
+    option_order = models.JSONField(default=list, help_text="Check questions: display order of the options.")
+    decision = models.JSONField(default=dict)
+    payload = models.JSONField(default=dict)
+    seconds = models.FloatField(default=0.0, help_text="How long the decision took to compute.")
+    created_at = models.DateTimeField(default=timezone.now)
+
+    class Meta:
+        ordering = ["participant", "index"]
+        constraints = [models.UniqueConstraint(fields=["participant", "index"], name="one_decision_per_loop_step")]
+
+    def __str__(self):
+        return f"{self.participant} loop step {self.index} ({self.kind})"

@@ -48,7 +48,7 @@ from teaching.api import (
     select_test_set,
 )
 
-from . import trajectories
+from . import closedloop, trajectories
 from .analysis.conditions import ConditionError, check_distinct_conditions
 from .models import Condition, Study
 
@@ -64,6 +64,7 @@ DEMO_TABLE_NAME = "demo"  # the demo table is settings.TABLES_DIR/demo, where `m
 TEXT_FIELDS = ("consent_text", "estimated_minutes", "payment", "contact", "ethics_reference")
 DEMO_COMPLETION_CODE = "DEMO2026"  # Prolific rejects a per-participant code: the demo sets one
 PILOT_KEY = "pilot"  # study.source["pilot"]: the simulated pilot (studyapp/pilot.py)
+SCENE_VIEW_KEY = "scene_view"  # study.source["scene_view"]: the one scale, stored when closed loops widen it
 
 
 class SpecError(ValueError):
@@ -105,6 +106,8 @@ def check_spec_shape(spec) -> None:
     for i, c in enumerate(conditions):
         if not isinstance(c, dict):
             raise SpecError(f"condition {i} must be an object with 'name' and 'env_ids'")
+        if "closed_loop" in c and not isinstance(c["closed_loop"], dict):
+            raise SpecError(f"condition {c.get('name', i)!r}: 'closed_loop' must be an object of settings")
         if not isinstance(c.get("env_ids", []), list) or not all(_is_int(e) for e in c.get("env_ids", [])):
             raise SpecError(f"condition {c.get('name', i)!r}: 'env_ids' must be a list of environment ids")
     tests = spec.get("test_set")
@@ -215,7 +218,10 @@ def _payloads(spec: dict):
     conditions = spec["conditions"]
     _check_condition_names([c.get("name") for c in conditions])  # before any table is read
     for c in conditions:
-        if not c.get("env_ids"):
+        if "closed_loop" in c and c.get("env_ids"):
+            raise SpecError(f"condition {c['name']!r}: a closed-loop condition chooses its own examples; "
+                            f"drop its 'env_ids'")
+        if not c.get("env_ids") and "closed_loop" not in c:
             raise SpecError(f"condition {c['name']!r} needs a non-empty 'env_ids' list")
     if not spec.get("table"):
         raise SpecError("a spec needs a 'table': the trajectory table its trajectories come from "
@@ -224,12 +230,19 @@ def _payloads(spec: dict):
         raise SpecError("a spec with a 'table' needs its 'test_set'")
     table = _load_table(spec)
     try:
-        training = {c["name"]: trajectories.training_from_table(table, c["env_ids"]) for c in conditions}
+        training = {c["name"]: trajectories.training_from_table(table, c.get("env_ids", [])) for c in conditions}
         tests = trajectories.test_set_from_table(table, spec["test_set"])
-    except (ValueError, IndexError) as exc:
+        loops = {c["name"]: closedloop.prepare(table, spec["slug"], c["name"], c["closed_loop"], spec["test_set"])
+                 for c in conditions if "closed_loop" in c}
+    except (ValueError, IndexError) as exc:  # ClosedLoopError and TestSetError are ValueErrors
         raise SpecError(str(exc)) from None
     source = {"kind": "table", "table": str(spec["table"]), "content_hash": table.meta.get("content_hash"),
               "theta_star": [float(v) for v in table.theta_star], "domain": table.domain.name}
+    if loops:  # every canvas at one scale that also holds any example a closed loop may show
+        extra = [scene for data in loops.values() for scene in closedloop.example_scenes(table, data)]
+        source[SCENE_VIEW_KEY] = trajectories.study_view(table.domain, training.values(), tests, extra)
+        for name, data in loops.items():
+            training[name] = data
     if isinstance(spec.get("pilot"), dict):  # a teach output's ideal-user matrix (spec_from_teach)
         source[PILOT_KEY] = {**spec["pilot"], "prior": 1.0 / table.n_thetas}
     return conditions, training, tests, source
@@ -300,6 +313,18 @@ def store_pilot(study: Study, pilot: dict) -> None:
     study.save(update_fields=["source"])
 
 
+def freeze_closed_loop(condition: Condition, data: dict, target: int | None = None) -> None:
+    """Store a closed-loop condition (studyapp.closedloop.prepare's data) instead of a training sequence."""
+    _refuse_if_started(condition.study)
+    condition.closed_loop = data
+    condition.training = []
+    fields = ["closed_loop", "training"]
+    if target is not None:
+        condition.target = target
+        fields.append("target")
+    condition.save(update_fields=fields)
+
+
 def freeze_test_set(study: Study, tests: list[dict], open_study: bool = True) -> None:
     """Store the shared test set, disjoint from every condition's training, and open the study if
     asked (and it may open: Study.opening_problems)."""
@@ -309,7 +334,7 @@ def freeze_test_set(study: Study, tests: list[dict], open_study: bool = True) ->
     except (KeyError, TypeError, ValueError) as exc:
         raise SpecError(f"bad test set: {exc}") from None
     conditions = list(study.conditions.all())
-    empty = [c.name for c in conditions if not c.training]
+    empty = [c.name for c in conditions if not c.training and not c.closed_loop]
     if empty:
         raise SpecError(f"conditions without a training sequence: {', '.join(empty)}")
     # A test environment a participant already saw in training would measure recall, not
@@ -347,7 +372,10 @@ def build_study(spec: dict, replace: bool = False) -> Study:
                           **{k: spec[k] for k in TEXT_FIELDS if k in spec})
         targets = {c["name"]: c.get("target") for c in conditions}
         for c in study.conditions.all():
-            freeze_condition(c, training[c.name], targets[c.name])
+            if isinstance(training[c.name], dict):
+                freeze_closed_loop(c, training[c.name], targets[c.name])
+            else:
+                freeze_condition(c, training[c.name], targets[c.name])
         freeze_test_set(study, tests, open_study=spec.get("is_open", True))
     return study
 

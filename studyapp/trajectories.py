@@ -51,12 +51,13 @@ def drawn_scene(payload: dict, *, robot: bool, domain: Domain) -> dict:
     return scene
 
 
-def study_view(domain: Domain, conditions, test_set) -> dict:
+def study_view(domain: Domain, conditions, test_set, extra=()) -> dict:
     """What every canvas of a study shares (``Domain.study_view``) over all its training examples
-    and test options: e.g. driving's one scale (ft) that holds the largest framed span."""
+    and test options, and `extra` (page scene, robot path) pairs: e.g. driving's one scale (ft) that
+    holds the largest framed span."""
     scenes = [(domain.page_scene(env), env["robot"]) for training in conditions for env in training]
     scenes += [(domain.page_scene(t), o["robot"]) for t in test_set for o in t["options"]]
-    return domain.study_view(scenes)
+    return domain.study_view(scenes + list(extra))
 
 
 def option_payload(domain: Domain, theta_index, is_theta_star, cluster, states) -> dict:

@@ -14,7 +14,7 @@ from django.views.decorators.http import require_GET, require_POST
 
 from . import flow, forms, security
 from .assignment import StudyClosed, assign
-from .models import Participant, StepKind, Study
+from .models import LoopStep, Participant, StepKind, Study
 from .scenes import instructions, scene_context
 from .trajectories import drawn_scene, study_domain
 
@@ -146,31 +146,52 @@ def step(request, slug, token):
     return render(request, f"studyapp/step_{current.kind}.html", ctx)
 
 
+# Closed-loop conditions (studyapp.closedloop) add to the domain's instructions.
+CHECK_INSTRUCTIONS = ("Between the examples you will sometimes answer a check question, just like the questions "
+                      "at the end. Your answers decide which example you see next; they do not count towards "
+                      "your score.")
+FEEDBACK_INSTRUCTIONS = " After each check question you will see the right answer: what really happens there."
+
+
 def step_context(participant: Participant, current: flow.Step) -> dict:
     steps = flow.steps_for(participant)
     ctx = {
         "study": participant.study, "participant": participant, "step": current,
-        "progress": round(100 * current.index / (len(steps) - 1)),
+        "progress": round(100 * current.index / max(planned_steps(participant, steps) - 1, current.index, 1)),
         "total_training": len(participant.condition.training),
         "total_tests": len(participant.study.test_set),
     }
     # The page gets what it draws and nothing else (drawn_scene): no theta, cluster or option
     # index, and no reference trajectory, so its source cannot tell theta*'s option apart.
     domain = study_domain(participant.study)
-    if current.kind in (StepKind.INSTRUCTIONS, StepKind.TRAINING, StepKind.TEST):
+    loop = participant.condition.closed_loop
+    if loop:  # closed loop: examples are chosen as the participant goes, up to a most
+        ctx["total_training"] = f"up to {loop['settings']['max_examples']}"
+    if current.kind in (StepKind.INSTRUCTIONS, StepKind.TRAINING, StepKind.FEEDBACK, StepKind.TEST, StepKind.CHECK):
         ctx.update(scene_context(participant.study))  # the domain's scene module, palette, legend, texts
     if current.kind == StepKind.INSTRUCTIONS:
         ctx["instructions"] = instructions(participant.study, ctx["total_training"], ctx["total_tests"])
-    elif current.kind == StepKind.TRAINING:
-        payload = participant.condition.training[current.item]
+        if loop and loop["settings"]["check_every"]:
+            ctx["instructions"].append(CHECK_INSTRUCTIONS + (FEEDBACK_INSTRUCTIONS if loop["settings"]["feedback"]
+                                                             else ""))
+    elif current.kind in (StepKind.TRAINING, StepKind.FEEDBACK):
+        if loop:
+            shown = [s.payload for s in participant.loop_steps.filter(index__lte=current.item, kind=LoopStep.EXAMPLE)]
+            payload = participant.loop_steps.get(index=current.item).payload
+            training, item = shown, len(shown) - 1
+        else:
+            training, item = participant.condition.training, current.item
+            payload = training[item]
         ctx["caption"] = domain.caption(payload)
         ctx["env"] = drawn_scene(payload, robot=True, domain=domain)
-        ctx["number"] = current.item + 1
-        ctx["seen_before"] = repeated_example(participant.condition.training, current.item)
-    elif current.kind == StepKind.TEST:
-        test = participant.study.test_set[current.item]
-        shown = flow.option_letters(participant, current.item)
-        ctx["number"] = current.item + 1
+        ctx["number"] = item + 1
+        if current.kind == StepKind.TRAINING:
+            ctx["seen_before"] = repeated_example(training, item)
+    elif current.kind in (StepKind.TEST, StepKind.CHECK):
+        test = flow.question_of(participant, current.kind, current.item)
+        shown = flow.option_letters(participant, current.item, current.kind)
+        ctx["number"] = (participant.loop_steps.filter(index__lte=current.item, kind=LoopStep.CHECK).count()
+                         if current.kind == StepKind.CHECK else current.item + 1)
         ctx["caption"] = domain.caption(test)
         ctx["scene"] = drawn_scene(test, robot=False, domain=domain)
         ctx["options"] = [letter for letter, _ in shown]
@@ -185,6 +206,18 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
     elif current.kind == StepKind.DONE:
         ctx.update(completion_target(participant))
     return ctx
+
+
+def planned_steps(participant: Participant, steps: list[flow.Step]) -> int:
+    """How many steps the participant's flow has: a closed loop that is not done yet decides its steps as
+    it goes, so the progress bar counts the most it may still show (examples, checks and feedback)."""
+    loop = participant.condition.closed_loop
+    if not loop or steps[-1].kind == StepKind.DONE:
+        return len(steps)
+    s = loop["settings"]
+    checks = min(len(loop["checks"]), s["max_examples"] // s["check_every"]) if s["check_every"] else 0
+    n_loop = s["max_examples"] + checks * (2 if s["feedback"] else 1)
+    return 2 + n_loop + len(participant.study.test_set) + 3  # consent, instructions; attention, demographics, done
 
 
 def repeated_example(training: list[dict], item: int) -> int | None:

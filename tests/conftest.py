@@ -81,18 +81,18 @@ def staff_client(client, django_user_model):
 def answer_payload(participant, step):
     """A valid POST body (dict of lists) for `step` of `participant` (theta*'s option chosen, rated 6)."""
     # Django only when called: the teaching tests stay Django-free
-    from studyapp.flow import option_letters  # noqa: PLC0415
+    from studyapp.flow import option_letters, question_of  # noqa: PLC0415
     from studyapp.models import StepKind  # noqa: PLC0415
 
     if step.kind == StepKind.CONSENT:
         return {"consent": ["yes"]}
     if step.kind == StepKind.INSTRUCTIONS:
         return {"ack": ["1"]}
-    if step.kind == StepKind.TRAINING:
+    if step.kind in (StepKind.TRAINING, StepKind.FEEDBACK):
         return {"played": ["1"]}
-    if step.kind == StepKind.TEST:  # options go by the letters the participant sees (flow.option_letters)
-        options = participant.study.test_set[step.item]["options"]
-        shown = option_letters(participant, step.item)
+    if step.kind in (StepKind.TEST, StepKind.CHECK):  # options go by the letters the participant sees
+        options = question_of(participant, step.kind, step.item)["options"]
+        shown = option_letters(participant, step.item, step.kind)
         star = next(letter for letter, k in shown if options[k]["is_theta_star"])
         body = {"choice": [star], "played": [letter for letter, _ in shown]}
         body.update({f"rating_{letter}": ["6" if letter == star else "2"] for letter, _ in shown})

@@ -78,21 +78,25 @@ def run_participant(study, rng, attentive: bool = True, effect: dict | None = No
     p_star = (EFFECT if effect is None else effect).get(p.condition.name, base)
     if not attentive:
         p_star = 1 - p_star
+    if learner and p.condition.closed_loop:
+        raise ValueError(f"condition {p.condition.name!r} is closed-loop: simulated participants who learn by a "
+                         f"model go through it with teaching's run_learner (bench/closedloop.py), not yet here")
     learned = learner.answers(p.condition.name, attentive, rng) if learner else None
-    for step in flow.steps_for(p):
+    while True:  # step by step: a closed-loop condition decides its next step once the last is answered
+        step = flow.current_step(p)
         if step.kind == StepKind.CONSENT:
             data = post(consent="yes")
         elif step.kind == StepKind.INSTRUCTIONS:
             data = post(ack="1")
-        elif step.kind == StepKind.TRAINING:
+        elif step.kind in (StepKind.TRAINING, StepKind.FEEDBACK):
             data = post(played="1")
-        elif step.kind == StepKind.TEST:
-            options = study.test_set[step.item]["options"]
-            if learned:
+        elif step.kind in (StepKind.TEST, StepKind.CHECK):
+            options = flow.question_of(p, step.kind, step.item)["options"]
+            if learned and step.kind == StepKind.TEST:
                 choice, ratings = int(learned[0][step.item]), [int(r) for r in learned[1][step.item]]
-            else:
+            else:  # a closed loop's checks: the bot (learners through the loop: teaching's run_learner)
                 choice, ratings = _bot_answer(options, rng, p_star)
-            letter = dict((k, a) for a, k in flow.option_letters(p, step.item))  # the page posts letters
+            letter = dict((k, a) for a, k in flow.option_letters(p, step.item, step.kind))  # the page posts letters
             data = post(choice=letter[choice], played=list(letter.values()),
                         **{f"rating_{letter[k]}": r for k, r in enumerate(ratings)})
         elif step.kind == StepKind.ATTENTION:

@@ -4,12 +4,16 @@ The robot keeps, for each participant, a belief b(θ) over the θ the participan
 have: their hypothesis.  It starts uniform over the table's thetas and is updated
 
 * by every example shown in environment E (a training example, or the feedback after a check, which
-  shows θ*'s trajectory in the check's environment), with the learner model's own likelihood:
+  shows θ*'s trajectory in the check's environment), with the learner model's own likelihood, tempered
+  by the chance η (``example_lapse``) that the participant did not take the example in:
 
-      b(θ) ← b(θ) · L_M(E, θ),   L_M(E, θ) = P_M(ξ^{θ*}_E | θ)
+      b(θ) ← b(θ) · ((1 − η) L_M(E, θ) + η),   L_M(E, θ) = P_M(ξ^{θ*}_E | θ)
 
-  so that without checks b is the model's posterior P_M(θ | S), and the closed loop shows exactly the
-  open-loop greedy sequence of selection.greedy (tests/teaching/test_closedloop.py);
+  With η = 0 and no checks, b is the model's posterior P_M(θ | S) and the closed loop shows exactly the
+  open-loop greedy sequence of selection.greedy (tests/teaching/test_closedloop.py).  With η > 0 no
+  example rules a θ out for good, so a wrong check answer can bring back the θ it points to: under a
+  deterministic model and η = 0 every θ but the few the examples left is gone, a wrong answer reads as
+  a lapse, and the loop never changes course (docs/results.md, bench/closedloop.py);
 * by every check answer k in environment E with options ξ_1..ξ_K, with the choice model
   (teaching.core.choice) of a learner certain of θ:
 
@@ -19,8 +23,9 @@ have: their hypothesis.  It starts uniform over the table's thetas and is update
   above 0: a careless answer may not rule a θ out for good.
 
 The next example is the environment E that maximises the participant's P(θ*) once they have seen it,
-in expectation under b:  b'(θ*) = b(θ*) L(E, θ*) / Σ_θ b(θ) L(E, θ)  — selection.greedy's step, taken
-on b (lowest table row on ties, repeats allowed, only ``eligible`` environments).
+in expectation under b:  b'(θ*) = b(θ*) L'(E, θ*) / Σ_θ b(θ) L'(E, θ), L' = (1 − η) L + η  —
+selection.greedy's step, taken on b (lowest table row on ties, repeats allowed, only ``eligible``
+environments).
 
 The steps: examples; after every ``check_every`` examples a check question (the next of the reserved
 ones, while any are left), then, with feedback on, θ*'s trajectory in that check's environment; done
@@ -53,13 +58,15 @@ class ClosedLoopError(ValueError):
 @dataclass(frozen=True)
 class ClosedLoopSpec:
     """How a closed-loop condition teaches: the learner model the robot assumes (its τ / λ, None for the
-    model's default) and the lapse rate ε of check answers; at most ``max_examples`` examples; a check
+    model's default), the lapse rate ε of check answers and η of examples (the chance one was not taken
+    in); at most ``max_examples`` examples; a check
     after every ``check_every`` examples (0: none); feedback after each check; stop early once the
     participant's P(θ*) reaches ``stop_at`` (1: never early)."""
 
     model: str = APPROX_STAR
     value: float | None = None
     lapse: float = 0.1
+    example_lapse: float = 0.1
     max_examples: int = 6
     check_every: int = 2
     feedback: bool = True
@@ -75,6 +82,8 @@ class ClosedLoopSpec:
         if not 0 < self.lapse <= 1:
             raise ClosedLoopError(f"the lapse rate must lie in (0, 1], got {self.lapse} (0 would let one careless "
                                   f"answer rule a θ out for good)")
+        if not 0 <= self.example_lapse < 1:
+            raise ClosedLoopError(f"the example lapse rate must lie in [0, 1), got {self.example_lapse}")
         if not (isinstance(self.max_examples, int) and 1 <= self.max_examples <= MAX_EXAMPLES_LIMIT):
             raise ClosedLoopError(f"max_examples must be a whole number from 1 to {MAX_EXAMPLES_LIMIT}, "
                                   f"got {self.max_examples!r}")
@@ -193,9 +202,12 @@ class ClosedLoop:
     def weights(self, events) -> np.ndarray:
         """(N,) float32 b(θ) up to a factor (largest 1), after `events` (the module's updates)."""
         w = np.ones(self.lik.shape[1], np.float32)
+        eta = self.spec.example_lapse
         for e in events:
             if e.kind == CHECK:
                 w *= self.check_lik[e.question][e.answer]
+            elif eta:
+                w *= np.float32(1 - eta) * self.lik[e.env_index] + np.float32(eta)
             else:
                 w *= self.lik[e.env_index]
             w /= w.max()  # as selection.greedy: away from float32 underflow; b is scale-free
@@ -244,7 +256,7 @@ class ClosedLoop:
         if b[0] >= spec.stop_at:
             return Decision(kind=DONE, env_index=None, question=None,
                             reason=f"P(θ*) {b[0]:.3f} reached {spec.stop_at:g}", **base)
-        p = _candidate_p(self.lik, w)
+        p = self._candidate_p(w)
         p[~self.eligible] = -1.0
         best = int(np.argmax(p))
         p_now = float(w[0] / w.sum(dtype=np.float32))
@@ -255,6 +267,17 @@ class ClosedLoop:
         return Decision(kind=EXAMPLE, env_index=best, question=None,
                         reason=f"P(θ*) {p_now:.3f} -> {float(p[best]):.3f}",
                         candidates=tuple((int(e), float(p[e])) for e in order), **base)
+
+    def _candidate_p(self, w: np.ndarray) -> np.ndarray:
+        """(M,) b'(θ*) after each environment, for weights w (N,): with η, from L·w and Σ w, without the
+        (M, N) tempered matrix (85 MB at paper size, per decision)."""
+        eta = self.spec.example_lapse
+        if not eta:
+            return _candidate_p(self.lik, w)  # exactly selection.greedy's arithmetic
+        score = np.float32(1 - eta) * (self.lik @ w) + np.float32(eta) * w.sum(dtype=np.float32)
+        num = (np.float32(1 - eta) * self.lik[:, 0] + np.float32(eta)) * w[0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(score > 0, num / score, 0.0)
 
     def replay(self, events, decisions) -> list[str]:
         """Recompute every stored decision from the stored events alone: a line per disagreement

@@ -37,7 +37,7 @@ def error(form) -> str | None:
 def test_stored_kind_strings_never_change():
     """Answer.kind holds these strings, the exports carry them and templates are named by them."""
     assert [k.value for k in StepKind] == [
-        "consent", "instructions", "training", "test", "attention", "demographics", "done"]
+        "consent", "instructions", "training", "check", "feedback", "test", "attention", "demographics", "done"]
     assert Answer._meta.get_field("kind").choices == StepKind.choices
     assert set(STEP_FORMS) == set(StepKind) - {StepKind.DONE}
 
@@ -109,7 +109,7 @@ def test_one_domains_answers_are_not_anothers():
 def make_test_form(**changes) -> TestForm:
     fields = {"played": ["A", "B", "C", "D"], "choice": "C", "rating_A": "1", "rating_B": "2", "rating_C": "7",
               "rating_D": "4", **changes}
-    return TestForm(post(**{k: v for k, v in fields.items() if v is not None}), None, None, shown=SHOWN)
+    return TestForm(post(**{k: v for k, v in fields.items() if v is not None}), None, None, shown=SHOWN, env_id=5)
 
 
 
@@ -139,7 +139,7 @@ def test_ratings_are_stored_by_option_index(participant):
     shown = flow.option_letters(participant, step.item)
     ratings = {f"rating_{letter}": str(k + 1) for letter, k in shown}
     form = TestForm(post(played=[letter for letter, _ in shown], choice=shown[0][0], **ratings), participant, step,
-                    shown=shown)
+                    shown=shown, env_id=participant.study.test_set[step.item]["env_id"])
     assert form.is_valid(), form.errors
     assert form.answer() == {"env_id": participant.study.test_set[step.item]["env_id"], "choice": shown[0][1],
                              "ratings": [1, 2, 3, 4], "order": participant.option_orders[step.item]}

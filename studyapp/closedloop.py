@@ -1,0 +1,170 @@
+"""Closed-loop conditions on the web side (issue 25): built with the study, decided per participant.
+
+A closed-loop condition has no fixed training sequence.  A spec names one as
+``{"name": "closed-loop", "closed_loop": {"model": "det-euclidean", "check_every": 2, ...}}``
+(teaching's ClosedLoopSpec; every setting has a default).  When the study is built:
+
+* its check questions are drawn as the final tests are, on environments the final tests leave over
+  (teaching's select_checks), and stored with their options' paths, as the test set is;
+* what its decisions need is written once, as a pack under ``VAR_DIR/closedloop/`` (teaching's
+  write_pack): the learner model's likelihood matrix, the checks' answer likelihoods and θ*'s
+  trajectory in every environment.  Every web worker maps the same files read-only.
+
+While the study runs, the step a participant stands on is decided from their stored steps and check
+answers (teaching's ClosedLoop.decide), stored once as a LoopStep (unique per participant and index),
+and served from there on: a reload, Back, a double click or a second tab reads the stored decision.
+"""
+from __future__ import annotations
+
+import logging
+import random
+import re
+import secrets
+import time
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+from django.conf import settings
+from django.db import IntegrityError, transaction
+
+from teaching.api import (
+    ClosedLoop,
+    ClosedLoopError,
+    ClosedLoopSpec,
+    Decision,
+    Event,
+    check_questions,
+    load_pack,
+    select_checks,
+    write_pack,
+)
+
+from . import trajectories
+from .models import Answer, LoopStep, Participant, StepKind
+
+logger = logging.getLogger(__name__)
+
+SPEC_KEY = "closed_loop"
+STEP_KINDS = {LoopStep.EXAMPLE: StepKind.TRAINING, LoopStep.CHECK: StepKind.CHECK,
+              LoopStep.FEEDBACK: StepKind.FEEDBACK}
+
+
+def is_closed_loop(condition) -> bool:
+    return bool(condition.closed_loop)
+
+
+def pack_dir(slug: str, name: str, table_hash: str) -> Path:
+    safe = re.sub(r"[^A-Za-z0-9_-]+", "_", name)
+    return Path(settings.VAR_DIR) / "closedloop" / f"{slug}--{safe}--{table_hash[:12]}"
+
+
+def prepare(table, slug: str, name: str, loop_settings: dict, tests: list[dict]) -> dict:
+    """Build closed-loop condition `name` of study `slug` on `table` (its final `tests` as
+    select_test_set gives them): write its pack and return what Condition.closed_loop stores.
+    ClosedLoopError (one line) for bad settings or a table that leaves no check question."""
+    if not isinstance(loop_settings, dict):
+        raise ClosedLoopError(f"condition {name!r}: 'closed_loop' must be an object of settings")
+    spec = ClosedLoopSpec.from_dict(loop_settings)
+    checks = select_checks(table, tests)
+    row = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
+    loop = ClosedLoop.build(table, spec, check_questions(table, checks), exclude=[row[int(t["env_id"])] for t in tests])
+    table_hash = table.meta["content_hash"]
+    path = pack_dir(slug, name, table_hash)
+    write_pack(path, table, loop)
+    return {"settings": spec.as_dict(), "pack": str(path), "table_hash": table_hash,
+            "checks": trajectories.test_set_from_table(table, checks),
+            "eligible": int(np.count_nonzero(loop.eligible))}
+
+
+def example_scenes(table, data: dict) -> list[tuple[dict, list]]:
+    """(page scene, robot path) of every example the condition may show: the study's view (one scale
+    for every canvas) must hold them all, whichever a participant gets."""
+    pack = pack_of_data(data)
+    domain = table.domain
+    rows = np.flatnonzero(pack.loop.eligible)
+    payloads = [example_payload(domain, pack, int(r)) for r in rows]
+    payloads += data["checks"]
+    return [(domain.page_scene(p), p["robot"]) for p in payloads]
+
+
+@lru_cache(maxsize=32)
+def _load(path: str, table_hash: str):
+    return load_pack(path, expected_hash=table_hash)
+
+
+def pack_of_data(data: dict):
+    return _load(data["pack"], data["table_hash"])
+
+
+def example_payload(domain, pack, row: int) -> dict:
+    """What the page draws of θ*'s trajectory in table row `row` (a training example's payload)."""
+    return trajectories.env_payload(domain, int(pack.env_ids[row]), int(pack.env_class[row]),
+                                    np.asarray(pack.star_states[row]), int(pack.star_cluster[row]))
+
+
+# --- per participant ------------------------------------------------------------------------------
+def events_of(participant: Participant, steps: list[LoopStep]) -> list[Event]:
+    """The participant's closed-loop events: what `steps` showed them and what they answered, up to the
+    first check they have not answered yet."""
+    pack = pack_of_data(participant.condition.closed_loop)
+    answers = dict(Answer.objects.filter(participant=participant, kind=StepKind.CHECK)
+                   .values_list("item", "data"))
+    events = []
+    for s in steps:
+        if s.kind == LoopStep.DONE or (s.kind == LoopStep.CHECK and s.index not in answers):
+            break
+        row = pack.row_of(s.env_id)
+        if s.kind == LoopStep.CHECK:
+            events.append(Event(s.kind, row, s.question, int(answers[s.index]["choice"])))
+        else:
+            events.append(Event(s.kind, row))
+    return events
+
+
+def loop_steps(participant: Participant, first_step: int) -> list[LoopStep]:
+    """The participant's stored loop steps, the one they stand on decided and stored first if it was not
+    (their flow's loop steps start at index `first_step`)."""
+    steps = list(participant.loop_steps.all())
+    finished = steps and steps[-1].kind == LoopStep.DONE
+    if finished or participant.position != first_step + len(steps):
+        return steps
+    return steps + [_decide(participant, steps)]
+
+
+def _decide(participant: Participant, steps: list[LoopStep]) -> LoopStep:
+    data = participant.condition.closed_loop
+    pack = pack_of_data(data)
+    t0 = time.perf_counter()
+    events = events_of(participant, steps)
+    if len(events) != len(steps):
+        raise ClosedLoopError(f"participant {participant.pk}: a check before loop step {len(steps)} has no answer")
+    decision = pack.loop.decide(events)
+    seconds = time.perf_counter() - t0
+    step = LoopStep(participant=participant, index=len(steps), kind=decision.kind, decision=decision.as_dict(),
+                    seconds=seconds)
+    if decision.env_index is not None:
+        step.env_id = int(pack.env_ids[decision.env_index])
+    if decision.kind in (LoopStep.EXAMPLE, LoopStep.FEEDBACK):
+        domain = trajectories.study_domain(participant.study)
+        step.payload = example_payload(domain, pack, decision.env_index)
+    if decision.kind == LoopStep.CHECK:
+        step.question = decision.question
+        order = list(range(len(data["checks"][decision.question]["options"])))
+        random.Random(secrets.randbits(64)).shuffle(order)
+        step.option_order = order
+    try:
+        with transaction.atomic():
+            step.save()
+    except IntegrityError:  # another request (a second tab, a double click) stored this step first
+        return LoopStep.objects.get(participant=participant, index=len(steps))
+    return step
+
+
+def replay(participant: Participant) -> list[str]:
+    """Recompute every stored decision of `participant` from their stored answers alone (a line per
+    disagreement; none when it replays)."""
+    steps = list(participant.loop_steps.all())
+    events = events_of(participant, steps)
+    pack = pack_of_data(participant.condition.closed_loop)
+    return pack.loop.replay(events, [Decision.from_dict(s.decision) for s in steps[:len(events) + 1]])
