@@ -39,8 +39,10 @@ PARTICIPANT_COLUMNS = [
 ]
 LONG_COLUMNS = PARTICIPANT_COLUMNS + [
     ("step", "Index of the step in the participant's flow (0 = consent)."),
-    ("kind", "consent, instructions, training, test, attention or demographics."),
-    ("item", "Index of the training environment or test (0-based) within its kind; empty otherwise."),
+    ("kind", "consent, instructions, training, test, attention or demographics; in a closed-loop condition also "
+             "check and feedback."),
+    ("item", "Index of the training environment or test (0-based) within its kind; in a closed-loop condition a "
+             "training, check or feedback step's index within the loop; empty otherwise."),
     ("env_id", "Environment id (teaching.domains.driving.environments enumeration) for training and test rows."),
     ("chosen_option", "Test: canonical index (0-3) of the option chosen as matching the car's style."),
     ("chosen_display_position", "Test: position (0-3, shown as A-D) at which the chosen option was displayed."),

@@ -91,9 +91,14 @@ def test_a_cache_outage_lets_participants_through(study, caplog, monkeypatch):
     assert sum("cache is unavailable" in r.getMessage() for r in caplog.records) == 1  # once, not per request
 
 
-def test_a_hung_cache_costs_one_timeout_not_one_per_request(study, settings):
+def test_a_hung_cache_costs_one_timeout_not_one_per_request(study, settings, monkeypatch):
     """A cache that accepts and never answers: one request waits out the socket timeout, then the
-    circuit breaker keeps every other request off the cache (issue 12, item 5)."""
+    circuit breaker keeps every other request off the cache (issue 12, item 5).  The requests that
+    waited are counted where the cache's timeout is caught, not by their wall time: on a busy machine
+    a request that never touched the cache once took 0.6 s (CI, 2026-11-27)."""
+    timeouts = []
+    outage = security._cache_outage
+    monkeypatch.setattr(security, "_cache_outage", lambda exc: (timeouts.append(exc), outage(exc))[-1])
     def answer_seconds(tag):
         seconds = []
         for i in range(40):
@@ -114,7 +119,7 @@ def test_a_hung_cache_costs_one_timeout_not_one_per_request(study, settings):
           f"{np.percentile(hung, 95) * 1000:.0f} ms with a hung one (rise {rise * 1000:.0f} ms); "
           f"slowest {hung.max():.2f} s")
     assert rise < 0.100
-    assert (hung >= 0.4).sum() == 1  # exactly one request waited on the hung cache: the breaker opened
+    assert len(timeouts) == 1 and hung[0] >= 0.4  # the first request waited out the timeout; the breaker opened
     assert Answer.objects.filter(participant__platform_pid__startswith="x").count() == 40
 
 
