@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from teaching.api import USER_NAMES, has_hyperparameter, pilot_predictions, study_matrix
+from teaching.api import USER_NAMES, has_hyperparameter, loop_pilot, pilot_predictions, study_matrix
 from teaching.api import condition_sequence as select
 
 
@@ -35,7 +35,7 @@ def condition_sequence(table, name: str, **kwargs) -> dict:
 
 
 def pilot_matrix(table, conditions: dict[str, list[int]], hyperparameters: dict | None = None,
-                 test_set: list[dict] | None = None) -> dict:
+                 test_set: list[dict] | None = None, closed_loops: dict | None = None) -> dict:
     """The simulated pilot of a study: P_user(θ*) after each condition's examples, for every ideal
     user (teach.py's matrix.json, restricted to exactly these conditions), and, given the study's
     `test_set`, what participants who learn as each user would choose in its tests.
@@ -44,7 +44,10 @@ def pilot_matrix(table, conditions: dict[str, list[int]], hyperparameters: dict 
     hyperparameters: {model: τ or λ} for the users; a model not in it gets the paper's rule.
     Returns small JSON: conditions, users, matrix (rows x users), models (user -> "name(tau=...)"),
     prior (1 / number of θ: what a user who learned nothing assigns to θ*), and with a test set
-    predicted (teaching's pilot_predictions: θ*'s option per test, P(option) per user and condition)."""
+    predicted (teaching's pilot_predictions: θ*'s option per test, P(option) per user and condition).
+    closed_loops: {name: teaching's ClosedLoop}, rows after the others, each the average over simulated
+    participants of every user run through the loop (teaching's loop_pilot); "closed_loop" then says how
+    many per user and their lapse rate."""
     index = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
     missing = sorted({int(e) for ids in conditions.values() for e in ids} - set(index))
     if missing:
@@ -55,4 +58,15 @@ def pilot_matrix(table, conditions: dict[str, list[int]], hyperparameters: dict 
              "models": {u: str(models[u]) for u in USER_NAMES}, "prior": 1.0 / table.n_thetas}
     if test_set:
         pilot["predicted"] = pilot_predictions(table, models, rows, test_set)
+    loops = {name: loop_pilot(loop, table, {u: models[u] for u in USER_NAMES}, test_set)
+             for name, loop in (closed_loops or {}).items()}
+    for name, row in loops.items():
+        pilot["conditions"].append(name)
+        pilot["matrix"].append([row["p"][u] for u in USER_NAMES])
+        if test_set:
+            for u in USER_NAMES:
+                pilot["predicted"]["choice"][u][name] = row["choice"][u]
+    if loops:
+        pilot["closed_loop"] = {name: {"participants": r["participants"], "lapse": r["lapse"]}
+                                for name, r in loops.items()}
     return pilot

@@ -12,6 +12,8 @@ Version history:
      conditions, open, queue, hand_picked, test_set_thresholds (the last three and
      content_hash absent in the oldest rows).
   2  "version": 2; study: "open" is called "open_when_done" (create_study_job's word).
+  3  "version": 3; study: "closed_loop", {condition name: closed-loop settings} (issue 25; empty in
+     every older row, which had none).
 
 Changing the format: add the field here, bump SPEC_VERSION, and add an upgrade from the last
 version that fills it (a test keeps a row of every older version as a literal:
@@ -21,7 +23,7 @@ from __future__ import annotations
 
 from dataclasses import MISSING, asdict, dataclass, field, fields
 
-SPEC_VERSION = 2
+SPEC_VERSION = 3
 
 
 class SpecFormatError(ValueError):
@@ -44,7 +46,14 @@ def _v1_to_v2(kind: str, data: dict) -> dict:
     return data
 
 
-_UPGRADES = {1: _v1_to_v2}  # version -> function(kind, data) giving version + 1
+def _v2_to_v3(kind: str, data: dict) -> dict:
+    data = dict(data)
+    if kind == "study":
+        data.setdefault("closed_loop", {})
+    return data
+
+
+_UPGRADES = {1: _v1_to_v2, 2: _v2_to_v3}  # version -> function(kind, data) giving version + 1
 
 
 @dataclass(frozen=True)
@@ -101,6 +110,8 @@ class StudyJobSpec(_Spec):
     hyperparameters: dict = field(default_factory=dict)
     hand_picked: dict = field(default_factory=dict)
     test_set_thresholds: dict = field(default_factory=dict)
+    # {name: teaching's ClosedLoopSpec as a dict}: conditions decided per participant, prepared with the test set
+    closed_loop: dict = field(default_factory=dict)
     open_when_done: bool = True
     queue: str | None = None
 

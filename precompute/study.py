@@ -11,12 +11,21 @@ freeze_test_set), the same functions `create_study` uses.
 """
 from __future__ import annotations
 
+from dataclasses import fields as dataclass_fields
 from pathlib import Path
 
 from django.db import transaction
 
 from studyapp.studies import SpecError, new_study
-from teaching.api import ALL_CONDITIONS, APPROX_STAR, CONDITIONS, TrajectoryTable, make_model
+from teaching.api import (
+    ALL_CONDITIONS,
+    APPROX_STAR,
+    CONDITIONS,
+    ClosedLoopError,
+    ClosedLoopSpec,
+    TrajectoryTable,
+    make_model,
+)
 
 from .jobs import launch
 from .models import Job
@@ -32,19 +41,21 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int =
                      conditions=None, open_when_done: bool = True, replace: bool = False,
                      target_per_condition: int = 30, queue=None, start: bool = True,
                      hand_picked: dict | None = None, test_set_thresholds: dict | None = None,
-                     **study_fields) -> Job:
+                     closed_loop: dict | None = None, **study_fields) -> Job:
     """A job that selects every condition's sequence and the test set on `table_path`.
 
     `hand_picked`: {condition name: environment ids}, conditions shown in the given order (after
     the selected ones).  `test_set_thresholds`: min_regret and/or min_distance for
-    ``select_test_set``.  `study_fields`: completion_code, recruitment and the consent page's
-    texts (studyapp's new_study).
+    ``select_test_set``.  `closed_loop`: {condition name: closed-loop settings (teaching's
+    ClosedLoopSpec fields; {} for every default)}, conditions that decide each participant's examples
+    from their answers, prepared by the last task once the test set is known (docs/study.md).
+    `study_fields`: completion_code, recruitment and the consent page's texts (studyapp's new_study).
     The table is verified here, once per job: its content hash goes into the job's params, and
     the tasks check the table still records that hash instead of re-hashing it (tasks._table).
     """
     table_path = Path(table_path).resolve()
     table = TrajectoryTable.load(table_path)  # TableError: missing, altered, other world constants
-    conditions = list(conditions or ([] if hand_picked else CONDITIONS))
+    conditions = list(conditions or ([] if hand_picked or closed_loop else CONDITIONS))
     unknown = [c for c in conditions if c not in ALL_CONDITIONS]
     if unknown:
         raise StudyJobError(f"unknown condition(s) {', '.join(unknown)}; choose from {', '.join(ALL_CONDITIONS)}")
@@ -56,7 +67,8 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int =
             raise StudyJobError(f"hand-picked condition {condition!r}: " + (
                 f"environments {missing[:10]} are not in the table" if missing else "no environment ids given"))
     conditions += list(hand_picked)
-    if len(set(conditions)) != len(conditions):
+    loops = _closed_loop_settings(closed_loop)
+    if len(set(conditions) | set(loops)) != len(conditions) + len(loops):
         raise StudyJobError("a condition is listed twice")
     thresholds = {k: float(v) for k, v in (test_set_thresholds or {}).items()}
     unknown = set(thresholds) - {"min_regret", "min_distance"}
@@ -77,15 +89,66 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int =
               "hyperparameters": hyperparameters, "hand_picked": hand_picked, "test_set_thresholds": thresholds}
     with transaction.atomic():
         try:  # the study app's own rules for a new study (studyapp/studies.py)
-            study = new_study(slug=slug, name=name, conditions=conditions, source=source, replace=replace,
+            study = new_study(slug=slug, name=name, conditions=conditions + list(loops), source=source, replace=replace,
                               target_per_condition=target_per_condition, **study_fields)
         except SpecError as exc:
             raise StudyJobError(str(exc)) from None
         spec = StudyJobSpec(study_id=study.pk, slug=slug, table=str(table_path), content_hash=source["content_hash"],
                             seed=seed, approx_star=approx_star, hyperparameters=hyperparameters,
                             conditions=conditions, open_when_done=open_when_done, queue=queue,
-                            hand_picked=hand_picked, test_set_thresholds=thresholds)
+                            hand_picked=hand_picked, test_set_thresholds=thresholds, closed_loop=loops)
         job = Job.objects.create(kind=Job.STUDY, chunks_total=len(conditions) + 1, params=spec.to_json())
     if start:
         launch(job)
     return job
+
+
+def _closed_loop_settings(closed_loop: dict | None) -> dict:
+    """{name: settings} checked here, where a bad value is one line to the researcher, not a failed task."""
+    loops = {}
+    for name, settings in (closed_loop or {}).items():
+        if not isinstance(settings, dict):
+            raise StudyJobError(f"closed-loop condition {name!r}: its settings must be an object, e.g. "
+                                f'{{"model": "det-euclidean", "check_every": 2}}')
+        try:
+            loops[str(name)] = ClosedLoopSpec.from_dict(settings).as_dict()
+        except (ClosedLoopError, TypeError) as exc:
+            raise StudyJobError(f"closed-loop condition {name!r}: {exc}") from None
+    return loops
+
+
+_TRUE, _FALSE = {"1", "yes", "true", "on"}, {"0", "no", "false", "off"}
+
+
+def parse_closed_loop(text: str) -> tuple[str, dict]:
+    """ "NAME" or "NAME:setting=value,..." (the command's --closed-loop) -> (name, settings), each value
+    read as its ClosedLoopSpec field's type; StudyJobError names what it cannot read."""
+    name, _, rest = text.partition(":")
+    name = name.strip()
+    if not name:
+        raise StudyJobError(f"--closed-loop {text!r}: give the condition's name first, e.g. "
+                            f"closed-loop:model=det-euclidean,check_every=2")
+    kinds = {f.name: f.type for f in dataclass_fields(ClosedLoopSpec)}
+    settings = {}
+    for item in filter(None, (p.strip() for p in rest.split(","))):
+        key, eq, value = (v.strip() for v in item.partition("="))
+        if not eq or key not in kinds:
+            raise StudyJobError(f"--closed-loop {name}: {item!r} is not setting=value with a setting of "
+                                f"{', '.join(kinds)}")
+        try:
+            settings[key] = _setting(kinds[key], value)
+        except ValueError:
+            raise StudyJobError(f"--closed-loop {name}: {key}={value!r} is not a {kinds[key]}") from None
+    return name, settings
+
+
+def _setting(kind: str, value: str):
+    if kind == "bool":
+        if value.lower() not in _TRUE | _FALSE:
+            raise ValueError(value)
+        return value.lower() in _TRUE
+    if kind == "int":
+        return int(value)
+    if kind.startswith("float"):  # "float" or "float | None" (τ / λ: "none" for the model's default)
+        return None if value.lower() == "none" and "None" in kind else float(value)
+    return value

@@ -34,8 +34,17 @@ from django.db import transaction
 from django.db.models import F
 from django.utils import timezone
 
+from studyapp.closedloop import pack_of_data
 from studyapp.models import Condition, Study
-from studyapp.studies import freeze_condition, freeze_test_set, store_pilot
+from studyapp.studies import (
+    SCENE_VIEW_KEY,
+    closed_loop_view,
+    freeze_closed_loop,
+    freeze_condition,
+    freeze_test_set,
+    prepare_closed_loops,
+    store_pilot,
+)
 from studyapp.trajectories import test_set_from_table, training_from_table
 from teaching.api import TrajectoryTable, select_test_set
 
@@ -205,14 +214,16 @@ def study_condition(self, job_id, spec, name, index):
     return {"condition": name, "computed": True, "env_ids": result["env_ids"]}
 
 
-def study_pilot(table, conditions, spec: StudyJobSpec, job_id, tests: list[dict]) -> dict:
+def study_pilot(table, conditions, spec: StudyJobSpec, job_id, tests: list[dict], loops: dict) -> dict:
     """The study's simulated pilot: the ideal-user matrix for exactly its conditions and what learners of
-    each model would choose in its `tests`.  Each user's τ / λ is the one its condition's task chose (or
-    the researcher fixed), so only a model no condition used is swept again."""
+    each model would choose in its `tests`; each closed loop (`loops`: {name: stored data}) by simulated
+    participants of every model run through it.  Each user's τ / λ is the one its condition's task chose
+    (or the researcher fixed), so only a model no condition used is swept again."""
     chosen = {r["model"]: r["value"] for r in Part.objects.filter(job_id=job_id).values_list("result", flat=True)
               if r.get("model") and r.get("value") is not None}
     return pilot_matrix(table, {c.name: c.env_ids for c in conditions},
-                        {**chosen, **spec.hyperparameters}, test_set=tests)
+                        {**chosen, **spec.hyperparameters}, test_set=tests,
+                        closed_loops={name: pack_of_data(data).loop for name, data in loops.items()})
 
 
 @shared_task(base=JobTask, bind=True, name="precompute.study_finish")
@@ -222,19 +233,29 @@ def study_finish(self, job_id, spec):
     spec = StudyJobSpec.from_json(spec)
     mark_running(job_id)
     study = Study.objects.get(pk=spec.study_id)
-    conditions = list(study.conditions.all())
+    conditions = [c for c in study.conditions.all() if c.name not in spec.closed_loop]
     empty = [c.name for c in conditions if not c.training]
     if empty:
         raise RuntimeError(f"conditions without a training sequence: {', '.join(empty)}; retry the job")
     t0 = time.perf_counter()
     table = _table(spec)
     tests = select_test_set(table, [c.env_ids for c in conditions], seed=spec.seed, **spec.test_set_thresholds)
-    store_pilot(study, study_pilot(table, conditions, spec, job_id, tests))
-    freeze_test_set(study, test_set_from_table(table, tests), open_study=spec.open_when_done)
+    test_set = test_set_from_table(table, tests)
+    loops = prepare_closed_loops(table, study.slug, spec.closed_loop, tests)  # their checks apart from the tests
+    store_pilot(study, study_pilot(table, conditions, spec, job_id, tests, loops))
+    if loops:
+        for c in study.conditions.filter(name__in=list(loops)):
+            freeze_closed_loop(c, loops[c.name])
+        study.source = {**study.source, SCENE_VIEW_KEY: closed_loop_view(table, [c.training for c in conditions],
+                                                                         test_set, loops.values())}
+        study.save(update_fields=["source"])
+    freeze_test_set(study, test_set, open_study=spec.open_when_done)
     record_part(job_id, "test-set", len(conditions), True, time.perf_counter() - t0,
                 result={"env_ids": [t["env_id"] for t in tests]})
     summary = {"study_slug": study.slug, "study_id": study.pk, "test_env_ids": [t["env_id"] for t in tests],
                "conditions": {p.key: {k: p.result.get(k) for k in ("env_ids", "value", "rule_met", "p")}
-                              for p in Part.objects.filter(job_id=job_id).exclude(key="test-set")}}
+                              for p in Part.objects.filter(job_id=job_id).exclude(key="test-set")},
+               "closed_loop": {name: {"checks": [t["env_id"] for t in data["checks"]], "eligible": data["eligible"],
+                                      "settings": data["settings"]} for name, data in loops.items()}}
     finish_job(job_id, summary)
     return {"study": study.slug, "tests": summary["test_env_ids"]}

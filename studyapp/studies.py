@@ -232,20 +232,32 @@ def _payloads(spec: dict):
     try:
         training = {c["name"]: trajectories.training_from_table(table, c.get("env_ids", [])) for c in conditions}
         tests = trajectories.test_set_from_table(table, spec["test_set"])
-        loops = {c["name"]: closedloop.prepare(table, spec["slug"], c["name"], c["closed_loop"], spec["test_set"])
-                 for c in conditions if "closed_loop" in c}
+        loops = prepare_closed_loops(table, spec["slug"], {c["name"]: c["closed_loop"] for c in conditions
+                                                           if "closed_loop" in c}, spec["test_set"])
     except (ValueError, IndexError) as exc:  # ClosedLoopError and TestSetError are ValueErrors
         raise SpecError(str(exc)) from None
     source = {"kind": "table", "table": str(spec["table"]), "content_hash": table.meta.get("content_hash"),
               "theta_star": [float(v) for v in table.theta_star], "domain": table.domain.name}
-    if loops:  # every canvas at one scale that also holds any example a closed loop may show
-        extra = [scene for data in loops.values() for scene in closedloop.example_scenes(table, data)]
-        source[SCENE_VIEW_KEY] = trajectories.study_view(table.domain, training.values(), tests, extra)
+    if loops:
+        source[SCENE_VIEW_KEY] = closed_loop_view(table, training.values(), tests, loops.values())
         for name, data in loops.items():
             training[name] = data
     if isinstance(spec.get("pilot"), dict):  # a teach output's ideal-user matrix (spec_from_teach)
         source[PILOT_KEY] = {**spec["pilot"], "prior": 1.0 / table.n_thetas}
     return conditions, training, tests, source
+
+
+def prepare_closed_loops(table, slug: str, loops: dict[str, dict], tests: list[dict]) -> dict[str, dict]:
+    """{name: what Condition.closed_loop stores} of the closed-loop conditions `loops` ({name: settings}),
+    their checks apart from the final `tests` (select_test_set's dicts); ClosedLoopError (one line)."""
+    return {name: closedloop.prepare(table, slug, name, settings, tests) for name, settings in loops.items()}
+
+
+def closed_loop_view(table, trainings, tests: list[dict], loops) -> dict:
+    """The study's one scale for every canvas (study.source[SCENE_VIEW_KEY]), holding any example or check
+    the closed loops (`loops`: their stored data) may show as well as the fixed trainings and the tests."""
+    extra = [scene for data in loops for scene in closedloop.example_scenes(table, data)]
+    return trajectories.study_view(table.domain, trainings, tests, extra)
 
 
 # --- the one way a study is made: create it, freeze each condition, freeze the test set ---------

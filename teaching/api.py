@@ -66,6 +66,8 @@ Closed-loop teaching (teaching.core.closedloop; docs/study.md)
                              was based on; .replay(events, decisions) -> a line per disagreement
     Event(kind, env_index, question=None, answer=None)  what a participant was shown or answered
     run_learner(loop, table, learner, rng)  a SimulatedLearner through the loop: (events, decisions)
+    loop_pilot(loop, table, models, test_set)  the pilot's row of a closed loop: each user model's simulated
+                             participants through it, averaged (P(θ*), P(option) in each test)
     write_pack(path, table, loop), load_pack(path, expected_hash=None) -> Pack  the condition on disk
                              for web workers: .loop (its arrays memory-mapped read-only), θ*'s
                              trajectories .star_states (M, T+1, S), .env_ids, .env_class, .star_cluster
@@ -146,6 +148,7 @@ from .core.closedloop import (
     select_checks,
 )
 from .core.closedloop_pack import Pack, load_pack, write_pack
+from .core.closedloop_pilot import loop_pilot
 from .core.domain import Domain, LegendEntry, ParticipantTexts, default_domain_name, domain_names, get_domain
 from .core.evaluation import USER_NAMES, study_matrix
 from .core.fitting import Answers, Comparison, FitError, Question, compare_models, questions_of
@@ -191,5 +194,6 @@ __all__ = [
     "AnswerModel", "Answers", "Comparison", "FitError", "Question", "SimulatedLearner", "compare_models", "model_names",
     "PredictedScores", "pilot_predictions", "predicted_scores", "questions_of",
     "ClosedLoop", "ClosedLoopError", "ClosedLoopSpec", "Decision", "Event", "check_questions", "run_learner",
+    "loop_pilot",
     "select_checks", "Pack", "load_pack", "write_pack",
 ]

@@ -84,12 +84,24 @@ def test_specs_round_trip_and_refuse_unknown_and_missing_keys():
     spec = StudyJobSpec(study_id=1, slug="s", table="/t", seed=3, approx_star="det-euclidean", conditions=["exact"],
                         open_when_done=False, hand_picked={"mine": [1, 2]})
     assert read_spec("study", spec.to_json()) == spec
-    with pytest.raises(SpecFormatError, match=r"study job spec \(version 2\): unknown key\(s\) opened; "
+    with pytest.raises(SpecFormatError, match=rf"study job spec \(version {SPEC_VERSION}\): unknown key\(s\) opened; "
                                               r"missing key\(s\) slug"):
         read_spec("study", {k: v for k, v in {**spec.to_json(), "opened": True}.items() if k != "slug"})
     assert TableJobSpec.from_json({"preset": {}, "out": "/o"}).queue is None  # the oldest rows had no queue
     with pytest.raises(SpecFormatError, match="unknown kind of job 'movie'"):
         read_spec("movie", {})
+
+
+# A study job as version 2 stored it (before closed-loop conditions): read with none.
+STUDY_V2 = {"version": 2, "study_id": 5, "slug": "v2", "table": "/t", "content_hash": "abc", "seed": 1,
+            "approx_star": "det-euclidean", "hyperparameters": {}, "conditions": ["exact"], "hand_picked": {},
+            "test_set_thresholds": {}, "open_when_done": True, "queue": None}
+
+
+def test_a_version_2_study_spec_reads_with_no_closed_loop_condition():
+    spec = read_spec("study", STUDY_V2)
+    assert spec.closed_loop == {} and spec.conditions == ["exact"] and spec.seed == 1
+    assert spec.to_json()["version"] == SPEC_VERSION == 3
 
 
 def test_task_arguments_travel_by_keyword(tmp_path):

@@ -3,6 +3,8 @@
     python manage.py build_study --preset demo --slug driving-demo --wait
     python manage.py build_study --table /shared/tables/paper --slug driving-2026 \\
         --hyper det-euclidean=0.1 --conditions exact,det-euclidean,random --wait
+    python manage.py build_study --preset demo --slug loop --conditions det-euclidean \\
+        --closed-loop closed-loop:model=det-euclidean,check_every=2,feedback=yes --wait
 
 The study is created closed with empty conditions; each condition's task
 freezes its sequence (θ*'s trajectories) on the condition, the last task
@@ -15,7 +17,7 @@ from pathlib import Path
 from django.core.management.base import BaseCommand, CommandError
 
 from precompute import jobs
-from precompute.study import StudyJobError, create_study_job
+from precompute.study import StudyJobError, create_study_job, parse_closed_loop
 from teaching.api import ALL_CONDITIONS, APPROX_STAR, CONDITIONS, TableError, parse_hyperparameters
 
 from ._waiting import wait_for_job
@@ -37,6 +39,10 @@ class Command(BaseCommand):
                             help="fix τ or λ of a model instead of sweeping (repeatable)")
         parser.add_argument("--conditions", help=f"comma-separated subset of {','.join(ALL_CONDITIONS)} "
                                                  f"(default: the paper's {len(CONDITIONS)})")
+        parser.add_argument("--closed-loop", action="append", default=[], metavar="NAME[:SETTING=VALUE,...]",
+                            help="a closed-loop condition NAME (repeatable): each participant's next example "
+                                 "chosen from their answers; settings model, value, lapse, example_lapse, "
+                                 "max_examples, check_every, feedback, stop_at (docs/study.md)")
         parser.add_argument("--target-per-condition", type=int, default=30)
         parser.add_argument("--closed", action="store_true", help="leave the study closed when done")
         parser.add_argument("--replace", action="store_true", help="rebuild an existing study without participants")
@@ -49,7 +55,8 @@ class Command(BaseCommand):
         table = Path(opts["table"]) if opts["table"] else jobs.tables_dir() / opts["preset"]
         try:
             hyper = parse_hyperparameters(opts["hyper"])
-        except ValueError as exc:
+            loops = dict(parse_closed_loop(text) for text in opts["closed_loop"])
+        except ValueError as exc:  # StudyJobError is one
             raise CommandError(str(exc)) from None
         conditions = [c.strip() for c in opts["conditions"].split(",") if c.strip()] if opts["conditions"] else None
         if opts["target_per_condition"] <= 0:
@@ -57,13 +64,15 @@ class Command(BaseCommand):
         try:
             job = create_study_job(table, opts["slug"], opts["name"], opts["seed"], opts["approx_star"], hyper,
                                    conditions, open_when_done=not opts["closed"], replace=opts["replace"],
-                                   target_per_condition=opts["target_per_condition"], queue=opts["queue"])
+                                   target_per_condition=opts["target_per_condition"], queue=opts["queue"],
+                                   closed_loop=loops)
         except TableError as exc:
             hint = " (build it first: manage.py precompute_table --preset NAME --wait)" if opts["preset"] else ""
             raise CommandError(f"{exc}{hint}") from None
         except (StudyJobError, jobs.BrokerUnavailable) as exc:
             raise CommandError(str(exc)) from None
-        self.stdout.write(f"job {job.pk}: study {opts['slug']!r}, {len(job.params['conditions'])} conditions "
+        loops = f" + {len(loops)} closed-loop" if loops else ""
+        self.stdout.write(f"job {job.pk}: study {opts['slug']!r}, {len(job.params['conditions'])} conditions{loops} "
                           f"+ test set from {job.params['table']}  (page: /precompute/jobs/{job.pk}/)")
         if not opts["wait"]:
             return
@@ -71,5 +80,9 @@ class Command(BaseCommand):
         for name, r in job.result.get("conditions", {}).items():
             value = f" (τ/λ={r['value']:g})" if r.get("value") is not None else ""
             self.stdout.write(f"  {name:18s} {len(r['env_ids']):2d} examples{value}: {r['env_ids']}")
+        for name, r in job.result.get("closed_loop", {}).items():
+            s = r["settings"]
+            self.stdout.write(f"  {name:18s} closed loop: {s['model']}, up to {s['max_examples']} examples, a check "
+                              f"every {s['check_every']} ({len(r['checks'])} check questions: {r['checks']})")
         self.stdout.write(f"  test set: {job.result.get('test_env_ids')}; study "
                           f"{'open' if job.params['open_when_done'] else 'closed'} at /s/{opts['slug']}/")

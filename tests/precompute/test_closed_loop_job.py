@@ -1,0 +1,117 @@
+"""A closed-loop condition built by the study job (issue 25, Build 1): `build_study --closed-loop` and the
+designer send its settings with the job; the last task prepares it once the test set is known (check
+questions apart from the final tests, its pack, the study's one scale) and runs simulated participants of
+every learner model through it for the pilot."""
+from __future__ import annotations
+
+import io
+
+import numpy as np
+import pytest
+from django.core.management import CommandError, call_command
+
+from precompute import jobs
+from precompute.models import Job
+from precompute.study import StudyJobError, create_study_job, parse_closed_loop
+from studyapp import closedloop
+from studyapp.analysis.simulate import run_participant
+from studyapp.models import Participant, Study
+from tests.conftest import TINY_TEST_SET
+
+LOOP = "loop:model=prob-euclidean,value=1,max_examples=4,check_every=2,feedback=yes"
+
+
+@pytest.mark.slow
+def test_build_study_prepares_a_closed_loop_condition_with_the_test_set(inprocess_worker, transactional_db,
+                                                                        demo_table, settings, tmp_path):
+    settings.VAR_DIR = tmp_path
+    out = io.StringIO()
+    call_command("build_study", "--table", str(demo_table), "--slug", "looped", "--conditions", "random",
+                 "--closed-loop", LOOP, "--wait", "--no-progress", "--timeout", "240", stdout=out)
+    job = Job.objects.get(kind=Job.STUDY)
+    assert job.status == Job.SUCCEEDED, job.error
+    assert job.params["closed_loop"]["loop"]["check_every"] == 2 and job.chunks_total == 2  # random + test set
+    study = Study.objects.get(slug="looped")
+    assert study.is_open and [c.name for c in study.conditions.all()] == ["random", "loop"]
+    loop = study.conditions.get(name="loop")
+    assert loop.training == [] and loop.closed_loop["settings"]["model"] == "prob-euclidean"
+    assert loop.closed_loop["settings"]["value"] == 1.0 and loop.closed_loop["settings"]["feedback"] is True
+    checks = {t["env_id"] for t in loop.closed_loop["checks"]}
+    tests = {t["env_id"] for t in study.test_set}
+    assert checks and not checks & tests  # the final tests stay the same for every condition
+    assert not tests & set(study.conditions.get(name="random").env_ids)
+    assert "scene_view" in study.source  # one scale that holds whatever the loop may show
+    assert "closed loop: prob-euclidean, up to 4 examples, a check every 2" in out.getvalue()
+    assert job.result["closed_loop"]["loop"]["checks"] == [t["env_id"] for t in loop.closed_loop["checks"]]
+
+    # the pilot: a row for the loop, from simulated participants of every user model run through it
+    pilot = study.source["pilot"]
+    assert pilot["conditions"] == ["random", "loop"] and pilot["closed_loop"]["loop"]["participants"] == 40
+    row = np.array(pilot["matrix"][1])
+    assert row.shape == (len(pilot["users"]),) and (row > pilot["prior"]).any() and (row <= 1).all()
+    choice = np.array(pilot["predicted"]["choice"]["exact"]["loop"])
+    assert choice.shape == (len(study.test_set), 4) and np.allclose(choice.sum(axis=1), 1)
+
+    # a participant goes through it and every stored decision replays from the stored answers
+    rng = np.random.default_rng(3)
+    people = [run_participant(study, rng) for _ in range(2)]
+    looper = next(p for p in people if p.condition.name == "loop")
+    assert looper.completed_at and looper.loop_steps.filter(kind="check").exists()
+    assert closedloop.replay(Participant.objects.get(pk=looper.pk)) == []
+
+    # a retry of the finished job changes nothing
+    before = loop.closed_loop
+    job = jobs.wait(jobs.retry(job), progress=False, timeout=240)
+    assert job.status == Job.SUCCEEDED or "participants" in job.error  # refused once people have started
+    assert study.conditions.get(name="loop").closed_loop == before
+
+
+@pytest.mark.slow
+def test_a_study_of_one_closed_loop_condition_alone(inprocess_worker, transactional_db, tiny_table, settings,
+                                                    tmp_path):
+    settings.VAR_DIR = tmp_path
+    job = create_study_job(tiny_table, "only-loop", closed_loop={"solo": {"check_every": 0, "max_examples": 3}},
+                           test_set_thresholds=TINY_TEST_SET)
+    job = jobs.wait(job, progress=False, timeout=240)
+    assert job.status == Job.SUCCEEDED, job.error
+    study = Study.objects.get(slug="only-loop")
+    assert [c.name for c in study.conditions.all()] == ["solo"] and study.is_open
+    assert study.conditions.get().closed_loop["settings"]["max_examples"] == 3
+
+
+@pytest.mark.parametrize("text, settings", [
+    ("loop", {}),
+    ("cl:model=det-reward,value=none,feedback=off", {"model": "det-reward", "value": None, "feedback": False}),
+    ("cl: max_examples = 5 , lapse=0.2,", {"max_examples": 5, "lapse": 0.2}),
+])
+def test_parse_closed_loop_reads_each_setting_as_its_type(text, settings):
+    assert parse_closed_loop(text)[1] == settings
+
+
+@pytest.mark.parametrize("text, message", [
+    (":model=exact", "give the condition's name first"),
+    ("cl:speed=2", "'speed=2' is not setting=value with a setting of model, value"),
+    ("cl:feedback=maybe", "feedback='maybe' is not a bool"),
+    ("cl:max_examples=2.5", "max_examples='2.5' is not a int"),
+])
+def test_parse_closed_loop_says_what_it_cannot_read(text, message):
+    with pytest.raises(StudyJobError, match=message.replace("(", r"\(")):
+        parse_closed_loop(text)
+
+
+@pytest.mark.parametrize("loops, message", [
+    ({"cl": {"lapse": 0}}, "closed-loop condition 'cl': the lapse rate must lie in (0, 1]"),
+    ({"cl": {"model": "nonsense"}}, "closed-loop condition 'cl': unknown learner model"),
+    ({"random": {}}, "a condition is listed twice"),
+    ({"cl": "det-reward"}, "its settings must be an object"),
+])
+def test_bad_closed_loop_settings_are_refused_before_any_task(db, tiny_table, loops, message):
+    with pytest.raises(StudyJobError, match=message.replace("(", r"\(").replace("]", r"\]")):
+        create_study_job(tiny_table, "bad-loop", conditions=["random"], closed_loop=loops, start=False)
+    assert not Study.objects.filter(slug="bad-loop").exists()
+
+
+def test_the_command_reports_bad_closed_loop_settings_in_one_line(db, tiny_table):
+    with pytest.raises(CommandError, match="--closed-loop cl: max_examples='many'"):
+        call_command("build_study", "--table", str(tiny_table), "--slug", "x", "--closed-loop",
+                     "cl:max_examples=many", stdout=io.StringIO())
