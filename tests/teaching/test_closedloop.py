@@ -34,8 +34,10 @@ from teaching.core.closedloop import (
     select_checks,
 )
 from teaching.core.closedloop_pack import load_pack, write_pack
-from teaching.core.fitting import Question
-from teaching.core.learners import Distances, model_names
+from teaching.core.closedloop_pilot import loop_pilot
+from teaching.core.evaluation import ideal_user_matrix
+from teaching.core.fitting import Question, choice_table, option_distances, questions_of
+from teaching.core.learners import Distances, make_model, model_names
 from teaching.core.selection import greedy, showable
 from teaching.core.simulate import SimulatedLearner
 from teaching.core.table import TrajectoryTable
@@ -187,6 +189,26 @@ def test_without_checks_the_closed_loop_is_the_open_loop_greedy_sequence(tiny_ta
         events.append(Event(d.kind, d.env_index))
     assert [e.env_index for e in events] == seq.envs
     assert seq.envs  # the tiny table teaches something to every model
+
+
+def test_the_pilot_of_a_loop_without_checks_is_the_ideal_user_matrix_of_its_one_sequence(tiny_table):
+    """With no checks every simulated participant takes the greedy path, so the closed loop's pilot row is the
+    open-loop pilot (evaluation.ideal_user_matrix, the P(θ*) of an ideal user) of that one sequence, and its
+    choices are the fit's choice table of it: computed apart, through selection.greedy."""
+    table = TrajectoryTable.load(tiny_table)
+    dist = Distances(table)
+    models = {m: make_model(m) for m in ("exact", "det-euclidean", "prob-reward")}
+    loop = ClosedLoop.build(table, ClosedLoopSpec(model="det-euclidean", check_every=0, max_examples=4,
+                                                  example_lapse=0.0), checks=(), dist=dist)
+    tests = select_test_set(table, [], seed=0, min_distance=0.1)
+    row = loop_pilot(loop, table, models, tests, n=5, dist=dist)
+    seq, _ = greedy(loop.lik, max_examples=4, eligible=showable(table))
+    direct = ideal_user_matrix(models, {"loop": seq.envs}, dist, sequence_names=["loop"], user_names=list(models))
+    assert [row["p"][m] for m in models] == pytest.approx(direct[0].tolist(), abs=1e-12)
+    questions, _ = questions_of(table, tests)
+    for m, model in models.items():
+        expected = choice_table(model, dist, option_distances(table, questions), [seq.envs])[0]
+        assert np.array(row["choice"][m]) == pytest.approx(expected, abs=1e-6)
 
 
 @pytest.fixture(scope="module")
