@@ -54,6 +54,13 @@ def is_closed_loop(condition) -> bool:
     return bool(condition.closed_loop)
 
 
+def max_checks(data: dict) -> int:
+    """The most check questions a closed-loop condition (its Condition.closed_loop) asks a participant: one
+    after every ``check_every`` examples, as long as unasked questions are left (teaching's ClosedLoop.decide)."""
+    s = data["settings"]
+    return min(len(data["checks"]), s["max_examples"] // s["check_every"]) if s["check_every"] else 0
+
+
 def pack_dir(slug: str, name: str, table_hash: str) -> Path:
     safe = re.sub(r"[^A-Za-z0-9_-]+", "_", name)
     return Path(settings.VAR_DIR) / "closedloop" / f"{slug}--{safe}--{table_hash[:12]}"

@@ -9,6 +9,11 @@ StreamingHttpResponse): participants are read a page at a time with only the col
 answers one query per page, and the study's test set and conditions are decoded once per export.
 Before, ``select_related("study", "condition")`` decoded the study's test set (about 30 KB of JSON)
 and the condition's training once per participant: 20 s and 3.6 GB for 10,000 participants.
+
+A study with closed-loop conditions has check answers too.  The long file's CHECK rows carry the same
+cells as a test's, theta*'s option read from the participant's LoopStep (one query more per page, for the
+page's check steps); the wide file gets per-check columns (``n_checks_*``, ``check<k>_*``).  A study
+without closed-loop conditions has exactly the columns and queries it had before.
 """
 from __future__ import annotations
 
@@ -16,8 +21,9 @@ import csv
 import io
 import json
 
+from . import closedloop
 from .csvsafe import FORMULA_STARTS, neutralise  # noqa: F401  (the guard; exports.neutralise stays importable)
-from .models import Answer, Participant, StepKind, Study
+from .models import Answer, LoopStep, Participant, StepKind, Study
 from .status import COMPLETE, EXCLUDED, MEANINGS, participant_status
 
 # (column, description) — the data dictionary; the same text is in docs/study.md.
@@ -43,18 +49,20 @@ LONG_COLUMNS = PARTICIPANT_COLUMNS + [
              "check and feedback."),
     ("item", "Index of the training environment or test (0-based) within its kind; in a closed-loop condition a "
              "training, check or feedback step's index within the loop; empty otherwise."),
-    ("env_id", "Environment id (teaching.domains.driving.environments enumeration) for training and test rows."),
-    ("chosen_option", "Test: canonical index (0-3) of the option chosen as matching the car's style."),
-    ("chosen_display_position", "Test: position (0-3, shown as A-D) at which the chosen option was displayed."),
-    ("chosen_is_theta_star", "Test: 1 if the chosen option is theta*'s trajectory."),
-    ("chosen_rating", "Test: the 1-7 rating given to the chosen option."),
-    ("confidence_score", "Test: chosen_rating if chosen_is_theta_star else -chosen_rating."),
-    ("rating_0", "Test: 1-7 rating of canonical option 0 (rating_1..rating_3 likewise)."),
-    ("rating_1", "Test: rating of canonical option 1."),
-    ("rating_2", "Test: rating of canonical option 2."),
-    ("rating_3", "Test: rating of canonical option 3."),
-    ("theta_star_option", "Test: canonical index of theta*'s option."),
-    ("display_order", "Test: canonical option indices in the order displayed (A first), space separated."),
+    ("env_id", "Environment id (teaching.domains.driving.environments enumeration) for training and test rows; in a "
+               "closed-loop condition also for check and feedback rows."),
+    ("chosen_option", "Test or check: canonical index (0-3) of the option chosen as matching the car's style."),
+    ("chosen_display_position", "Test or check: position (0-3, shown as A-D) at which the chosen option was "
+                                "displayed."),
+    ("chosen_is_theta_star", "Test or check: 1 if the chosen option is theta*'s trajectory."),
+    ("chosen_rating", "Test or check: the 1-7 rating given to the chosen option."),
+    ("confidence_score", "Test or check: chosen_rating if chosen_is_theta_star else -chosen_rating."),
+    ("rating_0", "Test or check: 1-7 rating of canonical option 0 (rating_1..rating_3 likewise)."),
+    ("rating_1", "Test or check: rating of canonical option 1."),
+    ("rating_2", "Test or check: rating of canonical option 2."),
+    ("rating_3", "Test or check: rating of canonical option 3."),
+    ("theta_star_option", "Test or check: canonical index of theta*'s option."),
+    ("display_order", "Test or check: canonical option indices in the order displayed (A first), space separated."),
     ("answer_json", "The stored answer exactly as saved (JSON)."),
     ("answered_at", "UTC time the answer was stored."),
 ]
@@ -77,6 +85,19 @@ WIDE_COLUMNS = PARTICIPANT_COLUMNS + [
     (f"test{j}_correct", f"Test {j}: 1 if theta*'s option was chosen."),
     (f"test{j}_confidence_score", f"Test {j}: confidence score (-7..7)."),
 )]
+# Studies with closed-loop conditions only, after the test columns: check<k> for k = 1 .. the most checks any of
+# its closed-loop conditions asks (closedloop.max_checks); empty in a condition without checks.
+CHECK_SUMMARY_COLUMNS = [
+    ("n_checks_answered", "Closed-loop conditions: number of check questions answered (empty in other conditions)."),
+    ("n_checks_correct", "Closed-loop conditions: number of check questions where theta*'s option was chosen."),
+]
+
+
+def check_columns(k) -> list[tuple[str, str]]:
+    """The wide file's columns of the participant's k-th check question (k = 1, 2, ...; "<k>" in the dictionary)."""
+    return [(f"check{k}_env_id", f"Check {k} (the participant's k-th check question, k = 1, 2, ...): environment id."),
+            (f"check{k}_correct", f"Check {k}: 1 if theta*'s option was chosen."),
+            (f"check{k}_confidence_score", f"Check {k}: confidence score (-7..7).")]
 
 
 # Only the columns the files need: never the training / test-set JSON, decoded once per export instead.
@@ -86,15 +107,25 @@ _ANSWER_VALUES = ("participant_id", "step", "kind", "item", "data", "correct", "
 PAGE = 500  # participants per query (their answers: one query more per page)
 
 
+def _star(question: dict) -> int:
+    """The canonical index of theta*'s option of a test or check question."""
+    return next(k for k, o in enumerate(question["options"]) if o["is_theta_star"])
+
+
 class _Context:
     """What every row of one export shares, decoded once: the study's slug, each test's theta* option,
-    each condition's name and number of training environments."""
+    each condition's name and number of training environments, and for closed-loop conditions their
+    check questions' theta* options ({condition pk: [option per question]}) and the most checks any asks."""
 
     def __init__(self, study: Study):
         self.slug = study.slug
-        self.stars = [next(k for k, o in enumerate(t["options"]) if o["is_theta_star"]) for t in study.test_set]
-        self.conditions = {pk: (name, len(training)) for pk, name, training in
-                           study.conditions.values_list("pk", "name", "training")}
+        self.stars = [_star(t) for t in study.test_set]
+        self.conditions, self.check_stars, self.n_checks = {}, {}, 0
+        for pk, name, training, loop in study.conditions.values_list("pk", "name", "training", "closed_loop"):
+            self.conditions[pk] = (name, len(training))
+            if loop:
+                self.check_stars[pk] = [_star(q) for q in loop["checks"]]
+                self.n_checks = max(self.n_checks, closedloop.max_checks(loop))
 
 
 def _participant_fields(p: dict, ctx: _Context) -> dict:
@@ -129,9 +160,15 @@ def _pages(study: Study, kinds=None):
         last = page[-1]["pk"]
 
 
-def _test_fields(ctx: _Context, answer: dict) -> dict:
+def _check_questions(page: list[dict]) -> dict[tuple[int, int], int]:
+    """{(participant id, loop index): check question} of the page's participants: one query."""
+    steps = LoopStep.objects.filter(participant_id__in=[p["pk"] for p in page], kind=LoopStep.CHECK)
+    return {(pid, index): question for pid, index, question in steps.values_list("participant_id", "index", "question")}
+
+
+def _test_fields(answer: dict, star: int) -> dict:
+    """The long file's test cells of a test or check answer whose question has theta*'s option `star`."""
     data = answer["data"]
-    star = ctx.stars[answer["item"]]
     choice = data["choice"]
     fields = {
         "chosen_option": choice, "chosen_display_position": data["order"].index(choice),
@@ -147,6 +184,7 @@ _LONG_NAMES = [c for c, _ in LONG_COLUMNS]
 _TEST_CELLS = _LONG_NAMES[_LONG_NAMES.index("env_id") + 1:_LONG_NAMES.index("answer_json")]  # a test's own
 _NO_TEST = [""] * len(_TEST_CELLS)
 TEST = StepKind.TEST.value  # a plain str compares faster than the enum member, once per answer
+CHECK = StepKind.CHECK.value
 
 
 def _safe(values) -> list:
@@ -158,13 +196,18 @@ def long_rows(study: Study):
     participant, so their identity is made safe once, not once per row (half the file's time)."""
     ctx = _Context(study)
     for page, answers in _pages(study):
+        questions = _check_questions(page) if ctx.check_stars else {}
         for p in page:
             fields = _participant_fields(p, ctx)
             base = _safe(fields[c] for c, _ in PARTICIPANT_COLUMNS)
             for a in answers[p["pk"]]:
                 data = a["data"]
-                if a["kind"] == TEST:
-                    test = _test_fields(ctx, a)
+                kind = a["kind"]
+                if kind == TEST:
+                    test = _test_fields(a, ctx.stars[a["item"]])
+                    test = [test[c] for c in _TEST_CELLS]
+                elif kind == CHECK:
+                    test = _test_fields(a, ctx.check_stars[p["condition_id"]][questions[p["pk"], a["item"]]])
                     test = [test[c] for c in _TEST_CELLS]
                 else:
                     test = _NO_TEST
@@ -176,10 +219,24 @@ def long_rows(study: Study):
                               a["created_at"].isoformat()]
 
 
-def wide_rows(study: Study):
-    ctx = _Context(study)
+def _check_fields(ctx: _Context, condition_id: int, answers: list[dict]) -> dict:
+    """The wide file's check columns of one participant (`answers`: theirs, in step order); empty cells in a
+    condition without checks."""
+    if condition_id not in ctx.check_stars:
+        return {}
+    checks = [a for a in answers if a["kind"] == CHECK]
+    row = {"n_checks_answered": len(checks), "n_checks_correct": sum(int(a["correct"]) for a in checks)}
+    for k, a in enumerate(checks, start=1):
+        row.update({f"check{k}_env_id": a["data"]["env_id"], f"check{k}_correct": int(a["correct"]),
+                    f"check{k}_confidence_score": a["confidence_score"]})
+    return row
+
+
+def wide_rows(study: Study, ctx: _Context | None = None):
+    ctx = ctx or _Context(study)
     n_tests = len(ctx.stars)
-    for page, answers in _pages(study, kinds=[StepKind.TEST, StepKind.ATTENTION, StepKind.DEMOGRAPHICS]):
+    kinds = [StepKind.TEST, StepKind.ATTENTION, StepKind.DEMOGRAPHICS] + ([StepKind.CHECK] if ctx.check_stars else [])
+    for page, answers in _pages(study, kinds=kinds):
         for p in page:
             row = _participant_fields(p, ctx)
             by_kind = {(a["kind"], a["item"]): a for a in answers[p["pk"]]}
@@ -201,6 +258,7 @@ def wide_rows(study: Study):
                 j = a["item"]
                 row.update({f"test{j}_env_id": a["data"]["env_id"], f"test{j}_correct": int(a["correct"]),
                             f"test{j}_confidence_score": a["confidence_score"]})
+            row.update(_check_fields(ctx, p["condition_id"], answers[p["pk"]]))
             yield row
 
 
@@ -243,11 +301,16 @@ def _pieces(names, cells, batch: int = 200):
         yield out.getvalue()
 
 
-def wide_columns(study: Study) -> list:
+def wide_columns(study: Study, ctx: _Context | None = None) -> list:
+    """WIDE_COLUMNS, the tests beyond N_TESTS_WIDE, and for a study with closed-loop conditions the check
+    columns (CHECK_SUMMARY_COLUMNS, then check_columns(k) for k = 1 .. the most checks a condition asks)."""
     columns = list(WIDE_COLUMNS)
     extra = len(study.test_set) - N_TESTS_WIDE
     for j in range(N_TESTS_WIDE, N_TESTS_WIDE + max(extra, 0)):
         columns += [(f"test{j}_env_id", ""), (f"test{j}_correct", ""), (f"test{j}_confidence_score", "")]
+    ctx = ctx or _Context(study)
+    if ctx.check_stars:
+        columns += CHECK_SUMMARY_COLUMNS + [c for k in range(1, ctx.n_checks + 1) for c in check_columns(k)]
     return columns
 
 
@@ -256,7 +319,8 @@ def long_stream(study: Study):
 
 
 def wide_stream(study: Study):
-    return csv_stream(wide_columns(study), wide_rows(study))
+    ctx = _Context(study)
+    return csv_stream(wide_columns(study, ctx), wide_rows(study, ctx))
 
 
 def long_csv(study: Study) -> str:
@@ -269,7 +333,8 @@ def wide_csv(study: Study) -> str:
 
 def dictionary_csv() -> str:
     rows = [{"file": "long", "column": c, "description": d} for c, d in LONG_COLUMNS]
-    rows += [{"file": "wide", "column": c, "description": d} for c, d in WIDE_COLUMNS]
+    rows += [{"file": "wide", "column": c, "description": d}
+             for c, d in WIDE_COLUMNS + CHECK_SUMMARY_COLUMNS + check_columns("<k>")]
     return to_csv([("file", ""), ("column", ""), ("description", "")], rows)
 
 

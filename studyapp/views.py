@@ -12,7 +12,7 @@ from django.views.decorators.clickjacking import xframe_options_exempt
 from django.views.decorators.csrf import csrf_exempt
 from django.views.decorators.http import require_GET, require_POST
 
-from . import flow, forms, security
+from . import closedloop, flow, forms, security
 from .assignment import StudyClosed, assign
 from .models import LoopStep, Participant, StepKind, Study
 from .scenes import instructions, scene_context
@@ -215,8 +215,7 @@ def planned_steps(participant: Participant, steps: list[flow.Step]) -> int:
     if not loop or steps[-1].kind == StepKind.DONE:
         return len(steps)
     s = loop["settings"]
-    checks = min(len(loop["checks"]), s["max_examples"] // s["check_every"]) if s["check_every"] else 0
-    n_loop = s["max_examples"] + checks * (2 if s["feedback"] else 1)
+    n_loop = s["max_examples"] + closedloop.max_checks(loop) * (2 if s["feedback"] else 1)
     return 2 + n_loop + len(participant.study.test_set) + 3  # consent, instructions; attention, demographics, done
 
 

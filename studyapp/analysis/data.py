@@ -6,6 +6,8 @@
 * ``status`` is studyapp.status's (complete / incomplete / excluded / declined), the exports' column.
 * ``attention_ok`` comes from the stored attention answer (``data["passed"]``); ``excluded``
   is the participant's flag (set by the flow when the attention check fails).
+* ``checks_frame`` holds the check answers of closed-loop conditions (their learning curves,
+  :mod:`studyapp.analysis.learning`), for the same participants as ``frames``.
 * ``test_cluster`` of a test is the strategy cluster stored with the study's test set
   (``test_set[j]["cluster"]``, theta*'s trajectory there); the training clusters come from each
   condition's frozen ``training[i]["cluster"]``.
@@ -15,8 +17,9 @@ from __future__ import annotations
 import pandas as pd
 from django.db.models import Count, Max, Q
 
-from ..models import Answer, Condition, Participant, StepKind, Study
+from ..models import Answer, Condition, LoopStep, Participant, StepKind, Study
 from ..status import participant_status
+from . import learning as L
 from . import stats as S
 
 PARTICIPANT_COLUMNS = ["participant_id", "condition", "attention_ok", "excluded", "exclusion_reason", "age",
@@ -78,6 +81,26 @@ def frames(study: Study, include_incomplete: bool = False) -> tuple[pd.DataFrame
             training_frame(study))
 
 
+def checks_frame(study: Study, include_incomplete: bool = False) -> pd.DataFrame:
+    """One row per check answer (learning.CHECK_COLUMNS) of the participants :func:`frames` lists;
+    empty when none answered a check.  ``check_number`` counts each participant's checks in the order
+    answered; ``examples_before`` their example steps before it.  Three queries (participants, their check
+    answers, the example steps of those who answered one); a study without check answers stops at two."""
+    people = {p["pk"]: p["condition__name"] for p in _participants(study, include_incomplete)}
+    answers = list(Answer.objects.filter(participant_id__in=list(people), kind=StepKind.CHECK)
+                   .values_list("participant_id", "item", "correct", "confidence_score"))
+    if not answers:
+        return pd.DataFrame(columns=L.CHECK_COLUMNS)
+    examples: dict[int, list[int]] = {}  # participant id -> loop indices of the examples they saw
+    for pid, index in (LoopStep.objects.filter(participant_id__in={a[0] for a in answers}, kind=LoopStep.EXAMPLE)
+                       .values_list("participant_id", "index")):
+        examples.setdefault(pid, []).append(index)
+    rows = [{"participant_id": str(pid), "condition": people[pid], "loop_index": int(item),
+             "examples_before": sum(i < item for i in examples.get(pid, [])), "correct": bool(correct),
+             "score": float(score)} for pid, item, correct, score in answers]
+    return L.number_checks(pd.DataFrame(rows))[L.CHECK_COLUMNS]
+
+
 def condition_names(study: Study) -> list[str]:
     """The study's condition names, canonical; a ConditionError if two of them are one condition
     (a study stored before creating one refused that: it is not analysed, docs/analysis.md)."""
@@ -109,7 +132,8 @@ def analyze_study(study: Study, include_incomplete: bool = False, extra_comparis
     that are not new pairs of the study's conditions."""
     star = study_approx_star(condition_names(study), approx_star)
     participants, answers, training = frames(study, include_incomplete)
-    return S.analyze(participants, answers, training, extra_comparisons=extra_comparisons, approx_star=star)
+    return S.analyze(participants, answers, training, extra_comparisons=extra_comparisons, approx_star=star,
+                     checks=checks_frame(study, include_incomplete))
 
 
 def fingerprint(study: Study, include_incomplete: bool = False) -> str:

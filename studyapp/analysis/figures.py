@@ -6,6 +6,8 @@
   right panel: random, approx*, coverage-random, coverage-approx* (right).
 * :func:`correlation_figure` -- the two scatters of Fig. "corr" (condition x test level).
 * :func:`examples_figure` -- training examples per strategy cluster per condition.
+* :func:`learning_figure` -- closed-loop conditions' learning curves: the share choosing θ*'s option
+  at each check number, with its 95 % Wilson interval, against chance (only when there are any).
 """
 from __future__ import annotations
 
@@ -19,6 +21,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.patches import Patch
 
+from . import learning as L
 from . import stats as S
 
 COLORS = {"exact": "#9e9e9e", "approximate": "#4c72b0", "random": "#dd8452", "other": "#8c8c8c"}
@@ -185,9 +188,38 @@ def examples_figure(analysis: S.Analysis):
     return fig
 
 
+def learning_figure(analysis: S.Analysis):
+    """x: check number, y: share of participants choosing θ*'s option (95 % Wilson interval as error
+    bars), one line per closed-loop condition; chance (1 in 4) dashed."""
+    curves = analysis.learning
+    fig, ax = plt.subplots(figsize=(6.5, 3.8))
+    for k, (cond, c) in enumerate(curves.groupby("condition", sort=False)):
+        x = c["check_number"].to_numpy(float) + 0.06 * (k - (curves["condition"].nunique() - 1) / 2)  # no overlap
+        p = c["p_correct"].to_numpy(float)
+        err = np.vstack([p - c["ci_low"].to_numpy(float), c["ci_high"].to_numpy(float) - p])
+        line = ax.errorbar(x, p, yerr=err, marker="o", capsize=3, linewidth=1.2, markersize=5,
+                           label=S.label(cond, analysis.approx_star))
+        for xi, n in zip(x, c["n"], strict=True):  # participant counts along the bottom edge
+            ax.text(xi, 0.01 + 0.05 * k, f"n={int(n)}", ha="center", va="bottom", fontsize=7,
+                    color=line.lines[0].get_color(), transform=ax.get_xaxis_transform())
+    ax.axhline(L.CHANCE, color="#777", linestyle="--", linewidth=1, label="chance (1 in 4)")
+    numbers = sorted(set(curves["check_number"].astype(int)))
+    ax.set_xticks(numbers)
+    ax.set_ylim(0, 1.02)
+    ax.set_xlabel("check question (1st, 2nd, … the participant answered)")
+    ax.set_ylabel("share choosing θ*'s option (95 % CI)")
+    ax.legend(fontsize=8, frameon=False, loc="lower right")
+    ax.spines[["top", "right"]].set_visible(False)
+    fig.tight_layout()
+    return fig
+
+
 def all_figures(analysis: S.Analysis) -> dict:
-    return {"scores": scores_figure(analysis), "correlations": correlation_figure(analysis),
-            "examples_per_cluster": examples_figure(analysis)}
+    figures = {"scores": scores_figure(analysis), "correlations": correlation_figure(analysis),
+               "examples_per_cluster": examples_figure(analysis)}
+    if len(analysis.learning):
+        figures["learning"] = learning_figure(analysis)
+    return figures
 
 
 def to_bytes(fig, fmt: str = "png", dpi: int = 110) -> bytes:

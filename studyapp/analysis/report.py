@@ -105,8 +105,17 @@ def context(analysis: S.Analysis, title: str = "Study analysis", figures: dict |
         "examples": [{"condition": S.label(c, analysis.approx_star), "counts": [int(v) for v in epc.loc[c]],
                       "total": int(epc.loc[c].sum())} for c in epc.index],
         "participant_columns": cols, "participant_rows": part_rows,
-        "headline": headline(analysis),
+        "headline": headline(analysis), "learning": learning_rows(analysis),
     }
+
+
+def learning_rows(analysis: S.Analysis) -> list[dict]:
+    """The learning-curve table's rows, formatted (none without closed-loop check answers)."""
+    return [{"condition": S.label(r["condition"], analysis.approx_star), "check": int(r["check_number"]),
+             "n": int(r["n"]), "n_correct": int(r["n_correct"]), "p": _num(r["p_correct"]),
+             "ci": f"[{_num(r['ci_low'])}, {_num(r['ci_high'])}]", "mean": _num(r["mean_score"]),
+             "se": _num(r["se_score"]), "examples": _num(r["mean_examples"], 1)}
+            for _, r in analysis.learning.iterrows()]
 
 
 def _cell(v):
@@ -168,6 +177,10 @@ def headline(analysis: S.Analysis) -> list[str]:
                          f"p {_p_apa(c.p)}, n = {c.n}")
         else:
             lines.append(f"Pearson {c.name} ({c.level}): {c.message}")
+    for cond, curve in analysis.learning.groupby("condition", sort=False):
+        lines.append(f"Learning curve {cond} (chose θ* at check k): " + "; ".join(
+            f"{int(r['check_number'])}: {int(r['n_correct'])}/{int(r['n'])} = {r['p_correct']:.2f} "
+            f"[{r['ci_low']:.2f}, {r['ci_high']:.2f}]" for _, r in curve.iterrows()))
     return lines
 
 
@@ -197,6 +210,8 @@ def write_csvs(analysis: S.Analysis, out: Path) -> list[Path]:
     w(analysis.welch, "welch.csv")
     w(analysis.correlation_table(), "correlations.csv")
     w(analysis.examples_per_cluster, "examples_per_cluster.csv", index=True)
+    if len(analysis.learning):
+        w(analysis.learning, "learning_curves.csv")
     anova_rows = []
     for a in analysis.anovas:
         if a.ok:

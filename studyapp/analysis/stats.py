@@ -69,7 +69,7 @@ Choices (see docs/analysis.md)
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import pandas as pd
 
@@ -115,6 +115,7 @@ from .correlations import (
     pearson,
     per_test_frame,
 )
+from .learning import empty_curves, learning_curves
 from .tables import condition_summary, included, participant_table
 
 __all__ = [
@@ -133,6 +134,8 @@ __all__ = [
     # correlations
     "Correlation", "correlation", "correlations", "examples_per_cluster", "helpful_examples",
     "pearson", "per_test_frame",
+    # learning
+    "empty_curves", "learning_curves",
     # this module
     "Analysis", "analyze", "fmt_p",
 ]
@@ -149,6 +152,8 @@ class Analysis:
     per_test: pd.DataFrame
     messages: list[str]
     approx_star: str = APPROX_STAR_DEFAULT
+    # closed-loop conditions' learning curves (learning.CURVE_COLUMNS); no rows when no check was answered
+    learning: pd.DataFrame = field(default_factory=empty_curves)
 
     @property
     def n_included(self) -> int:
@@ -163,11 +168,14 @@ class Analysis:
 
 
 def analyze(participants: pd.DataFrame, answers: pd.DataFrame, training: pd.DataFrame,
-            comparisons=None, extra_comparisons=(), approx_star: str = APPROX_STAR_DEFAULT) -> Analysis:
+            comparisons=None, extra_comparisons=(), approx_star: str = APPROX_STAR_DEFAULT,
+            checks: pd.DataFrame | None = None) -> Analysis:
     """Run the whole analysis.  ``extra_comparisons``: pairs a researcher names, added to the
-    planned ones (and to the Holm family).  A ConditionError (a ValueError) when two condition
-    names are one condition, approx* is not an approximate model, or the comparisons are not
-    distinct pairs of the study's conditions (comparisons.comparison_family)."""
+    planned ones (and to the Holm family).  ``checks``: closed-loop check answers (learning.py's
+    input), whose learning curves count only the participants the analysis includes.  A
+    ConditionError (a ValueError) when two condition names are one condition, approx* is not an
+    approximate model, or the comparisons are not distinct pairs of the study's conditions
+    (comparisons.comparison_family)."""
     participants, training = canonicalize(participants), canonicalize(training)
     approx_star = check_approx_star(approx_star)
     known = set(participants.get("condition", [])) | set(training.get("condition", []))
@@ -187,7 +195,8 @@ def analyze(participants: pd.DataFrame, answers: pd.DataFrame, training: pd.Data
     epc = examples_per_cluster(training, conditions=conditions)
     return Analysis(participants=table, summary=summary, anovas=anovas, welch=w, correlations=cors,
                     examples_per_cluster=epc, per_test=per_test_frame(table, answers, training),
-                    messages=messages, approx_star=approx_star)
+                    messages=messages, approx_star=approx_star,
+                    learning=learning_curves(checks, included(table)["participant_id"]))
 
 
 def fmt_p(p: float) -> str:
