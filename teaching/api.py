@@ -161,7 +161,14 @@ from .core.selection import (
     build_sequences,
     condition_sequence,
 )
-from .core.simulate import AnswerModel, PredictedScores, SimulatedLearner, pilot_predictions, predicted_scores
+from .core.simulate import (
+    AnswerModel,
+    PredictedScores,
+    SimulatedLearner,
+    draw_answers,
+    pilot_predictions,
+    predicted_scores,
+)
 from .core.table import TableError, TrajectoryTable
 from .core.testset import MIN_REGRET, select_test_set
 from .domains.driving.domain import DOMAIN as _DRIVING
@@ -192,7 +199,7 @@ __all__ = [
     "table_identity",
     "OptionDistances", "choice_probabilities", "option_choice",
     "AnswerModel", "Answers", "Comparison", "FitError", "Question", "SimulatedLearner", "compare_models", "model_names",
-    "PredictedScores", "pilot_predictions", "predicted_scores", "questions_of",
+    "PredictedScores", "draw_answers", "pilot_predictions", "predicted_scores", "questions_of",
     "ClosedLoop", "ClosedLoopError", "ClosedLoopSpec", "Decision", "Event", "check_questions", "run_learner",
     "loop_pilot",
     "select_checks", "Pack", "load_pack", "write_pack",

@@ -28,7 +28,7 @@ from teaching.api import (
     questions_of,
 )
 
-from ..models import Answer, Condition, Participant, StepKind, Study
+from ..models import Answer, Condition, LoopStep, Participant, StepKind, Study
 
 CSV_COLUMNS = ["model", "param", "value", "lapse", "log_lik", "cv_log_lik", "aic", "bic", "delta_bic", "frequency",
                "exceedance", "protected_exceedance", "rating_rho", "n_answers"]
@@ -40,15 +40,17 @@ class ModelFitError(ValueError):
 
 @dataclass
 class StudyDesign:
-    """A study's design on its table: sequences {condition: table rows}, tests (Questions, the study's
-    option order), star (T,) the option index of θ*'s trajectory in each test, clusters (T,) each test's
-    cluster (θ*'s strategy there)."""
+    """A study's design on its table: sequences {condition: table rows} of its open-loop conditions, tests
+    (Questions, the study's option order), star (T,) the option index of θ*'s trajectory in each test,
+    clusters (T,) each test's cluster (θ*'s strategy there), loops: its closed-loop conditions (each
+    participant's sequence their own: study_answers)."""
 
     table: TrajectoryTable
     sequences: dict[str, tuple[int, ...]]
     tests: tuple[Question, ...]
     star: np.ndarray
     clusters: list
+    loops: tuple[str, ...] = ()
 
 
 def study_table(study: Study) -> TrajectoryTable:
@@ -65,20 +67,45 @@ def study_table(study: Study) -> TrajectoryTable:
 def study_design(study: Study, table: TrajectoryTable | None = None) -> StudyDesign:
     table = table or study_table(study)
     row = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
+    conditions = list(Condition.objects.filter(study=study).order_by("position", "pk"))
     try:
-        sequences = {c.name: tuple(row[int(e)] for e in c.env_ids)
-                     for c in Condition.objects.filter(study=study).order_by("position", "pk")}
+        sequences = {c.name: tuple(row[int(e)] for e in c.env_ids) for c in conditions if not c.closed_loop}
         tests, star = questions_of(table, study.test_set or [])
     except KeyError as exc:
         raise ModelFitError(f"environment {exc} of this study is not in its trajectory table") from None
-    return StudyDesign(table, sequences, tests, star, [t.get("cluster") for t in study.test_set or []])
+    return StudyDesign(table, sequences, tests, star, [t.get("cluster") for t in study.test_set or []],
+                       loops=tuple(c.name for c in conditions if c.closed_loop))
 
 
-def study_answers(study: Study, design: StudyDesign) -> Answers:
-    """The analysed participants' choices and ratings (complete: finished, attention check passed)."""
-    names = tuple(design.sequences)
+def loop_paths(design: StudyDesign, people: list[tuple[int, str]]) -> dict[int, tuple[int, ...]]:
+    """{participant id: the table rows their closed loop showed them (examples and feedback, in order)} for
+    those of `people` ((id, condition)) in a closed-loop condition: one query."""
+    ids = [pk for pk, c in people if c in design.loops]
+    row = {int(e): i for i, e in enumerate(np.asarray(design.table.env_ids))}
+    paths = {pk: [] for pk in ids}
+    steps = (LoopStep.objects.filter(participant_id__in=ids, kind__in=[LoopStep.EXAMPLE, LoopStep.FEEDBACK])
+             .order_by("participant_id", "index").values_list("participant_id", "env_id"))
+    for pk, env_id in steps:
+        paths[pk].append(row[int(env_id)])
+    return {pk: tuple(p) for pk, p in paths.items()}
+
+
+def study_answers(study: Study, design: StudyDesign) -> tuple[Answers, dict[str, str]]:
+    """The analysed participants' choices and ratings (complete: finished, attention check passed), and
+    {sequence name: condition}.  A closed-loop condition's participants saw sequences of their own: each
+    distinct one is a sequence of the Answers, named "<condition> path <k>"."""
     people = list(Participant.objects.filter(study=study, completed_at__isnull=False, excluded=False)
                   .exclude(platform=Participant.PREVIEW).order_by("pk").values_list("pk", "condition__name"))
+    sequences = dict(design.sequences)
+    condition_of = {n: n for n in sequences}
+    of_path, seq_of = {}, {}  # (condition, rows) -> name; participant -> name
+    for pk, rows in loop_paths(design, people).items():
+        condition = dict(people)[pk]
+        if (condition, rows) not in of_path:
+            name = f"{condition} path {sum(c == condition for c, _ in of_path) + 1}"
+            of_path[(condition, rows)], sequences[name], condition_of[name] = name, rows, condition
+        seq_of[pk] = of_path[(condition, rows)]
+    names = tuple(sequences)
     index = {pk: i for i, (pk, _) in enumerate(people)}
     n_tests, k = len(design.tests), len(design.tests[0].options) if design.tests else 0
     choice = np.full((len(people), n_tests), -1, np.int64)
@@ -93,9 +120,10 @@ def study_answers(study: Study, design: StudyDesign) -> Answers:
         given = (data or {}).get("ratings") or []
         if len(given) == k:
             ratings[i, t] = [float(r) for r in given]
-    return Answers(sequence_names=names, sequences=tuple(design.sequences[n] for n in names), tests=design.tests,
-                   group=np.array([names.index(c) for _, c in people], np.int64), choice=choice, ratings=ratings,
-                   participant_ids=tuple(str(pk) for pk, _ in people))
+    return Answers(sequence_names=names, sequences=tuple(sequences[n] for n in names), tests=design.tests,
+                   group=np.array([names.index(seq_of.get(pk, c)) for pk, c in people], np.int64),
+                   choice=choice, ratings=ratings,
+                   participant_ids=tuple(str(pk) for pk, _ in people)), condition_of
 
 
 @dataclass
@@ -105,22 +133,26 @@ class StudyFit:
     comparison: Comparison
     design: StudyDesign
     answers: Answers
+    condition_of: dict[str, str]  # sequence name -> condition (a closed loop's paths -> the loop)
 
     def accuracy(self, n_models: int = 3) -> list[dict]:
         """One dict per condition × test: n (answers), observed share choosing θ*, and each of the best
-        `n_models` models' predicted P(θ*'s option) at its pooled fit."""
+        `n_models` models' predicted P(θ*'s option) at its pooled fit (a closed loop: averaged over its
+        participants, each after their own path)."""
         out = []
         fits = self.comparison.fits[:n_models]
-        for s, name in enumerate(self.answers.sequence_names):
-            members = self.answers.group == s
+        names = self.answers.sequence_names
+        for condition in dict.fromkeys(self.condition_of[n] for n in names):
+            members = np.isin(self.answers.group, [s for s, n in enumerate(names) if self.condition_of[n] == condition])
             for t in range(len(self.design.tests)):
                 answered = members & (self.answers.choice[:, t] >= 0)
                 if not answered.any():
                     continue
-                correct = self.answers.choice[answered, t] == self.design.star[t]
-                out.append({"condition": name, "test": t, "cluster": self.design.clusters[t],
+                star, groups = self.design.star[t], self.answers.group[answered]
+                correct = self.answers.choice[answered, t] == star
+                out.append({"condition": condition, "test": t, "cluster": self.design.clusters[t],
                             "n": int(answered.sum()), "observed": float(correct.mean()),
-                            "predicted": {f.label: float(f.predicted[s, t, self.design.star[t]]) for f in fits}})
+                            "predicted": {f.label: float(f.predicted[groups, t, star].mean()) for f in fits}})
         return out
 
     def csv(self) -> str:
@@ -143,7 +175,7 @@ def fit_study(study: Study, names=None) -> StudyFit:
     design = study_design(study)
     if not design.tests:
         raise ModelFitError("this study has no test set: there is nothing to fit")
-    answers = study_answers(study, design)
+    answers, condition_of = study_answers(study, design)
     if not (answers.choice >= 0).any():
         raise ModelFitError("no participant has finished this study yet (finished and passed the attention "
                             "check): there is nothing to fit")
@@ -151,7 +183,7 @@ def fit_study(study: Study, names=None) -> StudyFit:
         comparison = compare_models(design.table, answers, names)
     except (FitError, ValueError) as exc:
         raise ModelFitError(str(exc)) from None
-    return StudyFit(comparison, design, answers)
+    return StudyFit(comparison, design, answers, condition_of)
 
 
 def accuracy_figure(fit: StudyFit, n_models: int = 3):

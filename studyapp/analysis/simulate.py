@@ -6,7 +6,9 @@ Two kinds of participant answer the tests:
 
 * **learners** (``learner=SimulatedLearner(model, τ or λ, lapse)``): they learn from their condition's
   training examples by that learner model and pick each test's option by the choice model, rating each
-  option 1 + Binomial(6, P(option)) (teaching.core.simulate; docs/analysis.md);
+  option 1 + Binomial(6, P(option)) (teaching.core.simulate; docs/analysis.md).  In a closed-loop condition
+  they learn from what the loop showed them (examples and feedback) and answer its check questions the same
+  way, so the loop's next steps follow from their answers as from a person's;
 * **fixed-probability bots** (no learner, for tests of the flow and the statistics): they pick θ*'s option
   with probability ``p_correct[condition]`` (default ``base``) and rate the chosen option 5-7 (others 1-3).
 
@@ -19,10 +21,10 @@ from __future__ import annotations
 import numpy as np
 from django.http import QueryDict
 
-from teaching.api import AnswerModel, SimulatedLearner
+from teaching.api import AnswerModel, SimulatedLearner, draw_answers
 
-from .. import assignment, flow, studies
-from ..models import StepKind
+from .. import assignment, closedloop, flow, studies
+from ..models import LoopStep, StepKind
 from ..trajectories import study_domain
 from .modelfit import study_design
 
@@ -55,10 +57,26 @@ class StudyLearner:
         self.careless = AnswerModel(self.design.table, SimulatedLearner(learner.model, learner.value, 1.0),
                                     self.design.tests, self.attentive.dist)
 
-    def answers(self, condition: str, attentive: bool, rng) -> tuple[np.ndarray, np.ndarray]:
-        """((T,) chosen option indices, (T, K) ratings) of one participant of `condition`."""
+    def answers(self, condition: str, attentive: bool, rng, shown=None) -> tuple[np.ndarray, np.ndarray]:
+        """((T,) chosen option indices, (T, K) ratings) of one participant of `condition` (who saw table rows
+        `shown`, in a closed loop)."""
         model = self.attentive if attentive else self.careless
-        return model.answer(self.design.sequences[condition], rng)
+        return model.answer(self.design.sequences[condition] if shown is None else shown, rng)
+
+    def shown(self, participant) -> tuple[int, ...]:
+        """The table rows a closed loop has shown `participant` so far (examples and feedback, in order)."""
+        pack = closedloop.pack_of_data(participant.condition.closed_loop)
+        return tuple(pack.row_of(s.env_id) for s in participant.loop_steps.all()
+                     if s.kind in (LoopStep.EXAMPLE, LoopStep.FEEDBACK) and s.index < participant.position)
+
+    def check_answer(self, participant, index: int, attentive: bool, rng) -> tuple[int, list[int]]:
+        """(option index, ratings) of `participant`'s answer to the check question at loop step `index`,
+        by the choice model after what the loop has shown them."""
+        model = self.attentive if attentive else self.careless
+        question = closedloop.pack_of_data(participant.condition.closed_loop).loop.checks[
+            participant.loop_steps.get(index=index).question]
+        choice, ratings = draw_answers(model.question(self.shown(participant), question)[None], rng)
+        return int(choice[0]), [int(r) for r in ratings[0]]
 
 
 def _bot_answer(options, rng, p_star: float) -> tuple[int, list[int]]:
@@ -78,10 +96,8 @@ def run_participant(study, rng, attentive: bool = True, effect: dict | None = No
     p_star = (EFFECT if effect is None else effect).get(p.condition.name, base)
     if not attentive:
         p_star = 1 - p_star
-    if learner and p.condition.closed_loop:
-        raise ValueError(f"condition {p.condition.name!r} is closed-loop: simulated participants who learn by a "
-                         f"model go through it with teaching's run_learner (bench/closedloop.py), not yet here")
-    learned = learner.answers(p.condition.name, attentive, rng) if learner else None
+    loop = bool(p.condition.closed_loop)
+    learned = learner.answers(p.condition.name, attentive, rng) if learner and not loop else None
     while True:  # step by step: a closed-loop condition decides its next step once the last is answered
         step = flow.current_step(p)
         if step.kind == StepKind.CONSENT:
@@ -92,9 +108,13 @@ def run_participant(study, rng, attentive: bool = True, effect: dict | None = No
             data = post(played="1")
         elif step.kind in (StepKind.TEST, StepKind.CHECK):
             options = flow.question_of(p, step.kind, step.item)["options"]
-            if learned and step.kind == StepKind.TEST:
+            if learner and step.kind == StepKind.CHECK:
+                choice, ratings = learner.check_answer(p, step.item, attentive, rng)
+            elif learner:
+                if learned is None:  # a closed loop: what it showed is known once the tests begin
+                    learned = learner.answers(p.condition.name, attentive, rng, shown=learner.shown(p))
                 choice, ratings = int(learned[0][step.item]), [int(r) for r in learned[1][step.item]]
-            else:  # a closed loop's checks: the bot (learners through the loop: teaching's run_learner)
+            else:
                 choice, ratings = _bot_answer(options, rng, p_star)
             letter = dict((k, a) for a, k in flow.option_letters(p, step.item, step.kind))  # the page posts letters
             data = post(choice=letter[choice], played=list(letter.values()),

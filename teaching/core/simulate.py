@@ -14,7 +14,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from .choice import OptionDistances, choice_probabilities
+from .choice import OptionDistances, choice_probabilities, option_choice
 from .fitting import Answers, choice_table, option_distances, questions_of
 from .learners import Distances, LearnerModel, check_value, make_model, posterior
 
@@ -64,10 +64,21 @@ class AnswerModel:
 
     def answer(self, sequence: tuple[int, ...], rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
         """One participant's answers: ((T,) chosen option, (T, K) ratings 1-7)."""
-        p = self.probabilities(tuple(int(s) for s in sequence))
-        choice = np.array([rng.choice(len(row), p=row / row.sum()) for row in p])
-        ratings = 1 + rng.binomial(RATING_STEPS, np.clip(p, 0, 1))
-        return choice, ratings.astype(np.float64)
+        return draw_answers(self.probabilities(tuple(int(s) for s in sequence)), rng)
+
+    def question(self, sequence, question) -> np.ndarray:
+        """(K,) P(option) of one more question (a Question, e.g. a closed loop's check) for a learner shown
+        table rows `sequence`."""
+        model = self.learner.learner_model
+        belief = posterior(model, self.dist, [int(s) for s in sequence])
+        return option_choice(model, belief, self.table, question.env_index, question.options, self.learner.lapse)
+
+
+def draw_answers(p: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Answers drawn from (T, K) P(option): ((T,) the chosen option, (T, K) ratings 1 + Binomial(6, P))."""
+    choice = np.array([rng.choice(len(row), p=row / row.sum()) for row in p])
+    ratings = 1 + rng.binomial(RATING_STEPS, np.clip(p, 0, 1))
+    return choice, ratings.astype(np.float64)
 
 
 def simulate_answers(table, learner: SimulatedLearner, sequences: dict[str, list[int]], tests,

@@ -38,7 +38,7 @@ def run(*args) -> str:
 def test_the_generating_model_is_found_in_the_stored_answers(demo_table, tmp_path, model, value):
     study = make_study(demo_table, f"fit-{model}")
     simulate(study, n_per_condition=24, seed=2, learner=SimulatedLearner(model, value, 0.1))
-    answers = study_answers(study, study_design(study))
+    answers, _ = study_answers(study, study_design(study))
     excluded = Participant.objects.filter(study=study, excluded=True).count()
     assert excluded > 0 and answers.n_participants == 9 * 24 - excluded  # the analysed set only
     out = run(study.slug, "--csv", str(tmp_path / "m.csv"), "--figure", str(tmp_path / "m.png"))
