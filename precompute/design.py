@@ -18,11 +18,14 @@ from teaching.api import (
     ALL_CONDITIONS,
     APPROX_STAR,
     CONDITIONS,
+    MAX_EXAMPLES_LIMIT,
     MIN_REGRET,
     MODEL_NAMES,
     PRESETS,
     SAMPLERS,
     USER_NAMES,
+    ClosedLoopError,
+    ClosedLoopSpec,
     TableError,
     TrajectoryTable,
     default_domain_name,
@@ -122,6 +125,33 @@ class StudyDesignForm(forms.Form):
         required=False, label="Hand-picked condition: environment ids",
         help_text="Optional: environment ids of the table, comma-separated, shown in this order as one more "
                   "condition.")
+    # One closed-loop condition (issue 25): each participant's next example chosen from their answers.
+    loop_name = forms.SlugField(
+        required=False, max_length=40, label="Closed-loop condition: name (optional)",
+        help_text="Adds a condition that picks each participant's next example from their answers to check "
+                  "questions shown between the examples (docs/study.md); empty: none.")
+    loop_model = forms.ChoiceField(choices=[(m, m) for m in USER_NAMES], initial=APPROX_STAR, required=False,
+                                   label="Closed loop: learner model",
+                                   help_text="How the robot assumes participants learn from an example.")
+    loop_value = forms.FloatField(required=False, label="Closed loop: τ or λ (optional)",
+                                  help_text="The learner model's τ (deterministic) or λ (probabilistic); empty: "
+                                            "the model's default.")
+    loop_lapse = forms.FloatField(initial=0.1, min_value=0.001, max_value=1, required=False,
+                                  label="Closed loop: lapse rate ε",
+                                  help_text="The chance that a check answer is a careless guess (above 0, so that "
+                                            "one careless answer never rules a θ out for good).")
+    loop_max_examples = forms.IntegerField(initial=6, min_value=1, max_value=MAX_EXAMPLES_LIMIT, required=False,
+                                           label="Closed loop: most examples",
+                                           help_text="It stops after this many examples (or when no example helps).")
+    loop_check_every = forms.IntegerField(initial=2, min_value=0, max_value=MAX_EXAMPLES_LIMIT, required=False,
+                                          label="Closed loop: a check question every",
+                                          help_text="Examples between check questions; 0: no check questions.")
+    loop_feedback = forms.BooleanField(initial=True, required=False, label="Closed loop: feedback after each check",
+                                       help_text="After a check, show what the car really does there.")
+    loop_fit_from = forms.ChoiceField(
+        required=False, label="Closed loop: model from a fit (optional)",
+        help_text="A study whose participants' answers set the model, τ / λ and ε above: the learner model that "
+                  "best explains them, fitted when this study is built; empty: the settings above.")
     min_regret = forms.FloatField(min_value=0, initial=MIN_REGRET, label="Test set: minimum θ*-regret",
                                   help_text="Each wrong option is at least this much worse for θ* (reward units).")
     min_distance = forms.FloatField(min_value=0, required=False, label="Test set: minimum distance (optional)",
@@ -132,6 +162,10 @@ class StudyDesignForm(forms.Form):
     def __init__(self, *args, tables: list[dict], **kwargs):
         super().__init__(*args, **kwargs)
         self.fields["table"].choices = table_choices(tables)
+        fitted = (Study.objects.filter(participants__completed_at__isnull=False, participants__excluded=False)
+                  .distinct().order_by("slug").values_list("slug", "name"))
+        self.fields["loop_fit_from"].choices = [("", "none: the settings above")] + [
+            (slug, f"{name} ({slug})") for slug, name in fitted]
         for model, symbol in TUNABLE:
             rule = "largest τ" if symbol == "τ" else "smallest λ"
             self.fields[fixed_field(model)] = forms.CharField(
@@ -172,9 +206,44 @@ class StudyDesignForm(forms.Form):
             raise forms.ValidationError(f"A study called {slug!r} exists already: choose another name.")
         return slug
 
+    def _closed_loop(self, data: dict) -> None:
+        """data["closed_loop"] ({name: settings}) and data["closed_loop_fit"] ({name: study slug}); each
+        problem said under its own field."""
+        data["closed_loop"], data["closed_loop_fit"] = {}, {}
+        name = data.get("loop_name")
+        if not name:
+            if data.get("loop_fit_from"):
+                self.add_error("loop_name", "Name the closed-loop condition that the fit is for.")
+            return
+        taken = [*(data.get("conditions") or []), *([data["hand_picked_name"]] if data.get("hand_picked_env_ids")
+                                                    else [])]
+        if name in taken or aliased_pairs([*taken, name]):
+            self.add_error("loop_name", f"{name!r} is already (another name of) one of the chosen conditions: "
+                                        "choose a name of its own.")
+            return
+        fields = {"model": "loop_model", "value": "loop_value", "lapse": "loop_lapse",
+                  "max_examples": "loop_max_examples", "check_every": "loop_check_every", "feedback": "loop_feedback"}
+        if any(f in self.errors for f in fields.values()):
+            return
+        defaults = ClosedLoopSpec().as_dict()  # a field left empty: teaching's default
+        settings = {k: defaults[k] if data.get(f) in (None, "") else data[f] for k, f in fields.items()}
+        try:
+            ClosedLoopSpec.from_dict(settings)
+        except ClosedLoopError as exc:
+            text = str(exc)  # ClosedLoopSpec's messages start with the setting's name, or say which
+            where = fields.get(text.split()[0]) or ("loop_lapse" if text.startswith("the lapse rate") else
+                                                    "loop_value" if any(w in text for w in ("τ", "λ", "hyperparameter"))
+                                                    else "loop_model")
+            self.add_error(where, text)
+            return
+        data["closed_loop"] = {name: settings}
+        if data.get("loop_fit_from"):
+            data["closed_loop_fit"] = {name: data["loop_fit_from"]}
+
     def clean(self):
         data = super().clean()
         data["hyperparameters"] = self._fixed_values()
+        self._closed_loop(data)
         if data.get("recruitment") == Study.PROLIFIC and not (data.get("completion_code") or "").strip():
             self.add_error("completion_code", "Prolific only accepts its study's own completion code: enter it.")
         ids = data.get("hand_picked_env_ids")
@@ -191,8 +260,8 @@ class StudyDesignForm(forms.Form):
                                                    "choose a name of its own.")
             elif data.get("table"):
                 self._check_in_table(data["table"], ids)
-        elif not data.get("conditions") and "conditions" not in self.errors:
-            self.add_error("conditions", "Choose at least one condition, or give a hand-picked one.")
+        elif not data.get("conditions") and not data.get("loop_name") and "conditions" not in self.errors:
+            self.add_error("conditions", "Choose at least one condition, or give a hand-picked or closed-loop one.")
         return data
 
     def _check_in_table(self, table_path: str, ids: list[int]) -> None:

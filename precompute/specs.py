@@ -12,8 +12,9 @@ Version history:
      conditions, open, queue, hand_picked, test_set_thresholds (the last three and
      content_hash absent in the oldest rows).
   2  "version": 2; study: "open" is called "open_when_done" (create_study_job's word).
-  3  "version": 3; study: "closed_loop", {condition name: closed-loop settings} (issue 25; empty in
-     every older row, which had none).
+  3  "version": 3; study: "closed_loop", {condition name: closed-loop settings}, and "closed_loop_fit",
+     {condition name: slug of the study whose best model fit gives its model, τ / λ and ε} (issue 25;
+     empty in every older row, which had none).
 
 Changing the format: add the field here, bump SPEC_VERSION, and add an upgrade from the last
 version that fills it (a test keeps a row of every older version as a literal:
@@ -50,6 +51,7 @@ def _v2_to_v3(kind: str, data: dict) -> dict:
     data = dict(data)
     if kind == "study":
         data.setdefault("closed_loop", {})
+        data.setdefault("closed_loop_fit", {})
     return data
 
 
@@ -112,6 +114,7 @@ class StudyJobSpec(_Spec):
     test_set_thresholds: dict = field(default_factory=dict)
     # {name: teaching's ClosedLoopSpec as a dict}: conditions decided per participant, prepared with the test set
     closed_loop: dict = field(default_factory=dict)
+    closed_loop_fit: dict = field(default_factory=dict)  # {name: study slug}: that study's best fit sets the model
     open_when_done: bool = True
     queue: str | None = None
 

@@ -16,6 +16,7 @@ from pathlib import Path
 
 from django.db import transaction
 
+from studyapp.models import Study
 from studyapp.studies import SpecError, new_study
 from teaching.api import (
     ALL_CONDITIONS,
@@ -41,7 +42,8 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int =
                      conditions=None, open_when_done: bool = True, replace: bool = False,
                      target_per_condition: int = 30, queue=None, start: bool = True,
                      hand_picked: dict | None = None, test_set_thresholds: dict | None = None,
-                     closed_loop: dict | None = None, **study_fields) -> Job:
+                     closed_loop: dict | None = None, closed_loop_fit: dict | None = None,
+                     **study_fields) -> Job:
     """A job that selects every condition's sequence and the test set on `table_path`.
 
     `hand_picked`: {condition name: environment ids}, conditions shown in the given order (after
@@ -49,6 +51,9 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int =
     ``select_test_set``.  `closed_loop`: {condition name: closed-loop settings (teaching's
     ClosedLoopSpec fields; {} for every default)}, conditions that decide each participant's examples
     from their answers, prepared by the last task once the test set is known (docs/study.md).
+    `closed_loop_fit`: {closed-loop condition: slug of a study} whose best learner-model fit, made by the
+    last task, gives that condition's model, τ / λ and lapse rate (where the study cannot be fitted, the
+    settings given stand, and the job's result says why).
     `study_fields`: completion_code, recruitment and the consent page's texts (studyapp's new_study).
     The table is verified here, once per job: its content hash goes into the job's params, and
     the tasks check the table still records that hash instead of re-hashing it (tasks._table).
@@ -68,6 +73,12 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int =
                 f"environments {missing[:10]} are not in the table" if missing else "no environment ids given"))
     conditions += list(hand_picked)
     loops = _closed_loop_settings(closed_loop)
+    fit_from = {str(k): str(v) for k, v in (closed_loop_fit or {}).items()}
+    for name, source in fit_from.items():
+        if name not in loops:
+            raise StudyJobError(f"a fit is asked for {name!r}, which is not a closed-loop condition of this study")
+        if not Study.objects.filter(slug=source).exists():
+            raise StudyJobError(f"closed-loop condition {name!r}: there is no study {source!r} to take a fit from")
     if len(set(conditions) | set(loops)) != len(conditions) + len(loops):
         raise StudyJobError("a condition is listed twice")
     thresholds = {k: float(v) for k, v in (test_set_thresholds or {}).items()}
@@ -96,7 +107,8 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int =
         spec = StudyJobSpec(study_id=study.pk, slug=slug, table=str(table_path), content_hash=source["content_hash"],
                             seed=seed, approx_star=approx_star, hyperparameters=hyperparameters,
                             conditions=conditions, open_when_done=open_when_done, queue=queue,
-                            hand_picked=hand_picked, test_set_thresholds=thresholds, closed_loop=loops)
+                            hand_picked=hand_picked, test_set_thresholds=thresholds, closed_loop=loops,
+                            closed_loop_fit=fit_from)
         job = Job.objects.create(kind=Job.STUDY, chunks_total=len(conditions) + 1, params=spec.to_json())
     if start:
         launch(job)

@@ -34,6 +34,7 @@ from django.db import transaction
 from django.db.models import F
 from django.utils import timezone
 
+from studyapp.analysis.modelfit import ModelFitError, best_fit_settings
 from studyapp.closedloop import pack_of_data
 from studyapp.models import Condition, Study
 from studyapp.studies import (
@@ -226,6 +227,22 @@ def study_pilot(table, conditions, spec: StudyJobSpec, job_id, tests: list[dict]
                         closed_loops={name: pack_of_data(data).loop for name, data in loops.items()})
 
 
+def closed_loop_settings(spec: StudyJobSpec) -> tuple[dict, dict]:
+    """({name: settings}, {name: what a fit gave, or why it gave nothing}) of the job's closed loops: those
+    the researcher tied to a study take the model, τ / λ and ε of that study's best fit, where it has one."""
+    settings, notes = {k: dict(v) for k, v in spec.closed_loop.items()}, {}
+    for name, slug in spec.closed_loop_fit.items():
+        try:
+            fitted = best_fit_settings(Study.objects.get(slug=slug))
+        except (Study.DoesNotExist, ModelFitError) as exc:
+            notes[name] = f"no fit of study {slug!r} ({exc}); the settings given were used"
+            continue
+        settings[name].update(fitted)
+        value = "" if fitted["value"] is None else f" at {fitted['value']:g}"
+        notes[name] = f"the best fit to study {slug!r}: {fitted['model']}{value}, lapse rate {fitted['lapse']:.3g}"
+    return settings, notes
+
+
 @shared_task(base=JobTask, bind=True, name="precompute.study_finish")
 def study_finish(self, job_id, spec):
     """Chord callback: the test set (disjoint from every condition's training) and the simulated
@@ -241,7 +258,8 @@ def study_finish(self, job_id, spec):
     table = _table(spec)
     tests = select_test_set(table, [c.env_ids for c in conditions], seed=spec.seed, **spec.test_set_thresholds)
     test_set = test_set_from_table(table, tests)
-    loops = prepare_closed_loops(table, study.slug, spec.closed_loop, tests)  # their checks apart from the tests
+    settings, from_fit = closed_loop_settings(spec)
+    loops = prepare_closed_loops(table, study.slug, settings, tests)  # their checks apart from the tests
     store_pilot(study, study_pilot(table, conditions, spec, job_id, tests, loops))
     if loops:
         for c in study.conditions.filter(name__in=list(loops)):
@@ -256,6 +274,7 @@ def study_finish(self, job_id, spec):
                "conditions": {p.key: {k: p.result.get(k) for k in ("env_ids", "value", "rule_met", "p")}
                               for p in Part.objects.filter(job_id=job_id).exclude(key="test-set")},
                "closed_loop": {name: {"checks": [t["env_id"] for t in data["checks"]], "eligible": data["eligible"],
-                                      "settings": data["settings"]} for name, data in loops.items()}}
+                                      "settings": data["settings"], "from_fit": from_fit.get(name, "")}
+                               for name, data in loops.items()}}
     finish_job(job_id, summary)
     return {"study": study.slug, "tests": summary["test_env_ids"]}

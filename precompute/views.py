@@ -96,6 +96,7 @@ def design(request):
                                    test_set_thresholds={k: d[k] for k in ("min_regret", "min_distance")
                                                         if d.get(k) is not None},
                                    target_per_condition=d["target_per_condition"], start=False,
+                                   closed_loop=d["closed_loop"], closed_loop_fit=d["closed_loop_fit"],
                                    completion_code=d["completion_code"].strip(), recruitment=d["recruitment"],
                                    **{k: d[k] for k in TEXT_FIELDS})
         except (StudyJobError, TableError) as exc:

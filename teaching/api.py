@@ -138,6 +138,7 @@ from .core.build import (
 from .core.candidates import SAMPLERS
 from .core.choice import OptionDistances, choice_probabilities, option_choice
 from .core.closedloop import (
+    MAX_EXAMPLES_LIMIT,
     ClosedLoop,
     ClosedLoopError,
     ClosedLoopSpec,
@@ -201,6 +202,6 @@ __all__ = [
     "AnswerModel", "Answers", "Comparison", "FitError", "Question", "SimulatedLearner", "compare_models", "model_names",
     "PredictedScores", "draw_answers", "pilot_predictions", "predicted_scores", "questions_of",
     "ClosedLoop", "ClosedLoopError", "ClosedLoopSpec", "Decision", "Event", "check_questions", "run_learner",
-    "loop_pilot",
+    "loop_pilot", "MAX_EXAMPLES_LIMIT",
     "select_checks", "Pack", "load_pack", "write_pack",
 ]

@@ -186,6 +186,18 @@ def fit_study(study: Study, names=None) -> StudyFit:
     return StudyFit(comparison, design, answers, condition_of)
 
 
+LAPSE_FLOOR = 0.01  # a closed loop needs ε > 0: one careless answer may not rule a θ out for good
+
+
+def best_fit_settings(study: Study) -> dict:
+    """The learner model, τ / λ and lapse rate ε of the model that best explains `study`'s answers (ranked by
+    cross-validated log-likelihood), as closed-loop settings (model, value, lapse; ε at least LAPSE_FLOOR);
+    ModelFitError (one line) when the study cannot be fitted."""
+    best = fit_study(study).comparison.fits[0]
+    return {"model": best.name, "value": float(best.value) if best.param and best.value is not None else None,
+            "lapse": max(float(best.lapse), LAPSE_FLOOR)}
+
+
 def accuracy_figure(fit: StudyFit, n_models: int = 3):
     """Predicted vs observed accuracy (share choosing θ*'s option), one point per condition × test (its
     area: the answers behind it), one panel per best model; the diagonal is a perfect prediction."""

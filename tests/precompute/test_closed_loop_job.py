@@ -115,3 +115,56 @@ def test_the_command_reports_bad_closed_loop_settings_in_one_line(db, tiny_table
     with pytest.raises(CommandError, match="--closed-loop cl: max_examples='many'"):
         call_command("build_study", "--table", str(tiny_table), "--slug", "x", "--closed-loop",
                      "cl:max_examples=many", stdout=io.StringIO())
+
+
+# --- the designer ----------------------------------------------------------------------------------
+DESIGN = {"slug": "designed-loop", "name": "Designed loop", "conditions": ["random"], "target_per_condition": "20",
+          "recruitment": "link", "approx_star": "det-euclidean", "seed": "0", "min_regret": "0.001",
+          "min_distance": "0.5", "estimated_minutes": "15", "loop_name": "adaptive", "loop_model": "det-euclidean",
+          "loop_value": "", "loop_lapse": "0.2", "loop_max_examples": "4", "loop_check_every": "2",
+          "loop_feedback": "on"}
+
+
+@pytest.mark.slow
+def test_the_designer_builds_a_closed_loop_condition_with_its_model_from_a_fit(
+        inprocess_worker, transactional_db, demo_table, settings, tmp_path, staff_client):
+    """The fit's study is simulated with learners of det-euclidean (τ = 1, lapse 0.1): the loop takes that
+    model, its τ and a lapse rate near 0.1 from it, in place of the form's det-euclidean defaults."""
+    from studyapp.analysis.simulate import make_study, simulate  # noqa: PLC0415
+    from teaching.api import SimulatedLearner  # noqa: PLC0415
+
+    settings.VAR_DIR, settings.TABLES_DIR = tmp_path, demo_table.parent
+    source = make_study(demo_table, "pilot-answers")
+    simulate(source, n_per_condition=12, seed=2, learner=SimulatedLearner("det-euclidean", 1.0, 0.1))
+    page = staff_client.get("/precompute/design/").content.decode()
+    assert "Closed-loop condition: name" in page and 'value="pilot-answers"' in page
+    form = dict(DESIGN, table=str(demo_table), loop_model="prob-reward", loop_fit_from="pilot-answers")
+    r = staff_client.post("/precompute/design/", form)
+    assert r.status_code == 302, r.content.decode()[-3000:]
+    job = jobs.wait(Job.objects.get(kind=Job.STUDY, params__slug="designed-loop"), progress=False, timeout=300)
+    assert job.status == Job.SUCCEEDED, job.error
+    assert job.params["closed_loop_fit"] == {"adaptive": "pilot-answers"}
+    loop = Study.objects.get(slug="designed-loop").conditions.get(name="adaptive").closed_loop["settings"]
+    assert loop["model"] == "det-euclidean" and loop["value"] == 1.0 and abs(loop["lapse"] - 0.1) < 0.06
+    assert (loop["max_examples"], loop["check_every"], loop["feedback"]) == (4, 2, True)  # the form's
+    assert "the best fit to study 'pilot-answers': det-euclidean" in job.result["closed_loop"]["adaptive"]["from_fit"]
+
+
+@pytest.mark.parametrize("change, field, message", [
+    ({"loop_name": "random"}, "loop_name", "already (another name of) one of the chosen conditions"),
+    ({"loop_check_every": "5"}, "loop_check_every", "check_every must be a whole number from 0"),
+    ({"loop_lapse": "0"}, "loop_lapse", "greater than or equal to 0.001"),
+    ({"loop_name": "", "loop_fit_from": "fitted"}, "loop_name", "Name the closed-loop condition"),
+    ({"loop_value": "-1"}, "loop_value", "must be"),
+])
+def test_the_designers_closed_loop_errors_are_said_under_their_fields(db, demo_table, settings, make_study,
+                                                                      change, field, message):
+    from precompute.design import StudyDesignForm, built_tables  # noqa: PLC0415
+
+    settings.TABLES_DIR = demo_table.parent
+    make_study(slug="fitted")
+    form = StudyDesignForm(dict(DESIGN, table=str(demo_table), **change), tables=built_tables())
+    if change.get("loop_fit_from"):
+        form.fields["loop_fit_from"].choices += [("fitted", "fitted")]
+    assert not form.is_valid()
+    assert any(message in e for e in form.errors.get(field, [])), form.errors

@@ -105,7 +105,7 @@ def test_design_form_errors(db, tables, staff_client, make_study):
         (dict(FORM, slug="taken"), "exists already"),
         (dict(FORM, slug="bad slug"), "Enter a valid"),
         (dict(FORM, completion_code=""), "Prolific only accepts its study"),
-        (dict(FORM, conditions=[]), "Choose at least one condition, or give a hand-picked one."),
+        (dict(FORM, conditions=[]), "Choose at least one condition, or give a hand-picked or closed-loop one."),
         (dict(FORM, fixed_det_euclidean="abc"), "τ of det-euclidean must be a number greater than 0 (e.g. 0.5), "
                                                  "not 'abc'; leave it empty for the paper's rule."),
         (dict(FORM, fixed_prob_reward="-2"), "λ of prob-reward must be a number greater than 0"),
