@@ -12,12 +12,18 @@ Environment (all optional):
 * ``GUNICORN_ACCESS_LOG``— file for the access log, "-" for stdout (default), "" for none
 * ``FORWARDED_ALLOW_IPS``— proxies whose X-Forwarded-* headers gunicorn trusts (default 127.0.0.1)
 * ``GUNICORN_CONTROL_SOCKET`` — gunicornc's control socket (default ``$VAR_DIR/gunicorn.ctl``)
+* ``OPENBLAS_NUM_THREADS`` — BLAS threads per worker (default 1, below)
 """
 import hashlib
 import multiprocessing
 import os
 import time
 from pathlib import Path
+
+# One BLAS thread per web worker: a closed-loop decision's matrix-vector product (85 MB at paper size) would
+# otherwise start a thread per core in each of the 2 × cores + 1 workers, and under load they fight over the
+# cores the workers already share.  Set before any worker imports NumPy.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 bind = os.environ.get("GUNICORN_BIND", "127.0.0.1:8000")
 
@@ -81,13 +87,18 @@ def post_worker_init(worker):
     participant templates before this worker takes its first request, so that no participant
     waits for it after a deploy, a restart or a max_requests recycle."""
     # Django loads in the worker, not when gunicorn reads this file
+    from django.db import connection  # noqa: PLC0415
     from django.template.loader import get_template  # noqa: PLC0415
     from django.urls import get_resolver  # noqa: PLC0415
 
+    from studyapp.closedloop import warm_packs  # noqa: PLC0415
     from studyapp.models import StepKind  # noqa: PLC0415
 
     start = time.monotonic()
     get_resolver().url_patterns  # noqa: B018  (the access loads the URLconf)
     for kind in StepKind:
         get_template(f"studyapp/step_{kind}.html")
-    worker.log.info("worker %s warm in %.1f s", worker.pid, time.monotonic() - start)
+    packs = warm_packs()
+    connection.close()  # the boot thread's: the worker's request threads open their own
+    worker.log.info("worker %s warm in %.1f s (%d closed-loop packs mapped)", worker.pid, time.monotonic() - start,
+                    packs)

@@ -104,6 +104,29 @@ def pack_of_data(data: dict):
     return _load(data["pack"], data["table_hash"])
 
 
+def warm_packs() -> int:
+    """Map the pack of every open study's closed-loop condition, so that no participant's first decision in a
+    new web worker waits for it (config/gunicorn.conf.py, post_worker_init); returns how many.  A pack that
+    cannot be read is logged and left to the request, which says so."""
+    from django.db import DatabaseError  # noqa: PLC0415
+
+    from .models import Condition  # noqa: PLC0415
+
+    n = 0
+    try:
+        loops = list(Condition.objects.filter(study__is_open=True, closed_loop__isnull=False)
+                     .values_list("closed_loop", flat=True))
+        for data in filter(None, loops):
+            try:
+                pack_of_data(data)
+                n += 1
+            except (OSError, ValueError, KeyError) as exc:
+                logger.warning("closed-loop pack %s not mapped at start: %s", data.get("pack"), exc)
+    except DatabaseError as exc:  # the database is down at boot: the requests will map them
+        logger.warning("closed-loop packs not mapped at start: %s", exc)
+    return n
+
+
 def example_payload(domain, pack, row: int) -> dict:
     """What the page draws of θ*'s trajectory in table row `row` (a training example's payload)."""
     return trajectories.env_payload(domain, int(pack.env_ids[row]), int(pack.env_class[row]),

@@ -127,7 +127,10 @@ class Server:
     """scripts/serve.sh on a fresh database and a free port; a context manager."""
 
     def __init__(self, workdir: Path, pg_url: str = PG_URL, redis_url: str = REDIS_URL,
-                 workers: int | None = None, threads: int | None = None, demo_table=None):
+                 workers: int | None = None, threads: int | None = None, demo_table=None,
+                 study_script: str = BUILD_STUDY, env: dict | None = None):
+        """study_script: Python run after migrate that builds the study and prints its slug, number of
+        conditions and tests (default: the demo study); env: more environment for every process."""
         self.workdir = Path(workdir)
         self.workdir.mkdir(parents=True, exist_ok=True)
         self.db_name = f"load_{os.getpid()}_{secrets.token_hex(3)}"
@@ -145,6 +148,8 @@ class Server:
             VAR_DIR=str(self.workdir / "var"), PRECOMPUTE_QUEUE=f"load-{self.db_name}",
             DEMO_TABLE=str(demo_table or os.environ.get("DEMO_TABLE") or ROOT / "var/tables/demo"),
             DJANGO_SETTINGS_MODULE="config.settings", PYTHONUNBUFFERED="1", CELERY_LOG_LEVEL="INFO")
+        self.env.update(env or {})
+        self.study_script = study_script
         self.env.pop("DATABASE_TEST_NAME", None)
         if workers:
             self.env["WEB_CONCURRENCY"] = str(workers)
@@ -173,7 +178,7 @@ class Server:
         with connect(self.admin_url, autocommit=True) as conn:
             conn.execute(sql.SQL("CREATE DATABASE {}").format(sql.Identifier(self.db_name)))
         self._run([sys.executable, "manage.py", "migrate", "--noinput", "--verbosity", "0"])
-        self.study = self._run([sys.executable, "-c", BUILD_STUDY]).split()
+        self.study = self._run([sys.executable, "-c", self.study_script], timeout=1800).split()
         # append mode: supervisord and its programs write to this file through descriptors of their own
         with open(self.log_path, "a") as log:
             self.proc = subprocess.Popen(["bash", "scripts/serve.sh"], cwd=ROOT, env=self.env, stdout=log,
@@ -241,6 +246,9 @@ class Server:
 
 
 # --- checks against the database -------------------------------------------------------------
+PAGE_KIND = {"check": "test", "feedback": "training"}
+
+
 def check_database(db_url: str, slug: str, stats) -> dict:
     """Compare the client's acknowledged answers with the Answer rows; conditions and balance."""
     with connect(db_url) as conn:
@@ -258,6 +266,9 @@ def check_database(db_url: str, slug: str, stats) -> dict:
     stored = Counter((token, step) for token, step, _, _ in rows)
     data = {(token, step): (kind, d if isinstance(d, dict) else json.loads(d)) for token, step, kind, d in rows}
     acked = Counter((token, step) for token, step, _, _ in stats.acked)
+    # The client reads a step's kind off its page, where a closed loop's check question is a test page
+    # and its feedback a training page.
+    data = {k: (PAGE_KIND.get(kind, kind), d) for k, (kind, d) in data.items()}
     mismatched = []
     for kind, d in data.values():
         if kind == "test":  # what the participant saw: option letters in their display order

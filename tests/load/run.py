@@ -36,9 +36,11 @@ def percentile(values, q):
 
 
 def run_load(participants=100, window=20.0, pace=0.05, fault_at=None, workdir=None, workers=None, threads=None,
-             seed=0, demo_table=None) -> dict:
+             seed=0, demo_table=None, study_script=None, env=None, inspect=None) -> dict:
     """Run the whole test; returns the figures and the database checks (see summarise).
-    demo_table: the table the demo study is built on (default $DEMO_TABLE or var/tables/demo)."""
+    demo_table: the table the demo study is built on (default $DEMO_TABLE or var/tables/demo).
+    study_script, env: another study and environment for the server (harness.Server); inspect(server): a
+    dict of what else to read off the running server and its database, kept as result["inspected"]."""
     cluster = None
     if fault_at is not None:
         cluster = harness.local_cluster()
@@ -48,7 +50,9 @@ def run_load(participants=100, window=20.0, pace=0.05, fault_at=None, workdir=No
     workdir = Path(workdir or tempfile.mkdtemp(prefix="load-"))
     load_before = os.getloadavg()[0]
     try:
-        with harness.Server(workdir, workers=workers, threads=threads, demo_table=demo_table) as server:
+        options = {"study_script": study_script} if study_script else {}
+        with harness.Server(workdir, workers=workers, threads=threads, demo_table=demo_table, env=env,
+                            **options) as server:
             cfg = client.Config(base_url=server.base_url, slug=server.study[0], participants=participants,
                                 window=window, pace=pace, run_id=f"load{os.getpid()}", seed=seed)
             stats = client.Stats()
@@ -69,6 +73,8 @@ def run_load(participants=100, window=20.0, pace=0.05, fault_at=None, workdir=No
                                  "fault_at": fault_at, "workers": server.workers,
                                  "threads": server.env.get("GUNICORN_THREADS", "4"),
                                  "load_before": load_before, "cores": os.cpu_count()})
+            if inspect is not None:
+                result["inspected"] = inspect(server)
     finally:
         if cluster:
             harness.ensure_postgres_running(cluster)

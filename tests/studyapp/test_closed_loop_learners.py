@@ -78,3 +78,13 @@ def test_the_fit_takes_each_loop_participants_own_path(loop_study):
     assert all(c["n"] == len(loopers(loop_study)) - Participant.objects.filter(
         study=loop_study, condition__name="closed-loop", excluded=True).count() for c in loop_cells)
     assert {c["condition"] for c in cells} == {"alpha", "closed-loop"}
+
+
+def test_a_new_web_worker_maps_the_open_studies_packs_before_its_first_request(loop_study):
+    """config/gunicorn.conf.py's post_worker_init calls warm_packs: a closed study's pack is left alone."""
+    closedloop._load.cache_clear()
+    assert closedloop.warm_packs() == 1 and closedloop._load.cache_info().currsize == 1
+    closedloop._load.cache_clear()
+    loop_study.is_open = False
+    loop_study.save(update_fields=["is_open"])
+    assert closedloop.warm_packs() == 0 and closedloop._load.cache_info().currsize == 0
