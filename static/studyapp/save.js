@@ -7,13 +7,18 @@
 // or a 429: keep the answer, say so in a banner and send it again with exponential backoff,
 // at once when the browser reports it is back online. Re-sending is safe: the server stores
 // an answer once and accepts the same answer again without writing. Without JavaScript the
-// forms post as plain HTML forms.
+// forms post as plain HTML forms. When the answer and the next page together take longer than
+// SLOW_MS (a busy server, or a closed loop deciding the next example), the banner says the next
+// page is being prepared, so that the participant waits on a message, not a frozen page.
 
 const FIRST_DELAY_MS = 1000;
 const MAX_DELAY_MS = 30000;
 const MAX_RETRY_AFTER_MS = 120000;  // a misconfigured Retry-After must not strand a participant
 const OFFLINE = "Connection lost — your answer is kept and will be sent automatically; please keep this page open.";
 const BUSY = "The study server is busy — your answer is kept and will be sent automatically; please keep this page open.";
+const PREPARING = "Your answer is saved; preparing your next page — one moment, please.";
+const SENDING = "Sending your answer — one moment, please.";
+const SLOW_MS = 1000;
 
 const banner = document.querySelector("[data-save-banner]");
 
@@ -74,8 +79,11 @@ export function enhance(form) {
   let timer = 0;
   let sending = false;
   let ready;            // body[data-ready] ("controls wired") is withdrawn while the answer is away
+  let slow = 0;         // the timer that shows the progress message
+  let saved = false;    // the answer is stored: the next page is on its way
 
   function refused(message) {
+    clearTimeout(slow);
     pending = null;
     showBanner("");
     error.textContent = message;
@@ -90,7 +98,8 @@ export function enhance(form) {
     sending = false;
     if (outcome.next) {
       pending = null;
-      showBanner("");
+      saved = true;
+      showBanner(banner && banner.textContent === SENDING ? PREPARING : "");
       form.dispatchEvent(new CustomEvent("studyapp:saved"));
       go(outcome.next);
     } else if (outcome.error) {
@@ -116,6 +125,10 @@ export function enhance(form) {
     delete document.body.dataset.ready;
     error.textContent = "";
     attempt = 0;
+    saved = false;
+    clearTimeout(slow);
+    // a retry's banner (offline, busy) says more than this one: shown only over an empty banner
+    slow = setTimeout(() => { if (banner && !banner.textContent) showBanner(saved ? PREPARING : SENDING); }, SLOW_MS);
     send();
   });
   window.addEventListener("online", () => { if (pending && !sending) send(); });

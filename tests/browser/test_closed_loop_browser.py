@@ -90,3 +90,47 @@ def test_a_closed_loop_condition_with_feedback_in_chromium(loop_study, live_serv
         "check" if h.startswith("Check question") else "feedback" if h.startswith("The answer") else "example"
         for h in headings]
     assert closedloop.replay(p) == []
+
+
+def test_a_slow_next_page_shows_a_progress_message_not_a_frozen_page(loop_study, live_server, monkeypatch):
+    """The next step's page is held back (as a late decision would hold it): after a second the banner says
+    it is being prepared; when it arrives the participant is on it, with nothing lost and no error."""
+    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")
+    OUT.mkdir(exist_ok=True)
+    entry = f"{live_server.url}/s/{loop_study.slug}/?PROLIFIC_PID=slow-next&STUDY_ID=s&SESSION_ID=x"
+    held = []
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
+        page = browser.new_context(viewport={"width": 1200, "height": 900}).new_page()
+        errors = []
+        page.on("pageerror", lambda exc: errors.append(str(exc)))
+        page.goto(entry)
+        page.locator('button[value="yes"]').click()
+        expect(page.locator("h1")).to_have_text("Instructions")
+
+        def hold(route):  # the page after the instructions: answered later, by hand
+            if route.request.method == "GET" and route.request.resource_type == "document" and not held:
+                held.append(route)
+            else:
+                route.continue_()
+
+        page.route("**/s/loop/**", hold)
+        # While a navigation is pending Playwright does not read the old page, so the banner reports its
+        # text on the console, which it delivers meanwhile.
+        page.evaluate("""() => new MutationObserver(() => console.log("banner: " +
+            document.querySelector("[data-save-banner]").textContent)).observe(
+            document.querySelector("[data-save-banner]"), {childList: true, characterData: true, subtree: true})""")
+        banner = []
+        page.on("console", lambda msg: banner.append(msg.text) if msg.text.startswith("banner: ") else None)
+        page.locator("button.primary").click()
+        for _ in range(50):
+            if held and any("preparing your next page" in b for b in banner):
+                break
+            page.wait_for_timeout(200)
+        assert held and any("preparing your next page" in b for b in banner), (held, banner)
+        held[0].continue_()
+        expect(page.locator("h1")).to_have_text("Example 1 of up to 4", timeout=20_000)
+        browser.close()
+    assert not errors, errors
+    p = Participant.objects.get(platform_pid="slow-next")
+    assert p.position == 2 and p.loop_steps.count() == 1
