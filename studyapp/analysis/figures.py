@@ -197,18 +197,16 @@ def learning_figure(analysis: S.Analysis):
         x = c["check_number"].to_numpy(float) + 0.06 * (k - (curves["condition"].nunique() - 1) / 2)  # no overlap
         p = c["p_correct"].to_numpy(float)
         err = np.vstack([p - c["ci_low"].to_numpy(float), c["ci_high"].to_numpy(float) - p])
-        line = ax.errorbar(x, p, yerr=err, marker="o", capsize=3, linewidth=1.2, markersize=5,
-                           label=S.label(cond, analysis.approx_star))
-        for xi, n in zip(x, c["n"], strict=True):  # participant counts along the bottom edge
-            ax.text(xi, 0.01 + 0.05 * k, f"n={int(n)}", ha="center", va="bottom", fontsize=7,
-                    color=line.lines[0].get_color(), transform=ax.get_xaxis_transform())
+        low, high = int(c["n"].min()), int(c["n"].max())  # participants per check: in the legend, off the data
+        ax.errorbar(x, p, yerr=err, marker="o", capsize=3, linewidth=1.2, markersize=5,
+                    label=f"{S.label(cond, analysis.approx_star)} (n = {low}{'' if low == high else f'–{high}'})")
     ax.axhline(L.CHANCE, color="#777", linestyle="--", linewidth=1, label="chance (1 in 4)")
     numbers = sorted(set(curves["check_number"].astype(int)))
     ax.set_xticks(numbers)
     ax.set_ylim(0, 1.02)
     ax.set_xlabel("check question (1st, 2nd, … the participant answered)")
     ax.set_ylabel("share choosing θ*'s option (95 % CI)")
-    ax.legend(fontsize=8, frameon=False, loc="lower right")
+    ax.legend(fontsize=8, frameon=False, loc="best")
     ax.spines[["top", "right"]].set_visible(False)
     fig.tight_layout()
     return fig
