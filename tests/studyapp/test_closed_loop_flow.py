@@ -192,3 +192,7 @@ def test_simulated_participants_complete_it_and_the_analysis_counts_it_as_a_cond
     result = analyze_study(loop_study)
     assert set(result.participants["condition"]) == {"alpha", "closed-loop"}
     assert {"alpha", "closed-loop"} <= set(result.summary.reset_index().astype(str).stack())
+    named = analyze_study(loop_study, extra_comparisons=[("closed-loop", "alpha")])  # a researcher's Welch test
+    row = named.welch[(named.welch["a"] == "closed-loop") & (named.welch["b"] == "alpha")]
+    analysed = sum(p.completed_at is not None and not p.excluded for p in people)
+    assert len(row) == 1 and row.iloc[0]["n_a"] == analysed > 0 and 0 <= row.iloc[0]["p_holm"] <= 1
