@@ -84,12 +84,9 @@ def test_the_analysis_page_shows_the_learning_curves(closed_loop_study, staff_cl
     study = closed_loop_study
     rng = simulate(study, n_per_condition=3, fail_every=100)
     looped = study.participants.filter(condition__name="closed-loop")
-    # and someone of the closed loop who fails the attention check, not counted: balanced assignment breaks
-    # ties at random, so an arrival lands in the closed loop about every other time
-    for _ in range(30):
-        if looped.filter(excluded=True).exists():
-            break
-        run_participant(study, rng, attentive=False)
+    # and someone of the closed loop who fails the attention check, not counted: alpha full, they land there
+    study.conditions.filter(name="alpha").update(target=1)
+    run_participant(study, rng, attentive=False)
     assert looped.filter(excluded=True).exists() and looped.filter(excluded=False).count() >= 2
     html = staff_client.get(reverse("dashboard_analysis", args=[study.slug])).content.decode()
     assert "Learning curves from the check questions" in html and 'id="fig-learning"' in html
