@@ -99,8 +99,9 @@ def study_answers(study: Study, design: StudyDesign) -> tuple[Answers, dict[str,
     sequences = dict(design.sequences)
     condition_of = {n: n for n in sequences}
     of_path, seq_of = {}, {}  # (condition, rows) -> name; participant -> name
+    condition_of_pk = dict(people)
     for pk, rows in loop_paths(design, people).items():
-        condition = dict(people)[pk]
+        condition = condition_of_pk[pk]
         if (condition, rows) not in of_path:
             name = f"{condition} path {sum(c == condition for c, _ in of_path) + 1}"
             of_path[(condition, rows)], sequences[name], condition_of[name] = name, rows, condition
