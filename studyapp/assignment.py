@@ -50,6 +50,8 @@ def condition_counts(study: Study) -> dict[int, int]:
 
 def pick_condition(study: Study) -> Condition:
     conditions = list(counted_conditions(study))
+    for c in conditions:  # target_count reads the study: this one, not a query and a JSON decode per condition
+        c.study = study
     if not conditions:
         raise ValueError(f"study {study.slug} has no conditions")
     if aliased_pairs([c.name for c in conditions]):

@@ -122,11 +122,12 @@ def record(participant: Participant, step_index: int, post) -> Participant:
     step = steps[step_index]
     data = clean_answer(participant, step, post)
     with transaction.atomic():
-        # of=("self",): lock only the participant's row.  A bare FOR UPDATE with select_related
-        # also locks the joined study row, which serialised every answer in the study behind one
-        # lock (and behind every arrival's assignment): p50 436 ms at ~50 requests/s (tests/load).
-        locked = (Participant.objects.select_for_update(of=("self",)).select_related("study", "condition")
-                  .get(pk=participant.pk))
+        # Lock only the participant's row: a FOR UPDATE joined with the study locks the study row too,
+        # which serialised every answer in the study behind one lock (and behind every arrival's
+        # assignment): p50 436 ms at ~50 requests/s (tests/load).  The caller's study and condition are
+        # reused: reading them again decoded the study's JSON (test set, pilot) once more per answer.
+        locked = Participant.objects.select_for_update(of=("self",)).get(pk=participant.pk)
+        locked.study, locked.condition = participant.study, participant.condition
         stored = Answer.objects.filter(participant=locked, step=step_index).first()
         if stored is not None:
             if stored.data == data:
