@@ -58,8 +58,8 @@ class QuickMemoryTransport(memory.Transport):
         return super().drain_events(connection, timeout=None if timeout is None else min(timeout, 0.05))
 
 
-# kombu calls an alias that is callable and takes what it returns: the class itself, since this conftest's
-# module name depends on how pytest imported it (a "module:Class" path found tests/conftest.py in a full run)
+# kombu calls an alias that is callable and takes what it returns: the class itself.  A "conftest:Class" path
+# is looked up when a worker starts, and by then sys.modules["conftest"] may be another directory's conftest.
 TRANSPORT_ALIASES["quickmemory"] = lambda: QuickMemoryTransport
 
 
@@ -95,7 +95,7 @@ def celery_app_with():
 
 @pytest.fixture
 def celery_app_inprocess(celery_app_with):
-    """The project's Celery app switched to the memory transport and result store."""
+    """The project's Celery app switched to the (quick) memory transport and result store."""
     return celery_app_with(broker_url="quickmemory://", result_backend="cache+memory://", broker_transport_options={},
                            task_always_eager=False)
 
