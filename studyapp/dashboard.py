@@ -23,7 +23,7 @@ def condition_stats(study: Study) -> list[dict]:
     cutoff = now - study.active_timeout
     real = ~Q(participants__platform=Participant.PREVIEW)
     done = Q(participants__completed_at__isnull=False)
-    rows = Condition.objects.filter(study=study).annotate(
+    rows = study.conditions.annotate(  # each row's .study is `study`: target_count reads no other copy
         started=Count("participants", filter=real),
         completed=Count("participants", filter=real & done),
         excluded=Count("participants", filter=real & Q(participants__excluded=True)),

@@ -86,3 +86,27 @@ def test_unique_constraint_backs_up_the_lock(study):
     p = assignment.assign(study, "prolific", "dup")
     with pytest.raises(IntegrityError), transaction.atomic():
         Participant.objects.create(study=study, condition=p.condition, platform="prolific", platform_pid="dup")
+
+
+def test_an_arrival_and_an_answer_read_the_study_once(study):
+    """The study row carries its test set and pilot as JSON: an arrival read it again for every condition
+    (Condition.target_count) and each answer once more in its lock query; each decode grows with the study."""
+    from django.db import connection  # noqa: PLC0415
+    from django.test.utils import CaptureQueriesContext  # noqa: PLC0415
+
+    from studyapp import flow  # noqa: PLC0415
+    from studyapp.dashboard import condition_stats  # noqa: PLC0415
+
+    def study_reads(queries):
+        return [q["sql"] for q in queries if 'FROM "studyapp_study"' in q["sql"]]
+
+    assert study.conditions.count() > 1
+    with CaptureQueriesContext(connection) as arrival:
+        p = assignment.assign(study)
+    assert len(study_reads(arrival.captured_queries)) == 1  # the lock, once
+    with CaptureQueriesContext(connection) as answer:
+        flow.record(p, 0, {"consent": "yes"})
+    assert study_reads(answer.captured_queries) == []
+    with CaptureQueriesContext(connection) as stats:
+        assert [row["target"] for row in condition_stats(study)] == [c.target_count for c in study.conditions.all()]
+    assert study_reads(stats.captured_queries) == []
