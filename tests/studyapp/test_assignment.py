@@ -3,10 +3,12 @@ from collections import Counter
 from datetime import timedelta
 
 import pytest
-from django.db import IntegrityError, transaction
+from django.db import IntegrityError, connection, transaction
+from django.test.utils import CaptureQueriesContext
 from django.utils import timezone
 
-from studyapp import assignment
+from studyapp import assignment, flow
+from studyapp.dashboard import condition_stats
 from studyapp.models import Participant
 
 pytestmark = pytest.mark.django_db
@@ -91,12 +93,6 @@ def test_unique_constraint_backs_up_the_lock(study):
 def test_an_arrival_and_an_answer_read_the_study_once(study):
     """The study row carries its test set and pilot as JSON: an arrival read it again for every condition
     (Condition.target_count) and each answer once more in its lock query; each decode grows with the study."""
-    from django.db import connection  # noqa: PLC0415
-    from django.test.utils import CaptureQueriesContext  # noqa: PLC0415
-
-    from studyapp import flow  # noqa: PLC0415
-    from studyapp.dashboard import condition_stats  # noqa: PLC0415
-
     def study_reads(queries):
         return [q["sql"] for q in queries if 'FROM "studyapp_study"' in q["sql"]]
 
