@@ -30,12 +30,23 @@ def _digest(out: dict) -> str:
     return hashlib.sha256(b"".join(np.ascontiguousarray(out[k]).tobytes() for k in sorted(out))).hexdigest()
 
 
+def _layout():
+    """(build, features, planner) modules of the checkout on sys.path: today's layout, or the flat
+    one of planners up to 8 (teaching/build.py, ...), so that old checkouts can be compared too."""
+    import importlib  # noqa: PLC0415
+
+    try:
+        return tuple(importlib.import_module(m) for m in (
+            "teaching.core.build", "teaching.domains.driving.features", "teaching.domains.driving.planner"))
+    except ModuleNotFoundError:
+        return tuple(importlib.import_module(f"teaching.{m}") for m in ("build", "features", "planner"))
+
+
 def _plan(args) -> str:
     chunk, thetas, normalisers, threads = args
     import numba  # noqa: PLC0415
 
-    from teaching.domains.driving.planner import plan_chunk  # noqa: PLC0415
-
+    plan_chunk = _layout()[2].plan_chunk
     numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
     return _digest(plan_chunk(chunk, thetas, normalisers))
 
@@ -50,9 +61,9 @@ def main(argv=None) -> int:
     if args.stride < 1 or args.jobs < 1:
         parser.error("--stride and --jobs must be at least 1")
     sys.path.insert(0, str(Path(args.code).resolve()))  # spawned workers inherit sys.path
-    from teaching.core.build import PRESETS, chunks_of  # noqa: PLC0415
-    from teaching.domains.driving.features import default_normalisers  # noqa: PLC0415
-    from teaching.domains.driving.planner import PLANNER_VERSION, plan_chunk  # noqa: PLC0415
+    build, features, planner = _layout()
+    PRESETS, chunks_of, default_normalisers = build.PRESETS, build.chunks_of, features.default_normalisers
+    PLANNER_VERSION, plan_chunk = planner.PLANNER_VERSION, planner.plan_chunk
 
     preset = PRESETS["paper"]
     thetas, normalisers = preset.thetas(), default_normalisers()
