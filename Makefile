@@ -45,7 +45,7 @@ lint: venv
 
 # pytest exit 5 means "no tests collected": that is a failure here, never a pass.
 test: venv browser-deps serve-deps
-	$(PY) -m pytest; rc=$$?; if [ $$rc -eq 5 ]; then echo "pytest collected no tests" >&2; exit 1; fi; exit $$rc
+	$(PY) -m pytest -n 2 --dist loadgroup; rc=$$?; if [ $$rc -eq 5 ]; then echo "pytest collected no tests" >&2; exit 1; fi; exit $$rc
 
 bench: venv
 	$(PY) bench/planner.py

@@ -4,9 +4,11 @@ every Django import here happens inside a fixture so they stay Django-free.
 """
 from __future__ import annotations
 
+import fcntl
 import functools
 import os
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -45,9 +47,7 @@ def _fresh_rate_limits():
 def tiny_table(tmp_path_factory):
     """The `tiny` preset built for real (48 environments × 24 θ, a few seconds), once per run:
     every study the app's tests make draws its trajectories from it."""
-    out = tmp_path_factory.mktemp("tiny-table")
-    build_table(PRESETS["tiny"], out)
-    return out
+    return built_once(tmp_path_factory, "tiny-table", functools.partial(build_table, PRESETS["tiny"]))
 
 
 @pytest.fixture
@@ -159,33 +159,58 @@ def require_service(ci):
 
 
 # --- real tables ----------------------------------------------------------------------------
+def built_once(tmp_path_factory, name: str, build) -> Path:
+    """The directory `name`, filled by build(out) once per run and read-only afterwards.  Under
+    pytest-xdist (make test: -n 2) the workers share it: the first to need it builds it while
+    holding a lock, the others wait and reuse it, so a 30-s table is not built once per worker."""
+    root = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        root = root.parent  # this run's directory, above every worker's own
+    out, done = root / name, root / f"{name}.built"
+    with open(root / f"{name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes, also if build raises
+        if not done.exists():
+            out.mkdir(exist_ok=True)
+            build(out)
+            done.touch()
+    return out
+
+
+def _teach(table: Path):
+    def run(out):
+        assert teach.main(["--table", str(table), "--out", str(out), "--no-progress"]) == 0
+    return run
+
+
 @pytest.fixture(scope="session")
 def demo_table(tmp_path_factory):
     """The `demo` preset built for real (1,200 environments × 200 θ, ~30 s), once per run."""
-    out = tmp_path_factory.mktemp("demo-table")
-    build_table(PRESETS["demo"], out)
-    return out
+    return built_once(tmp_path_factory, "demo-table", functools.partial(build_table, PRESETS["demo"]))
 
 
 @pytest.fixture(scope="session")
 def gridworld_table(tmp_path_factory):
     """The `gridworld` preset (1,200 yards x 200 θ, a few seconds), once per run."""
-    out = tmp_path_factory.mktemp("gridworld-table")
-    build_table(PRESETS["gridworld"], out)
-    return out
+    return built_once(tmp_path_factory, "gridworld-table", functools.partial(build_table, PRESETS["gridworld"]))
 
 
 @pytest.fixture(scope="session")
 def gridworld_teach(gridworld_table, tmp_path_factory):
     """`python -m teaching.teach` on the gridworld table."""
-    out = tmp_path_factory.mktemp("gridworld-teach")
-    assert teach.main(["--table", str(gridworld_table), "--out", str(out), "--no-progress"]) == 0
-    return out
+    return built_once(tmp_path_factory, "gridworld-teach", _teach(gridworld_table))
 
 
 @pytest.fixture(scope="session")
 def demo_teach(demo_table, tmp_path_factory):
     """`python -m teaching.teach` run on the demo table: sequences.json, test_set.json, ..."""
-    out = tmp_path_factory.mktemp("demo-teach")
-    assert teach.main(["--table", str(demo_table), "--out", str(out), "--no-progress"]) == 0
-    return out
+    return built_once(tmp_path_factory, "demo-teach", _teach(demo_table))
+
+
+def pytest_collection_modifyitems(config, items):
+    """Under pytest-xdist (make test: -n 2 --dist loadgroup) the tests that use the machine's shared
+    services, marked postgres or redis, run on one worker, one after another, as in a serial run: the
+    load test restarts PostgreSQL under everyone's connections, and the load harness and the
+    real-worker tests each keep their queues in one Redis database."""
+    for item in items:
+        if item.get_closest_marker("postgres") or item.get_closest_marker("redis"):
+            item.add_marker(pytest.mark.xdist_group("services"))
