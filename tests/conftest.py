@@ -205,12 +205,3 @@ def demo_teach(demo_table, tmp_path_factory):
     """`python -m teaching.teach` run on the demo table: sequences.json, test_set.json, ..."""
     return built_once(tmp_path_factory, "demo-teach", _teach(demo_table))
 
-
-def pytest_collection_modifyitems(config, items):
-    """Under pytest-xdist (make test: -n 2 --dist loadgroup) the tests that use the machine's shared
-    services, marked postgres or redis, run on one worker, one after another, as in a serial run: the
-    load test restarts PostgreSQL under everyone's connections, and the load harness and the
-    real-worker tests each keep their queues in one Redis database."""
-    for item in items:
-        if item.get_closest_marker("postgres") or item.get_closest_marker("redis"):
-            item.add_marker(pytest.mark.xdist_group("services"))

@@ -33,8 +33,10 @@ pytestmark = [pytest.mark.browser, pytest.mark.slow, pytest.mark.postgres, pytes
 
 def create_researcher(server) -> None:
     """The account, made as a real deployment makes it (manage.py create_researcher)."""
-    subprocess.run([sys.executable, "manage.py", "create_researcher", USER, "--password-stdin"], cwd=harness.ROOT,
-                   env=server.env, input=PASSWORD + "\n", text=True, check=True, capture_output=True, timeout=60)
+    out = subprocess.run([sys.executable, "manage.py", "create_researcher", USER, "--password-stdin"],
+                         cwd=harness.ROOT, env=server.env, input=PASSWORD + "\n", text=True, capture_output=True,
+                         timeout=60)
+    assert out.returncode == 0, f"create_researcher failed ({out.returncode}):\n{out.stdout}{out.stderr}"
 
 
 def wait_for_job(page, timeout_ms: int = 240_000) -> None:
