@@ -43,14 +43,19 @@ load: venv serve-deps table
 lint: venv
 	.venv/bin/ruff check .
 
-# Two runs: most of the suite in two pytest-xdist workers, then the tests of the machine's shared
-# services (marked postgres or redis) one after another, as they must (the load test restarts
-# PostgreSQL under every connection; the load harness and the real-worker tests own Redis databases).
-# xdist's own grouping (--dist loadgroup) is silently ignored under pytest 9.2 (pytest-xdist #1386).
+# Two pytest runs side by side: most of the suite in two pytest-xdist workers, and the tests of the
+# machine's shared services (marked postgres or redis) one after another, as they must be (the load
+# test restarts PostgreSQL under every connection; the load harness and the real-worker tests own
+# Redis databases).  The first run touches neither service, so the two cannot disturb each other;
+# the second one's output is printed when both are done.  (xdist's own grouping, --dist loadgroup,
+# is silently ignored under pytest 9.2: pytest-xdist #1386.)
 # pytest exit 5 means "no tests collected": that is a failure here, never a pass.
+SERVICES_LOG = var/test-services.log
 test: venv browser-deps serve-deps
+	@mkdir -p var
+	$(PY) -m pytest -p no:cacheprovider -m "postgres or redis" > $(SERVICES_LOG) 2>&1 & svc=$$!; \
 	$(PY) -m pytest -n 2 -m "not (postgres or redis)"; a=$$?; \
-	$(PY) -m pytest -m "postgres or redis"; b=$$?; \
+	echo "--- the shared-services tests ($(SERVICES_LOG)) ---"; wait $$svc; b=$$?; cat $(SERVICES_LOG); \
 	for rc in $$a $$b; do if [ $$rc -eq 5 ]; then echo "pytest collected no tests" >&2; exit 1; fi; done; \
 	if [ $$a -ne 0 ]; then exit $$a; fi; exit $$b
 
