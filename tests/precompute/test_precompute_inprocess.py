@@ -16,7 +16,7 @@ import subprocess
 import sys
 import time
 from concurrent.futures import ThreadPoolExecutor
-from datetime import timedelta
+from datetime import datetime, timedelta
 from pathlib import Path
 
 import pytest
@@ -227,7 +227,11 @@ def test_unreachable_broker_is_a_clear_error(db, tmp_path, celery_app_with):
 
 def test_a_hung_broker_fails_the_launch_within_seconds(tmp_path):
     """Redis accepts and never answers: `precompute_table` (production broker settings, in its own
-    process) gives up within 10 s with a one-line message and leaves a failed job, not a pending one."""
+    process) gives up within 10 s of its launch with a one-line message and leaves a failed job, not
+    a pending one.  The 10 s run from the job's launch (started_at, stamped just before the broker
+    call) to its failure (finished_at): the process's own start-up (Django, NumPy) comes on top
+    and is only bounded loosely, as it stretches on a loaded machine (10.1 s in all, once, beside a
+    full test run)."""
     root = Path(__file__).resolve().parents[2]
     db = tmp_path / "db.sqlite3"
     env = dict(os.environ, DATABASE_URL=f"sqlite:///{db}", VAR_DIR=str(tmp_path / "var"),
@@ -241,10 +245,14 @@ def test_a_hung_broker_fails_the_launch_within_seconds(tmp_path):
                               str(tmp_path / "t")], cwd=root, env=env, capture_output=True, text=True, timeout=120)
         seconds = time.monotonic() - start
     print(f"precompute_table gave up after {seconds:.1f} s: {out.stderr.strip()}")
-    assert out.returncode != 0 and seconds < 10
+    assert out.returncode != 0 and seconds < 30  # a hang would run into the 120-s timeout
     assert f"cannot send job 1 to the broker at {broker}" in out.stderr and "Traceback" not in out.stderr
     with sqlite3.connect(db) as conn:
-        assert conn.execute("SELECT status FROM precompute_job").fetchall() == [("failed",)]
+        (status, started, finished), = conn.execute("SELECT status, started_at, finished_at FROM precompute_job")
+    assert status == "failed"
+    waited = (datetime.fromisoformat(finished) - datetime.fromisoformat(started)).total_seconds()
+    print(f"from the launch to the failure: {waited:.1f} s")
+    assert 0 < waited < 10
 
 
 def test_theta_star_travels_with_the_job_spec(tmp_path):
