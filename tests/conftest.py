@@ -7,6 +7,7 @@ from __future__ import annotations
 import fcntl
 import functools
 import os
+import shutil
 import sys
 from pathlib import Path
 
@@ -170,7 +171,8 @@ def built_once(tmp_path_factory, name: str, build) -> Path:
     with open(root / f"{name}.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes, also if build raises
         if not done.exists():
-            out.mkdir(exist_ok=True)
+            shutil.rmtree(out, ignore_errors=True)  # what a build that raised left half-written
+            out.mkdir()
             build(out)
             done.touch()
     return out
@@ -204,4 +206,3 @@ def gridworld_teach(gridworld_table, tmp_path_factory):
 def demo_teach(demo_table, tmp_path_factory):
     """`python -m teaching.teach` run on the demo table: sequences.json, test_set.json, ..."""
     return built_once(tmp_path_factory, "demo-teach", _teach(demo_table))
-
