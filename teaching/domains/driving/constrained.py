@@ -53,9 +53,13 @@ LAM_NEGLIGIBLE = 1e-12  # a penalty force below this (units per ft: a limit >= ~
 SQP_ITERS = 30
 SQP_STEP_DONE = 1e-8  # max |step| in z at a KKT point: the reward moves by ~|H| step^2, nothing
 SQP_PRED_DONE = 1e-13  # ... or the QP promises less than this decrease of f (normalised units)
+SQP_PRED_TAKEN = 1e-10  # ... or a whole step just taken from a feasible point promised less than this, and every
+#                         limit holds after it (the tail of a linearly converging SQP: see sqp_one)
 SQP_LOCAL = 1e-4  # a step this short is taken whole (the l1 merit's Maratos effect would reject it)
 AUG_GAIN = 100.0  # the augmentation, per unit normal, in units of H's largest diagonal entry (10 was enough
 #                   where a reduced Hessian's smallest eigenvalue was 1.8e-5 of it; 100 keeps B's condition ~4e7)
+RETRY_AUG_GAIN = 1000.0  # a second SQP, from the same start, where the first did not converge: a large negative
+#                          eigenvalue of H_L in the span of the held limits needs more (docs/decisions.md)
 QP_TOL = 1e-13  # ft (per unit normal): a linearised limit violated by less is held
 QP_DEP = 1e-8  # share of a normal (G^-1 metric) outside the active ones' span below which it depends on them
 
@@ -245,7 +249,7 @@ def qp_solve(Ginv, a, N, b, m, x, u, active):
 
 
 @njit(cache=True)
-def sqp_one(z, ox, oy, goal, w, lam, maxiter, feas_tol):
+def sqp_one(z, ox, oy, goal, w, lam, maxiter, feas_tol, z_best, aug_gain=AUG_GAIN):
     """Sequential quadratic programming from a feasible z near the constrained optimum (the penalty's
     answer), z (K, 2) in place, lam (NC,) multipliers (in: the penalty's forces; out: the final ones).
 
@@ -254,7 +258,8 @@ def sqp_one(z, ox, oy, goal, w, lam, maxiter, feas_tol):
     space) and, if needed, a diagonal shift; the QP  min 1/2 p' B p + grad f' p  s.t.  c + A p <= 0 and
     the box, by qp_solve; a full step where it lowers the l1 merit f + nu sum max(0, c) or is short,
     else halved.  True when the step is <= SQP_STEP_DONE with every limit holding to feas_tol: a KKT
-    point with the QP's multipliers lam >= 0.  Returns (that, iterations)."""
+    point with the QP's multipliers lam >= 0.  z_best (K, 2) gets the best iterate, under w . phi_raw, at which
+    every limit held to feas_tol (z itself if none did); returns (converged, iterations, w . phi_raw at z_best)."""
     zf = z.reshape(NV)
     c = np.empty(NC)
     A = np.empty((NC, NV))
@@ -277,6 +282,8 @@ def sqp_one(z, ox, oy, goal, w, lam, maxiter, feas_tol):
     # so it moves no KKT point, but it makes B positive definite where only the reduced Hessian is.
     # (Augmenting also the limits within 1e-3 ft of theirs left 3x more pairs unconverged.)
     held = np.zeros(NC, np.bool_)
+    z_best[:, :] = z
+    f_best = true_objective(z, ox, oy, goal, w)
     for it in range(maxiter):
         for i in range(NC):
             lam_pos[i] = max(lam[i], 0.0)
@@ -288,7 +295,7 @@ def sqp_one(z, ox, oy, goal, w, lam, maxiter, feas_tol):
         r_aug = 1.0
         for j in range(NV):
             r_aug = max(r_aug, abs(H[j, j]))
-        r_aug *= AUG_GAIN
+        r_aug *= aug_gain
         B0[:, :] = H
         for i in range(NC):
             if held[i]:
@@ -310,7 +317,7 @@ def sqp_one(z, ox, oy, goal, w, lam, maxiter, feas_tol):
                 break
             shift = max(1e-12 * r_aug, 10.0 * shift)
         if not ok:
-            return False, it
+            return False, it, f_best
         for i in range(NC):  # c + A p <= 0  as  (-A_i) . p >= c_i
             N[i, :] = -A[i, :]
             bq[i] = c[i]
@@ -320,7 +327,7 @@ def sqp_one(z, ox, oy, goal, w, lam, maxiter, feas_tol):
             N[NC + 2 * j + 1, j] = -1.0
             bq[NC + 2 * j + 1] = zf[j] - 1.0
         if not qp_solve(Ginv, g, N, bq, m, p, u, active):
-            return False, it
+            return False, it, f_best
         step = 0.0
         for j in range(NV):
             step = max(step, abs(p[j]))
@@ -339,7 +346,8 @@ def sqp_one(z, ox, oy, goal, w, lam, maxiter, feas_tol):
                 bp += B[a_, b_] * p[b_]
             pred -= p[a_] * (g[a_] + 0.5 * bp)
         if (step <= SQP_STEP_DONE or pred <= SQP_PRED_DONE) and viol <= feas_tol:
-            return True, it
+            z_best[:, :] = z
+            return True, it, true_objective(z, ox, oy, goal, w)
         # the merit's weight on violation: above the multipliers (exact penalty) but of their size;
         # weight 1 (normalised units per ft, multipliers ~1e-4) rejected nearly every full step
         nu = 1e-8
@@ -362,7 +370,16 @@ def sqp_one(z, ox, oy, goal, w, lam, maxiter, feas_tol):
                     break
             alpha *= 0.5
         zf[:] = zt
-    return False, maxiter
+        feasible = _max(ct) <= feas_tol
+        if alpha == 1.0 and viol <= feas_tol and 0.0 <= pred <= SQP_PRED_TAKEN and feasible:
+            z_best[:, :] = z
+            return True, it + 1, true_objective(z, ox, oy, goal, w)
+        if feasible:
+            f = true_objective(z, ox, oy, goal, w)
+            if f < f_best:
+                f_best = f
+                z_best[:, :] = z
+    return False, maxiter, f_best
 
 
 @njit(cache=True)
@@ -411,6 +428,14 @@ def _row_norm2(A, i):
 
 
 @njit(cache=True)
+def _max(c):
+    v = -np.inf
+    for i in range(c.shape[0]):
+        v = max(v, c[i])
+    return v
+
+
+@njit(cache=True)
 def _excess(c):
     """sum_i max(0, c_i): how far past the limits, in total (ft)."""
     v = 0.0
@@ -428,7 +453,8 @@ def constrained_one(z, ox, oy, goal, w, maxiter, tol, feas_tol, from_penalty_opt
        LAM_NEGLIGIBLE there, that is the constrained optimum too (status 0).
     2. sqp_one from there, the penalty's forces as first multipliers.  Status 1: it reached a KKT
        point (step <= SQP_STEP_DONE, every limit holding to feas_tol) no worse than the penalty's
-       answer.  Status 2: otherwise; the penalty's (feasible) answer is kept and nothing claimed.
+       answer.  Status 2: otherwise; the better of the penalty's (feasible) answer and the SQP's best
+       feasible iterate is kept, and nothing claimed.
     Returns (w . phi_raw at the answer, Newton and SQP iterations, status)."""
     lam = np.zeros(NC)
     it = 0
@@ -443,15 +469,20 @@ def constrained_one(z, ox, oy, goal, w, maxiter, tol, feas_tol, from_penalty_opt
     f_pen = true_objective(z, ox, oy, goal, w)
     if not pressed:
         return f_pen, it, 0
-    zs = z.copy()
-    ok, its = sqp_one(zs, ox, oy, goal, w, lam, SQP_ITERS, feas_tol)
-    it += its
-    if ok:
-        f = true_objective(zs, ox, oy, goal, w)
-        if f <= f_pen + 1e-12:
-            z[:, :] = zs
+    z_best = np.empty_like(z)
+    f_kept, z_kept = f_pen, z.copy()
+    for aug_gain in (AUG_GAIN, RETRY_AUG_GAIN):
+        zs = z.copy()
+        ok, its, f = sqp_one(zs, ox, oy, goal, w, lam.copy(), SQP_ITERS, feas_tol, z_best, aug_gain)
+        it += its
+        if ok and f <= f_pen + 1e-12:
+            z[:, :] = z_best
             return f, it, 1
-    return f_pen, it, 2
+        if f < f_kept:  # not converged, but a feasible iterate beat what is kept so far
+            f_kept = f
+            z_kept[:, :] = z_best
+    z[:, :] = z_kept
+    return f_kept, it, 2
 
 
 @njit(parallel=True, cache=True)

@@ -7,7 +7,8 @@ a local optimiser alone is wrong.  For one chunk of environments:
    log|theta|, theta* first) are solved from every strategy seed (all of them
    when Theta is small), and the next few in that order from the two straight
    seeds at higher and lower speed (speeding up and dropping back in lane are
-   the basins warm starts from lane changes miss);
+   the basins warm starts from lane changes miss) and from the two double lane
+   changes (a zigzag's basin no single lane change leads to);
 2. **continuation over theta**: the thetas in the same farthest-point order,
    in rounds of doubling size (A, A, 2A, 4A, ... for A anchors); each starts from the best,
    under it, of everything solved so far in its environment (the anchors' seed
@@ -51,7 +52,7 @@ from .features import raw_features, reward
 from .strategies import lane_crossings, strategy_labels
 from .world import WORLD
 
-PLANNER_VERSION = 10  # bump whenever a change alters the trajectories it returns
+PLANNER_VERSION = 11  # bump whenever a change alters the trajectories it returns
 NEWTON_TOL = 1e-7  # max |projected gradient|, normalised reward units per unit of z (1e-9 changed no gap)
 REFINE_GAIN = 1e-6  # normalised reward units: exact IRL's tolerance (1e-7 and 1e-8 changed no measured gap)
 FEAS_TOL = 1e-9  # ft: how far past a limit the constrained solve may end (teaching.domains.driving.constrained)
@@ -62,7 +63,8 @@ STORED_FEAS_TOL = 1e-4  # ft: ... and a stored (float32) trajectory that may be 
 class PlannerSettings:
     n_anchors: int = 2  # solved from every seed; 8 is as good as 2 + the straight anchors below, at 1.3x the time
     straight_anchors: int = 8  # the next thetas in anchor order, solved from the straight seeds at higher and
-    straight_seeds: tuple = (1, 2)  # lower speed: warm starts missed those basins most (docs/decisions.md)
+    straight_seeds: tuple = (1, 2, 8, 9)  # lower speed (warm starts missed those basins most), and from the double
+    #                                       lane changes (version 11: env 18182 / theta 861; docs/decisions.md)
     all_anchors_below: int = 32  # with so few thetas the cross-theta step has little to share: multi-start all
     anchor_iters: int = 200
     warm_iters: int = 200  # a cap, not a budget: warm starts run until Newton converges (NEWTON_TOL)
@@ -149,7 +151,8 @@ def solve(z0, other_xy, goal, weights, maxiter):
 def solve_constrained(z0, other_xy, goal, weights, maxiter, from_penalty_optimum=False):
     """The hard-limit optimum from z0 (B, K, 2) (teaching.domains.driving.constrained; from_penalty_optimum: z0 already
     minimises the penalised F, so the penalised Newton is skipped); returns (z, w . phi_raw, iterations,
-    status: 0 no limit pressed, 1 exact, 2 the penalty's answer kept)."""
+    status: 0 no limit pressed, 1 exact, 2 not converged: the better of the penalty's answer and the SQP's best
+    feasible iterate kept)."""
     z = np.ascontiguousarray(z0, dtype=np.float64).copy()
     n = len(z)
     F = np.empty(n)
@@ -299,8 +302,10 @@ def plan_chunk(env_ids, thetas, normalisers, settings: PlannerSettings = Planner
 
     # 6. exact: the penalty's minimiser lies a little inside each limit it presses against; every
     #    theta's trajectory is solved again with the limits as hard constraints, and the hand-overs
-    #    settled again among these (feasible) trajectories only, refining from a new start with the
-    #    same constrained solve.
+    #    settled again among these and the penalty's answers (the feasible ones only: the penalty's lie
+    #    a little inside the limits), refining from a new start with the same constrained solve.  The
+    #    penalty's answers stay candidates because an SQP that does not converge for one theta may
+    #    leave its trajectory worse for another theta than the penalty's was.
     if settings.exact:
         def exact_batch(env_idx, theta_idx, z0, iters, from_penalty_optimum=False):
             zc, _, its, status = solve_constrained(z0, oxy[env_idx], envs.goal[env_idx], weights[theta_idx], iters,
@@ -308,7 +313,7 @@ def plan_chunk(env_ids, thetas, normalisers, settings: PlannerSettings = Planner
             if stats is not None:
                 stats["constrained"] = stats.get("constrained", 0) + len(zc)
                 stats["constrained_iterations"] = stats.get("constrained_iterations", 0) + int(its.sum())
-                stats["constrained_kept_penalty"] = stats.get("constrained_kept_penalty", 0) + int((status == 2).sum())
+                stats["constrained_unconverged"] = stats.get("constrained_unconverged", 0) + int((status == 2).sum())
             return _as_stored(zc)
 
         def feasible(zs, env_idx):
@@ -317,7 +322,7 @@ def plan_chunk(env_ids, thetas, normalisers, settings: PlannerSettings = Planner
         e6, t6 = np.repeat(np.arange(M), N), np.tile(np.arange(N), M)
         zx = exact_batch(e6, t6, z.reshape(-1, K, 2), settings.warm_iters, True).reshape(M, N, K, 2)
         phix = phi(zx.reshape(-1, K, 2), e6).reshape(M, N, 5)
-        z, feats = _settle(zx, phix, zx[:, :0], phix[:, :0], thetas=thetas, rounds=settings.refine_rounds,
+        z, feats = _settle(zx, phix, z, feats, thetas=thetas, rounds=settings.refine_rounds,
                            batch=exact_batch, phi=phi, iters=settings.warm_iters, stats=stats, feasible=feasible)
 
     # Guard in the table's own arithmetic: never worse under theta than theta*'s trajectory.
