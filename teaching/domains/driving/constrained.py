@@ -258,7 +258,9 @@ def sqp_one(z, ox, oy, goal, w, lam, maxiter, feas_tol, z_best, aug_gain=AUG_GAI
     space) and, if needed, a diagonal shift; the QP  min 1/2 p' B p + grad f' p  s.t.  c + A p <= 0 and
     the box, by qp_solve; a full step where it lowers the l1 merit f + nu sum max(0, c) or is short,
     else halved.  True when the step is <= SQP_STEP_DONE with every limit holding to feas_tol: a KKT
-    point with the QP's multipliers lam >= 0.  z_best (K, 2) gets the best iterate, under w . phi_raw, at which
+    point with the QP's multipliers lam >= 0; or when a whole step from a feasible point promised at most
+    SQP_PRED_TAKEN and every limit holds after it (where the SQP converges only linearly, the next QP
+    would confirm it many iterations later).  z_best (K, 2) gets the best iterate, under w . phi_raw, at which
     every limit held to feas_tol (z itself if none did); returns (converged, iterations, w . phi_raw at z_best)."""
     zf = z.reshape(NV)
     c = np.empty(NC)
@@ -451,10 +453,10 @@ def constrained_one(z, ox, oy, goal, w, maxiter, tol, feas_tol, from_penalty_opt
     1. Projected Newton on the soft penalty finds the basin (skipped if from_penalty_optimum: z is
        already the penalty's optimum, to the stored precision).  If no limit exerts a force above
        LAM_NEGLIGIBLE there, that is the constrained optimum too (status 0).
-    2. sqp_one from there, the penalty's forces as first multipliers.  Status 1: it reached a KKT
-       point (step <= SQP_STEP_DONE, every limit holding to feas_tol) no worse than the penalty's
-       answer.  Status 2: otherwise; the better of the penalty's (feasible) answer and the SQP's best
-       feasible iterate is kept, and nothing claimed.
+    2. sqp_one from there, the penalty's forces as first multipliers, and again with RETRY_AUG_GAIN if
+       it does not converge.  Status 1: it reached a KKT point (sqp_one's test, every limit holding to
+       feas_tol) no worse than the penalty's answer.  Status 2: otherwise; the better of the penalty's
+       (feasible) answer and the SQPs' best feasible iterate is kept, and nothing claimed.
     Returns (w . phi_raw at the answer, Newton and SQP iterations, status)."""
     lam = np.zeros(NC)
     it = 0
