@@ -256,9 +256,9 @@ def test_the_planner_reaches_the_hard_references_basin_version_10_missed():
 @pytest.mark.parametrize("env_id, theta_index", [(4483, 864), (4504, 437)])
 def test_the_exact_step_converges_where_planner_10s_sqp_stalled(env_id, theta_index):
     """Two pairs (paper Theta) where planner 10's SQP stalled at its 30-iteration cap and kept the
-    penalty's answer, 4.7e-4 and 4.1e-4 short of the hard reference: one converged linearly (steps of
-    1e-5 shrinking by a tenth in 25 iterations, the objective settled at the fourth), one oscillated
-    between a long step the line search cut and a short one back onto three held limits.  Since
+    penalty's answer, 4.7e-4 and 4.1e-4 short of the hard reference (traced, 4483 / 864 converged
+    linearly: steps from 3e-5 down to 1e-6 over 26 iterations, each only ~12 % shorter than the last,
+    while the objective had settled at the fourth).  Since
     version 11 a whole step from a feasible point that promised < 1e-10 ends the SQP, and an SQP that
     does not converge is run again with a larger augmentation (constrained.RETRY_AUG_GAIN)."""
     thetas = sample_thetas(1000, theta_star=THETA_STAR)
