@@ -372,7 +372,7 @@ def sqp_one(z, ox, oy, goal, w, lam, maxiter, feas_tol, z_best, aug_gain=AUG_GAI
                     break
             alpha *= 0.5
         zf[:] = zt
-        feasible = _max(ct) <= feas_tol
+        feasible = ct.max() <= feas_tol
         if alpha == 1.0 and viol <= feas_tol and 0.0 <= pred <= SQP_PRED_TAKEN and feasible:
             z_best[:, :] = z
             return True, it + 1, true_objective(z, ox, oy, goal, w)
@@ -426,14 +426,6 @@ def _row_norm2(A, i):
     v = 0.0
     for j in range(A.shape[1]):
         v += A[i, j] * A[i, j]
-    return v
-
-
-@njit(cache=True)
-def _max(c):
-    v = -np.inf
-    for i in range(c.shape[0]):
-        v = max(v, c[i])
     return v
 
 
