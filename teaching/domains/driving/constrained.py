@@ -36,14 +36,17 @@ from .kernels import (
     WORLD_CACHE_DIR,
     X_LIM,
     T,
+    _backward,
     _cholesky_solve,
+    _forward,
     cholesky,
     euler_step_sensitivities,
+    features_of_states,
     features_one,
-    lagrangian_grad_hess,
     newton_one,
     overshoot_penalty,
     rollout_one,
+    workspace,
 )
 
 _user_cache_dir = numba_config.CACHE_DIR
@@ -70,6 +73,12 @@ def limit_values(z, goal, c):
     lane-end band, and H_SCALE times the heading's distance past its band (the penalty's units)."""
     s = np.empty((T + 1, 5))
     rollout_one(z, s)
+    _limits_of_states(s, goal, c)
+
+
+@njit(cache=True)
+def _limits_of_states(s, goal, c):
+    """limit_values of rolled-out states s (T+1, 5)."""
     for t in range(1, T + 1):
         c[t - 1] = abs(s[t, 0]) - X_LIM
     x = s[T, 0]
@@ -87,22 +96,43 @@ def true_objective(z, ox, oy, goal, w):
 
 
 @njit(cache=True)
+def true_objective_and_limits(z, ox, oy, goal, w, c):
+    """true_objective, and limit_values into c (NC,), from one rollout (the same bits as the two)."""
+    s = np.empty((T + 1, 5))
+    rollout_one(z, s)
+    _limits_of_states(s, goal, c)
+    f = np.empty(5)
+    features_of_states(s, ox, oy, goal, f)
+    return w[0] * f[0] + w[1] * f[1] + w[2] * f[2] + w[3] * f[3] + w[4] * f[4]
+
+
+@njit(cache=True)
 def limit_jacobian(z, goal, c, A):
     """c (NC,) as limit_values and A (NC, NV) = dc/dz (flat z), by the forward sensitivities of the
     Euler rollout (kernels.euler_step_sensitivities)."""
+    S = np.empty((T + 1, 5))
     Jall = np.zeros((T + 1, 5, NV))
     x, y, h, v, st = 0.0, 0.0, H0, V0, 0.0
     for t in range(T):
         x, y, h, v, st, _, _, _, _ = euler_step_sensitivities(z, t, x, y, h, v, st, Jall[t], Jall[t + 1])
-        J = Jall[t + 1]
-        sx = 1.0 if x > 0.0 else -1.0
+        S[t + 1, 0], S[t + 1, 2] = x, h
+    _jacobian_of_states(S, Jall, goal, c, A)
+
+
+@njit(cache=True)
+def _jacobian_of_states(S, Jall, goal, c, A):
+    """limit_jacobian from the states S (T+1, 5) and sensitivities Jall (T+1, 5, NV) of a forward pass
+    (kernels.workspace: the Lagrangian's pass has them already)."""
+    for t in range(T):
+        x = S[t + 1, 0]
         c[t] = abs(x) - X_LIM
-        A[t, :] = sx * J[0, :]
+        A[t, :] = (1.0 if x > 0.0 else -1.0) * Jall[t + 1, 0, :]
+    x, h = S[T, 0], S[T, 2]
     lane = LW if goal == 0 else min(max(LW * math.floor(x / LW + 0.5), -LW), LW)
     c[T] = abs(x - lane) - BAND
-    A[T, :] = (1.0 if x > lane else -1.0) * J[0, :]
+    A[T, :] = (1.0 if x > lane else -1.0) * Jall[T, 0, :]
     c[T + 1] = H_SCALE * (abs(h - H0) - H_BAND)
-    A[T + 1, :] = (H_SCALE if h > H0 else -H_SCALE) * J[2, :]
+    A[T + 1, :] = (H_SCALE if h > H0 else -H_SCALE) * Jall[T, 2, :]
 
 
 @njit(cache=True)
@@ -142,6 +172,15 @@ def _normal_gram(N, rows, q, GN, out):
 
 
 @njit(cache=True)
+def _dot_row(N, i, lo, hi, v, s=0.0):
+    """s + N[i] . v, added term by term from s, over the columns lo[i]:hi[i] where row i can be
+    non-zero: the same bits as the full sum (the terms left out are exact zeros)."""
+    for j in range(lo[i], hi[i]):
+        s += N[i, j] * v[j]
+    return s
+
+
+@njit(cache=True)
 def qp_solve(Ginv, a, N, b, m, x, u, active):
     """Goldfarb and Idnani's dual active-set method for  min 1/2 x' G x + a' x  s.t.  N_i . x >= b_i
     (i < m), given Ginv = G^-1 (n, n), G positive definite.  x (n,) and u (m,) (the multipliers, >= 0)
@@ -150,7 +189,12 @@ def qp_solve(Ginv, a, N, b, m, x, u, active):
     dropping an active constraint whenever its multiplier would turn negative; a constraint whose
     normal depends on the active ones is reached by dropping one (so the active normals stay
     independent: redundant limits need no care).  Returns False if the constraints are infeasible
-    or it did not finish in its iteration budget."""
+    or it did not finish in its iteration budget.
+
+    The normals are sparse (a box bound touches one variable, the limit at step t only the knots
+    before it), so every product with a row runs over the columns where it can be non-zero, and the
+    active normals' Gram matrix in the G^-1 metric is kept up to date as constraints join and leave
+    rather than formed again at every step: each entry is the same sum as before, so the same bits."""
     n = Ginv.shape[0]
     for i in range(n):
         v = 0.0
@@ -159,10 +203,20 @@ def qp_solve(Ginv, a, N, b, m, x, u, active):
         x[i] = v
     u[:m] = 0.0
     active[:m] = False
+    lo, hi, norm = np.empty(m, np.int64), np.empty(m, np.int64), np.empty(m)
+    for i in range(m):
+        lo[i], hi[i] = n, 0
+        nn = 0.0
+        for j in range(n):
+            if N[i, j] != 0.0:
+                lo[i], hi[i] = min(lo[i], j), j + 1
+            nn += N[i, j] * N[i, j]
+        norm[i] = math.sqrt(nn) + 1e-300
+        hi[i] = max(hi[i], lo[i])
     act = np.empty(n, np.int64)  # indices of the active constraints, in order
     q = 0
     GN = np.empty((n, n))  # Ginv N_k' for the active k (columns)
-    Mq = np.empty((n, n))
+    Mq = np.empty((n, n))  # Mq[a, b] = N_act[a] . GN[:, b], the active normals' Gram matrix
     zdir = np.empty(n)
     r = np.empty(n)
     w1 = np.empty(n)
@@ -173,31 +227,23 @@ def qp_solve(Ginv, a, N, b, m, x, u, active):
         for i in range(m):
             if active[i]:
                 continue
-            s = -b[i]
-            nn = 0.0
-            for j in range(n):
-                s += N[i, j] * x[j]
-                nn += N[i, j] * N[i, j]
-            s /= math.sqrt(nn) + 1e-300
+            s = _dot_row(N, i, lo, hi, x, -b[i]) / norm[i]
             if s < worst - QP_TOL:
                 worst, p = s, i
         if p < 0:
             return True
+        for j in range(n):  # gn = Ginv N_p'
+            v = 0.0
+            for k in range(lo[p], hi[p]):
+                v += Ginv[j, k] * N[p, k]
+            gn[j] = v
+        gg = _dot_row(N, p, lo, hi, gn)
         u_p = 0.0
         for _inner in range(n + 2):
-            for j in range(n):  # gn = Ginv N_p'
-                v = 0.0
-                for k in range(n):
-                    v += Ginv[j, k] * N[p, k]
-                gn[j] = v
             # r = (Na Ginv Na')^-1 Na Ginv n_p ; z = Ginv n_p - Ginv Na' r
             if q:
-                _normal_gram(N, act, q, GN, Mq)
                 for a_ in range(q):
-                    v = 0.0
-                    for j in range(n):
-                        v += N[act[a_], j] * gn[j]
-                    w1[a_] = v
+                    w1[a_] = _dot_row(N, act[a_], lo, hi, gn)
                 if not _cholesky_solve(Mq[:q, :q].copy(), w1[:q].copy(), r[:q]):
                     return False
             for j in range(n):
@@ -211,14 +257,8 @@ def qp_solve(Ginv, a, N, b, m, x, u, active):
                     ratio = u[act[a_]] / r[a_]
                     if ratio < t1:
                         t1, l_ = ratio, a_
-            zn = 0.0
-            gg = 0.0
-            for j in range(n):
-                zn += zdir[j] * N[p, j]
-                gg += gn[j] * N[p, j]
-            s = -b[p]
-            for j in range(n):
-                s += N[p, j] * x[j]
+            zn = _dot_row(N, p, lo, hi, zdir)
+            s = _dot_row(N, p, lo, hi, x, -b[p])
             # n_p' H n_p against n_p' G^-1 n_p: the share of n_p the active normals do not explain
             t2 = -s / zn if zn > QP_DEP * gg else np.inf
             t = min(t1, t2)
@@ -235,6 +275,9 @@ def qp_solve(Ginv, a, N, b, m, x, u, active):
                 active[p] = True
                 act[q] = p
                 GN[:, q] = gn
+                for a_ in range(q + 1):
+                    Mq[a_, q] = _dot_row(N, act[a_], lo, hi, GN[:, q])
+                    Mq[q, a_] = _dot_row(N, p, lo, hi, GN[:, a_])
                 q += 1
                 break
             # partial step: the constraint whose multiplier reached 0 leaves
@@ -244,12 +287,16 @@ def qp_solve(Ginv, a, N, b, m, x, u, active):
             for a_ in range(l_, q - 1):
                 act[a_] = act[a_ + 1]
                 GN[:, a_] = GN[:, a_ + 1]
+            for a_ in range(l_, q - 1):  # Mq without row and column l_
+                Mq[a_, :q] = Mq[a_ + 1, :q]
+            for a_ in range(l_, q - 1):
+                Mq[:q - 1, a_] = Mq[:q - 1, a_ + 1]
             q -= 1
     return False
 
 
 @njit(cache=True)
-def sqp_one(z, ox, oy, goal, w, lam, maxiter, feas_tol, z_best, aug_gain=AUG_GAIN):
+def sqp_one(z, ox, oy, goal, w, lam, maxiter, feas_tol, z_best, f_start, aug_gain=AUG_GAIN):
     """Sequential quadratic programming from a feasible z near the constrained optimum (the penalty's
     answer), z (K, 2) in place, lam (NC,) multipliers (in: the penalty's forces; out: the final ones).
 
@@ -261,7 +308,9 @@ def sqp_one(z, ox, oy, goal, w, lam, maxiter, feas_tol, z_best, aug_gain=AUG_GAI
     point with the QP's multipliers lam >= 0; or when a whole step from a feasible point promised at most
     SQP_PRED_TAKEN and every limit holds after it (where the SQP converges only linearly, the next QP
     would confirm it many iterations later).  z_best (K, 2) gets the best iterate, under w . phi_raw, at which
-    every limit held to feas_tol (z itself if none did); returns (converged, iterations, w . phi_raw at z_best)."""
+    every limit held to feas_tol (z itself if none did); f_start is w . phi_raw at the start.  Returns
+    (converged, iterations, w . phi_raw at z_best).  Every point's objective and limits come from one
+    rollout, and the limits' Jacobian from the Lagrangian's own forward pass."""
     zf = z.reshape(NV)
     c = np.empty(NC)
     A = np.empty((NC, NV))
@@ -284,13 +333,15 @@ def sqp_one(z, ox, oy, goal, w, lam, maxiter, feas_tol, z_best, aug_gain=AUG_GAI
     # so it moves no KKT point, but it makes B positive definite where only the reduced Hessian is.
     # (Augmenting also the limits within 1e-3 ft of theirs left 3x more pairs unconverged.)
     held = np.zeros(NC, np.bool_)
+    work = workspace()
     z_best[:, :] = z
-    f_best = true_objective(z, ox, oy, goal, w)
+    f_best = f_z = f_start  # f_z: w . phi_raw at z
     for it in range(maxiter):
         for i in range(NC):
             lam_pos[i] = max(lam[i], 0.0)
-        lagrangian_grad_hess(z, ox, oy, goal, w, lam_pos, g, H, True)  # grad L, hess L
-        limit_jacobian(z, goal, c, A)
+        _forward(z, ox, oy, goal, w, lam_pos, True, g, work)  # grad L (kernels.lagrangian_grad_hess) ...
+        _backward(ox, oy, goal, w, lam_pos, True, work, H)  # ... hess L
+        _jacobian_of_states(work[0], work[1], goal, c, A)
         for j in range(NV):  # grad f = grad L - A' lam
             for i in range(NC):
                 g[j] -= A[i, j] * lam_pos[i]
@@ -349,38 +400,36 @@ def sqp_one(z, ox, oy, goal, w, lam, maxiter, feas_tol, z_best, aug_gain=AUG_GAI
             pred -= p[a_] * (g[a_] + 0.5 * bp)
         if (step <= SQP_STEP_DONE or pred <= SQP_PRED_DONE) and viol <= feas_tol:
             z_best[:, :] = z
-            return True, it, true_objective(z, ox, oy, goal, w)
+            return True, it, f_z
         # the merit's weight on violation: above the multipliers (exact penalty) but of their size;
         # weight 1 (normalised units per ft, multipliers ~1e-4) rejected nearly every full step
         nu = 1e-8
         for i in range(NC):
             nu = max(nu, 2.0 * u[i])
-        merit = true_objective(z, ox, oy, goal, w) + nu * _excess(c)
+        merit = f_z + nu * _excess(c)
         alpha = 1.0
         for _ls in range(30):
             for j in range(NV):
                 zt[j] = min(1.0, max(-1.0, zf[j] + alpha * p[j]))
-            limit_values(zt.reshape(z.shape), goal, ct)
-            mt = true_objective(zt.reshape(z.shape), ox, oy, goal, w) + nu * _excess(ct)
-            if mt <= merit or alpha * step <= SQP_LOCAL:
+            f_t = true_objective_and_limits(zt.reshape(z.shape), ox, oy, goal, w, ct)
+            if f_t + nu * _excess(ct) <= merit or alpha * step <= SQP_LOCAL:
                 break
             if alpha == 1.0 and _second_order_correction(zf, p, Ginv, A, active, ct, zt):
                 # the full step's curvature pushed the active limits off (Maratos): corrected back onto
                 # them along the QP's metric, it is taken if the merit then falls
-                limit_values(zt.reshape(z.shape), goal, ct)
-                if true_objective(zt.reshape(z.shape), ox, oy, goal, w) + nu * _excess(ct) <= merit:
+                f_t = true_objective_and_limits(zt.reshape(z.shape), ox, oy, goal, w, ct)
+                if f_t + nu * _excess(ct) <= merit:
                     break
             alpha *= 0.5
         zf[:] = zt
+        f_z = f_t
         feasible = ct.max() <= feas_tol
         if alpha == 1.0 and viol <= feas_tol and 0.0 <= pred <= SQP_PRED_TAKEN and feasible:
             z_best[:, :] = z
-            return True, it + 1, true_objective(z, ox, oy, goal, w)
-        if feasible:
-            f = true_objective(z, ox, oy, goal, w)
-            if f < f_best:
-                f_best = f
-                z_best[:, :] = z
+            return True, it + 1, f_z
+        if feasible and f_z < f_best:
+            f_best = f_z
+            z_best[:, :] = z
     return False, maxiter, f_best
 
 
@@ -455,19 +504,18 @@ def constrained_one(z, ox, oy, goal, w, maxiter, tol, feas_tol, from_penalty_opt
     if not from_penalty_optimum:
         _, it = newton_one(z, ox, oy, goal, w, maxiter, tol)
     c = np.empty(NC)
-    limit_values(z, goal, c)
+    f_pen = true_objective_and_limits(z, ox, oy, goal, w, c)
     pressed = False
     for i in range(NC):
         lam[i] = overshoot_penalty(c[i])[1]
         pressed = pressed or lam[i] > LAM_NEGLIGIBLE
-    f_pen = true_objective(z, ox, oy, goal, w)
     if not pressed:
         return f_pen, it, 0
     z_best = np.empty_like(z)
     f_kept, z_kept = f_pen, z.copy()
     for aug_gain in (AUG_GAIN, RETRY_AUG_GAIN):
         zs = z.copy()
-        ok, its, f = sqp_one(zs, ox, oy, goal, w, lam.copy(), SQP_ITERS, feas_tol, z_best, aug_gain)
+        ok, its, f = sqp_one(zs, ox, oy, goal, w, lam.copy(), SQP_ITERS, feas_tol, z_best, f_pen, aug_gain)
         it += its
         if ok and f <= f_pen + 1e-12:
             z[:, :] = z_best
