@@ -586,22 +586,40 @@ def _reward5(phi, p, t0, t1, t2, t3, t4):
     return (((phi[p, 0] * t0 + phi[p, 1] * t1) + phi[p, 2] * t2) + phi[p, 3] * t3) + phi[p, 4] * t4
 
 
+POOL_BLOCK = 16  # thetas compared with each pool trajectory side by side (4: 1.6x, 16: 5.4x one at a time)
+
+
 @njit(cache=True, parallel=True)
 def pool_best(pool_phi, thetas, allowed, own, best, best_r, own_r):
     """For every theta (N, 5): best (N,) the first index of the largest theta . phi over the allowed
     pool trajectories (P, 5; allowed (P,) bool), best_r (N,) that reward (-inf and index 0 if none is
     allowed), own_r (N,) the reward of pool trajectory own[i] (-inf if it is not allowed).  One pass,
     without an (N, P) reward matrix (which, written and then scanned by argmax, took ~8 % of a
-    chunk's time in a profile)."""
-    for i in prange(thetas.shape[0]):
-        t0, t1, t2, t3, t4 = thetas[i, 0], thetas[i, 1], thetas[i, 2], thetas[i, 3], thetas[i, 4]
-        b, rb = 0, -np.inf
+    chunk's time in a profile), over blocks of POOL_BLOCK thetas: each pool trajectory is read once
+    per block and its rewards under the block's thetas run side by side in vector registers, each
+    summed as _reward5 sums it and kept only if strictly larger (the first index wins a tie), so the
+    answer is the same to the bit as one theta at a time."""
+    n = thetas.shape[0]
+    for blk in prange((n + POOL_BLOCK - 1) // POOL_BLOCK):
+        i0 = blk * POOL_BLOCK
+        th = np.zeros((5, POOL_BLOCK))  # the block's thetas, a row per feature (padding: zeros, ignored)
+        for j in range(min(POOL_BLOCK, n - i0)):
+            for f in range(5):
+                th[f, j] = thetas[i0 + j, f]
+        rb = np.full(POOL_BLOCK, -np.inf)
+        bb = np.zeros(POOL_BLOCK, np.int64)
         for p in range(pool_phi.shape[0]):
             if allowed[p]:
-                r = _reward5(pool_phi, p, t0, t1, t2, t3, t4)
-                if r > rb:
-                    b, rb = p, r
-        best[i] = b
-        best_r[i] = rb
-        o = own[i]
-        own_r[i] = _reward5(pool_phi, o, t0, t1, t2, t3, t4) if allowed[o] else -np.inf
+                f0, f1, f2, f3, f4 = pool_phi[p, 0], pool_phi[p, 1], pool_phi[p, 2], pool_phi[p, 3], pool_phi[p, 4]
+                for j in range(POOL_BLOCK):
+                    r = (((f0 * th[0, j] + f1 * th[1, j]) + f2 * th[2, j]) + f3 * th[3, j]) + f4 * th[4, j]
+                    better = r > rb[j]  # as selects, not branches, so the loop vectorises
+                    rb[j] = r if better else rb[j]
+                    bb[j] = p if better else bb[j]
+        for j in range(min(POOL_BLOCK, n - i0)):
+            i = i0 + j
+            best[i] = bb[j]
+            best_r[i] = rb[j]
+            o = own[i]
+            own_r[i] = _reward5(pool_phi, o, thetas[i, 0], thetas[i, 1], thetas[i, 2], thetas[i, 3],
+                                thetas[i, 4]) if allowed[o] else -np.inf
