@@ -23,6 +23,7 @@ import numpy as np
 from numba import njit, prange
 from numba.core import config as numba_config
 
+from ...core import detmath
 from .kernels import (
     BAND,
     H0,
@@ -46,6 +47,7 @@ from .kernels import (
     newton_one,
     overshoot_penalty,
     rollout_one,
+    trace_buffer,
     workspace,
 )
 
@@ -96,13 +98,14 @@ def true_objective(z, ox, oy, goal, w):
 
 
 @njit(cache=True)
-def true_objective_and_limits(z, ox, oy, goal, w, c):
-    """true_objective, and limit_values into c (NC,), from one rollout (the same bits as the two)."""
+def true_objective_and_limits(z, ox, oy, goal, w, c, trace=None):
+    """true_objective, and limit_values into c (NC,), from one rollout (the same bits as the two);
+    trace: see kernels.trace_buffer (the penalty's columns are not written)."""
     s = np.empty((T + 1, 5))
-    rollout_one(z, s)
+    rollout_one(z, s, trace)
     _limits_of_states(s, goal, c)
     f = np.empty(5)
-    features_of_states(s, ox, oy, goal, f)
+    features_of_states(s, ox, oy, goal, f, trace)
     return w[0] * f[0] + w[1] * f[1] + w[2] * f[2] + w[3] * f[3] + w[4] * f[4]
 
 
@@ -114,7 +117,9 @@ def limit_jacobian(z, goal, c, A):
     Jall = np.zeros((T + 1, 5, NV))
     x, y, h, v, st = 0.0, 0.0, H0, V0, 0.0
     for t in range(T):
-        x, y, h, v, st, _, _, _, _ = euler_step_sensitivities(z, t, x, y, h, v, st, Jall[t], Jall[t + 1])
+        sh, ch = detmath.sincos(h)
+        x, y, h, v, st, _ = euler_step_sensitivities(z, t, x, y, h, v, st, ch, sh, detmath.tan(st), Jall[t],
+                                                     Jall[t + 1])
         S[t + 1, 0], S[t + 1, 2] = x, h
     _jacobian_of_states(S, Jall, goal, c, A)
 
@@ -334,12 +339,16 @@ def sqp_one(z, ox, oy, goal, w, lam, maxiter, feas_tol, z_best, f_start, aug_gai
     # (Augmenting also the limits within 1e-3 ft of theirs left 3x more pairs unconverged.)
     held = np.zeros(NC, np.bool_)
     work = workspace()
+    trace = trace_buffer()  # the transcendentals at z, once a line search has evaluated it
     z_best[:, :] = z
     f_best = f_z = f_start  # f_z: w . phi_raw at z
     for it in range(maxiter):
         for i in range(NC):
             lam_pos[i] = max(lam[i], 0.0)
-        _forward(z, ox, oy, goal, w, lam_pos, True, g, work)  # grad L (kernels.lagrangian_grad_hess) ...
+        if it == 0:  # grad L (kernels.lagrangian_grad_hess) ...
+            _forward(z, ox, oy, goal, w, lam_pos, True, g, work)
+        else:  # z is the last point the line search evaluated
+            _forward(z, ox, oy, goal, w, lam_pos, True, g, work, trace)
         _backward(ox, oy, goal, w, lam_pos, True, work, H)  # ... hess L
         _jacobian_of_states(work[0], work[1], goal, c, A)
         for j in range(NV):  # grad f = grad L - A' lam
@@ -411,13 +420,13 @@ def sqp_one(z, ox, oy, goal, w, lam, maxiter, feas_tol, z_best, f_start, aug_gai
         for _ls in range(30):
             for j in range(NV):
                 zt[j] = min(1.0, max(-1.0, zf[j] + alpha * p[j]))
-            f_t = true_objective_and_limits(zt.reshape(z.shape), ox, oy, goal, w, ct)
+            f_t = true_objective_and_limits(zt.reshape(z.shape), ox, oy, goal, w, ct, trace)
             if f_t + nu * _excess(ct) <= merit or alpha * step <= SQP_LOCAL:
                 break
             if alpha == 1.0 and _second_order_correction(zf, p, Ginv, A, active, ct, zt):
                 # the full step's curvature pushed the active limits off (Maratos): corrected back onto
                 # them along the QP's metric, it is taken if the merit then falls
-                f_t = true_objective_and_limits(zt.reshape(z.shape), ox, oy, goal, w, ct)
+                f_t = true_objective_and_limits(zt.reshape(z.shape), ox, oy, goal, w, ct, trace)
                 if f_t + nu * _excess(ct) <= merit:
                     break
             alpha *= 0.5

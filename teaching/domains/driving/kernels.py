@@ -68,6 +68,7 @@ STRIPES = 256  # parallel work units per batch (solve_batch)
 ACTIVE_EPS = 1e-3  # widest band next to a bound in which a variable may be held fixed
 NC = T + 2  # the world's limits: |x_t| <= X_LIM at t = 1..T, then the lane-end band, then the end heading
 NO_MULTIPLIERS = np.zeros(NC)
+TRACE_W = 7  # columns of trace_buffer
 
 
 @njit(cache=True)
@@ -131,16 +132,20 @@ def heading_end_penalty(h, lam, hard):
 
 
 @njit(cache=True)
-def rollout_one(z, out):
-    """z (K, 2) in [-1, 1] -> out (T+1, 5) states."""
+def rollout_one(z, out, trace=None):
+    """z (K, 2) in [-1, 1] -> out (T+1, 5) states; trace (T+1, TRACE_W), if given, gets each step's
+    transcendentals (see trace_buffer)."""
     x, y, h, v, st = 0.0, 0.0, H0, V0, 0.0
     out[0, 0], out[0, 1], out[0, 2], out[0, 3], out[0, 4] = x, y, h, v, st
     for t in range(T):
         k = t // SPK
         sh, ch = detmath.sincos(h)
+        tn = detmath.tan(st)
+        if trace is not None:
+            trace[t, 0], trace[t, 1], trace[t, 2] = ch, sh, tn
         xn = x + DT * v * ch
         yn = y + DT * v * sh
-        hn = h + DT / WB * v * detmath.tan(st)
+        hn = h + DT / WB * v * tn
         v = v + DT * A_MAX * z[k, 1]
         st = min(max(st + DT * W_MAX * z[k, 0], -S_MAX), S_MAX)
         x, y, h = xn, yn, hn
@@ -156,8 +161,18 @@ def features_one(z, ox, oy, goal, out):
 
 
 @njit(cache=True)
-def features_of_states(s, ox, oy, goal, out):
-    """Raw features (5,) of rolled-out states s (T+1, 5)."""
+def trace_buffer():
+    """What an objective evaluation can hand to the next forward pass at the same point, so that
+    Newton's step, whose line search has just evaluated the objective there, computes no
+    transcendental twice (the same values, so the same bits): per step t, cos h_t, sin h_t and
+    tan(steer_t) (columns 0-2, t < T), and at state t >= 1 the closeness kernel (3) and the road
+    limit's soft penalty with its two derivatives (4-6)."""
+    return np.empty((T + 1, TRACE_W))
+
+
+@njit(cache=True)
+def features_of_states(s, ox, oy, goal, out, trace=None):
+    """Raw features (5,) of rolled-out states s (T+1, 5); trace, if given, gets the closeness kernel."""
     clo = 0.0
     dev = 0.0
     turn = 0.0
@@ -165,7 +180,10 @@ def features_of_states(s, ox, oy, goal, out):
     for t in range(1, T + 1):
         dx = s[t, 0] - ox[t]
         dy = s[t, 1] - oy[t]
-        clo += detmath.exp(-0.5 * (dx * dx / SIG_LAT2 + dy * dy / SIG_LONG2))
+        gk = detmath.exp(-0.5 * (dx * dx / SIG_LAT2 + dy * dy / SIG_LONG2))
+        if trace is not None:
+            trace[t, 3] = gk
+        clo += gk
         dev += (s[t, 3] - V0) ** 2
         d = s[t, 2] - H0
         turn += math.sqrt(d * d + EPS * EPS) - EPS
@@ -182,9 +200,9 @@ def features_of_states(s, ox, oy, goal, out):
 
 
 @njit(cache=True)
-def objective(z, ox, oy, goal, w):
-    """F(z) with the soft penalty, value only: used in line searches."""
-    return _objective(z, ox, oy, goal, w, NO_MULTIPLIERS, False)
+def objective(z, ox, oy, goal, w, trace=None):
+    """F(z) with the soft penalty, value only: used in line searches (trace: see trace_buffer)."""
+    return _objective(z, ox, oy, goal, w, NO_MULTIPLIERS, False, trace)
 
 
 @njit(cache=True)
@@ -194,18 +212,21 @@ def lagrangian(z, ox, oy, goal, w, lam):
 
 
 @njit(cache=True)
-def _objective(z, ox, oy, goal, w, lam, hard):
+def _objective(z, ox, oy, goal, w, lam, hard, trace=None):
     s = np.empty((T + 1, 5))
-    rollout_one(z, s)  # once: the features and the penalties read the same states
+    rollout_one(z, s, trace)  # once: the features and the penalties read the same states
     f = np.empty(5)
-    features_of_states(s, ox, oy, goal, f)
+    features_of_states(s, ox, oy, goal, f, trace)
     if hard and goal == 0:
         f[4] = 0.0
         for t in range(1, T + 1):
             f[4] += (LW - s[t, 0]) ** 2  # hard_merge
     pen = lane_end_penalty(s[T, 0], goal, lam[T], hard)[0] + heading_end_penalty(s[T, 2], lam[T + 1], hard)[0]
     for t in range(1, T + 1):
-        pen += road_penalty(s[t, 0], lam[t - 1], hard)[0]
+        p_road, dp_road, ddp_road = road_penalty(s[t, 0], lam[t - 1], hard)
+        if trace is not None:
+            trace[t, 4], trace[t, 5], trace[t, 6] = p_road, dp_road, ddp_road
+        pen += p_road
     return w[0] * f[0] + w[1] * f[1] + w[2] * f[2] + w[3] * f[3] + w[4] * f[4] + pen
 
 
@@ -226,15 +247,13 @@ def lagrangian_grad_hess(z, ox, oy, goal, w, lam, g, H, want_hess):
 
 
 @njit(cache=True, inline="always")  # the Hessian's hot loop: a call per step cost 5 % of a build
-def euler_step_sensitivities(z, t, x, y, h, v, st, J, Jn):
-    """Euler step t from the state (x, y, h, v, st) under z (K, 2), with the forward sensitivities:
-    Jn (5, NV) = ds_{t+1}/dz from J = ds_t/dz.  s_{t+1} depends on knots 0..k only (k = t // SPK),
-    so only Jn's first 2 (k + 1) columns are written (the others stay as they were: zero).  The
-    steering angle's clip is held constant where it binds.  Returns the new state and cos h, sin h,
-    tan(steer) at the old one, and whether the clip bound."""
+def euler_step_sensitivities(z, t, x, y, h, v, st, ch, sh, tn, J, Jn):
+    """Euler step t from the state (x, y, h, v, st) under z (K, 2), given cos h, sin h and tan(st),
+    with the forward sensitivities: Jn (5, NV) = ds_{t+1}/dz from J = ds_t/dz.  s_{t+1} depends on
+    knots 0..k only (k = t // SPK), so only Jn's first 2 (k + 1) columns are written (the others stay
+    as they were: zero).  The steering angle's clip is held constant where it binds.  Returns the
+    new state and whether the clip bound."""
     k = t // SPK
-    sh, ch = detmath.sincos(h)
-    tn = detmath.tan(st)
     sec2 = 1.0 + tn * tn
     for j in range(2 * (k + 1)):
         Jn[0, j] = J[0, j] - DT * v * sh * J[2, j] + DT * ch * J[3, j]
@@ -251,8 +270,7 @@ def euler_step_sensitivities(z, t, x, y, h, v, st, J, Jn):
             Jn[4, j] = 0.0
     else:
         Jn[4, 2 * k] += DT * W_MAX
-    return (x + DT * v * ch, y + DT * v * sh, h + DT / WB * v * tn, v + DT * A_MAX * z[k, 1], st_new,
-            ch, sh, tn, clipped)
+    return x + DT * v * ch, y + DT * v * sh, h + DT / WB * v * tn, v + DT * A_MAX * z[k, 1], st_new, clipped
 
 
 @njit(cache=True)
@@ -277,8 +295,10 @@ def workspace():
 
 
 @njit(cache=True)
-def _forward(z, ox, oy, goal, w, lam, hard, g, work):
-    """F(z) and its gradient g (NV,), filling the workspace (see workspace) for _backward."""
+def _forward(z, ox, oy, goal, w, lam, hard, g, work, trace=None):
+    """F(z) and its gradient g (NV,), filling the workspace (see workspace) for _backward.  trace, if
+    given, holds the transcendentals of an objective evaluation at this z (trace_buffer; the road
+    penalty's only if not hard)."""
     S, Jall, dl, trig, clipped, pen2 = work
     g[:] = 0.0
     x, y, h, v, st = 0.0, 0.0, H0, V0, 0.0
@@ -287,13 +307,17 @@ def _forward(z, ox, oy, goal, w, lam, hard, g, work):
     # backward pass: recomputing them there was a fifth of a Hessian evaluation
     F = 0.0
     for t in range(T):
-        x, y, h, v, st, ch, sh, tn, clipped[t] = euler_step_sensitivities(z, t, x, y, h, v, st, Jall[t],
-                                                                          Jall[t + 1])
+        if trace is None:
+            sh, ch = detmath.sincos(h)
+            tn = detmath.tan(st)
+        else:
+            ch, sh, tn = trace[t, 0], trace[t, 1], trace[t, 2]
+        x, y, h, v, st, clipped[t] = euler_step_sensitivities(z, t, x, y, h, v, st, ch, sh, tn, Jall[t], Jall[t + 1])
         trig[t, 0], trig[t, 1], trig[t, 2] = ch, sh, tn
         S[t + 1, 0], S[t + 1, 1], S[t + 1, 2], S[t + 1, 3], S[t + 1, 4] = x, y, h, v, st
         # stage cost at s_{t+1}
         dx, dy = x - ox[t + 1], y - oy[t + 1]
-        gk = detmath.exp(-0.5 * (dx * dx / SIG_LAT2 + dy * dy / SIG_LONG2))
+        gk = detmath.exp(-0.5 * (dx * dx / SIG_LAT2 + dy * dy / SIG_LONG2)) if trace is None else trace[t + 1, 3]
         trig[t + 1, 3] = gk
         d = h - H0
         rt = math.sqrt(d * d + EPS * EPS)
@@ -302,7 +326,10 @@ def _forward(z, ox, oy, goal, w, lam, hard, g, work):
         dl[t + 1, 1] = -w[0] * gk * dy / SIG_LONG2
         dl[t + 1, 2] = w[3] * d / rt
         dl[t + 1, 3] = 2.0 * w[2] * (v - V0)
-        p_pen, dp_pen, pen2[t + 1, 0] = road_penalty(x, lam[t], hard)  # constraints of the world, not features
+        if trace is None or hard:  # the road's limit: a constraint of the world, not a feature
+            p_pen, dp_pen, pen2[t + 1, 0] = road_penalty(x, lam[t], hard)
+        else:
+            p_pen, dp_pen, pen2[t + 1, 0] = trace[t + 1, 4], trace[t + 1, 5], trace[t + 1, 6]
         if t + 1 == T:
             p_end, dp_end, pen2[T, 1] = lane_end_penalty(x, goal, lam[T], hard)
             p_head, dp_head, pen2[T, 2] = heading_end_penalty(h, lam[T + 1], hard)
@@ -457,6 +484,7 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol):
     zn = np.empty(NV)
     # the Hessian only once the gradient says another step is needed: the last point's would go unused
     work = workspace()
+    trace = trace_buffer()  # the line search's accepted point's transcendentals, for the next _forward
     F = _forward(z, ox, oy, goal, w, NO_MULTIPLIERS, False, g, work)
     damping = 0.0
     it = 0
@@ -515,7 +543,7 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol):
             for i in range(NV):
                 zn[i] = min(1.0, max(-1.0, zf[i] + alpha * p[i]))
                 dec += g[i] * (zn[i] - zf[i])
-            Fn = objective(zn.reshape(K, 2), ox, oy, goal, w)
+            Fn = objective(zn.reshape(K, 2), ox, oy, goal, w, trace)
             if Fn <= F + 1e-4 * dec:
                 accepted = True
                 break
@@ -546,7 +574,7 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol):
         # No stop on a small decrease: near a constraint the last digits come in many small
         # steps, and stopping on |dF| < 1e-13 left the projected gradient at 1e-5 and F up to
         # 3e-7 short of the optimum.  Only the tolerance, a failed line search or maxiter stop it.
-        F = _forward(z, ox, oy, goal, w, NO_MULTIPLIERS, False, g, work)
+        F = _forward(z, ox, oy, goal, w, NO_MULTIPLIERS, False, g, work, trace)  # z is the last point evaluated
     return F, it
 
 
