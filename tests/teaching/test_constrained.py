@@ -11,7 +11,7 @@ import pytest
 
 from teaching.core.candidates import sample_thetas
 from teaching.domains.driving import constrained, kernels, reference_hard
-from teaching.domains.driving.environments import environment_id, get_environments
+from teaching.domains.driving.environments import environment_id, get_environments, other_car_states
 from teaching.domains.driving.features import default_normalisers, raw_features, reward
 from teaching.domains.driving.planner import (
     STORED_FEAS_TOL,
@@ -173,3 +173,42 @@ def test_an_exact_plan_is_never_worse_and_stays_within_the_limits(two_plans):
     assert excess.max() <= STORED_FEAS_TOL
     assert excess.max() > -1e-3  # and it does go up to the limits, unlike the penalty (0.14 ft short at least)
     assert limit_excess(soft["controls"].astype(np.float64).reshape(-1, K, 2), goal).max() < -0.05
+
+
+def test_a_forward_pass_from_the_line_searchs_trace_is_the_same_to_the_bit():
+    """Newton's and the SQP's forward pass read the transcendentals that the line search has just
+    computed at the same point (kernels.trace_buffer) instead of computing them again.  Value, gradient
+    and everything kept for the Hessian must be the very bits of a pass that computes them itself,
+    under the soft penalty and under hard limits, on trajectories pressed against the road's limit
+    (the penalty's softplus terms) and away from it, beside another car (the closeness kernel)."""
+    envs = get_environments([5662, 15474, 16950, 18182])  # tailgating (5662, 15474), merging, a zigzag optimum
+    oxy_all = other_car_states(envs)
+    rng = np.random.default_rng(22)
+    for oxy, goal in zip(oxy_all, envs.goal, strict=True):
+        ox, oy = np.ascontiguousarray(oxy[:, 0]), np.ascontiguousarray(oxy[:, 1])
+        w = objective_weights(THETA_STAR, default_normalisers())[0]
+        pressed = _penalised_best(oxy, goal, objective_weights(GOAL_HEAVY, default_normalisers())[0])
+        for z in (pressed, rng.uniform(-1, 1, (K, 2)), strategy_seeds()[3]):
+            z = np.ascontiguousarray(z, dtype=np.float64)
+            lam = rng.uniform(0.0, 1e-3, NC)
+            trace = kernels.trace_buffer()
+            assert kernels.objective(z, ox, oy, goal, w, trace) == kernels.objective(z, ox, oy, goal, w)
+            hard_trace = kernels.trace_buffer()
+            c, c_plain = np.empty(NC), np.empty(NC)
+            assert (constrained.true_objective_and_limits(z, ox, oy, goal, w, c, hard_trace)
+                    == constrained.true_objective(z, ox, oy, goal, w))
+            constrained.limit_values(z, goal, c_plain)
+            assert np.array_equal(c, c_plain)
+            for hard, mult, tr in ((False, kernels.NO_MULTIPLIERS, trace), (True, lam, hard_trace)):
+                passes = []
+                for given in (None, tr):
+                    g, H, work = np.empty(2 * K), np.empty((2 * K, 2 * K)), kernels.workspace()
+                    for kept in work:  # (np.empty where a pass never writes: compare what it writes)
+                        kept[...] = 0
+                    F = kernels._forward(z, ox, oy, goal, w, mult, hard, g, work, given)
+                    kernels._backward(ox, oy, goal, w, mult, hard, work, H)
+                    passes.append((F, g, H, work))
+                (F1, g1, H1, work1), (F2, g2, H2, work2) = passes
+                assert F1 == F2
+                assert np.array_equal(g1, g2) and np.array_equal(H1, H2)
+                assert all(np.array_equal(a, b) for a, b in zip(work1, work2, strict=True))

@@ -270,3 +270,17 @@ def test_worker_processes_build_the_same_table(tmp_path, tiny_table):
                           str(tmp_path / "bad"), "--jobs", "0"], capture_output=True, text=True)
     assert bad.returncode == 2
     assert "error: --jobs must be at least 1, got 0" in bad.stderr
+
+
+# The tiny preset's content hash under planner 11 (docs/benchmarks.md).  A change meant to keep every
+# planned bit (a faster kernel, a refactor) must leave it as it is; a change that moves any bit bumps
+# PLANNER_VERSION (which alone changes the hash), rebuilds the documented tables and updates this pin.
+TINY_CONTENT_HASH = "dd76a6047a567cf866ea634e7c0b3efcbfef11c18d97e39208f85ce9fe549dd4"
+
+
+def test_the_tiny_table_keeps_its_hash(tiny_table):
+    """What did not change proves a refactor: the tiny table, built for real, has the pinned hash."""
+    got = json.loads((tiny_table / "meta.json").read_text())["content_hash"]
+    assert got == TINY_CONTENT_HASH, (
+        f"the tiny table's content hash moved ({got[:16]}, pinned {TINY_CONTENT_HASH[:16]}): the planner's "
+        "output changed; if that is meant, bump PLANNER_VERSION, rebuild the documented tables and update the pin")
