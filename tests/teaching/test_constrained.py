@@ -201,11 +201,12 @@ def test_a_forward_pass_from_the_line_searchs_trace_is_the_same_to_the_bit():
             assert np.array_equal(c, c_plain)
             for hard, mult, tr in ((False, kernels.NO_MULTIPLIERS, trace), (True, lam, hard_trace)):
                 passes = []
-                for given in (None, tr):
+                for traced in (False, True):
                     g, H, work = np.empty(2 * K), np.empty((2 * K, 2 * K)), kernels.workspace()
                     for kept in work:  # (np.empty where a pass never writes: compare what it writes)
                         kept[...] = 0
-                    F = kernels._forward(z, ox, oy, goal, w, mult, hard, g, work, given)
+                    given = tr if traced else np.full_like(tr, np.nan)  # (untraced: must not be read)
+                    F = kernels._forward(z, ox, oy, goal, w, mult, hard, g, work, given, traced)
                     kernels._backward(ox, oy, goal, w, mult, hard, work, H)
                     passes.append((F, g, H, work))
                 (F1, g1, H1, work1), (F2, g2, H2, work2) = passes

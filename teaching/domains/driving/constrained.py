@@ -345,10 +345,8 @@ def sqp_one(z, ox, oy, goal, w, lam, maxiter, feas_tol, z_best, f_start, aug_gai
     for it in range(maxiter):
         for i in range(NC):
             lam_pos[i] = max(lam[i], 0.0)
-        if it == 0:  # grad L (kernels.lagrangian_grad_hess) ...
-            _forward(z, ox, oy, goal, w, lam_pos, True, g, work)
-        else:  # z is the last point the line search evaluated
-            _forward(z, ox, oy, goal, w, lam_pos, True, g, work, trace)
+        # grad L (kernels.lagrangian_grad_hess), from the trace once a line search has evaluated z
+        _forward(z, ox, oy, goal, w, lam_pos, True, g, work, trace, it > 0)
         _backward(ox, oy, goal, w, lam_pos, True, work, H)  # ... hess L
         _jacobian_of_states(work[0], work[1], goal, c, A)
         for j in range(NV):  # grad f = grad L - A' lam

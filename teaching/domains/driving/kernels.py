@@ -276,7 +276,7 @@ def euler_step_sensitivities(z, t, x, y, h, v, st, ch, sh, tn, J, Jn):
 @njit(cache=True)
 def _objective_grad_hess(z, ox, oy, goal, w, lam, hard, g, H, want_hess):
     work = workspace()
-    F = _forward(z, ox, oy, goal, w, lam, hard, g, work)
+    F = _forward(z, ox, oy, goal, w, lam, hard, g, work, trace_buffer(), False)
     if want_hess:
         _backward(ox, oy, goal, w, lam, hard, work, H)
     return F
@@ -295,10 +295,10 @@ def workspace():
 
 
 @njit(cache=True)
-def _forward(z, ox, oy, goal, w, lam, hard, g, work, trace=None):
-    """F(z) and its gradient g (NV,), filling the workspace (see workspace) for _backward.  trace, if
-    given, holds the transcendentals of an objective evaluation at this z (trace_buffer; the road
-    penalty's only if not hard)."""
+def _forward(z, ox, oy, goal, w, lam, hard, g, work, trace, traced):
+    """F(z) and its gradient g (NV,), filling the workspace (see workspace) for _backward.  If traced,
+    trace holds the transcendentals of an objective evaluation at this z (trace_buffer; the road
+    penalty's only if not hard).  (A flag, not an optional argument: one compiled _forward, not two.)"""
     S, Jall, dl, trig, clipped, pen2 = work
     g[:] = 0.0
     x, y, h, v, st = 0.0, 0.0, H0, V0, 0.0
@@ -307,17 +307,17 @@ def _forward(z, ox, oy, goal, w, lam, hard, g, work, trace=None):
     # backward pass: recomputing them there was a fifth of a Hessian evaluation
     F = 0.0
     for t in range(T):
-        if trace is None:
+        if traced:
+            ch, sh, tn = trace[t, 0], trace[t, 1], trace[t, 2]
+        else:
             sh, ch = detmath.sincos(h)
             tn = detmath.tan(st)
-        else:
-            ch, sh, tn = trace[t, 0], trace[t, 1], trace[t, 2]
         x, y, h, v, st, clipped[t] = euler_step_sensitivities(z, t, x, y, h, v, st, ch, sh, tn, Jall[t], Jall[t + 1])
         trig[t, 0], trig[t, 1], trig[t, 2] = ch, sh, tn
         S[t + 1, 0], S[t + 1, 1], S[t + 1, 2], S[t + 1, 3], S[t + 1, 4] = x, y, h, v, st
         # stage cost at s_{t+1}
         dx, dy = x - ox[t + 1], y - oy[t + 1]
-        gk = detmath.exp(-0.5 * (dx * dx / SIG_LAT2 + dy * dy / SIG_LONG2)) if trace is None else trace[t + 1, 3]
+        gk = trace[t + 1, 3] if traced else detmath.exp(-0.5 * (dx * dx / SIG_LAT2 + dy * dy / SIG_LONG2))
         trig[t + 1, 3] = gk
         d = h - H0
         rt = math.sqrt(d * d + EPS * EPS)
@@ -326,7 +326,7 @@ def _forward(z, ox, oy, goal, w, lam, hard, g, work, trace=None):
         dl[t + 1, 1] = -w[0] * gk * dy / SIG_LONG2
         dl[t + 1, 2] = w[3] * d / rt
         dl[t + 1, 3] = 2.0 * w[2] * (v - V0)
-        if trace is None or hard:  # the road's limit: a constraint of the world, not a feature
+        if hard or not traced:  # the road's limit: a constraint of the world, not a feature
             p_pen, dp_pen, pen2[t + 1, 0] = road_penalty(x, lam[t], hard)
         else:
             p_pen, dp_pen, pen2[t + 1, 0] = trace[t + 1, 4], trace[t + 1, 5], trace[t + 1, 6]
@@ -485,7 +485,7 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol):
     # the Hessian only once the gradient says another step is needed: the last point's would go unused
     work = workspace()
     trace = trace_buffer()  # the line search's accepted point's transcendentals, for the next _forward
-    F = _forward(z, ox, oy, goal, w, NO_MULTIPLIERS, False, g, work)
+    F = _forward(z, ox, oy, goal, w, NO_MULTIPLIERS, False, g, work, trace, False)
     damping = 0.0
     it = 0
     for it in range(maxiter):  # noqa: B007  (returned: the iterations taken)
@@ -574,7 +574,7 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol):
         # No stop on a small decrease: near a constraint the last digits come in many small
         # steps, and stopping on |dF| < 1e-13 left the projected gradient at 1e-5 and F up to
         # 3e-7 short of the optimum.  Only the tolerance, a failed line search or maxiter stop it.
-        F = _forward(z, ox, oy, goal, w, NO_MULTIPLIERS, False, g, work, trace)  # z is the last point evaluated
+        F = _forward(z, ox, oy, goal, w, NO_MULTIPLIERS, False, g, work, trace, True)  # z: the last point evaluated
     return F, it
 
 
