@@ -23,7 +23,6 @@ import numpy as np
 from numba import njit, prange
 from numba.core import config as numba_config
 
-from ...core import detmath
 from .kernels import (
     BAND,
     H0,
@@ -33,7 +32,6 @@ from .kernels import (
     NC,
     NV,
     STRIPES,
-    V0,
     WORLD_CACHE_DIR,
     X_LIM,
     T,
@@ -41,7 +39,6 @@ from .kernels import (
     _cholesky_solve,
     _forward,
     cholesky,
-    euler_step_sensitivities,
     features_of_states,
     features_one,
     newton_one,
@@ -111,17 +108,13 @@ def true_objective_and_limits(z, ox, oy, goal, w, c, trace=None):
 
 @njit(cache=True)
 def limit_jacobian(z, goal, c, A):
-    """c (NC,) as limit_values and A (NC, NV) = dc/dz (flat z), by the forward sensitivities of the
-    Euler rollout (kernels.euler_step_sensitivities)."""
-    S = np.empty((T + 1, 5))
-    Jall = np.zeros((T + 1, 5, NV))
-    x, y, h, v, st = 0.0, 0.0, H0, V0, 0.0
-    for t in range(T):
-        sh, ch = detmath.sincos(h)
-        x, y, h, v, st, _ = euler_step_sensitivities(z, t, x, y, h, v, st, ch, sh, detmath.tan(st), Jall[t],
-                                                     Jall[t + 1])
-        S[t + 1, 0], S[t + 1, 2] = x, h
-    _jacobian_of_states(S, Jall, goal, c, A)
+    """c (NC,) as limit_values and A (NC, NV) = dc/dz (flat z), from the forward sensitivities of the
+    Lagrangian's own pass (kernels._forward: the SQP reads them there; the objective's weights play no
+    part in them, so none are given)."""
+    work = workspace()
+    no_car = np.zeros(T + 1)
+    _forward(z, no_car, no_car, goal, np.zeros(5), np.zeros(NC), True, np.empty(NV), work, trace_buffer(), False)
+    _jacobian_of_states(work[0], work[1], goal, c, A)
 
 
 @njit(cache=True)
