@@ -10,15 +10,10 @@ jobs) so that neither has to import the other to build a canvas.
 from __future__ import annotations
 
 from celery import Signature, chord
-from django.conf import settings
 
 from . import work
 from .specs import StudyJobSpec
-from .tasks import publish_table, study_condition, study_finish, table_chunk
-
-
-def default_queue() -> str:
-    return getattr(settings, "PRECOMPUTE_QUEUE", None) or "celery"
+from .tasks import default_queue, publish_table, study_condition, study_finish, table_chunk
 
 
 def sig(task, *, queue: str, app=None, **kwargs) -> Signature:

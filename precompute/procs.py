@@ -9,12 +9,18 @@ from __future__ import annotations
 
 import os
 import signal
+import socket
 import subprocess
 import sys
 import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+
+
+def host_id() -> str:
+    """This process, as the build journal and a job's parts record who computed what."""
+    return f"{socket.gethostname()}:{os.getpid()}"
 
 
 def celery_executable() -> list[str]:

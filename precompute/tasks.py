@@ -9,8 +9,9 @@ delivery either skip (stored) or redo (not stored) the chunk.
 
 Worker pool: **prefork** (Celery's default).  The planner's Numba kernels run
 on a threading layer (OpenMP or workqueue) that is not fork-safe once used,
-but the prefork parent never runs a kernel: it only imports them, and each
-child starts its own thread pool after the fork.  Each child uses
+but the prefork parent never even imports them (the work lives in
+precompute/steps.py, which a pool child imports at its first task: a quick
+boot), and each child starts its own thread pool after the fork.  Each child uses
 ``PRECOMPUTE_THREADS`` Numba threads (default: cores // concurrency, so ``-c 2``
 on 2 cores gives 1 thread per child and ``-c 1`` gives 2); the ``threads`` pool is not safe with Numba's
 workqueue layer and is not supported.  See docs/scaling.md.
@@ -21,40 +22,32 @@ to the test database); the chunk files and build.log carry the state.
 """
 from __future__ import annotations
 
+import importlib
 import inspect
 import logging
 import os
 import time
 import traceback
 
-import numba
 from celery import Task, shared_task
-from celery.signals import worker_init, worker_process_init
+from celery.signals import worker_init
+from django.conf import settings
 from django.db import transaction
 from django.db.models import F
 from django.utils import timezone
 
-from studyapp.analysis.modelfit import ModelFitError, best_fit_settings
-from studyapp.closedloop import pack_of_data
 from studyapp.models import Condition, Study
-from studyapp.studies import (
-    SCENE_VIEW_KEY,
-    closed_loop_view,
-    freeze_closed_loop,
-    freeze_condition,
-    freeze_test_set,
-    prepare_closed_loops,
-    store_pilot,
-)
-from studyapp.trajectories import test_set_from_table, training_from_table
-from teaching.api import TrajectoryTable, select_test_set
 
-from . import work
 from .models import Job, Part
-from .sequences import condition_sequence, pilot_matrix
+from .procs import host_id
 from .specs import StudyJobSpec
 
 log = logging.getLogger(__name__)
+
+
+def default_queue() -> str:
+    """The queue a job's tasks go to unless the job names one (settings.PRECOMPUTE_QUEUE)."""
+    return getattr(settings, "PRECOMPUTE_QUEUE", None) or "celery"
 
 
 def numba_threads() -> int:
@@ -73,12 +66,10 @@ def _share_cores(sender=None, **_):
     os.environ["PRECOMPUTE_THREADS"] = str(max(1, (os.cpu_count() or 1) // concurrency))
 
 
-@worker_process_init.connect
-def _limit_numba_threads(**_):
-    """In each prefork child: start Numba's own thread pool with PRECOMPUTE_THREADS threads."""
-    numba.set_num_threads(min(numba_threads(), numba.config.NUMBA_NUM_THREADS))
-    log.info("precompute: worker process %d plans with %d Numba thread(s), threading layer %s",
-             os.getpid(), numba.get_num_threads(), numba.threading_layer())
+def steps():
+    """precompute.steps, the work itself: imported by a pool process at its first task, never by
+    the worker's main process at boot (that module's docstring says why)."""
+    return importlib.import_module(".steps", __package__)
 
 
 def mark_running(job_id):
@@ -99,7 +90,7 @@ def record_part(job_id, key, index, computed, seconds=0.0, items=0, result=None)
         _, created = Part.objects.get_or_create(
             job_id=job_id, key=key,
             defaults={"index": index, "computed": computed, "seconds": seconds, "items": items,
-                      "worker": work.host_id(), "result": result or {}})
+                      "worker": host_id(), "result": result or {}})
         if created:
             Job.objects.filter(pk=job_id).update(
                 chunks_done=F("chunks_done") + 1,
@@ -167,9 +158,8 @@ class JobTask(Task):
 @shared_task(base=JobTask, bind=True, name="precompute.table_chunk")
 def table_chunk(self, job_id, spec, index, env_ids):
     """One chunk of environments, all thetas (the cross-theta step stays inside the chunk)."""
-    numba.set_num_threads(min(numba_threads(), numba.config.NUMBA_NUM_THREADS))
     mark_running(job_id)
-    res = work.compute_chunk(spec, env_ids)
+    res = steps().compute_chunk(spec, env_ids, numba_threads())
     record_part(job_id, res["key"], index, res["computed"], res["seconds"], res["trajectories"])
     return {"index": index, **res}
 
@@ -178,22 +168,12 @@ def table_chunk(self, job_id, spec, index, env_ids):
 def publish_table(self, job_id, spec):
     """Chord callback: check every chunk is stored, assemble, verify and publish the table."""
     mark_running(job_id)
-    info = work.publish(spec)
+    info = steps().publish(spec)
     finish_job(job_id, info, info["path"])
     return info
 
 
 # --- study sequences -----------------------------------------------------------------
-def _table(spec: StudyJobSpec):
-    """The job's table.  create_study_job verified its content hash once and put it in the
-    spec; a task only checks that meta.json still records that hash (a table rebuilt or
-    replaced since is refused) instead of re-reading every byte: 2.65 GB per task at paper
-    size.  A job created before specs carried the hash verifies the table as it always did."""
-    if spec.content_hash is None:
-        return TrajectoryTable.load(spec.table)
-    return TrajectoryTable.load(spec.table, verify=False, expected_hash=spec.content_hash)
-
-
 @shared_task(base=JobTask, bind=True, name="precompute.study_condition")
 def study_condition(self, job_id, spec, name, index):
     """One condition: its teaching sequence, frozen on the study's Condition (training JSON).
@@ -204,43 +184,9 @@ def study_condition(self, job_id, spec, name, index):
     if condition.training and Part.objects.filter(job_id=job_id, key=name).exists():
         return {"condition": name, "computed": False}  # a re-delivery: already stored
     t0 = time.perf_counter()
-    table = _table(spec)
-    if name in spec.hand_picked:  # the researcher's own list: shown as given, no selection
-        result = {"condition": name, "env_ids": spec.hand_picked[name], "model": "hand-picked", "value": None}
-    else:
-        result = condition_sequence(table, name, seed=spec.seed, approx_star=spec.approx_star,
-                                    hyperparameters=spec.hyperparameters)
-    freeze_condition(condition, training_from_table(table, result["env_ids"]))
+    result = steps().select_condition(spec, condition)
     record_part(job_id, name, index, True, time.perf_counter() - t0, result=result)
     return {"condition": name, "computed": True, "env_ids": result["env_ids"]}
-
-
-def study_pilot(table, conditions, spec: StudyJobSpec, job_id, tests: list[dict], loops: dict) -> dict:
-    """The study's simulated pilot: the ideal-user matrix for exactly its conditions and what learners of
-    each model would choose in its `tests`; each closed loop (`loops`: {name: stored data}) by simulated
-    participants of every model run through it.  Each user's τ / λ is the one its condition's task chose
-    (or the researcher fixed), so only a model no condition used is swept again."""
-    chosen = {r["model"]: r["value"] for r in Part.objects.filter(job_id=job_id).values_list("result", flat=True)
-              if r.get("model") and r.get("value") is not None}
-    return pilot_matrix(table, {c.name: c.env_ids for c in conditions},
-                        {**chosen, **spec.hyperparameters}, test_set=tests,
-                        closed_loops={name: pack_of_data(data).loop for name, data in loops.items()})
-
-
-def closed_loop_settings(spec: StudyJobSpec) -> tuple[dict, dict]:
-    """({name: settings}, {name: what a fit gave, or why it gave nothing}) of the job's closed loops: those
-    the researcher tied to a study take the model, τ / λ and ε of that study's best fit, where it has one."""
-    settings, notes = {k: dict(v) for k, v in spec.closed_loop.items()}, {}
-    for name, slug in spec.closed_loop_fit.items():
-        try:
-            fitted = best_fit_settings(Study.objects.get(slug=slug))
-        except (Study.DoesNotExist, ModelFitError) as exc:
-            notes[name] = f"no fit of study {slug!r} ({exc}); the settings given were used"
-            continue
-        settings[name].update(fitted)
-        value = "" if fitted["value"] is None else f" at {fitted['value']:g}"
-        notes[name] = f"the best fit to study {slug!r}: {fitted['model']}{value}, lapse rate {fitted['lapse']:.3g}"
-    return settings, notes
 
 
 @shared_task(base=JobTask, bind=True, name="precompute.study_finish")
@@ -255,19 +201,7 @@ def study_finish(self, job_id, spec):
     if empty:
         raise RuntimeError(f"conditions without a training sequence: {', '.join(empty)}; retry the job")
     t0 = time.perf_counter()
-    table = _table(spec)
-    tests = select_test_set(table, [c.env_ids for c in conditions], seed=spec.seed, **spec.test_set_thresholds)
-    test_set = test_set_from_table(table, tests)
-    settings, from_fit = closed_loop_settings(spec)
-    loops = prepare_closed_loops(table, study.slug, settings, tests)  # their checks apart from the tests
-    store_pilot(study, study_pilot(table, conditions, spec, job_id, tests, loops))
-    if loops:
-        for c in study.conditions.filter(name__in=list(loops)):
-            freeze_closed_loop(c, loops[c.name])
-        study.source = {**study.source, SCENE_VIEW_KEY: closed_loop_view(table, [c.training for c in conditions],
-                                                                         test_set, loops.values())}
-        study.save(update_fields=["source"])
-    freeze_test_set(study, test_set, open_study=spec.open_when_done)
+    tests, loops, from_fit = steps().finish_study(job_id, spec, study, conditions)
     record_part(job_id, "test-set", len(conditions), True, time.perf_counter() - t0,
                 result={"env_ids": [t["env_id"] for t in tests]})
     summary = {"study_slug": study.slug, "study_id": study.pk, "test_env_ids": [t["env_id"] for t in tests],

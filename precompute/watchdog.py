@@ -34,11 +34,9 @@ from django.db import close_old_connections
 from django.db.models import F, Max
 from django.utils import timezone
 
-from . import jobs
-from .canvases import default_queue
 from .models import Job
 from .specs import SpecFormatError
-from .tasks import fail_job
+from .tasks import default_queue, fail_job
 
 log = logging.getLogger(__name__)
 
@@ -136,6 +134,7 @@ def handle_lost(job: Job, silent: timedelta, queue: str) -> bool:
     Job.objects.filter(pk=job.pk).update(alarm=alarm, watchdog_relaunches=F("watchdog_relaunches") + 1)
     log.error("precompute: job %s (%s): %s", job.pk, job.label, alarm)
     job.refresh_from_db()
+    from . import jobs  # noqa: PLC0415  (the launcher brings in the teaching core: here, not at worker boot)
     try:
         jobs.launch(job, by_watchdog=True)
     except (jobs.BrokerUnavailable, SpecFormatError):

@@ -21,7 +21,6 @@ from __future__ import annotations
 import fcntl
 import json
 import os
-import socket
 import time
 from dataclasses import asdict
 from functools import cache, lru_cache
@@ -44,6 +43,8 @@ from teaching.api import (
     table_identity,
 )
 
+from .procs import host_id
+
 
 @cache
 def domain_code(domain: str) -> str:
@@ -56,10 +57,6 @@ def domain_code(domain: str) -> str:
 
 class ChunkError(RuntimeError):
     """A chunk task that cannot run: identity mismatch, unwritable output, missing chunks."""
-
-
-def host_id() -> str:
-    return f"{socket.gethostname()}:{os.getpid()}"
 
 
 @lru_cache(maxsize=8)
