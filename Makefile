@@ -47,15 +47,19 @@ lint: venv
 # machine's shared services (marked postgres or redis) one after another, as they must be (the load
 # test restarts PostgreSQL under every connection; the load harness and the real-worker tests own
 # Redis databases).  The first run touches neither service, so the two cannot disturb each other;
-# the second one's output is printed when both are done.  (xdist's own grouping, --dist loadgroup,
+# the second one's output is printed when both are done.  Both build the tables they need in one
+# directory made for this command ($TEST_BUILDS_DIR, tests/conftest.py's built_once), so the demo
+# table is built once, not once per run.  (xdist's own grouping, --dist loadgroup,
 # is silently ignored under pytest 9.2: pytest-xdist #1386.)
 # pytest exit 5 means "no tests collected": that is a failure here, never a pass.
 SERVICES_LOG = var/test-services.log
 test: venv browser-deps serve-deps
 	@mkdir -p var
+	export TEST_BUILDS_DIR=$$(mktemp -d /tmp/test-builds.XXXXXX); \
 	$(PY) -m pytest -p no:cacheprovider -m "postgres or redis" > $(SERVICES_LOG) 2>&1 & svc=$$!; \
 	$(PY) -m pytest -n 2 -m "not (postgres or redis)"; a=$$?; \
 	echo "--- the shared-services tests ($(SERVICES_LOG)) ---"; wait $$svc; b=$$?; cat $(SERVICES_LOG); \
+	rm -rf "$$TEST_BUILDS_DIR"; \
 	for rc in $$a $$b; do if [ $$rc -eq 5 ]; then echo "pytest collected no tests" >&2; exit 1; fi; done; \
 	if [ $$a -ne 0 ]; then exit $$a; fi; exit $$b
 

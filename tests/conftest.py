@@ -163,9 +163,13 @@ def require_service(ci):
 def built_once(tmp_path_factory, name: str, build) -> Path:
     """The directory `name`, filled by build(out) once per run and read-only afterwards.  Under
     pytest-xdist (make test: -n 2) the workers share it: the first to need it builds it while
-    holding a lock, the others wait and reuse it, so a 30-s table is not built once per worker."""
+    holding a lock, the others wait and reuse it, so a 30-s table is not built once per worker.
+    `make test`'s two pytest runs share one directory, $TEST_BUILDS_DIR, made afresh for that
+    command: the shared-services run reuses the demo table the other one built."""
     root = tmp_path_factory.getbasetemp()
-    if os.environ.get("PYTEST_XDIST_WORKER"):
+    if os.environ.get("TEST_BUILDS_DIR"):
+        root = Path(os.environ["TEST_BUILDS_DIR"])
+    elif os.environ.get("PYTEST_XDIST_WORKER"):
         root = root.parent  # this run's directory, above every worker's own
     out, done = root / name, root / f"{name}.built"
     with open(root / f"{name}.lock", "w") as lock:
