@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from teaching.core.candidates import sample_thetas
-from teaching.domains.driving import constrained, kernels, reference_hard
+from teaching.domains.driving import constrained, kernels, newton, qp, reference_hard
 from teaching.domains.driving.environments import environment_id, get_environments, other_car_states
 from teaching.domains.driving.features import default_normalisers, raw_features, reward
 from teaching.domains.driving.planner import (
@@ -34,7 +34,7 @@ def _penalised_best(oxy, goal, w):
     n = len(seeds)
     z = seeds.astype(np.float64).copy()
     F, its = np.empty(n), np.empty(n, np.int64)
-    kernels.solve_batch(z, np.repeat(oxy[None, :, 0], n, 0), np.repeat(oxy[None, :, 1], n, 0),
+    newton.solve_batch(z, np.repeat(oxy[None, :, 0], n, 0), np.repeat(oxy[None, :, 1], n, 0),
                         np.full(n, goal, np.int64), np.repeat(w[None], n, 0), 200, 1e-7, F, its)
     return z[np.argmin(F)].copy()
 
@@ -106,7 +106,7 @@ def test_qp_solver_agrees_with_brute_force_over_active_sets():
             N[5] = 2.0 * N[4]  # a redundant pair: parallel normals
             b[5] = 2.0 * b[4]
         x, u, act = np.empty(n), np.empty(m), np.zeros(m, bool)
-        assert constrained.qp_solve(np.linalg.inv(G), a, N, b, m, x, u, act)
+        assert qp.qp_solve(np.linalg.inv(G), a, N, b, m, x, u, act)
         best = None
         for k in range(m + 1):
             for S in itertools.combinations(range(m), k):

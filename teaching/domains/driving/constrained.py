@@ -28,28 +28,27 @@ from .kernels import (
     H0,
     H_BAND,
     H_SCALE,
+    KERNEL_CACHE_DIR,
     LW,
     NC,
     NV,
     STRIPES,
-    WORLD_CACHE_DIR,
     X_LIM,
     T,
     _backward,
-    _cholesky_solve,
     _forward,
-    cholesky,
     features_of_states,
     features_one,
-    newton_one,
     overshoot_penalty,
     rollout_one,
     trace_buffer,
     workspace,
 )
+from .newton import _cholesky_solve, newton_one
+from .qp import _inverse_spd, _normal_gram, qp_solve
 
 _user_cache_dir = numba_config.CACHE_DIR
-numba_config.CACHE_DIR = WORLD_CACHE_DIR  # these kernels freeze the world's constants too (see kernels.py)
+numba_config.CACHE_DIR = KERNEL_CACHE_DIR  # kernels.py says why
 
 LAM_NEGLIGIBLE = 1e-12  # a penalty force below this (units per ft: a limit >= ~0.65 ft away) moves no reward digit
 SQP_ITERS = 30
@@ -62,8 +61,6 @@ AUG_GAIN = 100.0  # the augmentation, per unit normal, in units of H's largest d
 #                   where a reduced Hessian's smallest eigenvalue was 1.8e-5 of it; 100 keeps B's condition ~4e7)
 RETRY_AUG_GAIN = 1000.0  # a second SQP, from the same start, where the first did not converge: a large negative
 #                          eigenvalue of H_L in the span of the held limits needs more (docs/decisions.md)
-QP_TOL = 1e-13  # ft (per unit normal): a linearised limit violated by less is held
-QP_DEP = 1e-8  # share of a normal (G^-1 metric) outside the active ones' span below which it depends on them
 
 
 @njit(cache=True)
@@ -131,166 +128,6 @@ def _jacobian_of_states(S, Jall, goal, c, A):
     A[T, :] = (1.0 if x > lane else -1.0) * Jall[T, 0, :]
     c[T + 1] = H_SCALE * (abs(h - H0) - H_BAND)
     A[T + 1, :] = (H_SCALE if h > H0 else -H_SCALE) * Jall[T, 2, :]
-
-
-@njit(cache=True)
-def _inverse_spd(G, n, out):
-    """out = G^-1 for SPD G (n, n), by one Cholesky factorisation; False if G is not positive definite."""
-    L = np.zeros((n, n))
-    if not cholesky(G, L):
-        return False
-    Li = np.zeros((n, n))  # L^-1, lower triangular
-    for j in range(n):
-        Li[j, j] = 1.0 / L[j, j]
-        for i in range(j + 1, n):
-            s = 0.0
-            for k in range(j, i):
-                s -= L[i, k] * Li[k, j]
-            Li[i, j] = s / L[i, i]
-    for i in range(n):  # G^-1 = L^-T L^-1
-        for j in range(i + 1):
-            s = 0.0
-            for k in range(i, n):
-                s += Li[k, i] * Li[k, j]
-            out[i, j] = s
-            out[j, i] = s
-    return True
-
-
-@njit(cache=True)
-def _normal_gram(N, rows, q, GN, out):
-    """out[:q, :q] = N_rows G^-1 N_rows' for the q normals N[rows[:q]], given GN[:, :q] = G^-1 N_rows'
-    (the Schur complement of the active limits in the QP's metric)."""
-    for a_ in range(q):
-        for b_ in range(q):
-            v = 0.0
-            for j in range(N.shape[1]):
-                v += N[rows[a_], j] * GN[j, b_]
-            out[a_, b_] = v
-
-
-@njit(cache=True)
-def _dot_row(N, i, lo, hi, v, s=0.0):
-    """s + N[i] . v, added term by term from s, over the columns lo[i]:hi[i] where row i can be
-    non-zero: the same bits as the full sum (the terms left out are exact zeros)."""
-    for j in range(lo[i], hi[i]):
-        s += N[i, j] * v[j]
-    return s
-
-
-@njit(cache=True)
-def qp_solve(Ginv, a, N, b, m, x, u, active):
-    """Goldfarb and Idnani's dual active-set method for  min 1/2 x' G x + a' x  s.t.  N_i . x >= b_i
-    (i < m), given Ginv = G^-1 (n, n), G positive definite.  x (n,) and u (m,) (the multipliers, >= 0)
-    are filled; active (m,) bool marks the active constraints.  Starting from the unconstrained
-    minimum it adds the most violated constraint, moving primal and dual variables together and
-    dropping an active constraint whenever its multiplier would turn negative; a constraint whose
-    normal depends on the active ones is reached by dropping one (so the active normals stay
-    independent: redundant limits need no care).  Returns False if the constraints are infeasible
-    or it did not finish in its iteration budget.
-
-    The normals are sparse (a box bound touches one variable, the limit at step t only the knots
-    before it), so every product with a row runs over the columns where it can be non-zero, and the
-    active normals' Gram matrix in the G^-1 metric is kept up to date as constraints join and leave
-    rather than formed again at every step: each entry is the same sum as before, so the same bits."""
-    n = Ginv.shape[0]
-    for i in range(n):
-        v = 0.0
-        for j in range(n):
-            v -= Ginv[i, j] * a[j]
-        x[i] = v
-    u[:m] = 0.0
-    active[:m] = False
-    lo, hi, norm = np.empty(m, np.int64), np.empty(m, np.int64), np.empty(m)
-    for i in range(m):
-        lo[i], hi[i] = n, 0
-        nn = 0.0
-        for j in range(n):
-            if N[i, j] != 0.0:
-                lo[i], hi[i] = min(lo[i], j), j + 1
-            nn += N[i, j] * N[i, j]
-        norm[i] = math.sqrt(nn) + 1e-300
-        hi[i] = max(hi[i], lo[i])
-    act = np.empty(n, np.int64)  # indices of the active constraints, in order
-    q = 0
-    GN = np.empty((n, n))  # Ginv N_k' for the active k (columns)
-    Mq = np.empty((n, n))  # Mq[a, b] = N_act[a] . GN[:, b], the active normals' Gram matrix
-    zdir = np.empty(n)
-    r = np.empty(n)
-    w1 = np.empty(n)
-    gn = np.empty(n)
-    for _outer in range(4 * (m + n)):
-        # the most violated constraint (relative to its normal's size)
-        worst, p = 0.0, -1
-        for i in range(m):
-            if active[i]:
-                continue
-            s = _dot_row(N, i, lo, hi, x, -b[i]) / norm[i]
-            if s < worst - QP_TOL:
-                worst, p = s, i
-        if p < 0:
-            return True
-        for j in range(n):  # gn = Ginv N_p'
-            v = 0.0
-            for k in range(lo[p], hi[p]):
-                v += Ginv[j, k] * N[p, k]
-            gn[j] = v
-        gg = _dot_row(N, p, lo, hi, gn)
-        u_p = 0.0
-        for _inner in range(n + 2):
-            # r = (Na Ginv Na')^-1 Na Ginv n_p ; z = Ginv n_p - Ginv Na' r
-            if q:
-                for a_ in range(q):
-                    w1[a_] = _dot_row(N, act[a_], lo, hi, gn)
-                if not _cholesky_solve(Mq[:q, :q].copy(), w1[:q].copy(), r[:q]):
-                    return False
-            for j in range(n):
-                v = gn[j]
-                for a_ in range(q):
-                    v -= GN[j, a_] * r[a_]
-                zdir[j] = v
-            t1, l_ = np.inf, -1
-            for a_ in range(q):
-                if r[a_] > 0.0:
-                    ratio = u[act[a_]] / r[a_]
-                    if ratio < t1:
-                        t1, l_ = ratio, a_
-            zn = _dot_row(N, p, lo, hi, zdir)
-            s = _dot_row(N, p, lo, hi, x, -b[p])
-            # n_p' H n_p against n_p' G^-1 n_p: the share of n_p the active normals do not explain
-            t2 = -s / zn if zn > QP_DEP * gg else np.inf
-            t = min(t1, t2)
-            if t == np.inf:
-                return False
-            if t2 < np.inf:
-                for j in range(n):
-                    x[j] += t * zdir[j]
-            for a_ in range(q):
-                u[act[a_]] -= t * r[a_]
-            u_p += t
-            if t == t2:  # full step: p joins the active set
-                u[p] = u_p
-                active[p] = True
-                act[q] = p
-                GN[:, q] = gn
-                for a_ in range(q + 1):
-                    Mq[a_, q] = _dot_row(N, act[a_], lo, hi, GN[:, q])
-                    Mq[q, a_] = _dot_row(N, p, lo, hi, GN[:, a_])
-                q += 1
-                break
-            # partial step: the constraint whose multiplier reached 0 leaves
-            k_out = act[l_]
-            active[k_out] = False
-            u[k_out] = 0.0
-            for a_ in range(l_, q - 1):
-                act[a_] = act[a_ + 1]
-                GN[:, a_] = GN[:, a_ + 1]
-            for a_ in range(l_, q - 1):  # Mq without row and column l_
-                Mq[a_, :q] = Mq[a_ + 1, :q]
-            for a_ in range(l_, q - 1):
-                Mq[:q - 1, a_] = Mq[:q - 1, a_ + 1]
-            q -= 1
-    return False
 
 
 @njit(cache=True)
@@ -529,7 +366,7 @@ def constrained_one(z, ox, oy, goal, w, maxiter, tol, feas_tol, from_penalty_opt
 
 @njit(parallel=True, cache=True)
 def constrained_batch(z, ox, oy, goal, w, maxiter, tol, feas_tol, from_penalty_optimum, F_out, it_out, status_out):
-    """constrained_one on every problem (in parallel, striped as kernels.solve_batch). z (B, K, 2) in place."""
+    """constrained_one on every problem (in parallel, striped as newton.solve_batch). z (B, K, 2) in place."""
     n = z.shape[0]
     for s in prange(STRIPES):
         for b in range(s, n, STRIPES):

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import kernels
+from . import newton
 from .world import WORLD
 
 STATE_DIM = 5
@@ -25,7 +25,7 @@ def rollout_np(knots: np.ndarray) -> np.ndarray:
     flat = np.ascontiguousarray(knots.reshape((-1, WORLD.n_knots, 2)))
     out = np.empty((len(flat), WORLD.horizon + 1, STATE_DIM))
     if len(flat):
-        kernels.rollout_batch(flat, out)
+        newton.rollout_batch(flat, out)
     return out.reshape(lead + (WORLD.horizon + 1, STATE_DIM))
 
 

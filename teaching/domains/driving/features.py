@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...core.rewards import reward  # noqa: F401  (the planner's and the tests' name for it)
-from . import dynamics, kernels
+from . import dynamics, newton
 from .dynamics import HEADING, X
 from .world import WORLD, World
 
@@ -27,7 +27,7 @@ def raw_features(knots: np.ndarray, other_xy: np.ndarray, goal: np.ndarray) -> n
     knots = np.ascontiguousarray(knots, dtype=np.float64)
     out = np.empty((len(knots), 5))
     if len(knots):
-        kernels.features_batch(knots, np.ascontiguousarray(other_xy[..., 0], dtype=np.float64),
+        newton.features_batch(knots, np.ascontiguousarray(other_xy[..., 0], dtype=np.float64),
                                np.ascontiguousarray(other_xy[..., 1], dtype=np.float64),
                                np.asarray(goal, dtype=np.int64), out)
     return out

@@ -32,7 +32,7 @@ a local optimiser alone is wrong.  For one chunk of environments:
 
 After step 3 every theta's stored trajectory is at least as good under theta as
 theta*'s, so d_reward >= 0 holds exactly on the stored (float32) trajectories.
-Newton uses exact Hessians (:mod:`teaching.domains.driving.kernels`); it is parallel over
+Newton uses exact Hessians (:mod:`teaching.domains.driving.kernels`, :mod:`.newton`); it is parallel over
 problems with Numba threads and holds no state between calls, so it is safe in
 a forked worker as long as the parent process has not run it (docs/decisions.md).
 """
@@ -45,7 +45,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from ...core import detmath
-from . import constrained, kernels
+from . import constrained, kernels, newton
 from .dynamics import rollout_np
 from .environments import get_environments, other_car_states
 from .features import raw_features, reward
@@ -143,7 +143,7 @@ def solve(z0, other_xy, goal, weights, maxiter):
     F = np.empty(n)
     its = np.empty(n, np.int64)
     if n:
-        kernels.solve_batch(z, np.ascontiguousarray(other_xy[..., 0]), np.ascontiguousarray(other_xy[..., 1]),
+        newton.solve_batch(z, np.ascontiguousarray(other_xy[..., 0]), np.ascontiguousarray(other_xy[..., 1]),
                             np.asarray(goal, np.int64), np.ascontiguousarray(weights), maxiter, NEWTON_TOL, F, its)
     return z, F, its
 
@@ -182,14 +182,14 @@ def _pool_best(pool_phi, thetas, allowed=None, own=None):
     """For every theta (N, 5), the best allowed trajectory of one environment's pool (P, 5 normalised
     features; allowed (P,) bool, all if None): (index (N,), reward (N,), reward of pool trajectory
     own[i] (N,), -inf where it is not allowed).  Ties go to the lowest index; rewards are summed as
-    features.reward sums them (kernels.pool_best)."""
+    features.reward sums them (newton.pool_best)."""
     pool_phi = np.ascontiguousarray(pool_phi, np.float64)
     thetas = np.ascontiguousarray(thetas, np.float64)
     n = len(thetas)
     allowed = np.ones(len(pool_phi), np.bool_) if allowed is None else np.ascontiguousarray(allowed, np.bool_)
     own = np.zeros(n, np.int64) if own is None else np.ascontiguousarray(own, np.int64)
     best, best_r, own_r = np.empty(n, np.int64), np.empty(n), np.empty(n)
-    kernels.pool_best(pool_phi, thetas, allowed, own, best, best_r, own_r)
+    newton.pool_best(pool_phi, thetas, allowed, own, best, best_r, own_r)
     return best, best_r, own_r
 
 
