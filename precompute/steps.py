@@ -37,6 +37,7 @@ from .specs import StudyJobSpec
 
 log = logging.getLogger(__name__)
 
+
 # --- trajectory tables ---------------------------------------------------------
 def compute_chunk(spec: dict, env_ids, threads: int) -> dict:
     """One chunk planned with `threads` Numba threads (the pool process's own thread pool,
