@@ -23,8 +23,8 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-COMMAND = ["-m", "celery", "-A", "config", "worker", "--pool=prefork", "--concurrency", "1",
-           "--queues", "bench-boot", "--loglevel", "INFO", "--without-mingle", "--without-gossip"]
+sys.path.insert(0, str(ROOT))
+from precompute import procs  # noqa: E402  (the tests' worker command and readiness wait)
 
 
 def boot_seconds(code: Path, scratch: Path) -> float:
@@ -35,19 +35,18 @@ def boot_seconds(code: Path, scratch: Path) -> float:
     env.update(DJANGO_SETTINGS_MODULE="config.settings", CELERY_SKIP_CHECKS="1", VAR_DIR=str(scratch),
                DEBUG="1", PYTHONUNBUFFERED="1")
     python = code / ".venv/bin/python"
+    python = str(python) if python.exists() else sys.executable
+    command = procs.worker_command("bench-boot", loglevel="INFO", python=python)
     with open(log, "wb") as out:
         t0 = time.perf_counter()
-        proc = subprocess.Popen([str(python if python.exists() else sys.executable), *COMMAND], cwd=code, env=env,
-                                stdout=out, stderr=subprocess.STDOUT, start_new_session=True)
+        proc = subprocess.Popen(command, cwd=code, env=env, stdout=out, stderr=subprocess.STDOUT,
+                                start_new_session=True)
+    proc.log_path = log
     try:
-        while b" ready." not in log.read_bytes():
-            if proc.poll() is not None:
-                raise RuntimeError(f"the worker exited ({proc.returncode}):\n{log.read_text()[-2000:]}")
-            time.sleep(0.005)
+        procs.wait_ready(proc, timeout=120, poll=0.005)
         return time.perf_counter() - t0
     finally:
-        os.killpg(proc.pid, 9)
-        proc.wait()
+        procs.stop_worker(proc, grace=0)  # SIGKILL to its group at once: nothing of it is kept
 
 
 def main(argv=None) -> None:

@@ -23,13 +23,14 @@ def host_id() -> str:
     return f"{socket.gethostname()}:{os.getpid()}"
 
 
-def celery_executable() -> list[str]:
-    return [sys.executable, "-m", "celery"]
+def celery_executable(python: str = sys.executable) -> list[str]:
+    return [python, "-m", "celery"]
 
 
 def worker_command(queue: str = "celery", concurrency: int = 1, hostname: str | None = None,
-                   loglevel: str = "info", pool: str = "prefork") -> list[str]:
-    cmd = celery_executable() + ["-A", "config", "worker", f"--pool={pool}", "-c", str(concurrency),
+                   loglevel: str = "info", pool: str = "prefork", python: str = sys.executable) -> list[str]:
+    """`celery worker` for the project's app; `python`: another checkout's interpreter (bench/worker_boot.py)."""
+    cmd = celery_executable(python) + ["-A", "config", "worker", f"--pool={pool}", "-c", str(concurrency),
                                  "-Q", queue, "-l", loglevel, "--without-gossip", "--without-mingle"]
     if hostname:
         cmd += ["-n", hostname]
@@ -52,8 +53,8 @@ def start_worker(queue: str = "celery", concurrency: int = 1, env: dict | None =
     return proc
 
 
-def wait_ready(proc: subprocess.Popen, timeout: float = 60.0) -> None:
-    """Wait for the worker's "ready." log line."""
+def wait_ready(proc: subprocess.Popen, timeout: float = 60.0, poll: float = 0.1) -> None:
+    """Wait for the worker's "ready." log line, looking every `poll` seconds."""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         if proc.poll() is not None:
@@ -61,7 +62,7 @@ def wait_ready(proc: subprocess.Popen, timeout: float = 60.0) -> None:
             raise RuntimeError(f"celery worker exited with status {proc.returncode}:\n{tail}")
         if proc.log_path and proc.log_path.exists() and " ready." in proc.log_path.read_text():
             return
-        time.sleep(0.1)
+        time.sleep(poll)
     raise TimeoutError(f"celery worker not ready after {timeout:.0f} s")
 
 

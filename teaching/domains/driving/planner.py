@@ -144,7 +144,7 @@ def solve(z0, other_xy, goal, weights, maxiter):
     its = np.empty(n, np.int64)
     if n:
         newton.solve_batch(z, np.ascontiguousarray(other_xy[..., 0]), np.ascontiguousarray(other_xy[..., 1]),
-                            np.asarray(goal, np.int64), np.ascontiguousarray(weights), maxiter, NEWTON_TOL, F, its)
+                           np.asarray(goal, np.int64), np.ascontiguousarray(weights), maxiter, NEWTON_TOL, F, its)
     return z, F, its
 
 
