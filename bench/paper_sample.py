@@ -30,7 +30,7 @@ def _digest(out: dict) -> str:
     return hashlib.sha256(b"".join(np.ascontiguousarray(out[k]).tobytes() for k in sorted(out))).hexdigest()
 
 
-def _layout():
+def planner_modules():
     """(build, features, planner) modules of the checkout on sys.path: today's layout, or the flat
     one of planners up to 8 (teaching/build.py, ...), so that old checkouts can be compared too."""
     import importlib  # noqa: PLC0415
@@ -42,11 +42,18 @@ def _layout():
         return tuple(importlib.import_module(f"teaching.{m}") for m in ("build", "features", "planner"))
 
 
+def sample_chunks(build, stride: int):
+    """(the paper preset, its every stride-th chunk from the middle of the first stride on): the
+    even sample across the grid that this benchmark and bench/planner_phases.py plan."""
+    preset = build.PRESETS["paper"]
+    return preset, build.chunks_of(preset.env_ids(), preset.chunk_size)[stride // 2::stride]
+
+
 def _plan(args) -> str:
     chunk, thetas, normalisers, threads = args
     import numba  # noqa: PLC0415
 
-    plan_chunk = _layout()[2].plan_chunk
+    plan_chunk = planner_modules()[2].plan_chunk
     numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
     return _digest(plan_chunk(chunk, thetas, normalisers))
 
@@ -61,13 +68,11 @@ def main(argv=None) -> int:
     if args.stride < 1 or args.jobs < 1:
         parser.error("--stride and --jobs must be at least 1")
     sys.path.insert(0, str(Path(args.code).resolve()))  # spawned workers inherit sys.path
-    build, features, planner = _layout()
-    PRESETS, chunks_of, default_normalisers = build.PRESETS, build.chunks_of, features.default_normalisers
+    build, features, planner = planner_modules()
     PLANNER_VERSION, plan_chunk = planner.PLANNER_VERSION, planner.plan_chunk
 
-    preset = PRESETS["paper"]
-    thetas, normalisers = preset.thetas(), default_normalisers()
-    chunks = chunks_of(preset.env_ids(), preset.chunk_size)[args.stride // 2::args.stride]
+    preset, chunks = sample_chunks(build, args.stride)
+    thetas, normalisers = preset.thetas(), features.default_normalisers()
     start = time.perf_counter()
     if args.jobs == 1:
         digests = [_digest(plan_chunk(c, thetas, normalisers)) for c in chunks]

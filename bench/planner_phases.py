@@ -32,9 +32,9 @@ def main(argv=None) -> int:
     sys.path.insert(0, str(Path(args.code).resolve()))
     import numba  # noqa: PLC0415
     import numpy as np  # noqa: PLC0415
+    from paper_sample import planner_modules, sample_chunks  # noqa: PLC0415  (bench/ is this script's sys.path[0])
 
-    from teaching.core import build  # noqa: PLC0415
-    from teaching.domains.driving import features, planner  # noqa: PLC0415
+    build, features, planner = planner_modules()  # today's modules, or an old checkout's flat ones
 
     numba.set_num_threads(1)
     seconds = collections.Counter()
@@ -51,9 +51,8 @@ def main(argv=None) -> int:
     for attr, name in WRAPPED.items():
         if hasattr(planner, attr):
             setattr(planner, attr, timed(name, getattr(planner, attr)))
-    preset = build.PRESETS["paper"]
+    preset, chunks = sample_chunks(build, args.stride)
     thetas, normalisers = preset.thetas(), features.default_normalisers()
-    chunks = build.chunks_of(preset.env_ids(), preset.chunk_size)[args.stride // 2::args.stride]
     planner.plan_chunk(chunks[0][:2], thetas, normalisers)  # compile or load the kernels
     seconds.clear()
     stats, digest = {}, hashlib.sha256()
