@@ -21,25 +21,46 @@ QP_DEP = 1e-8  # share of a normal (G^-1 metric) outside the active ones' span b
 
 @njit(cache=True)
 def _inverse_spd(G, n, out):
-    """out = G^-1 for SPD G (n, n), by one Cholesky factorisation; False if G is not positive definite."""
+    """out = G^-1 for SPD G (n, n), by one Cholesky factorisation; False if G is not positive definite.
+
+    Two columns of L^-1, and two entries of each row of L^-T L^-1, are worked side by side: every
+    entry is the same sum in the same order as one at a time, but the two are independent chains
+    the CPU overlaps (as in newton.cholesky)."""
     L = np.zeros((n, n))
     if not cholesky(G, L):
         return False
-    Li = np.zeros((n, n))  # L^-1, lower triangular
-    for j in range(n):
+    Li = np.zeros((n, n))  # L^-1, lower triangular: Li[i, j] = -(sum_{k=j}^{i-1} L[i, k] Li[k, j]) / L[i, i]
+    for j in range(0, n - 1, 2):
+        j2 = j + 1
         Li[j, j] = 1.0 / L[j, j]
-        for i in range(j + 1, n):
-            s = 0.0
-            for k in range(j, i):
+        Li[j2, j2] = 1.0 / L[j2, j2]
+        Li[j2, j] = (0.0 - L[j2, j] * Li[j, j]) / L[j2, j2]
+        for i in range(j2 + 1, n):
+            s = 0.0 - L[i, j] * Li[j, j]
+            s2 = 0.0
+            for k in range(j2, i):
                 s -= L[i, k] * Li[k, j]
+                s2 -= L[i, k] * Li[k, j2]
             Li[i, j] = s / L[i, i]
-    for i in range(n):  # G^-1 = L^-T L^-1
-        for j in range(i + 1):
+            Li[i, j2] = s2 / L[i, i]
+    if n % 2:
+        Li[n - 1, n - 1] = 1.0 / L[n - 1, n - 1]
+    for i in range(n):  # G^-1 = L^-T L^-1: out[i, j] = sum_{k=i}^{n-1} Li[k, i] Li[k, j] for j <= i
+        for j in range(0, i, 2):
             s = 0.0
+            s2 = 0.0
             for k in range(i, n):
                 s += Li[k, i] * Li[k, j]
+                s2 += Li[k, i] * Li[k, j + 1]
             out[i, j] = s
             out[j, i] = s
+            out[i, j + 1] = s2
+            out[j + 1, i] = s2
+        if i % 2 == 0:
+            s = 0.0
+            for k in range(i, n):
+                s += Li[k, i] * Li[k, i]
+            out[i, i] = s
     return True
 
 
