@@ -59,7 +59,8 @@ def _textbook_inverse(A):
 def _spd(rng, n, condition):
     """A random SPD matrix with eigenvalues spread over `condition` decades."""
     Q, _ = np.linalg.qr(rng.normal(size=(n, n)))
-    return (Q * np.logspace(0, -condition, n)) @ Q.T + 0.0
+    A = (Q * np.logspace(0, -condition, n)) @ Q.T
+    return (A + A.T) / 2.0
 
 
 def _bits(a):
