@@ -5,6 +5,7 @@ import json
 import numpy as np
 import pytest
 
+from teaching.core.build import PRESETS
 from teaching.core.candidates import sample_thetas
 from teaching.core.table import TrajectoryTable
 from teaching.domains.driving import kernels, reference_hard
@@ -195,6 +196,31 @@ def test_newton_does_not_stop_short_next_to_a_bound():
     pg, _ = _projected_gradient(z[0], oxy, env.goal[0], w[0])
     assert its[0] < 399, f"ran out of iterations at a projected gradient of {pg:.2g}"
     assert pg < 1e-6, f"stopped after {its[0]} iterations at a projected gradient of {pg:.2g}"
+
+
+def test_a_warm_start_next_to_a_bound_does_not_crawl():
+    """A continuation warm start of the paper build (env 7680, a merge; theta 359 of the paper preset,
+    from the pool trajectory it was given).  Knot 1's steer is on its upper bound with the gradient
+    pointing inwards, so it is free, but the coupled Newton step for it points outwards.  Until planner
+    11 it was held where it was with a scaled gradient step of ~1e-7 off the bound; the next iteration
+    freed it again and the projection clipped it back, so the others took steps computed for a move it
+    never made: 91 iterations at a projected gradient of ~2e-4, each gaining ~1e-13, to
+    F = 0.0040244356906772617.  Held on the bound and the others solved for that (planner 12), it
+    converges in 4 (docs/decisions.md, "Held on the bound")."""
+    theta = PRESETS["paper"].thetas()[359]
+    env = get_environments([7680])
+    oxy = other_car_states(env)[0]
+    w = objective_weights(theta, default_normalisers())
+    z0 = np.array([[-5.19277513e-01, 1.46068875e-02], [1.0, 8.16111453e-03], [-4.85061616e-01, -6.92052441e-03],
+                   [1.63999498e-02, -7.74957892e-03], [-9.23137646e-03, -6.99187350e-03],
+                   [3.95612355e-04, -5.82550792e-03], [-1.21221179e-03, -4.48390841e-03],
+                   [-1.27488049e-04, -3.00884014e-03], [3.78655270e-03, -1.47239165e-03],
+                   [5.50171770e-02, -1.82954289e-04]], dtype=np.float32).astype(np.float64)
+    z, F, its = solve(z0[None], oxy[None], env.goal, w, 200)
+    pg, _ = _projected_gradient(z[0], oxy, env.goal[0], w[0])
+    assert pg < NEWTON_TOL
+    assert its[0] <= 10, f"{its[0]} iterations (91 when the outward-stepping control was not held on its bound)"
+    assert F[0] <= 0.0040244356906772617 + 1e-15
 
 
 def test_projected_newton_converges_on_merging_problems():

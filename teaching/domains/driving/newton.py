@@ -120,6 +120,8 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol):
     p = np.empty(NV)
     L = np.empty((NV, NV))  # Hf's Cholesky factor: cholesky reads only the entries it has written
     free = np.empty(NV, np.bool_)
+    held = np.empty(NV, np.bool_)  # held on the bound it is next to: the Newton step would carry it past
+    to_bound = np.empty(NV)  # ... by this displacement (bound - z_i)
     zf = z.reshape(NV)
     zn = np.empty(NV)
     # the Hessian only once the gradient says another step is needed: the last point's would go unused
@@ -150,6 +152,7 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol):
         for i in range(NV):
             scale = max(scale, abs(H[i, i]))
         mu = damping
+        held[:] = False
         for _rounds in range(NV):
             for _attempt in range(30):
                 for i in range(NV):
@@ -157,23 +160,36 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol):
                         Hf[i, j] = H[i, j] if (free[i] and free[j]) else 0.0
                     Hf[i, i] = (H[i, i] if free[i] else 1.0) + mu
                     rhs[i] = -g[i] if free[i] else 0.0
+                    if free[i]:
+                        for j in range(NV):
+                            if held[j]:
+                                rhs[i] -= H[i, j] * to_bound[j]
                 if cholesky(Hf, L):
                     _solve_factored(L, rhs, p)
                     break
                 mu = max(1e-10 * (scale + 1.0), 10.0 * mu)
-            # A variable on its bound with the gradient pointing inwards is free, but its Newton
-            # step may still point out of the box; then the projection bends the whole step and
-            # the line search crawls in tiny steps (the active set flipping each iteration).
-            # Fix it and solve again for the others: a few more 20x20 Choleskys, at most.
+            # A free variable next to a bound (the gradient points inwards, or it is not quite on
+            # it) whose Newton step would carry it past the bound: the projection would clip it
+            # there while the others took steps computed as if it went on, so the step is wrong
+            # for them, the line search cuts it by up to 2^-15 (F rose by 1e6 through a limit's
+            # penalty) and the next iteration flips back.  Hold it on the bound and solve again
+            # for the others given that displacement: the box-constrained model's step.
+            # (Holding it where it was, with a scaled gradient step off the bound, as until planner
+            # 11, crawled: a tenth of warm starts took 20 to 90 iterations; docs/decisions.md.)
             changed = False
             for i in range(NV):
-                if free[i] and ((zf[i] <= -1.0 and p[i] < 0.0) or (zf[i] >= 1.0 and p[i] > 0.0)):
+                if free[i] and ((zf[i] <= -1.0 + eps_act and zf[i] + p[i] < -1.0)
+                                or (zf[i] >= 1.0 - eps_act and zf[i] + p[i] > 1.0)):
                     free[i] = False
+                    held[i] = True
+                    to_bound[i] = (-1.0 if p[i] < 0.0 else 1.0) - zf[i]
                     changed = True
             if not changed:
                 break
         for i in range(NV):
-            if not free[i]:  # scaled gradient step: projection puts it on its bound
+            if held[i]:
+                p[i] = to_bound[i]
+            elif not free[i]:  # scaled gradient step: projection puts it on its bound
                 p[i] = -g[i] / max(abs(H[i, i]), 1e-12)
         alpha = 1.0
         accepted = False

@@ -52,7 +52,7 @@ from .features import raw_features, reward
 from .strategies import lane_crossings, strategy_labels
 from .world import WORLD
 
-PLANNER_VERSION = 11  # bump whenever a change alters the trajectories it returns
+PLANNER_VERSION = 12  # bump whenever a change alters the trajectories it returns
 NEWTON_TOL = 1e-7  # max |projected gradient|, normalised reward units per unit of z (1e-9 changed no gap)
 REFINE_GAIN = 1e-6  # normalised reward units: exact IRL's tolerance (1e-7 and 1e-8 changed no measured gap)
 FEAS_TOL = 1e-9  # ft: how far past a limit the constrained solve may end (teaching.domains.driving.constrained)
