@@ -171,7 +171,7 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol):
             # A free variable next to a bound (the gradient points inwards, or it is not quite on
             # it) whose Newton step would carry it past the bound: the projection would clip it
             # there while the others took steps computed as if it went on, so the step is wrong
-            # for them, the line search cuts it by up to 2^-15 (F rose by 1e6 through a limit's
+            # for them, the line search cuts it to as little as 2^-19 (F rose by 1e6 through a limit's
             # penalty) and the next iteration flips back.  Hold it on the bound and solve again
             # for the others given that displacement: the box-constrained model's step.
             # (Holding it where it was, with a scaled gradient step off the bound, as until planner
