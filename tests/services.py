@@ -8,6 +8,7 @@ from __future__ import annotations
 import os
 import socket
 import threading
+import time
 from contextlib import contextmanager
 
 import psycopg
@@ -15,6 +16,27 @@ import pytest
 import redis
 
 PG_URL = os.environ.get("POSTGRES_TEST_URL", "postgres://postgres@127.0.0.1:5432/test")
+
+
+class Hung(AssertionError):
+    """A step that a test waits for never happened: raised by :func:`wait_until`'s hang guard."""
+
+
+def wait_until(predicate, timeout: float, what: str, poll: float = 0.05, detail=lambda: ""):
+    """predicate()'s first true value, polled every `poll` s; :class:`Hung` naming `what` (and
+    detail()'s text, a log tail say) if none came within `timeout` s.
+
+    The timeout only tells a hang from progress, so it sits at least ten times above what the step
+    takes on a loaded machine; how long the step took is never asserted (a shared 2-core machine
+    can stretch anything), it is a benchmark's business (bench/)."""
+    deadline = time.monotonic() + timeout
+    while True:
+        value = predicate()
+        if value:
+            return value
+        if time.monotonic() > deadline:
+            raise Hung(f"{what}: not within {timeout:.0f} s (a hang?)\n{detail()}")
+        time.sleep(poll)
 
 
 def require_service(ok: bool, what: str, ci: bool) -> None:
