@@ -8,6 +8,7 @@ from urllib.parse import urlsplit
 import numpy as np
 import pytest
 import redis
+from django.core.cache import caches
 from django.test import Client, override_settings
 from django.urls import reverse
 
@@ -93,12 +94,20 @@ def test_a_cache_outage_lets_participants_through(study, caplog, monkeypatch):
 
 def test_a_hung_cache_costs_one_timeout_not_one_per_request(study, settings, monkeypatch):
     """A cache that accepts and never answers: one request waits out the socket timeout, then the
-    circuit breaker keeps every other request off the cache (issue 12, item 5).  The requests that
-    waited are counted where the cache's timeout is caught, not by their wall time: on a busy machine
-    a request that never touched the cache once took 0.6 s (CI, 2026-11-27)."""
-    timeouts = []
+    circuit breaker keeps every other request off the cache.  Counted, not timed: the requests that
+    went to the cache (security.hit looks the cache up only when the breaker is closed) and the
+    timeouts caught; the answers' latency is printed (bench/latency.py measures it)."""
+    timeouts, asked = [], []
     outage = security._cache_outage
     monkeypatch.setattr(security, "_cache_outage", lambda exc: (timeouts.append(exc), outage(exc))[-1])
+
+    class WatchedCaches:
+        def __getitem__(self, alias):
+            asked.append(alias)
+            return caches[alias]
+
+    monkeypatch.setattr(security, "caches", WatchedCaches())
+
     def answer_seconds(tag):
         seconds = []
         for i in range(40):
@@ -111,15 +120,15 @@ def test_a_hung_cache_costs_one_timeout_not_one_per_request(study, settings, mon
     local = {"BACKEND": "django.core.cache.backends.locmem.LocMemCache"}
     settings.CACHES, settings.RATE_LIMIT_CACHE = {"default": local, "rl": dict(local, LOCATION="rl")}, "rl"
     healthy = answer_seconds("h")
+    asked_healthy = asked.count("rl")
     with blackhole() as port:
         settings.CACHES = {"default": local, "rl": _cache(f"redis://127.0.0.1:{port}/0")}  # production options
         hung = answer_seconds("x")
-    rise = np.percentile(hung, 95) - np.percentile(healthy, 95)
     print(f"answer p95 {np.percentile(healthy, 95) * 1000:.0f} ms with a working cache, "
-          f"{np.percentile(hung, 95) * 1000:.0f} ms with a hung one (rise {rise * 1000:.0f} ms); "
-          f"slowest {hung.max():.2f} s")
-    assert rise < 0.100
-    assert len(timeouts) == 1 and hung[0] >= 0.4  # the first request waited out the timeout; the breaker opened
+          f"{np.percentile(hung, 95) * 1000:.0f} ms with a hung one; slowest {hung.max():.2f} s")
+    assert asked_healthy >= 40  # every answer is rate limited: each asks a working cache
+    assert asked.count("rl") - asked_healthy == 1  # with the hung one, only the first request asked it
+    assert len(timeouts) == 1 and isinstance(timeouts[0], redis.exceptions.TimeoutError)  # and waited it out
     assert Answer.objects.filter(participant__platform_pid__startswith="x").count() == 40
 
 
