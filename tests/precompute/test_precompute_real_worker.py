@@ -20,6 +20,7 @@ from celery import Celery
 
 from precompute import jobs, procs, work
 from teaching.core.build import Preset, build_table
+from tests.services import wait_until
 
 pytestmark = pytest.mark.slow
 
@@ -106,17 +107,14 @@ def test_killed_worker_is_replaced_and_nothing_stored_is_recomputed(redis_url, t
         procs.wait_ready(first, timeout=90)
         result = jobs.table_canvas(None, spec, queue=queue, app=app).apply_async()
         # Wait until worker 1 has stored a chunk and is in the middle of the next one.
-        deadline = time.monotonic() + 120
-        victim = None
-        while victim is None:
-            assert time.monotonic() < deadline, f"worker 1 never got going:\n{log_tail(first)}"
+        def mid_chunk():
             events = work.read_journal(out)
             stored = {e["key"] for e in events if e["event"] == "stored"}
             running = [e for e in events if e["event"] == "start" and e["key"] not in stored]
-            if stored and running:
-                victim = running[-1]
-            else:
-                time.sleep(0.01)
+            return running[-1] if stored and running else None
+
+        victim = wait_until(mid_chunk, 900, "worker 1 storing a chunk and starting the next", poll=0.01,
+                            detail=lambda: log_tail(first))
         child = int(victim["host"].rsplit(":", 1)[1])
         kids = procs.pool_children(first.pid)
         assert child != first.pid and (not kids or child in kids)

@@ -9,8 +9,9 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
+
+from tests.services import wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
 BIN = Path(sys.executable).parent
@@ -36,11 +37,8 @@ def stats(sock: Path) -> dict:
     return json.loads(out.stdout)
 
 
-def wait_for(path: Path, timeout: float = 60):
-    deadline = time.monotonic() + timeout
-    while not path.exists():
-        assert time.monotonic() < deadline, f"{path} never appeared"
-        time.sleep(0.2)
+def wait_for(path: Path, timeout: float = 300):
+    wait_until(path.exists, timeout, f"{path} appearing", poll=0.2)
 
 
 def test_two_instances_get_their_own_control_sockets(tmp_path):
