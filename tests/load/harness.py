@@ -16,11 +16,14 @@ import socket
 import subprocess
 import sys
 import time
+import urllib.error
 import urllib.request
 from collections import Counter
+from dataclasses import dataclass
 from pathlib import Path
 from urllib.parse import urlsplit, urlunsplit
 
+import numpy as np
 import psycopg
 from psycopg import sql
 
@@ -39,25 +42,46 @@ print(study.slug, study.conditions.count(), len(study.test_set))
 """
 
 
-def timed_get(url: str, timeout: float) -> float:
-    """Seconds until a 200 for GET url, or inf when none came within `timeout`."""
+@dataclass(frozen=True)
+class Visit:
+    """One GET of a page as a visitor sees it: the HTTP status (None when no answer came within the
+    timeout or the connection failed) and the seconds it took."""
+    status: int | None
+    seconds: float
+
+    @property
+    def answered(self) -> bool:
+        return self.status == 200
+
+
+def visit(url: str, timeout: float) -> Visit:
+    """GET url, reading the whole body, giving up after `timeout` s."""
     start = time.monotonic()
     try:
         with NO_PROXY.open(url, timeout=timeout) as r:
             r.read()
-            assert r.status == 200
+            status = r.status
+    except urllib.error.HTTPError as e:
+        status = e.code
     except OSError:
-        return float("inf")
-    return time.monotonic() - start
+        status = None
+    return Visit(status, time.monotonic() - start)
 
 
-def gets_during(url: str, seconds: float, timeout: float, every: float = 0.25) -> list[float]:
-    """timed_get of url every `every` s for `seconds`: what a normal visitor sees meanwhile."""
-    times, end = [], time.monotonic() + seconds
+def visits_during(url: str, seconds: float, timeout: float, every: float = 0.25) -> list[Visit]:
+    """visit(url) every `every` s for `seconds`: what a normal visitor sees meanwhile."""
+    visits, end = [], time.monotonic() + seconds
     while time.monotonic() < end:
-        times.append(timed_get(url, timeout))
+        visits.append(visit(url, timeout))
         time.sleep(every)
-    return times
+    return visits
+
+
+def latency_ms(visits: list[Visit]) -> str:
+    """p50, p95 and max of the visits' seconds, in ms, for a printed line (never for an assertion)."""
+    seconds = np.array([v.seconds for v in visits])
+    p50, p95 = np.percentile(seconds, [50, 95], method="nearest")
+    return f"p50 {p50 * 1000:.0f} ms, p95 {p95 * 1000:.0f} ms, max {seconds.max() * 1000:.0f} ms"
 
 
 def with_database(url: str, name: str) -> str:
@@ -174,7 +198,7 @@ class Server:
             raise RuntimeError(f"{' '.join(map(str, args))} failed:\n{(out.stdout + out.stderr)[-3000:]}")
         return out.stdout
 
-    def start(self, ready_timeout: float = 120):
+    def start(self, ready_timeout: float = 900):  # a hang guard: several gunicorn workers warm up, CPU-bound
         with connect(self.admin_url, autocommit=True) as conn:
             conn.execute(sql.SQL("CREATE DATABASE {}").format(sql.Identifier(self.db_name)))
         self._run([sys.executable, "manage.py", "migrate", "--noinput", "--verbosity", "0"])

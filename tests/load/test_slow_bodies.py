@@ -6,8 +6,9 @@
   for longer than nginx's 10 s client_body_timeout (which counts the gap between reads, so the
   trickle keeps them alive).  One address may hold 32 (CONN_PER_ADDRESS): the rest are refused
   with 503, and every refused or dropped connection is reopened.  Meanwhile the home page is
-  asked for from 127.0.0.1 four times a second: every GET is answered, p95 under 1 s.  Before the
-  fix nginx ran out of worker_connections at ~8,000 and dropped the rest.
+  asked for from 127.0.0.1 four times a second: every GET is answered (within a hang guard; the
+  latency and its bar, p95 under 1 s, are bench/latency.py's).  With too few worker_connections
+  nginx runs out at ~8,000 and drops the rest.
 * gunicorn stopped (supervisorctl stop web): nginx answers its own page, 503 with Retry-After,
   a meta refresh and no-store, and JSON to a script asking for JSON.
 
@@ -25,11 +26,10 @@ import time
 import urllib.error
 import urllib.request
 
-import numpy as np
 import pytest
 
 from tests.load import harness
-from tests.services import PG_URL, postgres_reachable, redis_reachable, require_service
+from tests.services import PG_URL, postgres_reachable, redis_reachable, require_service, wait_until
 
 pytestmark = [pytest.mark.slow, pytest.mark.postgres, pytest.mark.redis]
 
@@ -39,7 +39,7 @@ CAP = 32  # CONN_PER_ADDRESS, serve.sh's default
 TRICKLE_EVERY = 0.5  # seconds between two bytes of one body
 MAX_OPENS, REOPEN_PER_ROUND = 3 * CONNECTIONS, 1000
 DURATION = 12.0  # seconds of GETs under full pressure: longer than client_body_timeout
-P95_BAR, MAX_BAR = 1.0, 5.0
+HANG_GUARD = 10.0  # seconds a GET may wait: tells "answered" from "dropped or stuck"
 HEAD = (b"POST /s/none/p/none/1/ HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/x-www-form-urlencoded"
         b"\r\nContent-Length: 1000\r\n\r\n")
 
@@ -147,36 +147,39 @@ def server(tmp_path_factory, demo_table, ci):
         yield server
 
 
-def test_ten_thousand_slow_bodies_from_300_addresses_leave_gets_answered(server):
+def under_slow_bodies(server) -> tuple[list[harness.Visit], SlowBodies]:
+    """The home page visited every 0.25 s for DURATION s while CONNECTIONS slow bodies from
+    ADDRESSES press on `server`; the visits and the load generator (its counts)."""
     soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
     need = CONNECTIONS + 1000
     # the test must run: a machine whose hard limit is too low cannot show the property at all
     assert hard == resource.RLIM_INFINITY or hard >= need, f"this process may open only {hard} files; needs {need}"
     if soft < need:
         resource.setrlimit(resource.RLIMIT_NOFILE, (need, hard))
-    url = server.base_url + "/"
-    assert harness.timed_get(url, MAX_BAR) < P95_BAR
-    slow = SlowBodies(server.port)
-    started = time.monotonic()
+    slow = SlowBodies(server.port, max_seconds=600)  # stop_event ends it sooner; this bounds a stray run
     slow.thread.start()
     try:
-        while len(slow.open_counts) < 2 and time.monotonic() - started < 30:
-            time.sleep(0.1)  # every connection opened and trickling
-        times = harness.gets_during(url, DURATION, timeout=MAX_BAR)
+        wait_until(lambda: len(slow.open_counts) >= 2, 300, "every slow connection opened and trickling", poll=0.1)
+        visits = harness.visits_during(server.base_url + "/", DURATION, timeout=HANG_GUARD)
     finally:
         slow.stop_event.set()
         slow.thread.join(30)
         resource.setrlimit(resource.RLIMIT_NOFILE, (soft, hard))
     held = slow.open_counts[2:] or slow.open_counts
-    p95 = float(np.percentile(times, 95, method="nearest"))
-    print(f"{len(times)} GETs during {DURATION:.0f} s of {CONNECTIONS} slow bodies from {len(ADDRESSES)} addresses: "
-          f"{min(held)}-{max(held)} held open, {slow.opened} opened, answered {slow.answered}, dropped {slow.closed}, "
-          f"connect failures {slow.failed_connects}; p50 {np.median(times) * 1000:.0f} ms, "
-          f"p95 {p95 * 1000:.0f} ms, max {max(times) * 1000:.0f} ms")
+    print(f"{len(visits)} GETs during {DURATION:.0f} s of {CONNECTIONS} slow bodies from {len(ADDRESSES)} "
+          f"addresses: {min(held)}-{max(held)} held open, {slow.opened} opened, answered {slow.answered}, dropped "
+          f"{slow.closed}, connect failures {slow.failed_connects}; {harness.latency_ms(visits)}")
+    return visits, slow
+
+
+def test_ten_thousand_slow_bodies_from_300_addresses_leave_gets_answered(server):
+    assert harness.visit(server.base_url + "/", HANG_GUARD).answered
+    visits, slow = under_slow_bodies(server)
+    held = slow.open_counts[2:] or slow.open_counts
     # the pressure really was on: every address at its cap, trickling past client_body_timeout
     assert min(held) >= len(ADDRESSES) * CAP * 0.95
     assert slow.answered.get(b"HTTP/1.1 503", 0) >= CONNECTIONS - len(ADDRESSES) * CAP - 50  # over the cap
-    assert max(times) < MAX_BAR and p95 < P95_BAR  # every GET answered, and soon
+    assert len(visits) >= 3 and all(v.answered for v in visits), [v.status for v in visits]
     assert "worker_connections are not enough" not in server.log_path.read_text()
 
 
@@ -189,9 +192,7 @@ def supervisorctl(server, *args) -> str:
 
 def test_gunicorn_down_shows_nginx_page_with_retry_after(server):
     url = server.base_url + "/"
-    start = time.monotonic()
     assert "stopped" in supervisorctl(server, "stop", "web").lower()
-    stopped = time.monotonic() - start
     try:
         with pytest.raises(urllib.error.HTTPError) as page:
             harness.NO_PROXY.open(url, timeout=10)
@@ -209,8 +210,4 @@ def test_gunicorn_down_shows_nginx_page_with_retry_after(server):
         assert b'"ok": false' in answer.value.read()
     finally:
         supervisorctl(server, "start", "web")
-    start = time.monotonic()
-    while harness.timed_get(url, MAX_BAR) == float("inf") and time.monotonic() - start < 60:
-        time.sleep(0.5)
-    print(f"gunicorn stopped in {stopped:.1f} s; serving again {time.monotonic() - start:.1f} s after its start")
-    assert harness.timed_get(url, MAX_BAR) < MAX_BAR  # and back once gunicorn is
+    wait_until(lambda: harness.visit(url, HANG_GUARD).answered, 300, "the site serving again", poll=0.5)

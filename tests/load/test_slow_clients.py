@@ -3,10 +3,11 @@
 100 connections from one address trickle their request a byte at a time (half of them the
 headers, half a declared 1,000-byte body), and each is reopened as soon as the server drops it,
 for longer than the server's read timeouts.  Meanwhile a participant from another address asks
-for the home page four times a second: its p95 must stay under 1 s.  Against gunicorn alone
-(20 threads, each blocked reading one slow request) that GET times out; scripts/serve.sh puts
-nginx in front, which reads every request whole before gunicorn sees it.  Loopback only, bounded
-in time.
+for the home page four times a second: every one of those GETs is answered.  Against gunicorn
+alone (20 threads, each blocked reading one slow request) they go unanswered for as long as the
+trickle lasts, past the hang guard; scripts/serve.sh puts nginx in front, which reads every
+request whole before gunicorn sees it.  Their latency is printed, and measured with its bar
+(p95 under 1 s) by bench/latency.py.  Loopback only, bounded in time.
 """
 from __future__ import annotations
 
@@ -14,7 +15,6 @@ import socket
 import threading
 import time
 
-import numpy as np
 import pytest
 
 from tests.load import harness
@@ -25,7 +25,7 @@ pytestmark = [pytest.mark.slow, pytest.mark.postgres, pytest.mark.redis]
 SLOW_CONNECTIONS = 100
 SLOW_ADDRESS = "127.0.250.1"  # one address for all of them
 DURATION = 16.0  # seconds: longer than nginx's 10 s header and body timeouts
-P95_BAR = 1.0
+HANG_GUARD = 10.0  # seconds a GET may wait: tells "answered" from "stuck behind the slow requests"
 
 
 class Trickler:
@@ -81,23 +81,30 @@ class Trickler:
                 s.close()
 
 
+def under_slow_clients(server: harness.Server) -> tuple[list[harness.Visit], Trickler]:
+    """The home page visited every 0.25 s for DURATION s while SLOW_CONNECTIONS slow requests
+    from one address press on `server`; the visits and the trickler (its counts of open
+    connections)."""
+    url = server.base_url + "/"
+    slow = Trickler(server.port)
+    slow.thread.start()
+    try:
+        time.sleep(1.0)  # every slow connection is open and trickling
+        visits = harness.visits_during(url, DURATION, timeout=HANG_GUARD)
+    finally:
+        slow.stop.set()
+        slow.thread.join(10)
+    print(f"{len(visits)} GETs during {DURATION:.0f} s of {SLOW_CONNECTIONS} slow connections from one address "
+          f"({slow.opened} opened in all, {min(slow.open_counts)}-{max(slow.open_counts)} open at once): "
+          f"{harness.latency_ms(visits)}")
+    return visits, slow
+
+
 def test_slow_clients_from_one_address_leave_the_site_responsive(tmp_path, require_service, demo_table):
     require_service(postgres_reachable(), f"PostgreSQL at {PG_URL} is unreachable")
     require_service(redis_reachable(harness.REDIS_URL), f"Redis at {harness.REDIS_URL} is unreachable")
     with harness.Server(tmp_path, demo_table=demo_table) as server:
-        url = server.base_url + "/"
-        assert harness.timed_get(url, 5) < P95_BAR
-        slow = Trickler(server.port)
-        slow.thread.start()
-        try:
-            time.sleep(1.0)  # every slow connection is open and trickling
-            times = harness.gets_during(url, DURATION, timeout=5)
-        finally:
-            slow.stop.set()
-            slow.thread.join(10)
-    p95 = float(np.percentile(times, 95, method="nearest"))
-    print(f"{len(times)} GETs during {DURATION:.0f} s of {SLOW_CONNECTIONS} slow connections from one address "
-          f"({slow.opened} opened in all, {min(slow.open_counts)}-{max(slow.open_counts)} open at once): "
-          f"p50 {np.median(times) * 1000:.0f} ms, p95 {p95 * 1000:.0f} ms, max {max(times) * 1000:.0f} ms")
+        assert harness.visit(server.base_url + "/", HANG_GUARD).answered
+        visits, slow = under_slow_clients(server)
     assert min(slow.open_counts) >= SLOW_CONNECTIONS * 0.9  # the pressure really was on all along
-    assert p95 < P95_BAR
+    assert len(visits) >= 3 and all(v.answered for v in visits), [v.status for v in visits]
