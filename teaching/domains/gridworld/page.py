@@ -57,6 +57,8 @@ TEXTS = ParticipantTexts(
     attention_correct=frozenset({"deliver"}),
     watch="Watch how the robot carries the parcel from S to D.",
     question="Which delivery matches the robot's preferences?",
+    option="delivery",
+    choice_required="Please choose the delivery that matches the robot's preferences.",
     legend=(LegendEntry("the robot", "robot", "robot-edge"), LegendEntry("mud", "mud", "mud-mark"),
             LegendEntry("next to the dog", "near", "near-mark"), LegendEntry("cart", "cart", "cart"),
             LegendEntry("wall", "wall", "wall")),
