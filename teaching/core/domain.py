@@ -71,6 +71,8 @@ class ParticipantTexts:
     option: str = "option"
     # a test or check submitted without a choice
     choice_required: str = "Please choose the option that matches the robot."
+    # a study's title when its researcher gives none (the demo's)
+    title: str = "What does the robot prefer?"
 
 
 @runtime_checkable

@@ -59,6 +59,7 @@ TEXTS = ParticipantTexts(
     question="Which delivery matches the robot's preferences?",
     option="delivery",
     choice_required="Please choose the delivery that matches the robot's preferences.",
+    title="How does the delivery robot deliver?",
     legend=(LegendEntry("the robot", "robot", "robot-edge"), LegendEntry("mud", "mud", "mud-mark"),
             LegendEntry("next to the dog", "near", "near-mark"), LegendEntry("cart", "cart", "cart"),
             LegendEntry("wall", "wall", "wall")),
