@@ -49,7 +49,7 @@ def distinct_options(table, m) -> list[int]:
     own (the furthest from θ*'s first): where many θs share one path (a yard has few ways across), the
     furthest θs may all be one trajectory."""
     seen, picked = {table.controls[m, 0].tobytes()}, [0]
-    for n in np.argsort(-table.d_euclid[m], kind="stable"):
+    for n in np.argsort(-table.d_euclid[m]):
         key = table.controls[m, n].tobytes()
         if key not in seen and len(picked) < 4:
             seen.add(key)
@@ -61,10 +61,9 @@ def real_spec(table, path, slug="real"):
     """A study on the tiny table: two conditions of two training examples, and N_TESTS tests,
     each theta*'s trajectory and three other trajectories (all real optima, all four different)."""
     ok = [int(m) for m in np.flatnonzero(showable(table))]
-    tests = [m for m in ok if len(distinct_options(table, m)) == 4][:N_TESTS]
+    train = ok[:4]
+    tests = [m for m in ok[4:] if len(distinct_options(table, m)) == 4][:N_TESTS]
     assert len(tests) == N_TESTS, f"{table.domain.name}: {len(tests)} environments with 4 different trajectories"
-    train = [m for m in ok if m not in tests][:4]
-    assert len(train) == 4
     test_set = []
     for m in tests:
         test_set.append({"env_id": int(table.env_ids[m]), "options": [
