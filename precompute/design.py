@@ -47,7 +47,7 @@ def built_tables(root: Path | None = None) -> list[dict]:
         try:
             meta = json.loads(meta_path.read_text())
             shape = meta["shape"]
-            domain = meta.get("domain") or default_domain_name()  # a table built before domains: the car's
+            domain = meta.get("domain") or default_domain_name()  # a table built before domains: the default's
             if domain not in domain_names():
                 continue  # a table of a domain this installation does not have
             out.append({"path": str(meta_path.parent), "preset": meta.get("preset", "?"), "domain": domain,
@@ -147,7 +147,7 @@ class StudyDesignForm(forms.Form):
                                           label="Closed loop: a check question every",
                                           help_text="Examples between check questions; 0: no check questions.")
     loop_feedback = forms.BooleanField(initial=True, required=False, label="Closed loop: feedback after each check",
-                                       help_text="After a check, show what the car really does there.")
+                                       help_text="After a check, show what the robot really does there.")
     loop_fit_from = forms.ChoiceField(
         required=False, label="Closed loop: model from a fit (optional)",
         help_text="A study whose participants' answers set the model, τ / λ and ε above: the learner model that "
@@ -156,12 +156,13 @@ class StudyDesignForm(forms.Form):
                                   help_text="Each wrong option is at least this much worse for θ* (reward units).")
     min_distance = forms.FloatField(min_value=0, required=False, label="Test set: minimum distance (optional)",
                                     help_text="The four options are at least this far apart (scaled state units); "
-                                              "empty: the table's domain's default (driving 0.5, about 6 ft on "
-                                              "average; gridworld 0.3 cells per move).")
+                                              "empty: the table's domain's default.")
 
     def __init__(self, *args, tables: list[dict], **kwargs):
         super().__init__(*args, **kwargs)
         self.fields["table"].choices = table_choices(tables)
+        self.fields["min_distance"].help_text += " (" + "; ".join(  # each domain's, in its own units
+            f"{name}: {get_domain(name).min_option_distance}" for name in domain_names()) + ")"
         fitted = (Study.objects.filter(participants__completed_at__isnull=False, participants__excluded=False)
                   .distinct().order_by("slug").values_list("slug", "name"))
         self.fields["loop_fit_from"].choices = [("", "none: the settings above")] + [
@@ -283,8 +284,7 @@ class TableBuildForm(forms.Form):
                                          "table then gets a name of its own).")
     envs = forms.IntegerField(required=False, min_value=4, label="Environments (optional)",
                               error_messages={"min_value": "A table needs at least 4 environments."},
-                              help_text="How many environments, 4 to all of the domain's (driving: 21,216 scenes; "
-                                        "gridworld: 17,460 yards); empty: the preset's.")
+                              help_text="How many environments, 4 to all of the domain's; empty: the preset's.")
     thetas = forms.IntegerField(required=False, min_value=2, label="Number of θ (optional)",
                                 error_messages={"min_value": "A table needs at least 2 θ: θ* and one other."},
                                 help_text="How many candidate objectives, θ* included, at least 2 (empty: the "
@@ -297,6 +297,11 @@ class TableBuildForm(forms.Form):
     seed = forms.IntegerField(required=False, min_value=0, label="Seed (optional)",
                               error_messages={"min_value": "A seed is a whole number, 0 or more."},
                               help_text="Seeds the θ and environment samples (empty: the preset's).")
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.fields["envs"].help_text += " (" + "; ".join(  # how many each registered domain has
+            f"{name}: {get_domain(name).n_environments:,}" for name in domain_names()) + ")"
 
     OVERRIDES = ("envs", "thetas", "seed", "sampler", "theta_star")
 

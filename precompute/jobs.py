@@ -45,7 +45,7 @@ def table_preset(name: str, *, envs=None, thetas=None, seed=None, sampler=None, 
     one).  ValueError with a one-line message for a bad value: the command and the designer's
     table form share these rules."""
     preset = get_preset(name)
-    n_all = get_domain(preset.domain).n_environments  # the preset's domain's, not the car's
+    n_all = get_domain(preset.domain).n_environments  # the preset's domain's, not the default's
     if envs is not None and not 4 <= envs <= n_all:
         raise ValueError(f"the number of environments must lie in [4, {n_all:,}] ({preset.domain}), got {envs}")
     if thetas is not None and thetas < 2:

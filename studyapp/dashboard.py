@@ -108,7 +108,7 @@ def export(request, slug, kind):
         response = StreamingHttpResponse(exports.STREAMS[kind](study), content_type="text/csv; charset=utf-8")
         name = f"{slug}-{kind}.csv"
     else:
-        response = HttpResponse(exports.dictionary_csv(), content_type="text/csv; charset=utf-8")
+        response = HttpResponse(exports.dictionary_csv(study), content_type="text/csv; charset=utf-8")
         name = f"{slug}-data-dictionary.csv"
     response["Content-Disposition"] = f'attachment; filename="{name}"'
     return response

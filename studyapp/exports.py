@@ -25,6 +25,7 @@ from . import closedloop
 from .csvsafe import FORMULA_STARTS, neutralise  # noqa: F401  (the guard; exports.neutralise stays importable)
 from .models import Answer, LoopStep, Participant, StepKind, Study
 from .status import COMPLETE, EXCLUDED, MEANINGS, participant_status
+from .trajectories import study_domain
 
 # (column, description) — the data dictionary; the same text is in docs/study.md.
 PARTICIPANT_COLUMNS = [
@@ -49,9 +50,9 @@ LONG_COLUMNS = PARTICIPANT_COLUMNS + [
              "check and feedback."),
     ("item", "Index of the training environment or test (0-based) within its kind; in a closed-loop condition a "
              "training, check or feedback step's index within the loop; empty otherwise."),
-    ("env_id", "Environment id (teaching.domains.driving.environments enumeration) for training and test rows; in a "
-               "closed-loop condition also for check and feedback rows."),
-    ("chosen_option", "Test or check: canonical index (0-3) of the option chosen as matching the car's style."),
+    ("env_id", "Environment id (the study's domain's enumeration; a study's dictionary names it) for training and "
+               "test rows; in a closed-loop condition also for check and feedback rows."),
+    ("chosen_option", "Test or check: canonical index (0-3) of the option chosen as matching the robot."),
     ("chosen_display_position", "Test or check: position (0-3, shown as A-D) at which the chosen option was "
                                 "displayed."),
     ("chosen_is_theta_star", "Test or check: 1 if the chosen option is theta*'s trajectory."),
@@ -68,8 +69,8 @@ LONG_COLUMNS = PARTICIPANT_COLUMNS + [
 ]
 N_TESTS_WIDE = 6
 WIDE_COLUMNS = PARTICIPANT_COLUMNS + [
-    ("attention_passed", "1 if exactly the right answers were ticked (driving: merge right and drive forward; "
-                         "gridworld: deliver)."),
+    ("attention_passed", "1 if exactly the right answers were ticked (its domain's; a study's dictionary names "
+                         "them)."),
     ("attention_goals", "Answers ticked in the attention check (its domain's values), space separated."),
     ("age", "Self-reported age in years."),
     ("gender", "Self-reported gender (female, male, non-binary, other, undisclosed)."),
@@ -331,9 +332,30 @@ def wide_csv(study: Study) -> str:
     return "".join(wide_stream(study))
 
 
-def dictionary_csv() -> str:
-    rows = [{"file": "long", "column": c, "description": d} for c, d in LONG_COLUMNS]
-    rows += [{"file": "wide", "column": c, "description": d}
+def domain_descriptions(domain) -> dict[str, str]:
+    """The descriptions that depend on the study's robot, in its domain's words (Domain.texts, its
+    environments and classes): env ids, the chosen option and the attention check."""
+    texts = domain.texts
+    n = domain.n_environments
+    package = type(domain).__module__.rpartition(".")[0]
+    right = "; ".join(label for value, label in texts.attention_choices if value in texts.attention_correct)
+    values = ", ".join(value for value, _ in texts.attention_choices)
+    return {
+        "env_id": (f"Environment id: one of the {n:,} environments of the {domain.name} domain ({package}), "
+                   f"0 .. {n - 1}, each of one class ({', '.join(domain.class_names)}); for training and test rows, "
+                   "in a closed-loop condition also for check and feedback rows."),
+        "chosen_option": (f"Test or check: canonical index (0-3) of the {texts.option} chosen as the answer to "
+                          f"\"{texts.question}\""),
+        "attention_passed": f"1 if exactly the right answers to \"{texts.attention_question}\" were ticked: {right}.",
+        "attention_goals": f"Answers ticked in the attention check (of {values}), space separated.",
+    }
+
+
+def dictionary_csv(study: Study | None = None) -> str:
+    """The data dictionary; of `study`, its domain's descriptions where they depend on the robot."""
+    own = domain_descriptions(study_domain(study)) if study is not None else {}
+    rows = [{"file": "long", "column": c, "description": own.get(c, d)} for c, d in LONG_COLUMNS]
+    rows += [{"file": "wide", "column": c, "description": own.get(c, d)}
              for c, d in WIDE_COLUMNS + CHECK_SUMMARY_COLUMNS + check_columns("<k>")]
     return to_csv([("file", ""), ("column", ""), ("description", "")], rows)
 

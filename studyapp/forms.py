@@ -101,7 +101,7 @@ class TrainingForm(StepForm):
 
 class AttentionForm(StepForm):
     """The study's domain asks its question (Domain.texts); the answer is stored as "goals" (the
-    driving study's name for it, kept for every domain so exports read one column)."""
+    first study's name for it, kept for every domain so exports read one column)."""
 
     goals = forms.MultipleChoiceField(choices=[], error_messages={
         "required": "Please tick your answer.",
@@ -148,7 +148,7 @@ class TestForm(StepForm):
         self.fields["played"] = forms.MultipleChoiceField(choices=letters, required=False, error_messages={
             "invalid_choice": self.reload, "invalid_list": self.reload})
         self.fields["choice"] = OneChoiceField(choices=letters, error_messages={
-            "required": "Please choose the option that matches the car's driving style.",
+            "required": study_domain(participant.study).texts.choice_required,
             "invalid_choice": f"This question has options {listed} only; please choose one of them."})
         for letter, _ in shown:
             self.fields[f"rating_{letter}"] = _whole_number(

@@ -112,7 +112,7 @@ class Study(models.Model):
         return self.prolific_completion_url.format(code=self.completion_code)
 
     def scene_view(self) -> dict:
-        """What every canvas of this study shares (trajectories.study_view: driving's one scale);
+        """What every canvas of this study shares (trajectories.study_view: a scale, say);
         computed once per study version: the trajectories are frozen while it has participants."""
         stored = (self.source or {}).get("scene_view")  # closed loops: computed at build over every example
         if stored is not None:

@@ -3,7 +3,7 @@
 Spec (a JSON file for ``manage.py create_study``)::
 
     {
-      "slug": "driving-2026", "name": "Driving styles",
+      "slug": "study-2026", "name": "What the robot prefers",
       "target_per_condition": 30,                  # optional
       "completion_code": "C1ABCDEF",               # Prolific's code (required with "recruitment": "prolific")
       "recruitment": "prolific",                   # optional: link (default), prolific, mturk
@@ -45,6 +45,7 @@ from teaching.api import (
     build_sequences,
     default_domain_name,
     domain_names,
+    get_domain,
     select_test_set,
 )
 
@@ -292,7 +293,7 @@ def new_study(*, slug: str, conditions: list[str], source: dict, name: str | Non
 
 def source_domain(source: dict) -> str:
     """The domain a study's stimuli come from: its table's (source["domain"]; a source recorded
-    before domains is the driving table's)."""
+    before domains is the default domain's table's)."""
     name = source.get("domain") or default_domain_name()
     if name not in domain_names():
         raise SpecError(f"unknown domain {name!r}: this installation knows {', '.join(domain_names())}")
@@ -442,7 +443,8 @@ def demo_spec(table_path=None) -> dict:
         raise SpecError(f"no trajectory table at {table_path}: build the demo's with "
                         f"`python -m teaching build --preset demo --out {table_path}` (or run `make demo`)")
     spec = table_spec(table_path, slug=DEMO_SLUG)
-    spec.update(name="Demo: how does the autonomous car drive?", target_per_condition=20,
+    title = get_domain(json.loads((table_path / "meta.json").read_text()).get("domain")).texts.title
+    spec.update(name=f"Demo: {title[:1].lower()}{title[1:]}", target_per_condition=20,
                 completion_code=DEMO_COMPLETION_CODE, estimated_minutes=12,
                 contact="The research team (demo: no real contact)")
     return spec

@@ -3,10 +3,10 @@
 A condition stores, per training environment, everything the browser needs to draw it, and the
 study stores the shared test set with each option's path, so the server never needs the
 trajectory table while a study runs.  What a scene holds is the domain's
-(``Domain.scene_payload``, e.g. driving: the goal, the other car, the world's sizes; the
-gridworld: the yard's cells); this module adds what every domain's payload has::
+(``Domain.scene_payload``: what its page script draws, docs/domains.md); this module adds what
+every domain's payload has::
 
-    {"env_id": 123, "env_class": 0, "class_name": "merging", "cluster": 1, "cluster_name": "...",
+    {"env_id": 123, "env_class": 0, "class_name": "...", "cluster": 1, "cluster_name": "...",
      **domain.scene_payload(123), "robot": domain.path_rows(states)}
 
 A test adds ``options``: ``[{"theta_index", "is_theta_star", "cluster", "cluster_name", "robot"}] * 4``
@@ -53,8 +53,8 @@ def drawn_scene(payload: dict, *, robot: bool, domain: Domain) -> dict:
 
 def study_view(domain: Domain, conditions, test_set, extra=()) -> dict:
     """What every canvas of a study shares (``Domain.study_view``) over all its training examples
-    and test options, and `extra` (page scene, robot path) pairs: e.g. driving's one scale (ft) that
-    holds the largest framed span."""
+    and test options, and `extra` (page scene, robot path) pairs: e.g. one scale that holds every
+    canvas's motion."""
     scenes = [(domain.page_scene(env), env["robot"]) for training in conditions for env in training]
     scenes += [(domain.page_scene(t), o["robot"]) for t in test_set for o in t["options"]]
     return domain.study_view(scenes + list(extra))

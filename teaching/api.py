@@ -2,8 +2,9 @@
 
 They import from here only, so the numeric core can move its modules around behind this list
 (tests may still reach into the modules).  The core (``teaching.core``) knows no robot; the
-names under "World and environments" and "Strategies" are still the driving domain's
-(``teaching.domains.driving``), which the web side draws.  Plain re-exports: every name below is the module's
+names under "World and environments" and "Strategies" are the driving domain's
+(``teaching.domains.driving``), kept for scripts about the car; the web side reads a study's robot
+through ``get_domain(study.domain)`` only.  Plain re-exports: every name below is the module's
 own object, documented here with its shapes and units.  Like the rest of the package this
 module never imports Django (tests/teaching/test_api.py checks it in a fresh interpreter).
 

@@ -1,8 +1,8 @@
 // Where a scene's labels go (plain ES module): every label and mark drawn on a canvas is a box in
 // one Layout, and a label is put in the first of its candidate places that is inside the canvas
 // and overlaps no box already there, else stacked in the first free row; so no two labels of a
-// canvas overlap and none covers the goal arrow (issue 22: "other car 223 ft behind" was drawn
-// over "t = 5.0 s"). The boxes stay on the scene (scene.boxes) for the browser tests to check.
+// canvas overlap and none covers a mark the scene drew first (a label once hid the time under a
+// distance). The boxes stay on the scene (scene.boxes) for the browser tests to check.
 
 export function intersects(a, b) {
   return a.x < b.x + b.w && b.x < a.x + a.w && a.y < b.y + b.h && b.y < a.y + a.h;

@@ -16,7 +16,7 @@ export async function sceneClass() {
   return SCENE;
 }
 
-// What every canvas of the study shares (the page's "scene-view" block: driving's study_span), added
+// What every canvas of the study shares (the page's "scene-view" block: Domain.study_view's values), added
 // to each scene's data.
 function withView(env) {
   const block = document.getElementById("scene-view");

@@ -1,6 +1,6 @@
 // The stimulus sheet (researchers only): every training example and test option on its own
-// canvas, drawn as the whole drive (a contact sheet); each Play animates it as a participant sees
-// it, Trail returns to the whole drive, and "Play all" starts a section's or a test's together.
+// canvas, drawn as its whole trajectory (a contact sheet); each Play animates it as a participant
+// sees it, Trail returns to the whole trajectory, and "Play all" starts a section's or a test's together.
 // The scene data are the page's application/json blocks (one per condition, one for the tests).
 import { mountScene, readJSON, sceneClass } from "./player.js";
 
@@ -16,7 +16,7 @@ for (const cell of document.querySelectorAll(".cell[data-scene]")) {
   const item = block(cell.dataset.scene)[Number(cell.dataset.item)];
   const robot = cell.dataset.option === undefined ? item.scene.robot : item.options[Number(cell.dataset.option)].robot;
   const player = mountScene(Scene, cell, item.scene, robot);
-  // a contact sheet: the whole drive until the researcher plays it
+  // a contact sheet: the whole trajectory until the researcher plays it
   cell.querySelector('[data-action="trail"]').setAttribute("aria-pressed", "true");
   player.showTrail(true);
 }

@@ -5,11 +5,12 @@ the analysis choices in :mod:`studyapp.analysis.stats`.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from teaching.api import APPROX_STAR, CLUSTER_NAMES, CONDITIONS, N_CLUSTERS
+from teaching.api import APPROX_STAR, CONDITIONS, get_domain
 
 if TYPE_CHECKING:  # the worker and the participant pages import this module, and pandas costs 0.3 s
     import pandas as pd
@@ -35,17 +36,41 @@ def negligible_spread(spread: float, values) -> bool:
     return not spread > SPREAD_RTOL * scale
 
 
-def n_clusters() -> int:
-    return N_CLUSTERS
+@dataclass(frozen=True)
+class Clusters:
+    """A study's strategy clusters, as its domain names and groups them (Domain.cluster_names,
+    Domain.class_of_cluster): what the examples-per-cluster grid, its figure and the helpful-examples
+    correlation count in.  names: C + 1 (the last is "no strategy"); class_of_cluster: (C,)."""
+
+    names: tuple[str, ...]
+    class_of_cluster: tuple[int, ...]
+
+    @classmethod
+    def of(cls, domain) -> Clusters:
+        return cls(tuple(domain.cluster_names), tuple(int(k) for k in domain.class_of_cluster))
+
+    @property
+    def n(self) -> int:
+        return len(self.class_of_cluster)
+
+    def name(self, c) -> str:
+        return self.names[int(c)] if 0 <= int(c) < len(self.names) else str(c)
+
+    def siblings(self, c) -> tuple[int, ...]:
+        """The other clusters of `c`'s class: the strategies a test in cluster `c` contrasts it with."""
+        c = int(c)
+        if not 0 <= c < self.n:
+            return ()
+        return tuple(k for k, cls in enumerate(self.class_of_cluster) if cls == self.class_of_cluster[c] and k != c)
+
+    def class_starts(self) -> list[int]:
+        """The clusters that begin a new class, after the first: where a grid draws a class boundary."""
+        return [k for k in range(1, self.n) if self.class_of_cluster[k] != self.class_of_cluster[k - 1]]
 
 
-def cluster_names() -> tuple[str, ...]:
-    return tuple(CLUSTER_NAMES)
-
-
-def partner_cluster(c: int) -> int:
-    """The other strategy cluster of the same environment class (clusters come in pairs 2k, 2k+1)."""
-    return int(c) ^ 1
+def default_clusters() -> Clusters:
+    """The default domain's clusters: those of tables of responses made by hand, which name no domain."""
+    return Clusters.of(get_domain())
 
 
 ALIASES = {

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from .conditions import MIN_PEARSON, canonical, canonicalize, n_clusters, partner_cluster
+from .conditions import MIN_PEARSON, Clusters, canonical, canonicalize, default_clusters
 from .tables import _answers, included
 
 
@@ -52,9 +52,10 @@ def correlation(data: pd.DataFrame, x: str, y: str, name: str, level: str) -> Co
     return c
 
 
-def examples_per_cluster(training: pd.DataFrame, conditions=None) -> pd.DataFrame:
-    """Count of training examples per (condition, strategy cluster): the paper's "examples shown" grid."""
-    k = n_clusters()
+def examples_per_cluster(training: pd.DataFrame, conditions=None, clusters: Clusters | None = None) -> pd.DataFrame:
+    """Count of training examples per (condition, strategy cluster): the paper's "examples shown" grid,
+    one column per cluster of the study's domain (`clusters`; None: the default domain's)."""
+    k = (clusters or default_clusters()).n
     training = canonicalize(training)
     if conditions is not None:
         conditions = [canonical(c) for c in conditions]
@@ -71,25 +72,32 @@ def examples_per_cluster(training: pd.DataFrame, conditions=None) -> pd.DataFram
     return grid
 
 
-def helpful_examples(counts: pd.DataFrame, condition: str, test_cluster: int) -> int:
-    """Helpful examples for a test in cluster A1: x = #examples in A1, y = #in A2; x if x > 0 else -y."""
-    x = int(counts.loc[condition, int(test_cluster)]) if condition in counts.index else 0
-    y = int(counts.loc[condition, partner_cluster(test_cluster)]) if condition in counts.index else 0
+def helpful_examples(counts: pd.DataFrame, condition: str, test_cluster: int, clusters: Clusters | None = None) -> int:
+    """Helpful examples for a test in cluster A1: x = #examples in A1, y = #in its siblings (the other
+    clusters of its class in the study's domain, `clusters`; None: the default domain's); x if x > 0 else -y."""
+    if condition not in counts.index:
+        return 0
+    row = counts.loc[condition]
+    x = int(row.get(int(test_cluster), 0))
+    y = sum(int(row.get(k, 0)) for k in (clusters or default_clusters()).siblings(test_cluster))
     return x if x > 0 else -y
 
 
-def per_test_frame(table: pd.DataFrame, answers: pd.DataFrame, training: pd.DataFrame) -> pd.DataFrame:
+def per_test_frame(table: pd.DataFrame, answers: pd.DataFrame, training: pd.DataFrame,
+                   clusters: Clusters | None = None) -> pd.DataFrame:
     """Answers of included participants with condition, n_examples and helpful examples attached."""
     inc = included(table)[["participant_id", "condition", "n_examples"]]
     a = _answers(answers)
     a["participant_id"] = a["participant_id"].astype(str)
     a = a.merge(inc, on="participant_id", how="inner")
-    counts = examples_per_cluster(training, conditions=sorted(set(a["condition"])))
-    a["helpful"] = [helpful_examples(counts, c, t) for c, t in zip(a["condition"], a["test_cluster"], strict=True)]
+    counts = examples_per_cluster(training, conditions=sorted(set(a["condition"])), clusters=clusters)
+    a["helpful"] = [helpful_examples(counts, c, t, clusters)
+                    for c, t in zip(a["condition"], a["test_cluster"], strict=True)]
     return a
 
 
-def correlations(table: pd.DataFrame, answers: pd.DataFrame, training: pd.DataFrame) -> list[Correlation]:
+def correlations(table: pd.DataFrame, answers: pd.DataFrame, training: pd.DataFrame,
+                 clusters: Clusters | None = None) -> list[Correlation]:
     """Pearson r of number of examples vs score and of helpful examples vs per-test score.
 
     Two levels each.  "condition x test" is the paper's (Fig. "corr"): one point per
@@ -97,7 +105,7 @@ def correlations(table: pd.DataFrame, answers: pd.DataFrame, training: pd.DataFr
     individual level uses one point per participant (examples vs mean score) or per answer
     (helpful vs score).
     """
-    a = per_test_frame(table, answers, training)
+    a = per_test_frame(table, answers, training, clusters)
     ct = (a.groupby(["condition", "test_index", "test_cluster"])
           .agg(score=("score", "mean"), n=("score", "size"), n_examples=("n_examples", "first"),
                helpful=("helpful", "first")).reset_index())

@@ -19,6 +19,7 @@ from django.db.models import Count, Max, Q
 
 from ..models import Answer, Condition, LoopStep, Participant, StepKind, Study
 from ..status import participant_status
+from ..trajectories import study_domain
 from . import learning as L
 from . import stats as S
 
@@ -133,7 +134,7 @@ def analyze_study(study: Study, include_incomplete: bool = False, extra_comparis
     star = study_approx_star(condition_names(study), approx_star)
     participants, answers, training = frames(study, include_incomplete)
     return S.analyze(participants, answers, training, extra_comparisons=extra_comparisons, approx_star=star,
-                     checks=checks_frame(study, include_incomplete))
+                     checks=checks_frame(study, include_incomplete), clusters=S.Clusters.of(study_domain(study)))
 
 
 def fingerprint(study: Study, include_incomplete: bool = False) -> str:

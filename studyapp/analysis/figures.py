@@ -166,7 +166,7 @@ def correlation_figure(analysis: S.Analysis):
 
 def examples_figure(analysis: S.Analysis):
     grid = analysis.examples_per_cluster
-    names = S.cluster_names()
+    clusters = analysis.clusters
     fig, ax = plt.subplots(figsize=(8.5, 0.45 * max(len(grid), 1) + 2.2))
     if grid.empty:
         ax.text(0.5, 0.5, "no training sequences", ha="center", va="center")
@@ -177,12 +177,12 @@ def examples_figure(analysis: S.Analysis):
     for (i, j), v in np.ndenumerate(vals):
         ax.text(j, i, str(v) if v else "·", ha="center", va="center", fontsize=9,
                 color="white" if v > max(3, vals.max()) * 0.6 else "black")
-    ax.set_xticks(range(grid.shape[1]), [names[c] if c < len(names) else str(c) for c in grid.columns],
+    ax.set_xticks(range(grid.shape[1]), [clusters.name(c) for c in grid.columns],
                   rotation=35, ha="right", fontsize=8)
     ax.set_yticks(range(len(grid)), [f"{S.label(c, analysis.approx_star)}  ({vals[i].sum()})"
                                      for i, c in enumerate(grid.index)], fontsize=8)
-    for k in range(1, grid.shape[1] // 2):
-        ax.axvline(2 * k - 0.5, color="white", linewidth=3)
+    for k in clusters.class_starts():  # a white line between the domain's classes
+        ax.axvline(k - 0.5, color="white", linewidth=3)
     ax.set_title("training examples per strategy cluster (total in brackets)", fontsize=10)
     fig.tight_layout()
     return fig

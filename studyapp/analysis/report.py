@@ -90,7 +90,6 @@ def context(analysis: S.Analysis, title: str = "Study analysis", figures: dict |
              "ci": f"[{_num(c.ci_low)}, {_num(c.ci_high)}]" if c.ok else "", "ok": c.ok, "message": c.message}
             for c in analysis.correlations]
     epc = analysis.examples_per_cluster
-    names = S.cluster_names()
     p = analysis.participants
     score_cols = sorted([c for c in p.columns if re.fullmatch(r"score_\d+", c)], key=lambda c: int(c[6:]))
     cols = ["participant_id", "condition", "model", "distance", "determinism", "coverage", "n_examples",
@@ -101,7 +100,7 @@ def context(analysis: S.Analysis, title: str = "Study analysis", figures: dict |
         "n_participants": len(p), "n_included": analysis.n_included, "n_excluded": analysis.n_excluded,
         "messages": analysis.messages, "summary": summary_rows, "anovas": anovas, "welch": welch,
         "correlations": cors, "figures": figures,
-        "clusters": [names[c] if c < len(names) else str(c) for c in epc.columns],
+        "clusters": [analysis.clusters.name(c) for c in epc.columns],
         "examples": [{"condition": S.label(c, analysis.approx_star), "counts": [int(v) for v in epc.loc[c]],
                       "total": int(epc.loc[c].sum())} for c in epc.index],
         "participant_columns": cols, "participant_rows": part_rows,

@@ -14,7 +14,7 @@ column                type     meaning
 ====================  =======  ==========================================================
 participant_id        str      unique id
 condition             str      condition name ("exact", "det-euclidean", "random", ...)
-attention_ok          bool     passed the attention check ("what were the two goals?")
+attention_ok          bool     passed the attention check (its domain's question)
 excluded              bool     optional; defaults to ``not attention_ok``
 exclusion_reason      str      optional; "" when not excluded
 age, gender           any      optional demographics, passed through
@@ -25,7 +25,7 @@ age, gender           any      optional demographics, passed through
 ====================  =======  ==========================================================
 participant_id        str
 test_index            int      0..5, the position of the test in the shared test set
-test_cluster          int      strategy cluster 0..7 of theta*'s trajectory in that test
+test_cluster          int      strategy cluster 0..C-1 of theta*'s trajectory in that test
 correct               bool     the chosen option is theta*'s trajectory
 confidence            int      1..7 rating the participant gave the chosen option
 score                 float    optional; defaults to confidence if correct else -confidence
@@ -37,7 +37,7 @@ score                 float    optional; defaults to confidence if correct else 
 condition             str
 position              int      0-based order in the training sequence
 environment_id        int      optional
-cluster               int      strategy cluster 0..7 of theta*'s trajectory there
+cluster               int      strategy cluster 0..C-1 of theta*'s trajectory there
 ====================  =======  ==========================================================
 
 Derived per-participant table (:func:`participant_table`) -- the input rows plus
@@ -95,16 +95,15 @@ from .conditions import (
     MIN_PEARSON,
     MIN_PER_GROUP,
     PAPER_CONDITIONS,
+    Clusters,
     ConditionError,
     aliased_pairs,
     canonical,
     canonicalize,
     check_distinct_conditions,
-    cluster_names,
     condition_factors,
+    default_clusters,
     label,
-    n_clusters,
-    partner_cluster,
 )
 from .correlations import (
     Correlation,
@@ -123,7 +122,7 @@ __all__ = [
     "ALIASES", "APPROX_CONDITIONS", "APPROX_STAR_DEFAULT", "COVERAGE_APPROX", "COVERAGE_RANDOM",
     "DETERMINISM", "DISTANCES", "MIN_PEARSON", "MIN_PER_GROUP", "PAPER_CONDITIONS", "ConditionError",
     "aliased_pairs", "canonical", "check_distinct_conditions",
-    "canonicalize", "cluster_names", "condition_factors", "label", "n_clusters", "partner_cluster",
+    "canonicalize", "Clusters", "condition_factors", "default_clusters", "label",
     # tables
     "condition_summary", "included", "participant_table",
     # anova
@@ -152,6 +151,8 @@ class Analysis:
     per_test: pd.DataFrame
     messages: list[str]
     approx_star: str = APPROX_STAR_DEFAULT
+    # the study's domain's strategy clusters (the grid's columns, the figures' names, the helpful examples' siblings)
+    clusters: Clusters = field(default_factory=default_clusters)
     # closed-loop conditions' learning curves (learning.CURVE_COLUMNS); no rows when no check was answered
     learning: pd.DataFrame = field(default_factory=empty_curves)
 
@@ -169,13 +170,15 @@ class Analysis:
 
 def analyze(participants: pd.DataFrame, answers: pd.DataFrame, training: pd.DataFrame,
             comparisons=None, extra_comparisons=(), approx_star: str = APPROX_STAR_DEFAULT,
-            checks: pd.DataFrame | None = None) -> Analysis:
+            checks: pd.DataFrame | None = None, clusters: Clusters | None = None) -> Analysis:
     """Run the whole analysis.  ``extra_comparisons``: pairs a researcher names, added to the
     planned ones (and to the Holm family).  ``checks``: closed-loop check answers (learning.py's
     input), whose learning curves count only the participants the analysis includes.  A
     ConditionError (a ValueError) when two condition names are one condition, approx* is not an
     approximate model, or the comparisons are not distinct pairs of the study's conditions
-    (comparisons.comparison_family)."""
+    (comparisons.comparison_family).  ``clusters``: the study's domain's (None: the default domain's,
+    for tables made by hand)."""
+    clusters = clusters or default_clusters()
     participants, training = canonicalize(participants), canonicalize(training)
     approx_star = check_approx_star(approx_star)
     known = set(participants.get("condition", [])) | set(training.get("condition", []))
@@ -190,12 +193,12 @@ def analyze(participants: pd.DataFrame, answers: pd.DataFrame, training: pd.Data
     messages += [r.message for r in anovas if not r.ok]
     w, msgs = welch_tests(table, comps, approx_star)
     messages += msgs
-    cors = correlations(table, answers, training)
+    cors = correlations(table, answers, training, clusters)
     messages += [f"Pearson r, {c.name} ({c.level}): {c.message}." for c in cors if not c.ok]
-    epc = examples_per_cluster(training, conditions=conditions)
+    epc = examples_per_cluster(training, conditions=conditions, clusters=clusters)
     return Analysis(participants=table, summary=summary, anovas=anovas, welch=w, correlations=cors,
-                    examples_per_cluster=epc, per_test=per_test_frame(table, answers, training),
-                    messages=messages, approx_star=approx_star,
+                    examples_per_cluster=epc, per_test=per_test_frame(table, answers, training, clusters),
+                    messages=messages, approx_star=approx_star, clusters=clusters,
                     learning=learning_curves(checks, included(table)["participant_id"]))
 
 

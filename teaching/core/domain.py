@@ -53,7 +53,9 @@ class ParticipantTexts:
     instructions: paragraphs; ``{n_training}``, ``{n_tests}``, ``{training_plural}`` and
     ``{tests_plural}`` are filled in per participant.  The attention check asks one question with
     checkboxes; it is passed when exactly ``attention_correct`` is ticked.  consent: the default
-    consent text (paragraphs separated by blank lines) a study without its own approved text shows."""
+    consent text (paragraphs separated by blank lines) a study without its own approved text shows.
+    Every page a participant or researcher reads takes the robot's words from here, never a
+    domain's words written into the web side."""
 
     summary: str  # one sentence for a recruiting platform's preview: "you watch ... and answer ..."
     consent: str
@@ -64,6 +66,13 @@ class ParticipantTexts:
     watch: str  # under a training example: what to watch
     question: str  # a test's question: which option matches the robot
     legend: tuple[LegendEntry, ...]
+    # what one of a test's options is called (a trajectory, in the robot's own word): researcher pages
+    # and the data dictionary use it too
+    option: str = "option"
+    # a test or check submitted without a choice
+    choice_required: str = "Please choose the option that matches the robot."
+    # a study's title when its researcher gives none (the demo's)
+    title: str = "What does the robot prefer?"
 
 
 @runtime_checkable
@@ -78,6 +87,9 @@ class Domain(Protocol):
     class_of_cluster: np.ndarray  # (C,) int: the class each cluster belongs to
     test_clusters: tuple[int, ...]  # the clusters the test set covers, one test environment each
     feature_names: tuple[str, ...]  # (D,) what θ weighs, in order
+    # lower-case words that are this robot's own (its world, classes and features) and that no module of
+    # the core may use: a feature named with a plain English word ("turns") need not be one of them
+    vocabulary: frozenset[str]
     theta_star: np.ndarray  # (D,) the default objective the robot teaches
     min_option_distance: float  # test options at least this far apart by default (euclidean_distance's units)
     trajectory_shape: tuple[int, ...]  # one stored trajectory's encoding, per (environment, θ)

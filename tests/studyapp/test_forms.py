@@ -17,6 +17,7 @@ from studyapp.forms import (
     TrainingForm,
 )
 from studyapp.models import Answer, StepKind
+from teaching.api import domain_names, get_domain
 
 ROOT = Path(__file__).resolve().parents[2]
 SHOWN = [("A", 2), ("B", 0), ("C", 3), ("D", 1)]  # letter -> option index, as flow.option_letters gives
@@ -106,10 +107,12 @@ def test_one_domains_answers_are_not_anothers():
     assert demo.is_valid() and demo.answer() == {"age": 34, "gender": "female"}
 
 
-def make_test_form(**changes) -> TestForm:
+def make_test_form(domain="driving", **changes) -> TestForm:
     fields = {"played": ["A", "B", "C", "D"], "choice": "C", "rating_A": "1", "rating_B": "2", "rating_C": "7",
               "rating_D": "4", **changes}
-    return TestForm(post(**{k: v for k, v in fields.items() if v is not None}), None, None, shown=SHOWN, env_id=5)
+    participant = SimpleNamespace(study=SimpleNamespace(domain=domain))
+    return TestForm(post(**{k: v for k, v in fields.items() if v is not None}), participant, None, shown=SHOWN,
+                    env_id=5)
 
 
 
@@ -132,6 +135,19 @@ def make_test_form(**changes) -> TestForm:
 ])
 def test_each_bad_test_answer_gives_its_message(changes, message):
     assert error(make_test_form(**changes)) == message
+
+
+@pytest.mark.parametrize("domain", domain_names())
+def test_a_test_without_a_choice_is_refused_in_the_study_domains_words(domain):
+    texts = get_domain(domain).texts
+    for missing in ({"choice": None}, {"choice": ["A", "B"]}):
+        assert error(make_test_form(domain, **missing)) == texts.choice_required
+
+
+def test_the_yard_is_not_asked_about_the_car():
+    message = error(make_test_form("gridworld", choice=None))
+    assert message == "Please choose the delivery that matches the robot's preferences."
+    assert not re.search(r"\b(cars?|driv\w*)\b", message.lower())
 
 
 def test_ratings_are_stored_by_option_index(participant):

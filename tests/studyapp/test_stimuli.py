@@ -13,46 +13,61 @@ from django.urls import reverse
 from studyapp import flow
 from studyapp.models import Participant, StepKind
 from studyapp.studies import build_study
-from teaching.core.build import PRESETS, build_table
+from teaching.core.build import build_table
+from teaching.core.domain import domain_names, get_domain
 from teaching.core.selection import showable
 from teaching.core.table import TrajectoryTable
-from teaching.domains.driving.strategies import CLUSTER_NAMES
-from teaching.domains.gridworld.labels import CLUSTER_NAMES as YARD_CLUSTER_NAMES
-from tests.conftest import answer_payload
+from tests.conftest import answer_payload, built_once
 
 pytestmark = pytest.mark.django_db
 
 N_TESTS = 4
-# words that would name what only the server may know: which option is theta*'s, its strategy
-FORBIDDEN = ["theta", "cluster", "is_theta_star", "env_id", "class_name", "env_class"] + [
-    n for n in CLUSTER_NAMES + YARD_CLUSTER_NAMES if ":" in n]
-# per domain: its tiny preset, and what its pages draw (its whitelist, written out here by hand)
-DOMAINS = {"driving": ("tiny", ("goal", "dt", "other", "world"), (21, 5)),
-           "gridworld": ("gridworld-tiny", ("dt", "yard"), None)}
+SERVER_ONLY = ["theta", "cluster", "is_theta_star", "env_id", "class_name", "env_class", "theta_index"]
+# words that would name what only the server may know: which option is theta*'s, its strategy (every
+# registered domain's cluster names, "class: strategy")
+FORBIDDEN = SERVER_ONLY + [n for name in domain_names() for n in get_domain(name).cluster_names if ":" in n]
+
+
+def smallest_preset(domain):
+    """The domain's cheapest preset to build: a study's pages need only a few environments."""
+    return min(domain.presets, key=lambda p: p.n_envs * p.n_thetas)
 JSON_SCRIPT = re.compile(r'<script id="([^"]+)" type="application/json">(.*?)</script>', re.S)
 OPTION_BLOCKS = (re.compile(r'<section class="option".*?</section>', re.S),
                  re.compile(r'<div class="rating" data-option.*?</div>', re.S))
 URL_ATTR = re.compile(r'(?<![-\w])(?:src|href|action)="([^"]*)"')
 
 
-@pytest.fixture(scope="module", params=sorted(DOMAINS))
+@pytest.fixture(scope="module", params=domain_names())
 def tiny_table(request, tmp_path_factory):
-    out = tmp_path_factory.mktemp("stimuli") / "table"
-    build_table(PRESETS[DOMAINS[request.param][0]], out)
+    preset = smallest_preset(get_domain(request.param))
+    out = built_once(tmp_path_factory, f"{preset.name}-table", lambda out: build_table(preset, out))
     return TrajectoryTable.load(out), out
+
+
+def distinct_options(table, m) -> list[int]:
+    """θ indices of θ*'s trajectory in table row `m` and of up to three others, each a trajectory of its
+    own (the furthest from θ*'s first): where many θs share one path (a yard has few ways across), the
+    furthest θs may all be one trajectory."""
+    seen, picked = {table.controls[m, 0].tobytes()}, [0]
+    for n in np.argsort(-table.d_euclid[m]):
+        key = table.controls[m, n].tobytes()
+        if key not in seen and len(picked) < 4:
+            seen.add(key)
+            picked.append(int(n))
+    return picked
 
 
 def real_spec(table, path, slug="real"):
     """A study on the tiny table: two conditions of two training examples, and N_TESTS tests,
-    each theta*'s trajectory and the three trajectories furthest from it (all real optima)."""
-    ok = np.flatnonzero(showable(table))
-    train, tests = ok[:4], ok[4:4 + N_TESTS]
+    each theta*'s trajectory and three other trajectories (all real optima, all four different)."""
+    ok = [int(m) for m in np.flatnonzero(showable(table))]
+    train = ok[:4]
+    tests = [m for m in ok[4:] if len(distinct_options(table, m)) == 4][:N_TESTS]
+    assert len(tests) == N_TESTS, f"{table.domain.name}: {len(tests)} environments with 4 different trajectories"
     test_set = []
     for m in tests:
-        others = np.argsort(-table.d_euclid[m])[:3]
         test_set.append({"env_id": int(table.env_ids[m]), "options": [
-            {"theta_index": 0, "is_theta_star": True}] + [
-            {"theta_index": int(n), "is_theta_star": False} for n in others]})
+            {"theta_index": n, "is_theta_star": n == 0} for n in distinct_options(table, m)]})
     return {"slug": slug, "name": "Real tiny study", "table": str(path), "test_set": test_set,
             "recruitment": "prolific", "completion_code": "REAL2026",
             "conditions": [{"name": "exact", "env_ids": [int(e) for e in table.env_ids[train[:2]]]},
@@ -84,7 +99,8 @@ def test_no_test_page_tells_theta_stars_option_apart(tiny_table):
     table, path = tiny_table
     study = build_study(real_spec(table, path))
     assert study.source["kind"] == "table" and study.domain == table.domain.name
-    _, keys, robot_shape = DOMAINS[study.domain]
+    keys = table.domain.page_keys
+    assert keys and not set(keys) & set(SERVER_ONLY), keys  # the whitelist names nothing only the server knows
     star_letters, asset_sets = [], set()
     for pid in ("p1", "p2", "p3", "p4"):
         for p, step, html in walk(Client(), study, pid):
@@ -110,8 +126,10 @@ def test_no_test_page_tells_theta_stars_option_apart(tiny_table):
             assert sorted(robots) == ["A", "B", "C", "D"]
             assert {letter: robots[letter] for letter, _ in shown} == {
                 letter: test["options"][k]["robot"] for letter, k in shown}
-            if robot_shape:  # a yard's paths differ in length (a longer detour takes more moves)
-                assert all(np.shape(r) == robot_shape for r in robots.values())
+            # rows of one width; their number may differ (a longer detour across a yard takes more moves)
+            assert len({np.shape(r)[1:] for r in robots.values()}) == 1
+            if study.domain == "driving":  # every drive lasts the horizon: 21 states of 5 numbers
+                assert all(np.shape(r) == (21, 5) for r in robots.values())
             assert test["robot"] in robots.values()  # theta*'s own trajectory appears only as its option
             # the four animations and the four rating rows are the same markup but for their letter
             for pattern in OPTION_BLOCKS:

@@ -225,7 +225,8 @@ def demo_loop(demo_table):
 def test_simulated_participants_replay_from_their_stored_answers(demo_loop):
     table, dist, tests, loop = demo_loop
     assert not {q.env_index for q in loop.checks} & {t["env_index"] for t in tests}
-    assert len(loop.checks) >= 3  # the demo table leaves 5 of its 6 test clusters a check question
+    # the demo table leaves each of its 6 test clusters a check question (docs/teaching.md says so)
+    assert len(loop.checks) == len(tests) == len(table.domain.test_clusters) == 6
     rng = np.random.default_rng(7)
     seen_answers, caught = set(), 0
     for learner in (SimulatedLearner("det-euclidean", lapse=0.3), SimulatedLearner("prob-reward", 1.0, 0.5),

@@ -1,7 +1,7 @@
 """Build a study's teaching sequences on Celery workers: one task per condition, then the test set.
 
-    python manage.py build_study --preset demo --slug driving-demo --wait
-    python manage.py build_study --table /shared/tables/paper --slug driving-2026 \\
+    python manage.py build_study --preset demo --slug demo-study --wait
+    python manage.py build_study --table /shared/tables/paper --slug paper-2026 \\
         --hyper det-euclidean=0.1 --conditions exact,det-euclidean,random --wait
     python manage.py build_study --preset demo --slug loop --conditions det-euclidean \\
         --closed-loop closed-loop:model=det-euclidean,check_every=2,feedback=yes --wait

@@ -21,7 +21,7 @@ class Command(BaseCommand):
         if obj is None:
             known = ", ".join(Study.objects.values_list("slug", flat=True)) or "none"
             raise CommandError(f"no study {study!r} (known: {known})")
-        pieces = exports.STREAMS[kind](obj) if kind in exports.STREAMS else [exports.dictionary_csv()]
+        pieces = exports.STREAMS[kind](obj) if kind in exports.STREAMS else [exports.dictionary_csv(obj)]
         if not out:
             for piece in pieces:
                 self.stdout.write(piece, ending="")

@@ -26,6 +26,10 @@ class DrivingDomain:
     test_clusters = (strategies.MERGE_AHEAD, strategies.MERGE_BEHIND, strategies.BRAKE_STAY,
                      strategies.BRAKE_CHANGE, strategies.TAIL_CHANGE, strategies.TAIL_STAY)
     feature_names = FEATURE_NAMES
+    vocabulary = frozenset({
+        "driving", "car", "cars", "lane", "lanes", "merge", "merges", "merging", "braking", "brake", "tailgating",
+        "overtake", "steer", "steering", "heading", "knot", "knots", "highway", "ft", "feet", "road", "wheelbase",
+        "bicycle", "closeness", "acceleration", "turning"})
     theta_star = THETA_STAR
     min_option_distance = 0.5  # ~6 ft average lateral separation, or its equivalent (docs/teaching.md)
     trajectory_shape = (WORLD.n_knots, 2)  # knot controls [steer rate, accel] as fractions of the bounds

@@ -55,6 +55,9 @@ TEXTS = ParticipantTexts(
     attention_correct=frozenset({"merge", "forward"}),
     watch="Watch how the yellow car drives.",
     question="Which drive matches the autonomous car's driving style?",
+    option="drive",
+    choice_required="Please choose the option that matches the car's driving style.",
+    title="How does the autonomous car drive?",
     legend=(LegendEntry("autonomous car", "robot", "robot-edge"), LegendEntry("other car", "other", "other-edge"),
             LegendEntry("goal lane", "goal", "goal", hatch="goal-hatch")),
 )

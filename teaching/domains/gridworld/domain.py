@@ -25,6 +25,8 @@ class GridworldDomain:
     # not the cart's: its yards have one way to carry by hand, so no test has 4 different options
     test_clusters = (labels.THROUGH_MUD, labels.AROUND_MUD, labels.PAST_DOG, labels.AROUND_DOG)
     feature_names = FEATURE_NAMES
+    vocabulary = frozenset({"gridworld", "yard", "yards", "parcel", "parcels", "delivery", "deliveries", "mud",
+                            "dog", "cart", "carts"})
     theta_star = THETA_STAR
     min_option_distance = 0.3  # cells per move, on average: a path in another row for a third of the way
     trajectory_shape = (GRID.max_moves + 1,)  # the cells visited, row * width + col

@@ -1,0 +1,81 @@
+"""In Debian's Chromium, a participant who sends a test without a choice is told so in the study's own
+robot's words (Domain.texts.choice_required): a yard's participant reads of deliveries, never of the
+car's driving style.  One study of every registered domain, on its smallest table."""
+from __future__ import annotations
+
+import os
+import re
+
+import pytest
+from playwright.sync_api import expect, sync_playwright
+
+from studyapp.models import Participant, StepKind, Study
+from studyapp.studies import build_study
+from teaching.core.build import build_table
+from teaching.core.domain import domain_names, get_domain
+from teaching.core.table import TrajectoryTable
+from tests.browser.test_participant_flow import ready
+from tests.conftest import built_once, complete_flow
+from tests.studyapp.test_stimuli import real_spec, smallest_preset
+
+CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
+CAR_WORDS = re.compile(r"\b(cars?|driv\w*|lanes?|highway|road|merg\w*|steer\w*)\b")
+
+pytestmark = [pytest.mark.browser, pytest.mark.slow]
+
+# what a participant's browser would send without JavaScript's guard: every option played and rated,
+# the form's own `required` and the disabled button out of the way, no option chosen
+SEND_WITHOUT_A_CHOICE = """() => {
+  const form = document.querySelector("form[data-test-form]");
+  form.noValidate = true;
+  for (const box of form.querySelectorAll('input[name="played"]')) box.checked = true;
+  form.querySelector('button[type="submit"]').disabled = false;
+}"""
+
+
+@pytest.mark.parametrize("name", domain_names())
+def test_a_test_sent_without_a_choice_is_refused_in_the_studys_words(name, transactional_db, live_server,
+                                                                     tmp_path_factory, monkeypatch):
+    domain = get_domain(name)
+    preset = smallest_preset(domain)
+    out = built_once(tmp_path_factory, f"{preset.name}-table", lambda out: build_table(preset, out))
+    study = build_study(real_spec(TrajectoryTable.load(out), out, slug=f"words-{name}"))
+    Study.objects.filter(pk=study.pk).update(is_open=True)
+    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")  # ORM calls beside Playwright's loop
+    pid = f"5f0c0ffee00000000000{name[:4]}"
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
+        try:
+            page = browser.new_context(viewport={"width": 1200, "height": 1000}).new_page()
+            errors = []
+            page.on("pageerror", lambda exc: errors.append(str(exc)))
+            page.goto(f"{live_server.url}/s/{study.slug}/?PROLIFIC_PID={pid}&STUDY_ID=S&SESSION_ID=X")
+            expect(page.locator("h1")).to_have_text("Consent to take part")
+            # consent, instructions and training answered as the pages would: the first test is next
+            participant = complete_flow(Participant.objects.get(platform_pid=pid), stop_before=StepKind.TEST)
+            page.goto(f"{live_server.url}{participant.get_absolute_url()}")
+            expect(page.locator("h1")).to_have_text(f"Question 1 of {len(study.test_set)}")
+            ready(page)
+            assert domain.texts.question in page.locator(".lead").inner_text()
+            for letter in "ABCD":
+                page.locator(f'.rating[data-option="{letter}"] input[value="4"]').check(force=True)
+            page.evaluate(SEND_WITHOUT_A_CHOICE)
+            page.locator('#test-form button[type="submit"]').click()
+            refusal = page.locator(".save-error")
+            expect(refusal).to_have_text(domain.texts.choice_required)
+            body = page.locator("main").inner_text()
+            if name != "driving":
+                assert not CAR_WORDS.search(refusal.inner_text().lower()), refusal.inner_text()
+                assert not CAR_WORDS.search(body.lower()), body
+        finally:
+            browser.close()
+    assert not errors, errors
+    participant.refresh_from_db()
+    assert not participant.answers.filter(kind=StepKind.TEST).exists()  # nothing was stored
+
+
+def test_the_yards_participant_reads_the_yards_words():
+    """What the Chromium test above expects of the gridworld, written out."""
+    texts = get_domain("gridworld").texts
+    assert texts.choice_required == "Please choose the delivery that matches the robot's preferences."
+    assert not CAR_WORDS.search(texts.choice_required.lower())
