@@ -15,12 +15,17 @@ lapse rate ε (a uniform guess):
 
 When every w_k is 0 (no θ the learner believes in would produce any option), the learner has nothing to
 go by and guesses: P(k) = 1 / K.
+
+The weights are computed in log space, log w_k = logsumexp_θ(log P_M(θ | S) + log P_M(ξ_k | θ, E)), and
+normalised by their logsumexp: at large λ d every exp(-λ d) is below float32's (and float64's) smallest
+number, and computed directly all weights would be 0 (a guess) where the model picks the nearest option.
 """
 from __future__ import annotations
 
 from functools import cached_property
 
 import numpy as np
+from scipy.special import logsumexp
 
 from .learners import METRICS, LearnerModel
 
@@ -77,23 +82,34 @@ class OptionDistances:
         return getattr(self, metric)
 
 
+def log_choice_probabilities(log_belief: np.ndarray, log_likelihood: np.ndarray, lapse: float) -> np.ndarray:
+    """(N,) log P(θ | S), (K, N) log P(ξ_k | θ) (float64; -inf: ruled out), lapse ε in [0, 1] -> (K,) P(k).
+
+    The module's equation in log space; a guess (1 / K each) when no option has any weight."""
+    if not 0 <= lapse <= 1:
+        raise ValueError(f"the lapse rate must lie in [0, 1], got {lapse}")
+    joint = np.asarray(log_likelihood, np.float64) + np.asarray(log_belief, np.float64)[None, :]  # (K, N)
+    k = joint.shape[0]
+    if not np.isfinite(joint).any():
+        return np.full(k, 1.0 / k)
+    with np.errstate(divide="ignore"):  # an option without weight: log 0
+        log_w = logsumexp(joint, axis=1)  # (K,) log w_k (-inf: no weight)
+    return (1.0 - lapse) * np.exp(log_w - logsumexp(log_w)) + lapse / k
+
+
 def choice_probabilities(belief: np.ndarray, likelihood: np.ndarray, lapse: float) -> np.ndarray:
     """(N,) belief P(θ | S), (K, N) likelihoods P(ξ_k | θ), lapse ε in [0, 1] -> (K,) P(k).
 
-    The module's equation; a guess (1 / K each) when no option has any weight."""
-    if not 0 <= lapse <= 1:
-        raise ValueError(f"the lapse rate must lie in [0, 1], got {lapse}")
-    w = np.asarray(likelihood, np.float64) @ np.asarray(belief, np.float64)  # (K,)
-    k = len(w)
-    total = w.sum()
-    if not total > 0:
-        return np.full(k, 1.0 / k)
-    return (1.0 - lapse) * w / total + lapse / k
+    The module's equation (:func:`log_choice_probabilities` on their logarithms)."""
+    with np.errstate(divide="ignore"):
+        return log_choice_probabilities(np.log(np.asarray(belief, np.float64)),
+                                        np.log(np.asarray(likelihood, np.float64)), lapse)
 
 
 def option_choice(model: LearnerModel, belief: np.ndarray, table, env_index: int, options,
                   lapse: float) -> np.ndarray:
     """(K,) P(participant picks option k) of a test in environment `env_index` whose options are the
     optimal trajectories of θ indices `options`, for a learner of `model` believing `belief` (N,)."""
-    lik = model.likelihood(OptionDistances(table, env_index, options))
-    return choice_probabilities(belief, lik, lapse)
+    log_lik = model.log_likelihood(OptionDistances(table, env_index, options))
+    with np.errstate(divide="ignore"):
+        return log_choice_probabilities(np.log(np.asarray(belief, np.float64)), log_lik, lapse)

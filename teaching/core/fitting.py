@@ -36,8 +36,8 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from .bms import BMSResult, random_effects_bms
-from .choice import OptionDistances, choice_probabilities
-from .learners import Distances, LearnerModel, has_hyperparameter, make_model, model_names, posterior
+from .choice import OptionDistances, log_choice_probabilities
+from .learners import Distances, LearnerModel, has_hyperparameter, log_posterior, make_model, model_names
 
 VALUE_GRID = tuple(10.0 ** (k / 4) for k in range(-20, 21))  # τ, λ ∈ 1e-5 .. 1e5, four per decade
 EPS_GRID = np.linspace(0.0, 1.0, 201)
@@ -151,11 +151,11 @@ def option_distances(table, tests) -> list[OptionDistances]:
 def choice_table(model: LearnerModel, dist: Distances, options: list[OptionDistances], sequences) -> np.ndarray:
     """(S, T, K) float64 q(k | S_s, E_t): the choice model's probabilities without lapse."""
     out = np.empty((len(sequences), len(options), options[0].shape[0]))
-    liks = [model.likelihood(o).astype(np.float64) for o in options]
+    log_liks = [model.log_likelihood(o) for o in options]
     for s, seq in enumerate(sequences):
-        belief = posterior(model, dist, list(seq))
-        for t, lik in enumerate(liks):
-            out[s, t] = choice_probabilities(belief, lik, 0.0)
+        belief = log_posterior(model, dist, list(seq))
+        for t, log_lik in enumerate(log_liks):
+            out[s, t] = log_choice_probabilities(belief, log_lik, 0.0)
     return out
 
 
