@@ -25,7 +25,6 @@ from __future__ import annotations
 from functools import cached_property
 
 import numpy as np
-from scipy.special import logsumexp
 
 from .learners import METRICS, LearnerModel
 
@@ -82,19 +81,27 @@ class OptionDistances:
         return getattr(self, metric)
 
 
-def log_choice_probabilities(log_belief: np.ndarray, log_likelihood: np.ndarray, lapse: float) -> np.ndarray:
-    """(N,) log P(θ | S), (K, N) log P(ξ_k | θ) (float64; -inf: ruled out), lapse ε in [0, 1] -> (K,) P(k).
+def _logsumexp(a: np.ndarray, axis: int = -1) -> np.ndarray:
+    """log Σ exp(a) along `axis` (-inf where every term is -inf), without leaving float64's range."""
+    m = np.max(a, axis=axis, keepdims=True)
+    m = np.where(np.isfinite(m), m, 0.0)
+    with np.errstate(divide="ignore"):  # no term has weight: log 0
+        return np.log(np.exp(a - m).sum(axis)) + np.squeeze(m, axis)
 
-    The module's equation in log space; a guess (1 / K each) when no option has any weight."""
+
+def log_choice_probabilities(log_belief: np.ndarray, log_likelihood: np.ndarray, lapse: float) -> np.ndarray:
+    """(N,) log P(θ | S), (..., K, N) log P(ξ_k | θ) (float64; -inf: ruled out; leading axes: several tests at
+    once), lapse ε in [0, 1] -> (..., K) P(k).
+
+    The module's equation in log space; a guess (1 / K each) where no option has any weight."""
     if not 0 <= lapse <= 1:
         raise ValueError(f"the lapse rate must lie in [0, 1], got {lapse}")
-    joint = np.asarray(log_likelihood, np.float64) + np.asarray(log_belief, np.float64)[None, :]  # (K, N)
-    k = joint.shape[0]
-    if not np.isfinite(joint).any():
-        return np.full(k, 1.0 / k)
-    with np.errstate(divide="ignore"):  # an option without weight: log 0
-        log_w = logsumexp(joint, axis=1)  # (K,) log w_k (-inf: no weight)
-    return (1.0 - lapse) * np.exp(log_w - logsumexp(log_w)) + lapse / k
+    log_w = _logsumexp(np.asarray(log_likelihood, np.float64) + np.asarray(log_belief, np.float64), -1)  # (..., K)
+    k = log_w.shape[-1]
+    norm = _logsumexp(log_w, -1)[..., None]
+    with np.errstate(invalid="ignore"):  # -inf - -inf where no option has weight: replaced by the guess
+        p = np.where(np.isfinite(norm), np.exp(log_w - norm), 1.0 / k)
+    return (1.0 - lapse) * p + lapse / k
 
 
 def choice_probabilities(belief: np.ndarray, likelihood: np.ndarray, lapse: float) -> np.ndarray:

@@ -159,13 +159,9 @@ def option_distances(table, tests) -> list[OptionDistances]:
 
 def choice_table(model: LearnerModel, dist: Distances, options: list[OptionDistances], sequences) -> np.ndarray:
     """(S, T, K) float64 q(k | S_s, E_t): the choice model's probabilities without lapse."""
-    out = np.empty((len(sequences), len(options), options[0].shape[0]))
-    log_liks = [model.log_likelihood(o) for o in options]
-    for s, seq in enumerate(sequences):
-        belief = log_posterior(model, dist, list(seq))
-        for t, log_lik in enumerate(log_liks):
-            out[s, t] = log_choice_probabilities(belief, log_lik, 0.0)
-    return out
+    log_liks = np.stack([model.log_likelihood(o) for o in options])  # (T, K, N)
+    return np.stack([log_choice_probabilities(log_posterior(model, dist, list(seq)), log_liks, 0.0)
+                     for seq in sequences])
 
 
 def model_grid(model: LearnerModel, grid=VALUE_GRID) -> list[LearnerModel]:
