@@ -49,6 +49,9 @@ from .learners import (
 )
 
 VALUE_GRID = tuple(10.0 ** (k / 4) for k in range(-20, 21))  # τ, λ ∈ 1e-5 .. 1e5, four per decade
+# Models whose held-out log-likelihoods agree this closely rank equal: models that predict the same for
+# every answer given (exact IRL and the approximate ones at extreme τ / λ) differ only by rounding there.
+TIE_TOLERANCE = 1e-6
 EPS_GRID = np.linspace(0.0, 1.0, 201)
 
 
@@ -364,8 +367,10 @@ def _pool_identical(fits: list[ModelFit]) -> list[ModelFit]:
 def fit_models(table, answers: Answers, names=None, *, grid=VALUE_GRID, progress=None,
                dist: Distances | None = None) -> list[ModelFit]:
     """Every model in `names` (default: every registered one) fitted to `answers`, identical models
-    pooled, best first by cross-validated log-likelihood.  FitError (one line) when the answers cannot
-    be fitted or when no model explains them better than guessing (every answer a lapse)."""
+    pooled, best first by cross-validated log-likelihood (models within TIE_TOLERANCE of each other in the
+    registry's order: their order says nothing; :meth:`Comparison.rows` ranks them equal).  FitError (one
+    line) when the answers cannot be fitted or when no model explains them better than guessing (every answer
+    a lapse)."""
     answers.check()
     dist = dist or Distances(table)
     options = option_distances(table, answers.tests)
@@ -379,6 +384,16 @@ def fit_models(table, answers: Answers, names=None, *, grid=VALUE_GRID, progress
         raise FitError("no model explains these answers better than guessing (likelihood-ratio test against a "
                        "uniform guess, p >= 0.05 after Bonferroni): the answers look like lapses")
     return sorted(fits, key=lambda f: -f.cv_log_lik)
+
+
+def tie_ranks(scores, tol: float = TIE_TOLERANCE) -> tuple[list[int], list[list[int]]]:
+    """(M,) scores, higher better -> (M,) each one's rank (1 + how many score more than `tol` higher: tied
+    ones share a rank, the next one skips) and, for each, the indices of the others within `tol` of it."""
+    scores = np.asarray(scores, np.float64)
+    ranks = [1 + int((scores > x + tol).sum()) for x in scores]
+    tied = [[j for j in range(len(scores)) if j != i and abs(scores[j] - scores[i]) <= tol]
+            for i in range(len(scores))]
+    return ranks, tied
 
 
 def beats_guessing(fit: ModelFit, n_options: int, n_models: int = 1, alpha: float = 0.05) -> bool:
@@ -400,16 +415,23 @@ class Comparison:
     n_participants: int
 
     def rows(self) -> list[dict]:
-        """One row per model (identical ones pooled), for tables and CSV."""
+        """One row per model (identical ones pooled), for tables and CSV.  ``rank``: by cross-validated
+        log-likelihood, equal for models within TIE_TOLERANCE of each other (:func:`tie_ranks`);
+        ``tied_with``: those models' labels; ``tie_exceedance``: the exceedance probability of the model and
+        the ones it ties with together (the chance that the most common model is one of them: the random-effects
+        selection splits it among models whose evidence is the same, so one of them alone says little)."""
         best_bic = min(f.bic for f in self.fits)
         nan = np.full(len(self.fits), np.nan)
         freq, ep, pep = ((self.bms.frequency, self.bms.exceedance, self.bms.protected_exceedance) if self.bms
                          else (nan, nan, nan))
+        ranks, tied = tie_ranks([f.cv_log_lik for f in self.fits])
         return [{"model": f.label, "param": f.param or "", "value": f.value, "lapse": f.lapse,
                  "log_lik": f.log_lik, "cv_log_lik": f.cv_log_lik, "aic": f.aic, "bic": f.bic,
                  "delta_bic": f.bic - best_bic, "frequency": float(freq[i]), "exceedance": float(ep[i]),
                  "protected_exceedance": float(pep[i]),
-                 "rating_rho": f.rating_rho, "n_answers": f.n_answers}
+                 "rating_rho": f.rating_rho, "n_answers": f.n_answers, "rank": ranks[i],
+                 "tied_with": [self.fits[j].label for j in tied[i]],
+                 "tie_exceedance": float(ep[i] + sum(ep[j] for j in tied[i]))}
                 for i, f in enumerate(self.fits)]
 
 

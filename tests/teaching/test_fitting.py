@@ -16,6 +16,7 @@ from teaching.core.fitting import (
     fit_model,
     fit_models,
     option_distances,
+    tie_ranks,
 )
 from teaching.core.learners import Distances, make_model
 from teaching.core.recovery import model_recovery
@@ -210,13 +211,42 @@ def test_the_comparison_ranks_models_and_selects_across_participants(demo_design
     assert single.bms is None and np.isnan(single.rows()[0]["exceedance"])
 
 
+def test_tie_ranks_share_a_rank_within_the_tolerance():
+    ranks, tied = tie_ranks([-10.0, -10.0 + 5e-7, -12.0, -9.0, -12.0 - 2e-6])
+    assert ranks == [2, 2, 4, 1, 5]
+    assert tied == [[1], [0], [], [], []]
+
+
+def test_tied_models_are_reported_tied(demo_design):
+    """Exact-IRL learners: exact and the approximate models that equal it at their fitted τ / λ predict every
+    answer alike, so their held-out log-likelihoods agree.  They share rank 1, each names the others, the
+    exceedance probability is split among them (equal shares) and their together is reported; the next model
+    ranks after all of them."""
+    table, result, sequences, tests = demo_design
+    answers = simulate_answers(table, SimulatedLearner("exact", None, 0.15), sequences, tests, 90,
+                               np.random.default_rng(0))
+    rows = compare_models(table, answers).rows()
+    top = [r for r in rows if r["rank"] == 1]
+    assert len(top) >= 2 and "exact" in [r["model"] for r in top], [(r["model"], r["cv_log_lik"]) for r in rows]
+    names = {r["model"] for r in top}
+    for r in top:
+        assert set(r["tied_with"]) == names - {r["model"]}
+        assert r["cv_log_lik"] == pytest.approx(top[0]["cv_log_lik"], abs=1e-6)
+        assert r["exceedance"] == pytest.approx(top[0]["exceedance"], abs=1e-6)
+        assert r["tie_exceedance"] == pytest.approx(sum(t["exceedance"] for t in top))
+    rest = [r for r in rows if r["rank"] != 1]
+    assert rest[0]["rank"] == len(top) + 1 and not rest[0]["tied_with"]
+    assert rest[0]["tie_exceedance"] == rest[0]["exceedance"]
+
+
 def test_model_recovery_counts_winners_and_parameters(demo_design):
     table, result, sequences, tests = demo_design
     gens = {"det-euclidean": SimulatedLearner("det-euclidean", result.models["det-euclidean"].value, 0.15),
             "prob-reward": SimulatedLearner("prob-reward", result.models["prob-reward"].value, 0.15),
             "det-strategy": SimulatedLearner("det-strategy", None, 0.15)}
     rec = model_recovery(table, sequences, tests, gens, 180, reps=2, seed=4)
-    assert rec.confusion.shape == (3, len(rec.fitted)) and rec.confusion.sum() + sum(rec.unfitted.values()) == 6
+    assert rec.confusion.shape == (3, len(rec.fitted))
+    assert rec.confusion.sum() + sum(rec.unfitted.values()) + sum(len(t) for t in rec.ties.values()) == 6
     # columns in the registry's order, the strategy learners as one
     assert rec.fitted.index("det-euclidean") < rec.fitted.index("prob-reward")
     assert "det-strategy = prob-strategy" in rec.fitted
