@@ -62,9 +62,11 @@ def generators(table, result) -> dict[str, SimulatedLearner]:
     return out
 
 
-def recovery_figures(table, reps: int) -> dict:
+def recovery_figures(table, reps: int, only=None) -> dict:
+    """Recovery of every generator, or of those named in `only` (the studies of a subset that starts with the
+    first generator are the ones a full run draws for it: one random generator per size, in this order)."""
     sequences, tests, result = design(table)
-    gens = generators(table, result)
+    gens = {k: v for k, v in generators(table, result).items() if not only or k in only}
     out = {"table": table.meta["content_hash"], "reps": reps, "lapse": LAPSE,
            "generators": {k: str(v) for k, v in gens.items()}, "sizes": {}}
     for n in SIZES:
@@ -168,6 +170,8 @@ def main() -> None:
     p.add_argument("--table", default="var/tables/demo")
     p.add_argument("--paper-table", default=None)
     p.add_argument("--reps", type=int, default=25)
+    p.add_argument("--generators", default=None,
+                   help="comma-separated generators to simulate (default: every one; such a run: its own --json)")
     p.add_argument("--json", default=None)
     p.add_argument("--update-doc", default=None, help="rewrite this document's generated section from --json")
     p.add_argument("--paper-only", action="store_true",
@@ -180,7 +184,8 @@ def main() -> None:
     if args.paper_only and not (args.json and Path(args.json).exists() and args.paper_table):
         p.error("--paper-only needs --paper-table and an earlier run's --json")
     figures = ({"recovery": json.loads(Path(args.json).read_text())["recovery"]} if args.paper_only
-               else {"recovery": recovery_figures(TrajectoryTable.load(args.table), args.reps)})
+               else {"recovery": recovery_figures(TrajectoryTable.load(args.table), args.reps,
+                                                  args.generators.split(",") if args.generators else None)})
     if args.paper_table:
         child = subprocess.run([sys.executable, __file__, "--paper-child", args.paper_table], check=True,
                                capture_output=True, text=True)
