@@ -50,7 +50,7 @@ from .learners import (
 
 VALUE_GRID = tuple(10.0 ** (k / 4) for k in range(-20, 21))  # τ, λ ∈ 1e-5 .. 1e5, four per decade
 # Models whose held-out log-likelihoods agree this closely rank equal: models that predict the same for
-# every answer given (exact IRL and the approximate ones at extreme τ / λ) differ only by rounding there.
+# every answer given (exact IRL and the approximate ones at their fitted τ / λ) differ only by rounding there.
 TIE_TOLERANCE = 1e-6
 EPS_GRID = np.linspace(0.0, 1.0, 201)
 
@@ -209,21 +209,33 @@ def best_lapse(p: np.ndarray, counts: np.ndarray, k: int) -> tuple[np.ndarray, n
     class, K options -> ((C,) ε in [0, 1] maximising ℓ(ε) = Σ_u n_u log((1 - ε) p_u + ε / K), (C,) that ℓ).
 
     ℓ is concave in ε, so its maximum is where the slope Σ_u n_u (1/K - p_u) / ((1 - ε) p_u + ε / K)
-    changes sign: 0 when the slope at 0 is <= 0, 1 when the slope at 1 is >= 0, else found by bisection
-    to float precision (vectorised over the candidates, deterministic)."""
+    changes sign: 0 when the slope at 0 is <= 0, 1 when the slope at 1 is >= 0, else found by Newton steps
+    kept inside a bracket that halves whenever a step would leave it (to float precision, vectorised over
+    the candidates, deterministic)."""
     p = np.atleast_2d(np.asarray(p, np.float64))
 
-    def slope(eps):
+    def slope_curvature(p, eps):  # dℓ/dε and d²ℓ/dε² (<= 0) of each candidate at its ε
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # p = 0 at ε = 0: an infinite slope
-            return (counts * (1 / k - p) / ((1 - eps)[:, None] * p + eps[:, None] / k)).sum(1)
+            ratio = (1 / k - p) / ((1 - eps)[:, None] * p + eps[:, None] / k)
+            return (counts * ratio).sum(1), -(counts * ratio ** 2).sum(1)
 
-    lo, hi = np.zeros(len(p)), np.ones(len(p))
-    inner = (slope(lo) > 0) & (slope(hi) < 0)
-    for _ in range(64):
-        mid = (lo + hi) / 2
-        up = slope(mid) > 0
-        lo, hi = np.where(up, mid, lo), np.where(up, hi, mid)
-    eps = np.where(inner, (lo + hi) / 2, np.where(slope(np.ones(len(p))) >= 0, 1.0, 0.0))
+    at0, at1 = slope_curvature(p, np.zeros(len(p)))[0], slope_curvature(p, np.ones(len(p)))[0]
+    eps = np.where(at0 <= 0, 0.0, 1.0)
+    inner = np.flatnonzero((at0 > 0) & (at1 < 0))
+    if len(inner):
+        sub = p[inner]
+        lo, hi, x = np.zeros(len(inner)), np.ones(len(inner)), np.full(len(inner), 0.5)
+        for _ in range(200):
+            g, h = slope_curvature(sub, x)
+            lo, hi = np.where(g > 0, x, lo), np.where(g > 0, hi, x)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                step = x - g / h
+            new = np.where((step > lo) & (step < hi), step, (lo + hi) / 2)
+            done = np.abs(new - x) <= 4 * np.finfo(float).eps
+            x = new
+            if done.all():
+                break
+        eps[inner] = x
     with np.errstate(divide="ignore"):
         ll = (counts * np.log((1 - eps)[:, None] * p + eps[:, None] / k)).sum(1)
     return eps, ll
