@@ -48,7 +48,8 @@ Fitting learner models to answers (teaching.core.fitting, .bms, .simulate; docs/
                              group (P,), choice (P, T) option index or -1, ratings (P, T, K) or None
     compare_models(table, answers, names=None) -> Comparison: .fits (ModelFit each: τ / λ, ε,
                              log_lik, cv_log_lik, aic, bic, per participant), .bms (exceedance
-                             probabilities), .rows() one dict per model; FitError (one line) if unfittable
+                             probabilities), .rows() one dict per model (rank: equal within
+                             TIE_TOLERANCE, tied_with); FitError (one line) if unfittable
     SimulatedLearner(model, value, lapse)  who a model-based simulated participant is; AnswerModel(
                              table, learner, tests) its P(option) per test for a sequence, .answer()
     pilot_predictions(table, models, sequences, test_set)  a study's model-based pilot as JSON: each
@@ -153,7 +154,7 @@ from .core.closedloop_pack import Pack, load_pack, write_pack
 from .core.closedloop_pilot import loop_pilot
 from .core.domain import Domain, LegendEntry, ParticipantTexts, default_domain_name, domain_names, get_domain
 from .core.evaluation import USER_NAMES, study_matrix
-from .core.fitting import Answers, Comparison, FitError, Question, compare_models, questions_of
+from .core.fitting import TIE_TOLERANCE, Answers, Comparison, FitError, Question, compare_models, questions_of
 from .core.learners import MODEL_NAMES, has_hyperparameter, make_model, model_names, parse_hyperparameters
 from .core.selection import (
     ALL_CONDITIONS,
@@ -200,7 +201,8 @@ __all__ = [
     "parse_hyperparameters", "select_test_set", "strategy_labels", "stratified_sample", "study_matrix",
     "table_identity",
     "OptionDistances", "choice_probabilities", "option_choice",
-    "AnswerModel", "Answers", "Comparison", "FitError", "Question", "SimulatedLearner", "compare_models", "model_names",
+    "AnswerModel", "Answers", "Comparison", "FitError", "Question", "SimulatedLearner", "TIE_TOLERANCE",
+    "compare_models", "model_names",
     "PredictedScores", "draw_answers", "pilot_predictions", "predicted_scores", "questions_of",
     "ClosedLoop", "ClosedLoopError", "ClosedLoopSpec", "Decision", "Event", "check_questions", "run_learner",
     "loop_pilot", "MAX_EXAMPLES_LIMIT",

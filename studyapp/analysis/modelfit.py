@@ -30,8 +30,10 @@ from teaching.api import (
 
 from ..models import Answer, Condition, LoopStep, Participant, StepKind, Study
 
+# rank: equal for models whose cross-validated log-likelihoods tie (teaching.core.fitting.tie_ranks);
+# tied_with: their labels, "; "-separated; tie_exceedance: the exceedance of the model and those together
 CSV_COLUMNS = ["model", "param", "value", "lapse", "log_lik", "cv_log_lik", "aic", "bic", "delta_bic", "frequency",
-               "exceedance", "protected_exceedance", "rating_rho", "n_answers"]
+               "exceedance", "protected_exceedance", "rating_rho", "n_answers", "rank", "tied_with", "tie_exceedance"]
 
 
 class ModelFitError(ValueError):
@@ -161,7 +163,7 @@ class StudyFit:
         writer = csv.DictWriter(buf, fieldnames=CSV_COLUMNS, lineterminator="\n")
         writer.writeheader()
         for row in self.comparison.rows():
-            writer.writerow({k: _cell(row[k]) for k in CSV_COLUMNS})
+            writer.writerow({k: _cell("; ".join(row[k]) if k == "tied_with" else row[k]) for k in CSV_COLUMNS})
         return buf.getvalue()
 
 

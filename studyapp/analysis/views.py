@@ -33,6 +33,8 @@ from django.shortcuts import get_object_or_404, render
 from django.template.loader import render_to_string
 from django.utils.cache import get_conditional_response
 
+from teaching.api import TIE_TOLERANCE
+
 from ..access import researcher_required
 from ..models import Study
 from . import data as D
@@ -165,6 +167,8 @@ def models_context(fit: MF.StudyFit) -> dict:
     figure = MF.accuracy_figure(fit)
     return {"rows": rows, "n_participants": fit.comparison.n_participants,
             "n_answers": rows[0]["n_answers"] if rows else 0, "best": rows[0]["model"] if rows else "",
+            "best_tied": rows[0]["tied_with"] if rows else [], "ties": any(r["tied_with"] for r in rows),
+            "tie_tolerance": f"{TIE_TOLERANCE:g}",
             "figure": FIG.data_uri(FIG.to_bytes(figure)), "bms": fit.comparison.bms is not None}
 
 

@@ -15,6 +15,10 @@ lapse rate ε (a uniform guess):
 
 When every w_k is 0 (no θ the learner believes in would produce any option), the learner has nothing to
 go by and guesses: P(k) = 1 / K.
+
+The weights are computed in log space, log w_k = logsumexp_θ(log P_M(θ | S) + log P_M(ξ_k | θ, E)), and
+normalised by their logsumexp: at large λ d every exp(-λ d) is below float32's (and float64's) smallest
+number, and computed directly all weights would be 0 (a guess) where the model picks the nearest option.
 """
 from __future__ import annotations
 
@@ -77,23 +81,42 @@ class OptionDistances:
         return getattr(self, metric)
 
 
+def _logsumexp(a: np.ndarray, axis: int = -1) -> np.ndarray:
+    """log Σ exp(a) along `axis` (-inf where every term is -inf), without leaving float64's range."""
+    m = np.max(a, axis=axis, keepdims=True)
+    m = np.where(np.isfinite(m), m, 0.0)
+    with np.errstate(divide="ignore"):  # no term has weight: log 0
+        return np.log(np.exp(a - m).sum(axis)) + np.squeeze(m, axis)
+
+
+def log_choice_probabilities(log_belief: np.ndarray, log_likelihood: np.ndarray, lapse: float) -> np.ndarray:
+    """(N,) log P(θ | S), (..., K, N) log P(ξ_k | θ) (float64; -inf: ruled out; leading axes: several tests at
+    once), lapse ε in [0, 1] -> (..., K) P(k).
+
+    The module's equation in log space; a guess (1 / K each) where no option has any weight."""
+    if not 0 <= lapse <= 1:
+        raise ValueError(f"the lapse rate must lie in [0, 1], got {lapse}")
+    log_w = _logsumexp(np.asarray(log_likelihood, np.float64) + np.asarray(log_belief, np.float64), -1)  # (..., K)
+    k = log_w.shape[-1]
+    norm = _logsumexp(log_w, -1)[..., None]
+    with np.errstate(invalid="ignore"):  # -inf - -inf where no option has weight: replaced by the guess
+        p = np.where(np.isfinite(norm), np.exp(log_w - norm), 1.0 / k)
+    return (1.0 - lapse) * p + lapse / k
+
+
 def choice_probabilities(belief: np.ndarray, likelihood: np.ndarray, lapse: float) -> np.ndarray:
     """(N,) belief P(θ | S), (K, N) likelihoods P(ξ_k | θ), lapse ε in [0, 1] -> (K,) P(k).
 
-    The module's equation; a guess (1 / K each) when no option has any weight."""
-    if not 0 <= lapse <= 1:
-        raise ValueError(f"the lapse rate must lie in [0, 1], got {lapse}")
-    w = np.asarray(likelihood, np.float64) @ np.asarray(belief, np.float64)  # (K,)
-    k = len(w)
-    total = w.sum()
-    if not total > 0:
-        return np.full(k, 1.0 / k)
-    return (1.0 - lapse) * w / total + lapse / k
+    The module's equation (:func:`log_choice_probabilities` on their logarithms)."""
+    with np.errstate(divide="ignore"):
+        return log_choice_probabilities(np.log(np.asarray(belief, np.float64)),
+                                        np.log(np.asarray(likelihood, np.float64)), lapse)
 
 
 def option_choice(model: LearnerModel, belief: np.ndarray, table, env_index: int, options,
                   lapse: float) -> np.ndarray:
     """(K,) P(participant picks option k) of a test in environment `env_index` whose options are the
     optimal trajectories of θ indices `options`, for a learner of `model` believing `belief` (N,)."""
-    lik = model.likelihood(OptionDistances(table, env_index, options))
-    return choice_probabilities(belief, lik, lapse)
+    log_lik = model.log_likelihood(OptionDistances(table, env_index, options))
+    with np.errstate(divide="ignore"):
+        return log_choice_probabilities(np.log(np.asarray(belief, np.float64)), log_lik, lapse)

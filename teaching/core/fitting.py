@@ -11,10 +11,11 @@ so the log-likelihood of the answers is ℓ_i(v, ε) = Σ_t log P(c_it).  Everyt
 distinct training sequence s and every test: participants who saw the same examples share it, so the
 cost of a fit grows with the grid and the conditions, not with the participants.
 
-* **pooled fit**: (v, ε) maximising Σ_i ℓ_i on the grid (ε in steps of 1/200), then ε (and λ of a
-  probabilistic model) polished continuously; ``aic`` = 2k - 2ℓ, ``bic`` = k ln n - 2ℓ (k: 2 with a
-  hyperparameter that changes the model, else 1; n: answered tests).
-* **per participant**: the grid maximum of each ℓ_i (their own τ / λ and ε).
+* **pooled fit**: the joint maximum of Σ_i ℓ_i over (v, ε).  ℓ is concave in ε, so every v gets its exact
+  best ε (:func:`best_lapse`); λ is then searched continuously on that profile from the grid's best, and a
+  deterministic model's τ step by step (its ℓ changes only where τ reaches a distance); ``aic`` = 2k - 2ℓ,
+  ``bic`` = k ln n - 2ℓ (k: 2 with a hyperparameter that changes the model, else 1; n: answered tests).
+* **per participant**: the grid maximum of each ℓ_i (their own τ / λ and ε, ε in steps of 1/200).
 * **leave-one-participant-out**: Σ_i ℓ_i at the pooled grid fit of everyone else.  Each participant's
   held-out ℓ_i is also their log evidence for the random-effects model selection (:mod:`.bms`):
   a predictive evidence that charges a model for its flexibility by cross-validation.  Both usual
@@ -24,7 +25,7 @@ cost of a fit grows with the grid and the conditions, not with the participants.
   hyperparameter win every study.
 
 A deterministic model's ℓ is a step function of τ: every τ of the best step fits equally, and the fit
-reports the middle (geometric) of that step's grid values.  Models whose choice probabilities are equal
+reports the middle (geometric) of that step.  Models whose choice probabilities are equal
 at every grid value (the deterministic and probabilistic strategy learners: d_strategy is 0 or ∞) are
 one model here, reported once under both names.
 """
@@ -36,10 +37,21 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from .bms import BMSResult, random_effects_bms
-from .choice import OptionDistances, choice_probabilities
-from .learners import Distances, LearnerModel, has_hyperparameter, make_model, model_names, posterior
+from .choice import OptionDistances, log_choice_probabilities
+from .learners import (
+    Deterministic,
+    Distances,
+    LearnerModel,
+    has_hyperparameter,
+    log_posterior,
+    make_model,
+    model_names,
+)
 
 VALUE_GRID = tuple(10.0 ** (k / 4) for k in range(-20, 21))  # τ, λ ∈ 1e-5 .. 1e5, four per decade
+# Models whose held-out log-likelihoods agree this closely rank equal: models that predict the same for
+# every answer given (exact IRL and the approximate ones at their fitted τ / λ) differ only by rounding there.
+TIE_TOLERANCE = 1e-6
 EPS_GRID = np.linspace(0.0, 1.0, 201)
 
 
@@ -150,13 +162,9 @@ def option_distances(table, tests) -> list[OptionDistances]:
 
 def choice_table(model: LearnerModel, dist: Distances, options: list[OptionDistances], sequences) -> np.ndarray:
     """(S, T, K) float64 q(k | S_s, E_t): the choice model's probabilities without lapse."""
-    out = np.empty((len(sequences), len(options), options[0].shape[0]))
-    liks = [model.likelihood(o).astype(np.float64) for o in options]
-    for s, seq in enumerate(sequences):
-        belief = posterior(model, dist, list(seq))
-        for t, lik in enumerate(liks):
-            out[s, t] = choice_probabilities(belief, lik, 0.0)
-    return out
+    log_liks = np.stack([model.log_likelihood(o) for o in options])  # (T, K, N)
+    return np.stack([log_choice_probabilities(log_posterior(model, dist, list(seq)), log_liks, 0.0)
+                     for seq in sequences])
 
 
 def model_grid(model: LearnerModel, grid=VALUE_GRID) -> list[LearnerModel]:
@@ -178,18 +186,6 @@ def _answer_log_lik(q: np.ndarray, answers: Answers, eps: np.ndarray) -> np.ndar
     return out
 
 
-def _grid_best(ll: np.ndarray, tunable: bool) -> tuple[int, int]:
-    """(g, e) maximising ll (G, E): the first best ε and, for a step function of τ, the middle of the
-    run of grid values that share the best ℓ (np.argmax gives the run's first)."""
-    g, e = np.unravel_index(int(np.argmax(ll)), ll.shape)
-    if not tunable:
-        return int(g), int(e)
-    last = g
-    while last + 1 < ll.shape[0] and ll[last + 1, e] >= ll[g, e] - 1e-9:
-        last += 1
-    return int(g + last) // 2, int(e)
-
-
 def _leave_one_out(ll: np.ndarray) -> np.ndarray:
     """(G, E, P) Σ_{j≠i} ℓ_j: the total less participant i's (-inf only when another one's is; at ε = 0
     an answer the model rules out is -inf, and -inf - -inf would be NaN)."""
@@ -199,28 +195,111 @@ def _leave_one_out(ll: np.ndarray) -> np.ndarray:
     return np.where(others_bad > 0, -np.inf, finite.sum(-1, keepdims=True) - finite)
 
 
-def _polish(q_of, answers: Answers, value, lapse, tunable: bool) -> tuple[float | None, float, float]:
-    """Continuous ε (and log λ) from the grid optimum, each a bounded 1-D search (ℓ is concave in ε;
-    λ is searched within a quarter decade of the grid's best); returns (value, lapse, ℓ)."""
-    tables = {}
+def answer_classes(answers: Answers) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The answered tests grouped by what the likelihood reads of them: (U,) sequence, test and chosen
+    option of each distinct (s, t, k) and (U,) how many answers it stands for."""
+    who, test = np.nonzero(answers.choice >= 0)
+    keys = np.stack([answers.group[who], test, answers.choice[who, test]], 1)
+    uniq, counts = np.unique(keys, axis=0, return_counts=True)
+    return uniq[:, 0], uniq[:, 1], uniq[:, 2], counts
 
-    def neg(eps, v):
-        if v not in tables:
-            tables[v] = q_of(v)[None]
-        return -float(_answer_log_lik(tables[v], answers, np.array([eps]))[0, 0].sum())
 
-    for _ in range(2 if tunable else 1):
-        v = value
-        res = minimize_scalar(lambda e, v=v: neg(e, v), bounds=(0.0, 1.0), method="bounded", options={"xatol": 1e-6})
-        if res.fun <= neg(lapse, value):
-            lapse = float(res.x)
-        if tunable:
-            lo, eps = np.log10(value) - 0.25, lapse
-            res = minimize_scalar(lambda lv, eps=eps: neg(eps, 10.0 ** lv), bounds=(lo, lo + 0.5), method="bounded",
-                                  options={"xatol": 1e-4})
-            if res.fun < neg(lapse, value):
-                value = float(10.0 ** res.x)
-    return value, lapse, -neg(lapse, value)
+def best_lapse(p: np.ndarray, counts: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """p (C, U) q of each answer class's chosen option under C candidate models, counts (U,) answers per
+    class, K options -> ((C,) ε in [0, 1] maximising ℓ(ε) = Σ_u n_u log((1 - ε) p_u + ε / K), (C,) that ℓ).
+
+    ℓ is concave in ε, so its maximum is where the slope Σ_u n_u (1/K - p_u) / ((1 - ε) p_u + ε / K)
+    changes sign: 0 when the slope at 0 is <= 0, 1 when the slope at 1 is >= 0, else found by Newton steps
+    kept inside a bracket that halves whenever a step would leave it (to float precision, vectorised over
+    the candidates, deterministic)."""
+    p = np.atleast_2d(np.asarray(p, np.float64))
+
+    def slope_curvature(p, eps):  # dℓ/dε and d²ℓ/dε² (<= 0) of each candidate at its ε
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # p = 0 at ε = 0: an infinite slope
+            ratio = (1 / k - p) / ((1 - eps)[:, None] * p + eps[:, None] / k)
+            return (counts * ratio).sum(1), -(counts * ratio ** 2).sum(1)
+
+    at0, at1 = slope_curvature(p, np.zeros(len(p)))[0], slope_curvature(p, np.ones(len(p)))[0]
+    eps = np.where(at0 <= 0, 0.0, 1.0)
+    inner = np.flatnonzero((at0 > 0) & (at1 < 0))
+    if len(inner):
+        sub = p[inner]
+        lo, hi, x = np.zeros(len(inner)), np.ones(len(inner)), np.full(len(inner), 0.5)
+        for _ in range(200):
+            g, h = slope_curvature(sub, x)
+            lo, hi = np.where(g > 0, x, lo), np.where(g > 0, hi, x)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                step = x - g / h
+            new = np.where((step > lo) & (step < hi), step, (lo + hi) / 2)
+            done = np.abs(new - x) <= 4 * np.finfo(float).eps
+            x = new
+            if done.all():
+                break
+        eps[inner] = x
+    with np.errstate(divide="ignore"):
+        ll = (counts * np.log((1 - eps)[:, None] * p + eps[:, None] / k)).sum(1)
+    return eps, ll
+
+
+def _profile(q: np.ndarray, classes, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """q (C, S, T, K) -> best_lapse of each candidate: ((C,) ε, (C,) ℓ at it)."""
+    s, t, c, counts = classes
+    return best_lapse(q[:, s, t, c], counts, k)
+
+
+def _smooth_maximum(profile_of, values: np.ndarray, profile: np.ndarray) -> float:
+    """The τ / λ maximising profile_of(v) = max over ε of ℓ(v, ε), from the grid's best by a bounded
+    Brent search on log10 v between its grid neighbours (the profile is smooth in λ)."""
+    order = np.argsort(values)
+    values, profile = values[order], profile[order]
+    g = int(np.argmax(profile))
+    lo, hi = np.log10(values[max(g - 1, 0)]), np.log10(values[min(g + 1, len(values) - 1)])
+    res = minimize_scalar(lambda x: -profile_of(10.0 ** x), bounds=(lo, hi), method="bounded",
+                          options={"xatol": 1e-8, "maxiter": 200})
+    return float(10.0 ** res.x) if -res.fun > profile[g] else float(values[g])
+
+
+def _step_counts(model: Deterministic, dist: Distances, options: list[OptionDistances], sequences) -> np.ndarray:
+    """(S, T, K, N) float32 a sorted along N: θ n counts for option k after sequence s (its training
+    examples and the option all within τ of its trajectories) exactly when a <= τ, so the deterministic
+    learner's q(k) is #{a_stk <= τ} / Σ_j #{a_stj <= τ} (1 / K when every count is 0)."""
+    d = dist.get(model.metric)
+    n = dist.shape[1]
+    out = np.empty((len(sequences), len(options), options[0].shape[0], n), np.float32)
+    for s, seq in enumerate(sequences):
+        needed = d[list(seq)].max(0) if len(seq) else np.full(n, -np.inf, np.float32)
+        for t, o in enumerate(options):
+            out[s, t] = np.maximum(needed[None, :], o.get(model.metric))
+    out.sort(-1)
+    return out
+
+
+def _step_maximum(a: np.ndarray, classes, k: int, bounds: tuple[float, float]) -> tuple[float, float]:
+    """The best step of a deterministic learner's ℓ, a step function of τ that changes only where τ
+    reaches one of the values in a (:func:`_step_counts`): every step within `bounds` is scored at its
+    start with its best ε; returns the step's (start, end) (end: the next start or the upper bound)."""
+    starts = np.unique(a[(a > bounds[0]) & (a <= bounds[1])]).astype(np.float64)
+    starts = np.concatenate([[bounds[0]], starts])
+    rows = a.reshape(-1, a.shape[-1])
+    best, best_ll = 0, -np.inf
+    for lo in range(0, len(starts), 2048):  # (C, S·T·K) counts, a block of candidates at a time
+        cand = starts[lo:lo + 2048].astype(np.float32)
+        counts = np.stack([np.searchsorted(r, cand, side="right") for r in rows], 1).astype(np.float64)
+        counts = counts.reshape((len(cand),) + a.shape[:3])
+        total = counts.sum(-1, keepdims=True)
+        q = np.where(total > 0, counts / np.maximum(total, 1), 1.0 / k)
+        ll = _profile(q, classes, k)[1]
+        i = int(np.argmax(ll))
+        if ll[i] > best_ll:
+            best, best_ll = lo + i, float(ll[i])
+    return float(starts[best]), float(starts[best + 1]) if best + 1 < len(starts) else bounds[1]
+
+
+def _step_value(start: float, end: float) -> float:
+    """A τ inside the step [start, end): their geometric middle, or the start where float32 (the precision
+    the learner compares distances in) would round the middle onto the end."""
+    mid = float(np.sqrt(start * end))
+    return mid if start <= np.float32(mid) < np.float32(end) else start
 
 
 def fit_model(name: str, table, answers: Answers, *, dist: Distances | None = None, options=None,
@@ -234,8 +313,6 @@ def fit_model(name: str, table, answers: Answers, *, dist: Distances | None = No
     values = np.array([m.value for m in models]) if tunable else None
     q = np.stack([choice_table(m, dist, options, answers.sequences) for m in models])  # (G, S, T, K)
     ll = _answer_log_lik(q, answers, EPS_GRID)  # (G, E, P)
-    total = ll.sum(-1)
-    g, e = _grid_best(total, tunable)
     n_i = (answers.choice >= 0).sum(1)
     k = 2 if tunable else 1
     # per participant: each one's own grid maximum
@@ -252,14 +329,22 @@ def fit_model(name: str, table, answers: Answers, *, dist: Distances | None = No
     def q_of(v):
         return choice_table(base.with_value(v) if tunable else base, dist, options, answers.sequences)
 
-    value, lapse, log_lik = _polish(q_of, answers, float(values[g]) if tunable else None, float(EPS_GRID[e]),
-                                    tunable and base.param == "lambda")
-    kk = answers.n_options
+    # pooled: the joint maximum over (τ / λ, ε), ε exact for every τ / λ (docs/decisions.md, "Fitting")
+    classes, kk = answer_classes(answers), answers.n_options
+    value = None
+    if tunable and isinstance(base, Deterministic):
+        value = _step_value(*_step_maximum(_step_counts(base, dist, options, answers.sequences), classes, kk,
+                                           (values.min(), values.max())))
+    elif tunable:
+        value = _smooth_maximum(lambda v: float(_profile(q_of(v)[None], classes, kk)[1][0]), values,
+                                _profile(q, classes, kk)[1])
+    predicted_q = q_of(value)
+    lapse, log_lik = (float(x[0]) for x in _profile(predicted_q[None], classes, kk))
     fit = ModelFit(name=name, param=base.param if tunable else None, value=value, lapse=lapse, log_lik=log_lik,
                    n_params=k, n_answers=int(n_i.sum()), cv_log_lik=cv, per_participant_log_lik=own_ll,
                    per_participant_value=values[gi] if tunable else np.full(len(n_i), np.nan),
                    per_participant_lapse=EPS_GRID[ei], log_evidence=held_out,
-                   predicted=(1 - lapse) * q_of(value) + lapse / kk, grid_q=q)
+                   predicted=(1 - lapse) * predicted_q + lapse / kk, grid_q=q)
     fit.rating_rho = rating_correlation(fit.predicted, answers)
     return fit
 
@@ -294,8 +379,10 @@ def _pool_identical(fits: list[ModelFit]) -> list[ModelFit]:
 def fit_models(table, answers: Answers, names=None, *, grid=VALUE_GRID, progress=None,
                dist: Distances | None = None) -> list[ModelFit]:
     """Every model in `names` (default: every registered one) fitted to `answers`, identical models
-    pooled, best first by cross-validated log-likelihood.  FitError (one line) when the answers cannot
-    be fitted or when no model explains them better than guessing (every answer a lapse)."""
+    pooled, best first by cross-validated log-likelihood (models within TIE_TOLERANCE of each other in the
+    registry's order: their order says nothing; :meth:`Comparison.rows` ranks them equal).  FitError (one
+    line) when the answers cannot be fitted or when no model explains them better than guessing (every answer
+    a lapse)."""
     answers.check()
     dist = dist or Distances(table)
     options = option_distances(table, answers.tests)
@@ -309,6 +396,16 @@ def fit_models(table, answers: Answers, names=None, *, grid=VALUE_GRID, progress
         raise FitError("no model explains these answers better than guessing (likelihood-ratio test against a "
                        "uniform guess, p >= 0.05 after Bonferroni): the answers look like lapses")
     return sorted(fits, key=lambda f: -f.cv_log_lik)
+
+
+def tie_ranks(scores, tol: float = TIE_TOLERANCE) -> tuple[list[int], list[list[int]]]:
+    """(M,) scores, higher better -> (M,) each one's rank (1 + how many score more than `tol` higher: tied
+    ones share a rank, the next one skips) and, for each, the indices of the others within `tol` of it."""
+    scores = np.asarray(scores, np.float64)
+    ranks = [1 + int((scores > x + tol).sum()) for x in scores]
+    tied = [[j for j in range(len(scores)) if j != i and abs(scores[j] - scores[i]) <= tol]
+            for i in range(len(scores))]
+    return ranks, tied
 
 
 def beats_guessing(fit: ModelFit, n_options: int, n_models: int = 1, alpha: float = 0.05) -> bool:
@@ -330,16 +427,23 @@ class Comparison:
     n_participants: int
 
     def rows(self) -> list[dict]:
-        """One row per model (identical ones pooled), for tables and CSV."""
+        """One row per model (identical ones pooled), for tables and CSV.  ``rank``: by cross-validated
+        log-likelihood, equal for models within TIE_TOLERANCE of each other (:func:`tie_ranks`);
+        ``tied_with``: those models' labels; ``tie_exceedance``: the exceedance probability of the model and
+        the ones it ties with together (the chance that the most common model is one of them: the random-effects
+        selection splits it among models whose evidence is the same, so one of them alone says little)."""
         best_bic = min(f.bic for f in self.fits)
         nan = np.full(len(self.fits), np.nan)
         freq, ep, pep = ((self.bms.frequency, self.bms.exceedance, self.bms.protected_exceedance) if self.bms
                          else (nan, nan, nan))
+        ranks, tied = tie_ranks([f.cv_log_lik for f in self.fits])
         return [{"model": f.label, "param": f.param or "", "value": f.value, "lapse": f.lapse,
                  "log_lik": f.log_lik, "cv_log_lik": f.cv_log_lik, "aic": f.aic, "bic": f.bic,
                  "delta_bic": f.bic - best_bic, "frequency": float(freq[i]), "exceedance": float(ep[i]),
                  "protected_exceedance": float(pep[i]),
-                 "rating_rho": f.rating_rho, "n_answers": f.n_answers}
+                 "rating_rho": f.rating_rho, "n_answers": f.n_answers, "rank": ranks[i],
+                 "tied_with": [self.fits[j].label for j in tied[i]],
+                 "tie_exceedance": float(ep[i] + sum(ep[j] for j in tied[i]))}
                 for i, f in enumerate(self.fits)]
 
 

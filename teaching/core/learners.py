@@ -109,6 +109,13 @@ class LearnerModel:
         """(R, N) float32 in [0, 1] for environments ``rows`` (all M when None)."""
         raise NotImplementedError
 
+    def log_likelihood(self, dist: Distances, rows=None) -> np.ndarray:
+        """(R, N) float64 log P(ξ | θ) (-inf: ruled out).  A model whose likelihood can fall below
+        float32's smallest number (exp(-λ d) at large λ d) overrides this to compute it in log space,
+        so that such θs keep their order instead of all becoming 0."""
+        with np.errstate(divide="ignore"):
+            return np.log(self.likelihood(dist, rows).astype(np.float64))
+
     def with_value(self, value: float) -> LearnerModel:
         """The same model with another hyperparameter value."""
         if self.param is None:
@@ -172,6 +179,9 @@ class Probabilistic(LearnerModel):
         np.exp(out, out=out)
         return out
 
+    def log_likelihood(self, dist, rows=None):
+        return -self.value * _rows(dist.get(self.metric), rows).astype(np.float64)  # inf -> -inf
+
 
 @dataclass(frozen=True)
 class Hierarchical(LearnerModel):
@@ -187,6 +197,11 @@ class Hierarchical(LearnerModel):
         np.multiply(d, np.float32(-self.value), out=out)
         np.exp(out, out=out)
         out[_rows(dist.strategy, rows) != 0] = 0  # another strategy: ruled out
+        return out
+
+    def log_likelihood(self, dist, rows=None):
+        out = -self.value * _rows(dist.euclidean, rows).astype(np.float64)
+        out[_rows(dist.strategy, rows) != 0] = -np.inf
         return out
 
 
@@ -263,6 +278,19 @@ def posterior(model: LearnerModel, dist: Distances, sequence) -> np.ndarray:
     if not np.isfinite(lw).any():
         return np.zeros_like(lw)
     return np.exp(lw - logsumexp(lw))
+
+
+def log_posterior(model: LearnerModel, dist: Distances, sequence) -> np.ndarray:
+    """(N,) log P_M(θ | ξ^{θ*}_{E_1:n}) from the model's log-likelihoods in float64 (-inf: ruled out;
+    all -inf when every θ is), for the choice model: a θ whose posterior is below float32's range
+    still counts there when the options' likelihoods of the others are smaller still."""
+    seq = np.asarray(sequence, dtype=np.int64)
+    if seq.size == 0:
+        return np.full(dist.shape[1], -np.log(dist.shape[1]))
+    lw = model.log_likelihood(dist, rows=seq).sum(0)
+    if not np.isfinite(lw).any():
+        return lw
+    return lw - logsumexp(lw)
 
 
 def p_theta_star(model: LearnerModel, dist: Distances, sequence) -> float:

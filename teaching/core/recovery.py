@@ -2,7 +2,9 @@
 
 For a study's design (its conditions' sequences and its test set), simulate many studies whose
 participants all learn by one model (:mod:`.simulate`), fit every model to each (:mod:`.fitting`) and
-count which model wins: the *confusion matrix* says which models this design can tell apart.  The
+count which model wins: the *confusion matrix* says which models this design can tell apart.  A study
+whose best models tie (cross-validated log-likelihoods within ``TIE_TOLERANCE``: they predict the same for
+every answer given) is won by none of them: it is counted apart, with the models that tied.  The
 generating model's own fit says whether its τ / λ and lapse rate come back (*parameter recovery*).
 """
 from __future__ import annotations
@@ -11,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .fitting import FitError, fit_models
+from .fitting import FitError, fit_models, tie_ranks
 from .learners import Distances, model_names
 from .simulate import SimulatedLearner, simulate_answers
 
@@ -22,10 +24,11 @@ VALUE_TOLERANCE = 1.0  # decades: a recovered τ / λ within this of the true on
 @dataclass
 class Recovery:
     """generators: {label: SimulatedLearner}; fitted: the fitted models' labels (identical ones pooled);
-    confusion: (G, F) int, how often each fitted model won (highest cross-validated log-likelihood) on a
-    study simulated by each generator (a row may sum to less than ``reps``: studies no model explains
-    better than guessing are counted in ``unfitted``); values, lapses: {generator: the generator's own
-    fitted τ / λ and ε per simulated study}."""
+    confusion: (G, F) int, how often each fitted model won outright (the highest cross-validated
+    log-likelihood, no other within TIE_TOLERANCE of it) on a study simulated by each generator (a row may
+    sum to less than ``reps``: studies no model explains better than guessing are counted in ``unfitted``,
+    studies whose best models tie in ``ties``); ties: {generator: the labels tied at the top, one tuple per
+    such study}; values, lapses: {generator: the generator's own fitted τ / λ and ε per simulated study}."""
 
     n_participants: int
     reps: int
@@ -33,6 +36,7 @@ class Recovery:
     fitted: list[str]
     confusion: np.ndarray
     unfitted: dict[str, int] = field(default_factory=dict)
+    ties: dict[str, list[tuple[str, ...]]] = field(default_factory=dict)
     values: dict[str, list[float]] = field(default_factory=dict)
     lapses: dict[str, list[float]] = field(default_factory=dict)
 
@@ -44,6 +48,16 @@ class Recovery:
     def recovered(self, generator: str) -> float:
         """Share of the generator's studies that its own model won."""
         return float(self.confusion[self.list_index(generator), self.column(generator)] / self.reps)
+
+    def tied(self, generator: str) -> float:
+        """Share of the generator's studies whose best models tied (none of them won)."""
+        return len(self.ties.get(generator, ())) / self.reps
+
+    def tied_own(self, generator: str) -> float:
+        """Share of the generator's studies whose best models tied, its own model among them."""
+        name = self.generators[generator].model
+        return sum(any(name in label.split(" = ") for label in tie)
+                   for tie in self.ties.get(generator, ())) / self.reps
 
     def list_index(self, generator: str) -> int:
         return list(self.generators).index(generator)
@@ -83,7 +97,7 @@ def model_recovery(table, sequences: dict[str, list[int]], tests, generators: di
     out = Recovery(n_participants, reps, dict(generators), fitted, np.zeros((0, 0), np.int64))
     for label, learner in generators.items():
         row = []
-        out.values[label], out.lapses[label], out.unfitted[label] = [], [], 0
+        out.values[label], out.lapses[label], out.unfitted[label], out.ties[label] = [], [], 0, []
         for _ in range(reps):
             answers = simulate_answers(table, learner, sequences, tests, n_participants, rng, dist)
             try:
@@ -94,7 +108,11 @@ def model_recovery(table, sequences: dict[str, list[int]], tests, generators: di
             for f in fits:
                 if f.label not in fitted:
                     fitted.append(f.label)
-            row.append(fits[0].label)
+            _, tied = tie_ranks([f.cv_log_lik for f in fits])
+            if tied[0]:
+                out.ties[label].append(tuple(fits[i].label for i in [0, *tied[0]]))
+            else:
+                row.append(fits[0].label)
             own = next(f for f in fits if learner.model in f.label.split(" = "))
             out.lapses[label].append(own.lapse)
             if own.value is not None and learner.value is not None and own.param is not None:

@@ -14,9 +14,9 @@ from functools import lru_cache
 
 import numpy as np
 
-from .choice import OptionDistances, choice_probabilities, option_choice
+from .choice import OptionDistances, log_choice_probabilities
 from .fitting import Answers, choice_table, option_distances, questions_of
-from .learners import Distances, LearnerModel, check_value, make_model, posterior
+from .learners import Distances, LearnerModel, check_value, log_posterior, make_model
 
 RATING_STEPS = 6  # a rating is 1 + Binomial(6, P(option)): 1 .. 7
 
@@ -53,14 +53,13 @@ class AnswerModel:
         self.table, self.learner, self.tests = table, learner, tuple(tests)
         self.dist = dist or Distances(table)
         model = learner.learner_model
-        self._liks = [model.likelihood(OptionDistances(table, t.env_index, t.options)).astype(np.float64)
-                      for t in self.tests]
+        self._log_liks = [model.log_likelihood(OptionDistances(table, t.env_index, t.options)) for t in self.tests]
         self.probabilities = lru_cache(maxsize=None)(self._probabilities)
 
     def _probabilities(self, sequence: tuple[int, ...]) -> np.ndarray:
         """(T, K) P(option k of test t) for a learner shown table rows `sequence`."""
-        belief = posterior(self.learner.learner_model, self.dist, list(sequence))
-        return np.stack([choice_probabilities(belief, lik, self.learner.lapse) for lik in self._liks])
+        belief = log_posterior(self.learner.learner_model, self.dist, list(sequence))
+        return np.stack([log_choice_probabilities(belief, lik, self.learner.lapse) for lik in self._log_liks])
 
     def answer(self, sequence: tuple[int, ...], rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
         """One participant's answers: ((T,) chosen option, (T, K) ratings 1-7)."""
@@ -70,8 +69,9 @@ class AnswerModel:
         """(K,) P(option) of one more question (a Question, e.g. a closed loop's check) for a learner shown
         table rows `sequence`."""
         model = self.learner.learner_model
-        belief = posterior(model, self.dist, [int(s) for s in sequence])
-        return option_choice(model, belief, self.table, question.env_index, question.options, self.learner.lapse)
+        belief = log_posterior(model, self.dist, [int(s) for s in sequence])
+        log_lik = model.log_likelihood(OptionDistances(self.table, question.env_index, question.options))
+        return log_choice_probabilities(belief, log_lik, self.learner.lapse)
 
 
 def draw_answers(p: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:

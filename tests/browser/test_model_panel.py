@@ -25,7 +25,7 @@ def test_the_model_panel_in_chromium(staff_page, live_server, demo_table):
     assert page.goto(live_server.url + reverse("dashboard_analysis", args=[study.slug])).status == 200
     page.wait_for_selector("#model-fit-table", timeout=60_000)
     first = page.locator("#model-fit-table tbody tr").first.inner_text()
-    assert first.startswith("det-euclidean"), first
+    assert first.split()[:2] == ["1", "det-euclidean"], first  # rank, model
     assert page.locator("#model-fit-table tbody tr").count() == 7  # eight models, the strategy pair as one
     assert "det-strategy = prob-strategy" in page.inner_text("#model-fit-table")
     size = page.eval_on_selector("#model-fit-panel figure img",

@@ -121,6 +121,43 @@ def test_the_panel_ranks_the_models_and_serves_the_csv(demo_table, staff_client)
     assert f'data-url="{url}"' in analysis
 
 
+def test_tied_models_are_reported_tied_in_the_command_the_csv_and_the_panel(demo_table, tmp_path, staff_client):
+    """Exact-IRL learners through the real flow: the models that predict their answers alike (held-out
+    log-likelihoods within 1e-6) share rank 1 and name each other wherever the ranking is shown, and the
+    exceedance probability is flagged as split among them."""
+    from django.core.cache import cache  # noqa: PLC0415
+    from django.urls import reverse  # noqa: PLC0415
+
+    study = make_study(demo_table, "fit-ties")
+    simulate(study, n_per_condition=12, seed=2, learner=SimulatedLearner("exact", None, 0.1))
+    out = run(study.slug, "--csv", str(tmp_path / "m.csv"), "--figure", str(tmp_path / "m.png"))
+    rows = list(csv.DictReader((tmp_path / "m.csv").open()))
+    top = [r for r in rows if r["rank"] == "1"]
+    assert len(top) >= 2, out
+    names = {r["model"] for r in top}
+    assert "exact" in names
+    lines = out.splitlines()
+    for r in top:
+        assert set(r["tied_with"].split("; ")) == names - {r["model"]}
+        assert float(r["tie_exceedance"]) == pytest.approx(sum(float(t["exceedance"]) for t in top), abs=1e-5)
+        line = next(x for x in lines if x.startswith(r["model"] + " "))
+        assert "tied with " + ", ".join(n for n in (t["model"] for t in top) if n != r["model"]) in line, line
+        assert f"{float(r['exceedance']):.3f}*" in line
+    assert "the exceedance probability is split among tied models" in out
+    assert rows[len(top)]["rank"] == str(len(top) + 1) and rows[len(top)]["tied_with"] == ""
+    # the panel is cached under the study's response counts and pk; a rolled-back test's study of the same
+    # size (SQLite reuses its pk) would otherwise be served from the cache
+    cache.clear()
+    html = staff_client.get(reverse("dashboard_models", args=[study.slug])).content.decode()
+    cells = {seg.split("<td>")[2].split("</td>")[0]: seg for seg in html.split("<tr")[1:] if "<td>" in seg}
+    for name in names:
+        row = cells[name]
+        assert "<td>1</td>" in row and "tied with " in row, row
+        assert all(other in row for other in names - {name})
+    assert "the exceedance probability (*) is split among them" in html
+    assert "Best: <strong>" in html and ", tied with <strong>" in html
+
+
 def test_the_panel_is_for_researchers_only(demo_table, client):
     from django.urls import reverse  # noqa: PLC0415
 

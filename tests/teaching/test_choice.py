@@ -85,6 +85,36 @@ def test_no_option_has_weight_the_learner_guesses():
         np.testing.assert_allclose(p, [0.5, 0.5])
 
 
+# A fourth θ whose path C goes round through row 2: 13 moves, no mud.  θ0 (all belief) gives up 1 on B
+# and 5 on C, so a question of options B and C lacks θ0's own trajectory and its rewards differ.
+C = [(0, 0), (0, 1)] + [(c, 2) for c in range(8)] + [(7, 1), (7, 0)]
+
+
+class FourThetaTable(ThreeThetaTable):
+    thetas = np.vstack([THETAS, [[1.0, -5.0]]])  # θ3 likes moves and hates mud: C is its best path
+    n_thetas = 4
+    features = np.array([[PHI["A"], PHI["B"], PHI["A"], (13.0, 0.0)]])
+    strategy = np.array([[0, 1, 0, 2]])
+
+    def states(self, env_index, theta_index):
+        paths = [padded(A), padded(B), padded(A), padded(C)]
+        return np.stack([paths[int(n)] for n in np.atleast_1d(theta_index)])
+
+
+@pytest.mark.parametrize("lam", [30.0, 1000.0])
+def test_a_large_lambda_picks_the_option_that_gives_up_least(lam):
+    """exp(-λ·1) and exp(-λ·5) are below float32's smallest number at λ 1000 (at λ 30 the second one is):
+    computed directly, both weights were 0 and the learner guessed 1/2, or C's weight was 0; in log space
+    P(B) = 1 / (1 + exp(-4λ)), what the model says."""
+    model = make_model("prob-reward", lam)
+    p = option_choice(model, np.array([1.0, 0.0, 0.0, 0.0]), FourThetaTable(), 0, [1, 3], 0.0)
+    expected_c = exp(-4 * lam - np.logaddexp(0.0, -4 * lam))
+    np.testing.assert_allclose(p, [1 - expected_c, expected_c], rtol=1e-9, atol=0)
+    # the lapse mixes in a guess as before
+    with_lapse = option_choice(model, np.array([1.0, 0.0, 0.0, 0.0]), FourThetaTable(), 0, [1, 3], 0.2)
+    np.testing.assert_allclose(with_lapse, 0.8 * p + 0.1, rtol=1e-12)
+
+
 def test_bad_input_is_refused():
     with pytest.raises(ValueError, match="lapse rate must lie in"):
         choice_probabilities(np.ones(3) / 3, np.ones((2, 3)), 1.5)

@@ -4,8 +4,21 @@ teaching's learner, choice or fitting code), model recovery on the demo study's 
 identical models, and the bad inputs a researcher can hit."""
 import numpy as np
 import pytest
+from scipy.optimize import minimize, minimize_scalar
 
-from teaching.core.fitting import Answers, FitError, Question, compare_models, fit_model, fit_models
+from teaching.core.fitting import (
+    Answers,
+    FitError,
+    Question,
+    _answer_log_lik,
+    choice_table,
+    compare_models,
+    fit_model,
+    fit_models,
+    option_distances,
+    tie_ranks,
+)
+from teaching.core.learners import Distances, make_model
 from teaching.core.recovery import model_recovery
 from teaching.core.selection import CONDITIONS, teach
 from teaching.core.simulate import SimulatedLearner, simulate_answers
@@ -106,6 +119,45 @@ def test_data_simulated_from_a_model_is_best_explained_by_it(demo_design, genera
     assert fits[0].rating_rho > 0.5
 
 
+@pytest.fixture(scope="module")
+def lapsing_study(demo_design):
+    """161 prob-euclidean participants at λ 0.316, ε 0.2 on the demo design: the shape where a search of ε,
+    then λ, once each stopped 0.07 short of the maximum of ℓ."""
+    table, result, sequences, tests = demo_design
+    return simulate_answers(table, SimulatedLearner("prob-euclidean", 0.316, 0.2), sequences, tests, 161,
+                            np.random.default_rng(0))
+
+
+@pytest.mark.parametrize("name", ["det-reward", "det-euclidean", "prob-reward", "prob-euclidean", "hierarchical"])
+def test_the_fit_reports_the_maximum_of_its_own_likelihood(demo_design, lapsing_study, name):
+    """Every model with a parameter: the reported ℓ is the project's pooled ℓ at the reported (τ / λ, ε), and
+    neither a dense grid over (τ / λ, ε) (ten values a decade, ε in steps of 1/400) nor a local search from
+    that grid's best finds a higher one."""
+    table, _, _, _ = demo_design
+    answers = lapsing_study
+    dist = Distances(table)
+    options = option_distances(table, answers.tests)
+    base = make_model(name)
+
+    def pooled(values, eps):  # (V, E) Σ_i ℓ_i, the fit's own likelihood
+        q = np.stack([choice_table(base.with_value(v), dist, options, answers.sequences) for v in values])
+        return _answer_log_lik(q, answers, np.asarray(eps, np.float64)).sum(-1)
+
+    fit = fit_model(name, table, answers, dist=dist, options=options)
+    assert pooled([fit.value], [fit.lapse])[0, 0] == pytest.approx(fit.log_lik, abs=1e-9)
+    log_values, eps = np.linspace(-5, 5, 101), np.linspace(0, 1, 401)
+    dense = pooled(10.0 ** log_values, eps)
+    g, e = np.unravel_index(int(np.argmax(dense)), dense.shape)
+    assert fit.log_lik >= dense[g, e] - 1e-6, (fit.value, fit.lapse, 10.0 ** log_values[g], eps[e])
+    if name.startswith("det"):  # a step function of τ: the grid's best step, with ε searched on it
+        local = minimize_scalar(lambda x: -pooled([10.0 ** log_values[g]], [x])[0, 0], bounds=(0, 1),
+                                method="bounded", options={"xatol": 1e-9})
+    else:
+        local = minimize(lambda x: -pooled([10.0 ** x[0]], [x[1]])[0, 0], [log_values[g], eps[e]],
+                         method="Nelder-Mead", bounds=[(-5, 5), (0, 1)], options={"xatol": 1e-8, "fatol": 1e-10})
+    assert fit.log_lik >= -local.fun - 1e-6, (fit.value, fit.lapse, local.x)
+
+
 def test_identical_models_are_one_entry(demo_design):
     table, result, sequences, tests = demo_design
     answers = simulate_answers(table, SimulatedLearner("det-strategy", None, 0.1), sequences, tests, 90,
@@ -159,13 +211,42 @@ def test_the_comparison_ranks_models_and_selects_across_participants(demo_design
     assert single.bms is None and np.isnan(single.rows()[0]["exceedance"])
 
 
+def test_tie_ranks_share_a_rank_within_the_tolerance():
+    ranks, tied = tie_ranks([-10.0, -10.0 + 5e-7, -12.0, -9.0, -12.0 - 2e-6])
+    assert ranks == [2, 2, 4, 1, 5]
+    assert tied == [[1], [0], [], [], []]
+
+
+def test_tied_models_are_reported_tied(demo_design):
+    """Exact-IRL learners: exact and the approximate models that equal it at their fitted τ / λ predict every
+    answer alike, so their held-out log-likelihoods agree.  They share rank 1, each names the others, the
+    exceedance probability is split among them (equal shares) and their together is reported; the next model
+    ranks after all of them."""
+    table, result, sequences, tests = demo_design
+    answers = simulate_answers(table, SimulatedLearner("exact", None, 0.15), sequences, tests, 90,
+                               np.random.default_rng(0))
+    rows = compare_models(table, answers).rows()
+    top = [r for r in rows if r["rank"] == 1]
+    assert len(top) >= 2 and "exact" in [r["model"] for r in top], [(r["model"], r["cv_log_lik"]) for r in rows]
+    names = {r["model"] for r in top}
+    for r in top:
+        assert set(r["tied_with"]) == names - {r["model"]}
+        assert r["cv_log_lik"] == pytest.approx(top[0]["cv_log_lik"], abs=1e-6)
+        assert r["exceedance"] == pytest.approx(top[0]["exceedance"], abs=1e-6)
+        assert r["tie_exceedance"] == pytest.approx(sum(t["exceedance"] for t in top))
+    rest = [r for r in rows if r["rank"] != 1]
+    assert rest[0]["rank"] == len(top) + 1 and not rest[0]["tied_with"]
+    assert rest[0]["tie_exceedance"] == rest[0]["exceedance"]
+
+
 def test_model_recovery_counts_winners_and_parameters(demo_design):
     table, result, sequences, tests = demo_design
     gens = {"det-euclidean": SimulatedLearner("det-euclidean", result.models["det-euclidean"].value, 0.15),
             "prob-reward": SimulatedLearner("prob-reward", result.models["prob-reward"].value, 0.15),
             "det-strategy": SimulatedLearner("det-strategy", None, 0.15)}
     rec = model_recovery(table, sequences, tests, gens, 180, reps=2, seed=4)
-    assert rec.confusion.shape == (3, len(rec.fitted)) and rec.confusion.sum() + sum(rec.unfitted.values()) == 6
+    assert rec.confusion.shape == (3, len(rec.fitted))
+    assert rec.confusion.sum() + sum(rec.unfitted.values()) + sum(len(t) for t in rec.ties.values()) == 6
     # columns in the registry's order, the strategy learners as one
     assert rec.fitted.index("det-euclidean") < rec.fitted.index("prob-reward")
     assert "det-strategy = prob-strategy" in rec.fitted
