@@ -1,6 +1,8 @@
 """In Debian's Chromium, a participant who sends a test without a choice is told so in the study's own
 robot's words (Domain.texts.choice_required): a yard's participant reads of deliveries, never of the
-car's driving style.  One study of every registered domain, on its smallest table."""
+car's driving style.  One study of every registered domain, on its smallest table; on the way, its
+scene draws every option of the test (a smoke test of each domain's scene module: no page error,
+and every canvas holds a picture, not one flat colour)."""
 from __future__ import annotations
 
 import os
@@ -22,6 +24,14 @@ CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 CAR_WORDS = re.compile(r"\b(cars?|driv\w*|lanes?|highway|road|merg\w*|steer\w*)\b")
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
+
+# how many colours each canvas on the page holds (a canvas the scene never drew on holds one)
+CANVAS_COLOURS = """() => [...document.querySelectorAll("canvas")].map((canvas) => {
+  const data = canvas.getContext("2d").getImageData(0, 0, canvas.width, canvas.height).data;
+  const seen = new Set();
+  for (let i = 0; i < data.length && seen.size < 16; i += 4 * 7) seen.add(data.slice(i, i + 4).join());
+  return seen.size;
+})"""
 
 # what a participant's browser would send without JavaScript's guard: every option played and rated,
 # the form's own `required` and the disabled button out of the way, no option chosen
@@ -57,6 +67,8 @@ def test_a_test_sent_without_a_choice_is_refused_in_the_studys_words(name, trans
             expect(page.locator("h1")).to_have_text(f"Question 1 of {len(study.test_set)}")
             ready(page)
             assert domain.texts.question in page.locator(".lead").inner_text()
+            colours = page.evaluate(CANVAS_COLOURS)
+            assert len(colours) >= 4 and min(colours) >= 3, colours  # the four options, each drawn
             for letter in "ABCD":
                 page.locator(f'.rating[data-option="{letter}"] input[value="4"]').check(force=True)
             page.evaluate(SEND_WITHOUT_A_CHOICE)
