@@ -163,8 +163,10 @@ def option_distances(table, tests) -> list[OptionDistances]:
 def choice_table(model: LearnerModel, dist: Distances, options: list[OptionDistances], sequences) -> np.ndarray:
     """(S, T, K) float64 q(k | S_s, E_t): the choice model's probabilities without lapse."""
     log_liks = np.stack([model.log_likelihood(o) for o in options])  # (T, K, N)
-    return np.stack([log_choice_probabilities(log_posterior(model, dist, list(seq)), log_liks, 0.0)
-                     for seq in sequences])
+    out = np.empty((len(sequences),) + log_liks.shape[:2])  # no sequences (a study of closed loops alone): (0, T, K)
+    for s, seq in enumerate(sequences):
+        out[s] = log_choice_probabilities(log_posterior(model, dist, list(seq)), log_liks, 0.0)
+    return out
 
 
 def model_grid(model: LearnerModel, grid=VALUE_GRID) -> list[LearnerModel]:
