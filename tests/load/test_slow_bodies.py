@@ -1,5 +1,4 @@
-"""Many slow request bodies from many addresses, and gunicorn down: nginx keeps answering
-(issue 22, item 6).
+"""Many slow request bodies from many addresses, and gunicorn down: nginx keeps answering.
 
 * 10,000 connections from 300 loopback addresses (127.1.x.y; Linux answers all of 127.0.0.0/8 on
   lo) each send a participant POST's headers and then trickle its body a byte every half second,

@@ -1,4 +1,4 @@
-"""Slow clients do not stop the site (issue 12, item 4).
+"""Slow clients do not stop the site.
 
 100 connections from one address trickle their request a byte at a time (half of them the
 headers, half a declared 1,000-byte body), and each is reopened as soon as the server drops it,

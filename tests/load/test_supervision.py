@@ -1,5 +1,5 @@
 """scripts/serve.sh under supervisord: a killed Celery worker never takes the participant site
-down, comes back on its own, and its job resumes at once (issue 12, items 1 and 7); a killed web
+down, comes back on its own, and its job resumes at once; a killed web
 server comes back without touching the worker.
 
 Participants go through the whole study (tests/load/client.py) while a table job runs on the

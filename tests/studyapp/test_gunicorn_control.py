@@ -1,4 +1,4 @@
-"""Each gunicorn instance has its own control socket, under its own VAR_DIR (issue 22, item 6).
+"""Each gunicorn instance has its own control socket, under its own VAR_DIR.
 
 gunicorn's default is one socket per user ($HOME/.gunicorn/gunicorn.ctl): a second instance
 unlinks the first one's and takes it over, so ``gunicornc`` would act on the wrong server.
