@@ -128,7 +128,7 @@ def test_a_hung_cache_costs_one_timeout_not_one_per_request(study, settings, mon
           f"{np.percentile(hung, 95) * 1000:.0f} ms with a hung one; slowest {hung.max():.2f} s")
     assert asked_healthy >= 40  # every answer is rate limited: each asks a working cache
     assert asked.count("rl") - asked_healthy == 1  # with the hung one, only the first request asked it
-    assert len(timeouts) == 1 and isinstance(timeouts[0], redis.exceptions.TimeoutError)  # and waited it out
+    assert len(timeouts) == 1 and isinstance(timeouts[0], redis.exceptions.TimeoutError)  # that request's one
     assert Answer.objects.filter(participant__platform_pid__startswith="x").count() == 40
 
 
