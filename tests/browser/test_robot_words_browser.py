@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import os
 import re
+from pathlib import Path
 
 import pytest
 from playwright.sync_api import expect, sync_playwright
@@ -21,6 +22,7 @@ from tests.conftest import built_once, complete_flow
 from tests.studyapp.test_stimuli import real_spec, smallest_preset
 
 CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
+OUT = Path(__file__).resolve().parents[2] / "test-output"
 CAR_WORDS = re.compile(r"\b(cars?|driv\w*|lanes?|highway|road|merg\w*|steer\w*)\b")
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
@@ -75,6 +77,8 @@ def test_a_test_sent_without_a_choice_is_refused_in_the_studys_words(name, trans
             page.locator('#test-form button[type="submit"]').click()
             refusal = page.locator(".save-error")
             expect(refusal).to_have_text(domain.texts.choice_required)
+            OUT.mkdir(exist_ok=True)
+            page.screenshot(path=str(OUT / f"refused_without_a_choice_{name}.png"), full_page=True)
             body = page.locator("main").inner_text()
             if name != "driving":
                 assert not CAR_WORDS.search(refusal.inner_text().lower()), refusal.inner_text()
