@@ -53,13 +53,14 @@ class AnswerModel:
         self.table, self.learner, self.tests = table, learner, tuple(tests)
         self.dist = dist or Distances(table)
         model = learner.learner_model
-        self._log_liks = [model.log_likelihood(OptionDistances(table, t.env_index, t.options)) for t in self.tests]
+        self._log_liks = np.stack([model.log_likelihood(OptionDistances(table, t.env_index, t.options))
+                                   for t in self.tests])  # (T, K, N)
         self.probabilities = lru_cache(maxsize=None)(self._probabilities)
 
     def _probabilities(self, sequence: tuple[int, ...]) -> np.ndarray:
         """(T, K) P(option k of test t) for a learner shown table rows `sequence`."""
         belief = log_posterior(self.learner.learner_model, self.dist, list(sequence))
-        return np.stack([log_choice_probabilities(belief, lik, self.learner.lapse) for lik in self._log_liks])
+        return log_choice_probabilities(belief, self._log_liks, self.learner.lapse)
 
     def answer(self, sequence: tuple[int, ...], rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
         """One participant's answers: ((T,) chosen option, (T, K) ratings 1-7)."""
