@@ -50,15 +50,15 @@ lint: venv
 # the second one's output is printed when both are done.  Both build the tables they need in one
 # directory made for this command ($TEST_BUILDS_DIR, tests/conftest.py's built_once), so the demo
 # table is built once, not once per run.  (xdist's own grouping, --dist loadgroup,
-# is silently ignored under pytest 9.2: pytest-xdist #1386.)  Before both, one `tiny` build
-# compiles the planner's Numba kernels into their disk cache, so that no test pays a cold compile
-# (minutes on two busy cores) while the two runs compete for the machine.
+# is silently ignored under pytest 9.2: pytest-xdist #1386.)  Before both, tests/prebuild.py compiles
+# the planner's Numba kernels into their disk caches and builds the demo table, on the idle machine,
+# so that no test pays a cold compile or waits for that table while the two runs compete for it.
 # pytest exit 5 means "no tests collected": that is a failure here, never a pass.
 SERVICES_LOG = var/test-services.log
 test: venv browser-deps serve-deps
 	@mkdir -p var
 	export TEST_BUILDS_DIR=$$(mktemp -d /tmp/test-builds.XXXXXX); \
-	$(PY) -m teaching build --preset tiny --out $$TEST_BUILDS_DIR/kernels-warm-up > /dev/null || exit 1; \
+	$(PY) -m tests.prebuild || exit 1; \
 	$(PY) -m pytest -p no:cacheprovider -m "postgres or redis" > $(SERVICES_LOG) 2>&1 & svc=$$!; \
 	$(PY) -m pytest -n 2 -m "not (postgres or redis)"; a=$$?; \
 	echo "--- the shared-services tests ($(SERVICES_LOG)) ---"; wait $$svc; b=$$?; cat $(SERVICES_LOG); \

@@ -4,10 +4,8 @@ every Django import here happens inside a fixture so they stay Django-free.
 """
 from __future__ import annotations
 
-import fcntl
 import functools
 import os
-import shutil
 import sys
 from pathlib import Path
 
@@ -15,7 +13,7 @@ import pytest
 
 from teaching import teach
 from teaching.core.build import PRESETS, build_table
-from tests import services
+from tests import builds, services
 
 # Environments of the `tiny` table (48 environments × 24 θ, built once per run by `tiny_table`).
 SMALL_SEQUENCES = {"alpha": [500, 5780, 12165], "beta": [7107, 15245], "gamma": [586, 20132]}
@@ -161,25 +159,16 @@ def require_service(ci):
 
 # --- real tables ----------------------------------------------------------------------------
 def built_once(tmp_path_factory, name: str, build) -> Path:
-    """The directory `name`, filled by build(out) once per run and read-only afterwards.  Under
-    pytest-xdist (make test: -n 2) the workers share it: the first to need it builds it while
-    holding a lock, the others wait and reuse it, so a 30-s table is not built once per worker.
-    `make test`'s two pytest runs share one directory, $TEST_BUILDS_DIR, made afresh for that
-    command: the shared-services run reuses the demo table the other one built."""
+    """The directory `name`, filled by build(out) once per run and read-only afterwards (tests/builds.py).
+    Under pytest-xdist (make test: -n 2) the workers share it, and `make test`'s two pytest runs share
+    one directory, $TEST_BUILDS_DIR, made afresh for that command (where tests/prebuild.py has already
+    built the demo table before either run starts)."""
     root = tmp_path_factory.getbasetemp()
     if os.environ.get("TEST_BUILDS_DIR"):
         root = Path(os.environ["TEST_BUILDS_DIR"])
     elif os.environ.get("PYTEST_XDIST_WORKER"):
         root = root.parent  # this run's directory, above every worker's own
-    out, done = root / name, root / f"{name}.built"
-    with open(root / f"{name}.lock", "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes, also if build raises
-        if not done.exists():
-            shutil.rmtree(out, ignore_errors=True)  # what a build that raised left half-written
-            out.mkdir()
-            build(out)
-            done.touch()
-    return out
+    return builds.built_in(root, name, build)
 
 
 def _teach(table: Path):

@@ -10,7 +10,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from numpy._core._multiarray_umath import __cpu_features__
 
 from teaching.core.build import PRESETS, build_chunk, build_table, chunk_key, chunks_of, table_identity
 from teaching.core.candidates import sample_thetas
@@ -19,6 +18,7 @@ from teaching.domains.driving.domain import DOMAIN as DRIVING
 from teaching.domains.driving.environments import stratified_sample
 from teaching.domains.driving.features import default_normalisers
 from teaching.domains.driving.world import THETA_STAR, WORLD, world_fingerprint
+from tests.builds import NUMPY_AVX512, OTHER_CPU_NUMBA_CACHE, other_cpu_env
 
 TINY = PRESETS["tiny"]
 
@@ -218,13 +218,6 @@ def test_every_world_constant_is_in_the_fingerprint():
     assert world_fingerprint(replace(WORLD)) == base  # and it is stable
 
 
-# What another CPU changes: glibc's libm picks FMA/AVX2 variants of exp, sin, tan, ... at load time,
-# NumPy picks AVX-512 loops for power and log10, Numba compiles for the host's instruction set and
-# OpenBLAS picks its kernels by core type.  The "other CPU" below turns all of them off at once.
-_NUMPY_AVX512 = [f for f in ("X86_V4", "AVX512_ICL", "AVX512_SPR") if __cpu_features__.get(f)]
-OTHER_CPU = {"NUMBA_CPU_NAME": "generic", "GLIBC_TUNABLES": "glibc.cpu.hwcaps=-AVX2,-FMA,-AVX512F",
-             "OPENBLAS_CORETYPE": "Prescott", **({"NPY_DISABLE_CPU_FEATURES": " ".join(_NUMPY_AVX512)}
-                                               if _NUMPY_AVX512 else {})}
 # libm and NumPy results that differ in the last bit between the two settings (checked below)
 _PROBE = """import hashlib, math, numpy as np
 x = np.random.default_rng(0).uniform(-1, 1, 100000)
@@ -239,20 +232,22 @@ def _probe(env) -> list[str]:
 
 @pytest.mark.slow
 def test_the_same_preset_gives_the_same_hash_on_another_cpu(tmp_path, tiny_table):
-    """Reproducible builds (issue 22, item 2): the tiny preset built natively and as another CPU
+    """Reproducible builds: the tiny preset built natively and as another CPU
     would build it (libm without FMA, NumPy without AVX-512, Numba for a generic x86-64, OpenBLAS's
     oldest kernels) is bit-identical, although those settings really do change libm's and NumPy's
     last bits here: so the content hash a researcher quotes identifies the table on any x86-64."""
-    native, other = dict(os.environ), {**os.environ, **OTHER_CPU}
+    # the other CPU's kernels: compiled by tests/prebuild.py under `make test`, here otherwise
+    numba_cache = Path(os.environ.get("TEST_BUILDS_DIR") or tmp_path) / OTHER_CPU_NUMBA_CACHE
+    native, other = dict(os.environ), other_cpu_env(os.environ, numba_cache)
     libm_native, power_native = _probe(native)
     libm_other, power_other = _probe(other)
     assert libm_native != libm_other, "GLIBC_TUNABLES no longer changes libm: the test would prove nothing"
-    if _NUMPY_AVX512:
+    if NUMPY_AVX512:
         assert power_native != power_other, "NPY_DISABLE_CPU_FEATURES no longer changes np.power"
     # native: the session's tiny table (tests/conftest.py), built in this process on this CPU
     out = tmp_path / "other"
     subprocess.run([sys.executable, "-m", "teaching", "build", "--preset", "tiny", "--out", str(out)], check=True,
-                   env={**other, "NUMBA_CACHE_DIR": str(tmp_path / "numba-other")}, capture_output=True)
+                   env=other, capture_output=True)
     other_hash = json.loads((out / "meta.json").read_text())["content_hash"]
     assert other_hash == json.loads((tiny_table / "meta.json").read_text())["content_hash"]
 

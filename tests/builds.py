@@ -1,0 +1,49 @@
+"""Real tables the tests share, each built once per `make test` however many pytest processes need it.
+
+pytest-free, so that tests/prebuild.py can fill the same directories before the test runs start.
+"""
+from __future__ import annotations
+
+import fcntl
+import shutil
+from pathlib import Path
+
+from numpy._core._multiarray_umath import __cpu_features__
+
+
+def built_in(root: Path, name: str, build) -> Path:
+    """The directory root/name, filled by build(out) once and read-only afterwards.
+
+    Whoever needs it first builds it while holding a lock on root/name.lock; the others wait and
+    reuse it (so a 20-s table is not built once per xdist worker).  root/name.built marks a
+    finished build: a build that raised leaves no marker, and the next caller starts it afresh.
+    """
+    out, done = root / name, root / f"{name}.built"
+    with open(root / f"{name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes, also if build raises
+        if not done.exists():
+            shutil.rmtree(out, ignore_errors=True)  # what a build that raised left half-written
+            out.mkdir()
+            build(out)
+            done.touch()
+    return out
+
+
+# What another CPU changes: glibc's libm picks FMA/AVX2 variants of exp, sin, tan, ... at load time,
+# NumPy picks AVX-512 loops for power and log10, Numba compiles for the host's instruction set and
+# OpenBLAS picks its kernels by core type.  OTHER_CPU turns all of them off at once
+# (tests/teaching/test_table.py builds a table under it).
+NUMPY_AVX512 = [f for f in ("X86_V4", "AVX512_ICL", "AVX512_SPR") if __cpu_features__.get(f)]
+OTHER_CPU = {"NUMBA_CPU_NAME": "generic", "GLIBC_TUNABLES": "glibc.cpu.hwcaps=-AVX2,-FMA,-AVX512F",
+             "OPENBLAS_CORETYPE": "Prescott", **({"NPY_DISABLE_CPU_FEATURES": " ".join(NUMPY_AVX512)}
+                                               if NUMPY_AVX512 else {})}
+
+
+# The other CPU's Numba cache, a directory beside the shared tables
+OTHER_CPU_NUMBA_CACHE = "numba-other-cpu"
+
+
+def other_cpu_env(base: dict, numba_cache: Path) -> dict:
+    """`base` as another CPU would run it, with its own Numba cache: the kernels compiled for a generic
+    x86-64 never mix with this CPU's."""
+    return {**base, **OTHER_CPU, "NUMBA_CACHE_DIR": str(numba_cache)}

@@ -1,0 +1,59 @@
+"""What `make test` does before its two pytest runs start, on a machine nothing else is using yet.
+
+    python -m tests.prebuild        # with $TEST_BUILDS_DIR set (make test makes it)
+
+1. Compiles the planner's Numba kernels into their disk caches, twice side by side (one core each):
+   for this CPU, and for the "other CPU" of the reproducibility test (tests/builds.py OTHER_CPU).
+   In a fresh clone each is a cold compile of about a minute; inside the runs it would be paid on
+   cores the other tests are competing for.
+2. Builds the demo table (tests/builds.py built_in, the directory tests/conftest.py's demo_table
+   fixture reads), on both cores: the table a dozen tests of both runs wait for.
+
+It prints how long each step took, so a CI log shows where its first minutes went.
+"""
+from __future__ import annotations
+
+import functools
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from teaching.core.build import PRESETS, build_table
+from tests.builds import OTHER_CPU_NUMBA_CACHE, built_in, other_cpu_env
+
+
+def compile_kernels(root: Path) -> None:
+    """A tiny build for this CPU and one for the other CPU, in two processes at once."""
+    def build(name: str, env: dict) -> subprocess.Popen:
+        return subprocess.Popen([sys.executable, "-m", "teaching", "build", "--preset", "tiny",
+                                 "--out", str(root / name)], env=env, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.PIPE, text=True)
+
+    builds = {"this CPU": build("kernels-this-cpu", dict(os.environ)),
+              "the other CPU": build("kernels-other-cpu", other_cpu_env(os.environ, root / OTHER_CPU_NUMBA_CACHE))}
+    for what, proc in builds.items():
+        _, err = proc.communicate()
+        if proc.returncode != 0:
+            raise SystemExit(f"prebuild: compiling the kernels for {what} failed:\n{err}")
+
+
+def main() -> int:
+    if not os.environ.get("TEST_BUILDS_DIR"):
+        print("prebuild: set TEST_BUILDS_DIR to the directory the test runs share (make test does)",
+              file=sys.stderr)
+        return 2
+    root = Path(os.environ["TEST_BUILDS_DIR"])
+    start = time.perf_counter()
+    compile_kernels(root)
+    compiled = time.perf_counter()
+    built_in(root, "demo-table", functools.partial(build_table, PRESETS["demo"]))
+    done = time.perf_counter()
+    print(f"prebuild: kernels compiled for this CPU and the other in {compiled - start:.0f} s, "
+          f"the demo table built in {done - compiled:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
