@@ -54,7 +54,10 @@ pytestmark = [pytest.mark.browser, pytest.mark.slow]
 DRIVING = """async ({stimuli}) => {
   const { Scene } = await import(document.querySelector('meta[name="scene-module"]').content);
   const css = getComputedStyle(document.documentElement);
-  const hex = (name) => { const v = css.getPropertyValue(name).trim(); return [1, 3, 5].map((i) => parseInt(v.slice(i, i + 2), 16)); };
+  const hex = (name) => {
+    const v = css.getPropertyValue(name).trim();
+    return [1, 3, 5].map((i) => parseInt(v.slice(i, i + 2), 16));
+  };
   const [yellow, grass] = [hex("--scene-robot"), hex("--scene-grass")];
   const near = (d, i, c, tol) => Math.abs(d[i] - c[0]) + Math.abs(d[i + 1] - c[1]) + Math.abs(d[i + 2] - c[2]) <= tol;
   const view = JSON.parse(document.getElementById("scene-view").textContent);
@@ -67,7 +70,8 @@ DRIVING = """async ({stimuli}) => {
       const f = scene.lastFrame, r = scene.robot[k], o = scene.env.other[Math.min(k, scene.env.other.length - 1)];
       out.lengths.push(f.robotLength);
       out.frames.push({k, boxes: scene.boxes.map((b) => ({...b})), cars: scene.cars.map((b) => ({...b}))});
-      if (f.other && Math.abs(o[1] - r[1]) >= 30) out.scales.push(Math.abs(f.other[0] - f.robot[0]) / Math.abs(o[1] - r[1]));
+      const gap = Math.abs(o[1] - r[1]);  // ft along the road, drawn along the canvas's x
+      if (f.other && gap >= 30) out.scales.push(Math.abs(f.other[0] - f.robot[0]) / gap);
       if (k % 4 !== 0 && k !== n) continue;
       const data = ctx.getImageData(0, 0, scene.canvas.width, scene.canvas.height).data, W = scene.canvas.width;
       const at = (x, y) => (Math.round(y * dpr) * W + Math.round(x * dpr)) * 4;
@@ -172,7 +176,8 @@ def served(transactional_db, demo_table, tmp_path_factory, monkeypatch):
 
 
 def overlaps(a, b) -> bool:
-    return a["x"] < b["x"] + b["w"] and b["x"] < a["x"] + a["w"] and a["y"] < b["y"] + b["h"] and b["y"] < a["y"] + a["h"]
+    return (a["x"] < b["x"] + b["w"] and b["x"] < a["x"] + a["w"]
+            and a["y"] < b["y"] + b["h"] and b["y"] < a["y"] + a["h"])
 
 
 def rect(page, selector) -> list[dict]:
@@ -193,8 +198,9 @@ def check_driving(size, step, got) -> dict:
         assert min(c["covers"]) >= COVER, (where, c["covers"])
         for f in c["frames"]:
             for i, a in enumerate(f["boxes"]):
-                assert a["x"] >= 0 and a["y"] >= 0 and a["x"] + a["w"] <= c["w"] + 0.5 and a["y"] + a["h"] <= c["h"] + 0.5, (
-                    where, f["k"], a)
+                inside = (a["x"] >= 0 and a["y"] >= 0
+                          and a["x"] + a["w"] <= c["w"] + 0.5 and a["y"] + a["h"] <= c["h"] + 0.5)
+                assert inside, (where, f["k"], a)
                 clash = [b for b in f["boxes"][i + 1:] + f["cars"] if overlaps(a, b)]
                 assert not clash, (where, f["k"], a, clash)
     return {"robot_px": min(min(c["lengths"]) for c in canvases),

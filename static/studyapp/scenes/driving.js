@@ -80,11 +80,13 @@ export class Scene {
   // two label bands (set here, so the page never stretches the drawing).
   resize() {
     const dpr = window.devicePixelRatio || 1;
-    const w = Math.max(120, Math.round(this.canvas.clientWidth || this.canvas.width));
+    const css = Math.round(this.canvas.clientWidth || this.canvas.width);
+    const w = Math.max(120, css);
     this.w = w;
     this.s = this.scale();
     const h = Math.round(2 * this.world.road_half_width * this.s + 2 * BAND);
-    if (this.canvas.style.height !== `${h}px`) this.canvas.style.height = `${h}px`;
+    const cssH = `${Math.round(h * css / w)}px`;  // a canvas narrower than the drawing shows it scaled down whole
+    if (this.canvas.style.height !== cssH) this.canvas.style.height = cssH;
     if (this.canvas.width !== Math.round(w * dpr) || this.canvas.height !== Math.round(h * dpr)) {
       this.canvas.width = Math.round(w * dpr);
       this.canvas.height = Math.round(h * dpr);

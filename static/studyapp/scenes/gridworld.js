@@ -43,9 +43,11 @@ export class Scene {
   resize() {
     const dpr = window.devicePixelRatio || 1;
     const rows = this.yard.cells.length, cols = this.yard.cells[0].length;
-    const w = Math.max(120, Math.round(this.canvas.clientWidth || this.canvas.width));
+    const css = Math.round(this.canvas.clientWidth || this.canvas.width);
+    const w = Math.max(120, css);
     const h = Math.round(w * rows / cols) + STRIP;
-    if (this.canvas.style.height !== `${h}px`) this.canvas.style.height = `${h}px`;
+    const cssH = `${Math.round(h * css / w)}px`;  // a canvas narrower than the drawing shows it scaled down whole
+    if (this.canvas.style.height !== cssH) this.canvas.style.height = cssH;
     if (this.canvas.width !== Math.round(w * dpr) || this.canvas.height !== Math.round(h * dpr)) {
       this.canvas.width = Math.round(w * dpr);
       this.canvas.height = Math.round(h * dpr);
