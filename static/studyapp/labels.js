@@ -1,8 +1,8 @@
 // Where a scene's labels go (plain ES module): every label and mark drawn on a canvas is a box in
 // one Layout, and a label is put in the first of its candidate places that is inside the canvas
 // and overlaps no box already there, else stacked in the first free row; so no two labels of a
-// canvas overlap and none covers a mark the scene drew first (a label once hid the time under a
-// distance). The boxes stay on the scene (scene.boxes) for the browser tests to check.
+// canvas overlap and none covers a mark the scene drew first or a thing the scene asked it to
+// avoid (a car). The boxes stay on the scene (scene.boxes) for the browser tests to check.
 
 export function intersects(a, b) {
   return a.x < b.x + b.w && b.x < a.x + a.w && a.y < b.y + b.h && b.y < a.y + a.h;
@@ -13,6 +13,11 @@ export class Layout {
     this.w = w;
     this.h = h;
     this.boxes = [];  // {kind, x, y, w, h} in CSS px
+    this.obstacles = [];  // what no label may cover, though it is not one (a car): {kind, x, y, w, h}
+  }
+
+  avoid(box) {
+    this.obstacles.push(box);
   }
 
   reserve(kind, x, y, w, h) {
@@ -23,7 +28,7 @@ export class Layout {
 
   fits(box) {
     return box.x >= 0 && box.y >= 0 && box.x + box.w <= this.w && box.y + box.h <= this.h
-      && !this.boxes.some((b) => intersects(b, box));
+      && !this.boxes.some((b) => intersects(b, box)) && !this.obstacles.some((b) => intersects(b, box));
   }
 
   // The first free place among `candidates` ([x, y] top-left corners), else the first free one

@@ -1,7 +1,8 @@
 """The delivery yard's scene (static/studyapp/scenes/gridworld.js) in Debian's Chromium: the robot is
 drawn at the centre of the cell its path names at each move's time and halfway between two cells
 halfway through a move; the walls, the mud and the free cells are drawn in the palette's colours
-(the page's --scene-* properties, from the domain's Python palette), on an undistorted 4:3 canvas;
+(the page's --scene-* properties, from the domain's Python palette), on an undistorted canvas as tall
+as the yard at its width plus the label strip;
 the move label stays in its strip under the yard; and once the robot has entered the cart's cell the
 cart goes with it (it is no longer drawn where it stood).  The yards are real ones
 (get_domain("gridworld").scene_payload), the paths built here by a breadth-first search, so the test
@@ -180,7 +181,7 @@ def test_the_yard_scene_draws_cells_robot_and_cart_where_the_data_say(live_serve
             page.add_style_tag(content=palette_css(get_domain("gridworld")))  # as a page writes it
             for width in WIDTHS:
                 w = max(120, width)  # the scene's smallest drawing (a narrower canvas is scaled down)
-                h = round(w * 3 / 4)
+                h = round(w * 3 / 4) + STRIP  # the 8 x 6 yard at that width, and the label strip
                 batch = []
                 meta = []
                 for case in base:
@@ -205,12 +206,12 @@ def test_the_yard_scene_draws_cells_robot_and_cart_where_the_data_say(live_serve
         where = (dpr, width, name)
         cells = case["env"]["yard"]["cells"]
         rows, cols = len(cells), len(cells[0])
-        # the canvas: 4:3 in CSS px and in its buffer (device px), not distorted on the page
+        # the canvas: the yard at its width plus the label strip, in CSS px and in its buffer (device
+        # px), not distorted on the page
         assert r["dpr"] == dpr, where
-        assert r["w"] == max(120, width) and r["h"] == round(r["w"] * 3 / 4), where
+        assert r["w"] == max(120, width) and r["h"] == round(r["w"] * rows / cols) + STRIP, where
         assert (r["bufW"], r["bufH"]) == (r["w"] * dpr, r["h"] * dpr), where
-        assert r["bufH"] / r["bufW"] == pytest.approx(3 / 4, abs=0.01), where
-        assert r["cssH"] / r["cssW"] == pytest.approx(3 / 4, abs=0.02), where
+        assert r["cssW"] == width and r["cssH"] / r["cssW"] == pytest.approx(r["h"] / r["w"], abs=0.02), where
         # 3. the duration: one dt per move
         dt = case["env"]["dt"]
         assert r["duration"] == pytest.approx((len(case["robot"]) - 1) * dt), where
@@ -272,7 +273,7 @@ GRID = """async ({cases, widths}) => {
         cell.style.cssText = "font: 10px sans-serif; width: " + width + "px";
         cell.textContent = (mode === "frame" ? "mid-way" : "trail") + ", " + width + " px: " + c.name;
         const canvas = document.createElement("canvas");
-        canvas.style.cssText = "display: block; width: " + width + "px; aspect-ratio: 4 / 3";
+        canvas.style.cssText = "display: block; width: " + width + "px";
         cell.append(canvas);
         grid.append(cell);
         const scene = new Scene(canvas, c.env, c.robot);

@@ -87,8 +87,9 @@ def test_a_gridworld_study_from_table_to_analysis(studies, live_server, monkeypa
             ready(page)
             drawn = page.evaluate(ROBOT_AT_START)
             path = p.condition.training[i]["robot"]
-            # the yard's scene, not the road's: 4:3, and the animation lasts the path's moves
-            assert drawn["h"] == round(drawn["w"] * 3 / 4) and abs(drawn["cssH"] - drawn["cssW"] * 3 / 4) <= 1
+            # the yard's scene, not the road's: the 8 x 6 yard's width and height plus the move label's
+            # 16-px strip, drawn unstretched, and the animation lasts the path's moves
+            assert drawn["h"] == round(drawn["w"] * 3 / 4) + 16 and abs(drawn["cssH"] - drawn["h"]) <= 1
             assert drawn["duration"] == pytest.approx((len(path) - 1) * 0.4)
             submit = page.locator('form[data-require-played] button[type="submit"]')
             assert submit.is_disabled()

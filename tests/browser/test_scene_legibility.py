@@ -1,8 +1,9 @@
-"""The scenes are legible (issue 22, item 8 b-e), measured in Debian's Chromium on every training
-example and test option of two built studies (the demo study and one on the tiny table):
+"""The scenes are legible, measured in Debian's Chromium on every training example and test option
+of two built studies (the demo study and one on the tiny table):
 
-* no two labels or marks of a canvas overlap, at any row time, on a test option's canvas and on a
-  training canvas (scenes/driving.js keeps every box it drew on the scene: scene.boxes);
+* no two labels or marks of a canvas overlap, and none covers a car, at any row time, on a test
+  option's canvas (a phone's and a laptop's) and on a training canvas (scenes/driving.js keeps every
+  box it drew on the scene: scene.boxes, and the cars' as scene.cars);
 * training and test are drawn at one scale: the px per ft measured from where the two cars land
   on the canvas (their screen gap over their gap in ft) differs by at most 15 % across every canvas
   of a study;
@@ -27,7 +28,7 @@ from tests.conftest import complete_flow
 
 CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 OUT = Path(__file__).resolve().parents[2] / "test-output"
-WIDTHS = [144, 340]  # a test option's canvas (--scene-ref-w, 1280 px wide page) and the training page's
+WIDTHS = [723, 1246]  # a test option's canvas at 1280 x 800 (--scene-ref-w) and the training page's
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
@@ -45,11 +46,13 @@ COLLECT = """async ({stimuli, widths, span}) => {
       const ys = [], xs = [], frames = [];
       for (let k = 0; k < s.robot.length; k++) {
         scene.drawFrame(k * s.env.dt);
-        frames.push({k, boxes: scene.boxes.map((b) => ({...b})), w: scene.w, h: scene.h});
+        frames.push({k, boxes: scene.boxes.map((b) => ({...b})), cars: scene.cars.map((b) => ({...b})),
+                     w: scene.w, h: scene.h});
         const f = scene.lastFrame, r = s.robot[k], o = s.env.other[Math.min(k, s.env.other.length - 1)];
         if (!f.other) continue;
-        if (Math.abs(o[1] - r[1]) >= 30) ys.push(Math.abs(f.other[1] - f.robot[1]) / Math.abs(o[1] - r[1]));
-        if (Math.abs(o[0] - r[0]) >= 8) xs.push(Math.abs(f.other[0] - f.robot[0]) / Math.abs(o[0] - r[0]));
+        // the road runs left to right: along it is the screen's x, across it the screen's y
+        if (Math.abs(o[1] - r[1]) >= 30) ys.push(Math.abs(f.other[0] - f.robot[0]) / Math.abs(o[1] - r[1]));
+        if (Math.abs(o[0] - r[0]) >= 8) xs.push(Math.abs(f.other[1] - f.robot[1]) / Math.abs(o[0] - r[0]));
       }
       out.push({name: s.name, width, frames, ys, xs});
     }
@@ -76,6 +79,7 @@ def test_labels_never_overlap_and_one_scale_per_study(studies, live_server):
         page.on("pageerror", lambda exc: errors.append(str(exc)))
         page.goto(f"{live_server.url}/s/{first}/")  # a participant page: the study's CSS
         page.add_style_tag(content=palette_css(DRIVING))  # the domain's palette (studyapp/scenes.py)
+        page.add_style_tag(url=f"{live_server.url}/static/studyapp/scenes/driving.css")  # its option sizes
         drawn = {slug: page.evaluate(COLLECT, args) for slug, args in inputs.items()}
         browser.close()
     assert not errors, errors
@@ -88,8 +92,8 @@ def test_labels_never_overlap_and_one_scale_per_study(studies, live_server):
                 boxes = f["boxes"]
                 n_boxes += len(boxes)
                 kinds.update(b["kind"] for b in boxes)
-                clashes += [(c["name"], c["width"], f["k"], a, b) for i, a in enumerate(boxes) for b in boxes[i + 1:]
-                            if overlap(a, b)]
+                clashes += [(c["name"], c["width"], f["k"], a, b) for i, a in enumerate(boxes)
+                            for b in boxes[i + 1:] + f["cars"] if overlap(a, b)]
                 outside += [(c["name"], b) for b in boxes
                             if b["x"] < 0 or b["y"] < 0 or b["x"] + b["w"] > f["w"] or b["y"] + b["h"] > f["h"]]
         assert n_boxes > 1000
@@ -141,13 +145,13 @@ WHERE = """() => {
   const canvas = document.querySelector(".scene canvas"), scene = canvas.scene;
   const gaps = scene.robot.map((r, k) => Math.abs(scene.env.other[k][1] - r[1]));
   scene.drawFrame(gaps.indexOf(Math.min(...gaps)) * scene.dt);
-  const cam = scene.camera(...[scene.robot, scene.env.other].map((rows) => ({x: 0, y: 0})));
   const lanes = scene.world.lane_centres;
   const goalX = scene.env.goal === 0 ? lanes[lanes.length - 1] : lanes[1];
   const roadX = scene.env.goal === 0 ? lanes[1] : lanes[0];
+  // the road runs left to right: a lane is a row of the canvas, at its centre's offset from the middle
   return {robot: scene.lastFrame.robot, other: scene.lastFrame.other, goal: scene.env.goal,
-          goalX: scene.w / 2 + goalX * cam.xs, roadX: scene.w / 2 + roadX * cam.xs,
-          boxes: scene.boxes, h: scene.h, viewSpan: scene.viewSpan};
+          goalY: scene.h / 2 + goalX * scene.s, roadY: scene.h / 2 + roadX * scene.s,
+          boxes: scene.boxes, w: scene.w, h: scene.h, viewSpan: scene.viewSpan};
 }"""
 
 
@@ -169,20 +173,20 @@ def test_goal_lane_and_cars_apart_in_greyscale_and_text_contrast(on_training, li
             ".legend, .legend *, h1, p, strong", "els => els.map(e => [getComputedStyle(e).color, e.textContent])")
         browser.close()
     assert w["other"] is not None, "both cars on the canvas at their closest approach"
-    scale = shot.width / 340 if shot.width > 400 else 1  # the screenshot is in device pixels
+    scale = shot.width / w["w"]  # the screenshot is in device pixels
 
-    def band(x: float, avoid) -> float:
-        """Median grey of a column strip at x (CSS px), away from the cars and labels."""
+    def band(y: float, avoid) -> float:
+        """Median grey of a row strip at y (CSS px), away from the cars and labels."""
         vals = []
-        for y in range(30, int(w["h"]) - 30, 3):
-            if any(abs(y - a[1]) < 25 for a in avoid if a):
+        for x in range(30, int(w["w"]) - 30, 3):
+            if any(abs(x - a[0]) < 40 for a in avoid if a):
                 continue
-            for dx in (-2, 0, 2):
-                vals.append(shot.getpixel((int((x + dx) * scale), int(y * scale))))
+            for dy in (-2, 0, 2):
+                vals.append(shot.getpixel((int(x * scale), int((y + dy) * scale))))
         vals.sort()
         return vals[len(vals) // 2]
 
-    goal, road = band(w["goalX"], [w["robot"], w["other"]]), band(w["roadX"], [w["robot"], w["other"]])
+    goal, road = band(w["goalY"], [w["robot"], w["other"]]), band(w["roadY"], [w["robot"], w["other"]])
     assert contrast(goal, road) >= 3, (goal, road)
     robot = shot.getpixel((int(w["robot"][0] * scale), int((w["robot"][1] + 3) * scale)))
     other = shot.getpixel((int(w["other"][0] * scale), int((w["other"][1] + 3) * scale)))

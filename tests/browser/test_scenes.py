@@ -1,9 +1,10 @@
-"""The animation's camera shows the interaction (issue 11): for every training example and every
-test option of the demo study, and of a study on a real table, the frame drawn at the cars'
-closest approach, and every frame while the other car is within the interaction range, has both
-cars inside the canvas.  The real static/studyapp/scenes/driving.js draws them in Debian's Chromium, on
-canvases of the widths participants get (a phone's test grid, a laptop's training page).  And it
-draws the road, the lanes and the cars with the sizes the scene data carry, not sizes of its own."""
+"""The animation's camera shows the interaction: for every training example and every test option
+of the demo study, and of a study on a real table, every frame while the other car is within the
+interaction range has both cars inside the canvas, and a frame where it is further away marks it at
+the edge with its distance.  The real static/studyapp/scenes/driving.js draws them in Debian's
+Chromium, on canvases of the widths participants get (a phone's option strip, a laptop's, a
+training page).  And it draws the road, the lanes and the cars with the sizes the scene data carry,
+not sizes of its own."""
 from __future__ import annotations
 
 import os
@@ -23,8 +24,8 @@ INTERACTION_FT = 150  # scenes/driving.js
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
-# For every stimulus and canvas width: draw the frame at each row time and at the closest approach,
-# and report where the cars landed (scene.lastFrame) against the canvas.
+# For every stimulus and canvas width: draw the frame at each row time and report where the cars
+# landed (scene.lastFrame) against the canvas, and which marks it drew (the off-view car's arrow and tag).
 CHECK = """async ({stimuli, widths}) => {
   const { Scene } = await import("/static/studyapp/scenes/driving.js");
   const out = [];
@@ -35,12 +36,11 @@ CHECK = """async ({stimuli, widths}) => {
     for (const s of stimuli) {
       const scene = new Scene(canvas, s.env, s.robot);
       const gaps = s.robot.map((r, k) => Math.abs(s.env.other[k][1] - r[1]));
-      const closest = gaps.indexOf(Math.min(...gaps));
       for (let k = 0; k < s.robot.length; k++) {
-        if (k !== closest && gaps[k] > %d) continue;
         scene.drawFrame(k * s.env.dt);
         const f = scene.lastFrame, inside = (p) => p && p[0] >= 0 && p[0] <= scene.w && p[1] >= 0 && p[1] <= scene.h;
-        out.push({name: s.name, width, k, gap: gaps[k], robot: inside(f.robot), other: inside(f.other)});
+        out.push({name: s.name, width, k, gap: gaps[k], near: gaps[k] <= %d, robot: inside(f.robot),
+                  other: inside(f.other), shown: !!f.other, marks: scene.boxes.map((b) => b.kind)});
       }
     }
     canvas.remove();
@@ -53,14 +53,14 @@ GRID = """async (stimuli) => {
   const { Scene } = await import("/static/studyapp/scenes/driving.js");
   const grid = document.createElement("div");
   grid.id = "closest-grid";
-  grid.style.cssText = "display: grid; grid-template-columns: repeat(4, 220px); gap: 8px; padding: 8px";
+  grid.style.cssText = "display: grid; grid-template-columns: repeat(2, 480px); gap: 8px; padding: 8px";
   document.body.replaceChildren(grid);
   for (const s of stimuli) {
     const cell = document.createElement("div");
     cell.style.font = "11px sans-serif";
     cell.textContent = s.name;
     const canvas = document.createElement("canvas");
-    canvas.style.width = "220px";
+    canvas.style.width = "480px";
     cell.append(canvas);
     grid.append(cell);
     const scene = new Scene(canvas, s.env, s.robot);
@@ -95,21 +95,26 @@ def test_both_cars_are_on_the_canvas_whenever_they_interact(studies, live_server
         page.on("pageerror", lambda exc: errors.append(str(exc)))
         page.goto(f"{live_server.url}/s/{studies[0].slug}/")  # a participant page: the study's CSS colours
         page.add_style_tag(content=palette_css(DRIVING))  # the domain's palette (studyapp/scenes.py)
-        frames = page.evaluate(CHECK, {"stimuli": stimuli, "widths": [160, 220, 320]})
+        page.add_style_tag(url=f"{live_server.url}/static/studyapp/scenes/driving.css")  # its option sizes
+        frames = page.evaluate(CHECK, {"stimuli": stimuli, "widths": [364, 723, 1246]})
         # what participants see at the closest approach, to look at: the real study's test options
         page.evaluate(GRID, real_tests)
         OUT.mkdir(exist_ok=True)
         page.locator("#closest-grid").screenshot(path=str(OUT / "scenes_closest_approach.png"))
         browser.close()
     assert not errors, errors
-    assert len(frames) >= len(stimuli) * 3
-    missing = [f for f in frames if not (f["robot"] and f["other"])]
+    assert len(frames) >= len(stimuli) * 3 * 20
+    missing = [f for f in frames if not f["robot"] or (f["near"] and not f["other"])]
     assert not missing, missing[:5]
+    # a car out of view is never silent: its arrow and its distance at the edge
+    unmarked = [f for f in frames if not f["shown"] and not {"other-arrow", "other-label"} <= set(f["marks"])]
+    assert not unmarked, unmarked[:5]
+    assert any(not f["near"] for f in frames) and any(not f["shown"] for f in frames)
 
 
 # One frame of a scene on a 300 px canvas, in colours set here (the classes below), and what it
-# drew: per pixel of one row near the top (road and goal lane, no car) and of the robot's column
-# and row (its car), the nearest of those colours.
+# drew: per pixel of one column left of the cars and the labels (road and goal lane across the
+# road) and of the robot's column and row (its car's width and length), the nearest of those colours.
 SIZES = """async ({env, robot}) => {
   const palette = {grass: "#00ff00", road: "#000000", line: "#ffffff", goal: "#0000ff",
                    "goal-edge": "#00ffff", robot: "#ff0000", other: "#ff00ff", outline: "#808080",
@@ -137,10 +142,10 @@ SIZES = """async ({env, robot}) => {
   };
   const [rx, ry] = scene.lastFrame.robot;
   const line = (n, f) => Array.from({length: n}, (_, i) => f(i));
-  return {w: scene.w, h: scene.h, robot: [rx, ry], xs: scene.scale().xs,
-          top: line(scene.w, (x) => classify(x + 0.5, 30)),  // below the "goal" tag
-          across: line(scene.w, (x) => classify(x + 0.5, ry)),
-          along: line(scene.h, (y) => classify(rx, y + 0.5))};
+  return {w: scene.w, h: scene.h, robot: [rx, ry], xs: scene.s,
+          top: line(scene.h, (y) => classify(100.5, y + 0.5)),  // right of the time label, left of the cars
+          across: line(scene.h, (y) => classify(rx, y + 0.5)),
+          along: line(scene.w, (x) => classify(x + 0.5, ry))};
 }"""
 
 
@@ -182,9 +187,9 @@ def test_the_drawing_follows_the_payloads_sizes(live_server):
     assert not errors, errors
     for name, world in (("today", today), ("wide", wide)):
         d = drawn[name]
-        s = d["xs"]  # px per ft (the study's one scale): the same along the road here
-        mid, (rx, ry) = d["w"] / 2, d["robot"]
-        assert rx == pytest.approx(mid)
+        s = d["xs"]  # px per ft (the study's one scale): the same along the road and across it
+        mid, (rx, ry) = d["h"] / 2, d["robot"]  # the road's centre line runs across the canvas's middle
+        assert rx == pytest.approx(d["w"] / 2) and ry == pytest.approx(mid)
         road = extent(d["top"], "road", "line", "goal")  # the road between the grass
         half = world["road_half_width"]
         assert at(road[0], mid, -half, s) and at(road[1], mid, half, s), (name, road)
@@ -192,7 +197,7 @@ def test_the_drawing_follows_the_payloads_sizes(live_server):
         right, lane = world["lane_centres"][-1], world["lane_width"]
         assert at(goal[0], mid, right - lane / 2, s) and at(goal[1], mid, right + lane / 2, s), (name, goal)
         car_x, car_y = extent(d["across"], "robot"), extent(d["along"], "robot")  # inside its outline
-        assert at(car_x[0], rx, -world["car_width"] / 2, s) and at(car_x[1], rx, world["car_width"] / 2, s), (
+        assert at(car_x[0], ry, -world["car_width"] / 2, s) and at(car_x[1], ry, world["car_width"] / 2, s), (
             name, car_x)
-        assert at(car_y[0], ry, -world["car_length"] / 2, s) and at(car_y[1], ry, world["car_length"] / 2, s), (
+        assert at(car_y[0], rx, -world["car_length"] / 2, s) and at(car_y[1], rx, world["car_length"] / 2, s), (
             name, car_y)

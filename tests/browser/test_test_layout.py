@@ -1,7 +1,7 @@
-"""The test page's layout (issue 11): four options compared on a phone (a 2x2 grid, one "play
-all" control) and on a laptop (the whole question down to "Next" without scrolling), with every
-control a participant touches at least 44 px.  Screenshots at 390x844 and 1280x800 go to
-test-output/ (look at them)."""
+"""The test page's layout: four options compared on a phone (each option's strip the screen's width,
+one above another, one "play all" control) and on a laptop (the four stacked beside the answer
+panel: the whole question down to "Next" without scrolling), with every control a participant
+touches at least 44 px.  Screenshots at 390x844 and 1280x800 go to test-output/ (look at them)."""
 from __future__ import annotations
 
 import os
@@ -62,13 +62,14 @@ def test_four_options_compared_without_scrolling_and_44px_targets(on_a_test, liv
         ref = float(page.evaluate("getComputedStyle(document.documentElement).getPropertyValue('--scene-ref-w')")
                     .strip().removesuffix("px"))
         assert all(abs(c[0] - ref) < 0.5 for c in canvases), (ref, canvases)
-        if name == "phone":  # the 2x2 grid: all four animations on the first screen, side by side in pairs
-            assert all(c[3] <= height for c in canvases), canvases
-            assert canvases[0][2] == canvases[1][2] and canvases[2][2] == canvases[3][2] > canvases[0][2]
-            assert all(c[0] >= 100 for c in canvases)  # beside its controls column (study.css, phone)
-        else:  # the laptop: the whole question, down to its Next button, above the fold
+        # one above another, each below the one before it (a road strip per option: scenes/driving.css)
+        assert all(b[2] >= a[3] for a, b in zip(canvases, canvases[1:], strict=False)), canvases
+        if name == "phone":  # each strip nearly the screen's width, under its row of controls
+            assert all(c[0] >= width - 30 for c in canvases), canvases
+        else:  # the laptop: the whole question, down to its Next button, above the fold, every option whole
             assert sizes(page, "#test-form button[type=submit]")[0][3] <= height
-            assert all(c[0] >= 140 for c in canvases)
+            assert all(c[3] <= height for c in canvases), canvases
+            assert all(c[0] >= 600 for c in canvases)
         # "Play all four together" starts every animation and marks each played
         page.locator("[data-action=play-all]").click()
         page.clock.run_for(5600)

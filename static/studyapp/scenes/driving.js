@@ -2,40 +2,47 @@
 // scene, which the generic player (../player.js) animates; it follows the contract every
 // scenes/<domain>.js does (docs/domains.md "The web side").
 //
-// World units are feet: x grows to the right, y forward (drawn upwards). The world's sizes
-// (lane width and centres, left to right; the road's half-width; the cars' length and width)
-// come with the scene data as env.world (teaching/domains/driving/page.py scene_sizes, from
-// WORLD), so this file holds none of its own. Robot states are [x, y, heading, v, steer]
-// rows every `dt` seconds; the other car's rows are [x, y]. Playback interpolates between
-// rows at the display's frame rate (requestAnimationFrame), so it is smooth at 60 fps.
+// World units are feet: x across the road (right positive), y forward.  The road runs left to
+// right across a landscape canvas, the right lane at the bottom (as the staff contact sheet,
+// teaching/domains/driving/sheet.py, draws it): a drive is long and the road narrow, so a wide
+// canvas gives the cars the room a tall one wasted on grass.  The world's sizes (lane width and
+// centres, left to right; the road's half-width; the cars' length and width) come with the scene
+// data as env.world (teaching/domains/driving/page.py scene_sizes, from WORLD), so this file holds
+// none of its own. Robot states are [x, y, heading, v, steer] rows every `dt` seconds; the other
+// car's rows are [x, y]. Playback interpolates between rows at the display's frame rate
+// (requestAnimationFrame), so it is smooth at 60 fps.
 
 import { Layout, tag } from "../labels.js";
 import { colors as palette } from "../palette.js";
 
-const VIEW_W_FT = 60;         // feet shown across the reference canvas
 // Every canvas of a study is drawn at one scale (px per ft): the one at which a test option's
-// canvas (the smallest a participant gets, --scene-ref-w wide, 3:4) holds the study's largest
-// framed span (env.study_span).  A larger canvas (a training example) shows more road around the
-// cars at the same scale, so the same speeds and gaps look the same in training and at test.
-const REF_W = 144;
+// canvas (the page's --scene-ref-w wide, at most --scene-ref-h tall) holds the study's largest
+// framed span (env.study_span) along the road and the road's width across it.  A wider canvas (a
+// training example) shows more road around the cars at the same scale, so the same speeds and gaps
+// look the same in training and at test.  The canvas is as tall as the road at that scale plus a
+// band of grass above and below, where the labels go (never over the cars).
+const REF_W = 144;            // a page without --scene-ref-w (a bare canvas)
+const BAND = 18;              // px of grass above and below the road: one row of labels each
 // The other car within this distance along the road counts as interacting: the camera frames
-// both cars while it is (and at their closest approach in any case), so the participant sees
-// the merge ahead of or behind it, or the pass, instead of an edge marker.
+// both cars while it is, so the participant sees the merge ahead of or behind it, or the pass;
+// further away it is an arrow at the edge with its distance (framing a car that never comes
+// nearer than, say, 240 ft would shrink every canvas of the study to hold that gap).
 const INTERACTION_FT = 150;
 const MARGIN_FT = 10;         // road shown beyond each framed car
-const MAX_SQUEEZE = 3;        // the forward axis is compressed at most 3:1 against the lateral one
+const MAX_SQUEEZE = 3;        // the trail compresses the road at most 3:1 along against across
 // Colours are the domain's palette (../palette.js: the page's --scene-* properties), so the legend's
-// swatches are the canvas's colours. Not colour alone (issue 22): the goal lane is dark and hatched
-// against a light road, the autonomous car light with a black outline, the other car dark with a
-// white outline, so each stays apart in greyscale (tests/browser/test_scene_legibility.py measures it).
+// swatches are the canvas's colours. Not colour alone: the goal lane is dark and hatched against a
+// light road, the autonomous car light with a black outline, the other car dark with a white outline,
+// so each stays apart in greyscale (tests/browser/test_scene_legibility.py measures it).
 const NAMES = ["grass", "road", "line", "goal", "goalHatch", "goalEdge", "outline", "robot", "robotEdge", "other",
   "otherEdge"];
 function colors() {
   return palette(NAMES);
 }
-// a test option's canvas width (study.css --scene-ref-w): every canvas is drawn at the px/ft it gives
-function refWidth() {
-  return parseFloat(getComputedStyle(document.documentElement).getPropertyValue("--scene-ref-w")) || REF_W;
+// The page's reference sizes (study.css and scenes/driving.css register them as <length>, so the
+// computed value is in px whatever the rule says: vw, vh, min()); 0 where the page sets none.
+function refSize(name) {
+  return parseFloat(getComputedStyle(document.documentElement).getPropertyValue(name)) || 0;
 }
 
 function lerp(a, b, f) { return a + (b - a) * f; }
@@ -64,25 +71,43 @@ export class Scene {
     this.span = framedSpan(robot, env.other);
     this.viewSpan = Math.max(this.span, Number(env.study_span) || 0);  // the study's, where the page gives it
     this.boxes = [];         // every label and mark drawn last (labels.js), for the tests
-    this.lastFrame = null;   // screen positions drawn last: {robot: [x, y], other: [x, y] | null}
+    this.cars = [];          // the cars' boxes drawn last: no label goes over them
+    this.lastFrame = null;   // drawn last: {robot: [x, y], other: [x, y] | null, robotLength: px}
     this.resize();
   }
 
+  // The canvas: its CSS width is the page's; its height the road's at the study's scale plus the
+  // two label bands (set here, so the page never stretches the drawing).
   resize() {
     const dpr = window.devicePixelRatio || 1;
-    const w = Math.max(120, Math.round(this.canvas.clientWidth || this.canvas.width));
-    const h = Math.round(w * 4 / 3);
+    const css = Math.round(this.canvas.clientWidth || this.canvas.width);
+    const w = Math.max(120, css);
+    this.w = w;
+    this.s = this.scale();
+    const h = Math.round(2 * this.world.road_half_width * this.s + 2 * BAND);
+    const cssH = `${Math.round(h * css / w)}px`;  // a canvas narrower than the drawing shows it scaled down whole
+    if (this.canvas.style.height !== cssH) this.canvas.style.height = cssH;
     if (this.canvas.width !== Math.round(w * dpr) || this.canvas.height !== Math.round(h * dpr)) {
       this.canvas.width = Math.round(w * dpr);
       this.canvas.height = Math.round(h * dpr);
     }
-    this.w = w; this.h = h; this.dpr = dpr;
+    this.h = h; this.dpr = dpr;
   }
 
-  // camera: {cy (world y at the anchor), anchor (fraction of height), xs, ys (px per ft across / along)}
+  // px per ft, the same across and along the road: the reference canvas's (or this one's, if
+  // narrower) holding the study's largest framed span, and no more than the reference height allows.
+  scale() {
+    const refW = Math.min(this.w, refSize("--scene-ref-w") || REF_W);
+    const refH = refSize("--scene-ref-h");
+    let s = refW / (this.viewSpan + this.world.car_length + 2 * MARGIN_FT);
+    if (refH > 2 * BAND) s = Math.min(s, (refH - 2 * BAND) / (2 * this.world.road_half_width));
+    return s;
+  }
+
+  // camera: {cy (world y at the anchor), anchor (fraction of width), xs, ys (px per ft across / along)}
   // The animation uses xs == ys; the still trail view compresses y (at most 3:1) to fit the whole drive.
   toScreen(cam, x, y) {
-    return [this.w / 2 + x * cam.xs, this.h * cam.anchor - (y - cam.cy) * cam.ys];
+    return [this.w * cam.anchor + (y - cam.cy) * cam.ys, this.h / 2 + x * cam.xs];
   }
 
   // Centre (ft) of the lane the drive starts in and the forward goal keeps: the middle one.
@@ -91,37 +116,44 @@ export class Scene {
     return lanes[Math.floor(lanes.length / 2)];
   }
 
+  // The road between two bands of grass, across the whole canvas.
+  road(cam) {
+    const [, top] = this.toScreen(cam, -this.world.road_half_width, 0);
+    return { x: 0, y: top, w: this.w, h: 2 * this.world.road_half_width * cam.xs };
+  }
+
   drawRoad(cam) {
     const ctx = this.ctx, s = cam.xs;
     const { lane_width: laneW, lane_centres: lanes, road_half_width: roadHalf } = this.world;
     ctx.fillStyle = colors().grass;
     ctx.fillRect(0, 0, this.w, this.h);
-    const [left] = this.toScreen(cam, -roadHalf, 0);
+    const road = this.road(cam);
     ctx.fillStyle = colors().road;
-    ctx.fillRect(left, 0, 2 * roadHalf * s, this.h);
-    // goal: the right lane (merge) or the centre lane straight ahead (forward), in blue
+    ctx.fillRect(road.x, road.y, road.w, road.h);
+    // goal: the right lane (merge) or the centre lane ahead of the start (forward), dark and hatched
     if (this.env.goal === 0) {
-      const [gx] = this.toScreen(cam, lanes[lanes.length - 1] - laneW / 2, 0);
-      this.goalLane(gx, 0, laneW * s, this.h);
+      const [, gy] = this.toScreen(cam, lanes[lanes.length - 1] - laneW / 2, 0);
+      this.goalLane(0, gy, this.w, laneW * s);
     } else {
       const [gx, gy] = this.toScreen(cam, this.centreLane() - laneW / 2, 0);
-      this.goalLane(gx, 0, laneW * s, Math.max(0, gy));
+      const from = Math.max(0, gx);
+      this.goalLane(from, gy, Math.max(0, this.w - from), laneW * s);
     }
     // lane markings: solid edges, dashed separators (halfway between lane centres) scrolling with the world
     ctx.strokeStyle = colors().line;
     ctx.lineWidth = Math.max(1, 0.5 * s);
     for (const x of [-roadHalf + 0.5, roadHalf - 0.5]) {
-      const [sx] = this.toScreen(cam, x, 0);
+      const [, sy] = this.toScreen(cam, x, 0);
       ctx.setLineDash([]);
-      ctx.beginPath(); ctx.moveTo(sx, 0); ctx.lineTo(sx, this.h); ctx.stroke();
+      ctx.beginPath(); ctx.moveTo(0, sy); ctx.lineTo(this.w, sy); ctx.stroke();
     }
     const dash = 10 * cam.ys, gap = 15 * cam.ys;
-    const [, y0] = this.toScreen(cam, 0, 0);
+    const [x0] = this.toScreen(cam, 0, 0);
     ctx.setLineDash([dash, gap]);
-    ctx.lineDashOffset = -(y0 % (dash + gap));
+    ctx.lineDashOffset = -(x0 % (dash + gap));
     for (const x of lanes.slice(1).map((c, i) => (lanes[i] + c) / 2)) {
-      const [sx] = this.toScreen(cam, x, 0);
-      ctx.beginPath(); ctx.moveTo(sx, 0); ctx.lineTo(sx, this.h); ctx.stroke();
+      const [, sy] = this.toScreen(cam, x, 0);
+      ctx.beginPath(); ctx.moveTo(0, sy); ctx.lineTo(this.w, sy); ctx.stroke();
     }
     ctx.setLineDash([]);
   }
@@ -141,38 +173,53 @@ export class Scene {
     ctx.restore();
   }
 
-  // Goal marks, drawn after the cars: the arrow straight ahead (forward) and a "goal" tag on the lane.
+  // Top-left y of a label h px tall centred in the grass band above (top) or below the road.
+  bandY(h, top) {
+    return top ? Math.max(0, (BAND - h) / 2) : this.h - BAND + Math.max(0, (BAND - h) / 2);
+  }
+
+  // Goal marks, drawn after the cars: for "forward" an arrow at the far end of the centre lane
+  // (else in the band above the road, where a car is there), and a "goal" tag in the band beside
+  // the goal lane: below the road for the right lane, above it for the centre lane.
   goalMarks(cam, layout) {
-    const ctx = this.ctx, s = cam.xs;
+    const ctx = this.ctx;
     const lanes = this.world.lane_centres;
-    const laneX = this.env.goal === 0 ? lanes[lanes.length - 1] : this.centreLane();
-    const [ax] = this.toScreen(cam, laneX, 0);
-    if (this.env.goal !== 0) {
-      const top = 4, size = Math.max(6, 4 * s);
-      layout.reserve("goal-arrow", ax - size, top, 2 * size, size * 1.4);
+    const forward = this.env.goal !== 0;
+    const laneX = forward ? this.centreLane() : lanes[lanes.length - 1];
+    const [, ay] = this.toScreen(cam, laneX, 0);
+    let right = this.w - 4;
+    if (forward) {
+      const size = Math.max(7, Math.min(0.3 * this.world.lane_width * cam.xs, 14));
+      const box = layout.place("goal-arrow", Math.round(1.4 * size), Math.round(2 * size),
+        [[this.w - 1.4 * size - 4, ay - size], [this.w - 1.4 * size - 4, this.bandY(2 * size, true)]]);
+      const tip = box.x + box.w, mid = box.y + box.h / 2, half = box.h / 2;
       ctx.fillStyle = colors().goalEdge;
       ctx.strokeStyle = colors().outline;
       ctx.lineWidth = 1.5;
       ctx.beginPath();
-      ctx.moveTo(ax, top); ctx.lineTo(ax - size, top + size * 1.4); ctx.lineTo(ax + size, top + size * 1.4);
+      ctx.moveTo(tip, mid); ctx.lineTo(box.x, mid - half); ctx.lineTo(box.x, mid + half);
       ctx.closePath(); ctx.fill(); ctx.stroke();
-      tag(ctx, layout, "goal-label", "goal", (w) => [[ax + size + 3, top], [ax - size - 3 - w, top],
-        [ax - w / 2, top + size * 1.4 + 2]]);
-    } else {
-      tag(ctx, layout, "goal-label", "goal", (w) => [[ax - w / 2, 4], [ax - w / 2, 22], [this.w - w - 2, 4]]);
+      right = box.x - 4;
     }
+    tag(ctx, layout, "goal-label", "goal", (w, h) => {
+      const near = this.bandY(h, forward), far = this.bandY(h, !forward);
+      return [[right - w, near], [this.w - w - 4, near], [this.w - w - 4, far]];
+    });
   }
 
+  // A car: a rectangle with a windscreen at the front; returns its box on the canvas, or null
+  // where it is outside the view.
   car(cam, x, y, heading, kind, alpha = 1) {
     const ctx = this.ctx;
     const [sx, sy] = this.toScreen(cam, x, y);
     let len = this.world.car_length * cam.ys, wid = this.world.car_width * cam.xs;
     if (cam.xs !== cam.ys) { len = Math.max(len, 14); wid = Math.min(wid, 0.45 * len); }
-    if (sy < -len || sy > this.h + len) return false;
+    if (sx < -len || sx > this.w + len) return null;
+    const angle = Math.atan2(Math.cos(heading) * cam.xs, Math.sin(heading) * cam.ys);
     ctx.save();
     ctx.globalAlpha = alpha;
     ctx.translate(sx, sy);
-    ctx.rotate(-Math.atan2(Math.sin(heading) * cam.ys, Math.cos(heading) * cam.xs));
+    ctx.rotate(angle);
     ctx.fillStyle = colors()[kind];
     ctx.strokeStyle = colors()[`${kind}Edge`];
     ctx.lineWidth = 2;
@@ -182,34 +229,31 @@ export class Scene {
     ctx.fillStyle = kind === "robot" ? "rgba(30, 40, 60, 0.55)" : "rgba(255, 255, 255, 0.55)";  // windscreen: the front
     ctx.fillRect(len * 0.12, -wid * 0.38, len * 0.16, wid * 0.76);
     ctx.restore();
-    return true;
+    const c = Math.abs(Math.cos(angle)), s = Math.abs(Math.sin(angle));
+    const bw = len * c + wid * s + 2, bh = len * s + wid * c + 2;  // + the outline
+    return { kind: `${kind}-car`, x: sx - bw / 2, y: sy - bh / 2, w: bw, h: bh, len, angle };
   }
 
-  // The other car outside the view: an arrow at the edge, and its distance on a white tag beside
-  // it, on whichever side (or row) is free of the other labels and marks.
+  // The other car outside the view: an arrow at that edge in its lane, and its distance on a white
+  // tag in the band beside its lane, on whichever side (or row) is free of the other labels and marks.
   offscreen(cam, x, y, ry, layout) {
     const ctx = this.ctx;
     const [sx, sy] = this.toScreen(cam, x, y);
-    const above = sy < 0, dir = above ? 1 : -1;
-    const edge = above ? 4 : this.h - 4;
-    let top = above ? edge : edge - 12;
-    let arrow = { kind: "other-arrow", x: sx - 8, y: top, w: 16, h: 13 };
-    while (!layout.fits(arrow) && top > 0 && top < this.h - 13) {  // below the goal arrow or its tag
-      top += above ? 4 : -4;
-      arrow = { ...arrow, y: top };
-    }
-    layout.reserve(arrow.kind, arrow.x, arrow.y, arrow.w, arrow.h);
-    const tip = above ? top : top + 12;
+    const ahead = sx > this.w, dir = ahead ? 1 : -1;
+    const ax = ahead ? this.w - 4 - 13 : 4;
+    const arrow = layout.place("other-arrow", 13, 16, [[ax, sy - 8], [ax, sy - 26], [ax, sy + 10]]);
+    const tip = ahead ? arrow.x + 13 : arrow.x, mid = arrow.y + 8;
     ctx.fillStyle = colors().other;
     ctx.strokeStyle = colors().otherEdge;
     ctx.lineWidth = 1.5;
     ctx.beginPath();
-    ctx.moveTo(sx, tip); ctx.lineTo(sx - 7, tip + dir * 12); ctx.lineTo(sx + 7, tip + dir * 12);
+    ctx.moveTo(tip, mid); ctx.lineTo(tip - dir * 12, mid - 7); ctx.lineTo(tip - dir * 12, mid + 7);
     ctx.closePath(); ctx.fill(); ctx.stroke();
-    const text = `other car ${Math.round(Math.abs(y - ry))} ft ${above ? "ahead" : "behind"}`;
+    const text = `other car ${Math.round(Math.abs(y - ry))} ft ${ahead ? "ahead" : "behind"}`;
     tag(ctx, layout, "other-label", text, (w, h) => {
-      const rows = above ? [top, top + h + 2, top + 2 * (h + 2)] : [top - 2, top - h - 4, top - 2 * (h + 2) - 2];
-      return rows.flatMap((ty) => [[sx + 10, ty], [sx - 10 - w, ty], [this.w - w - 2, ty], [2, ty]]);
+      const top = sy < this.h / 2, near = this.bandY(h, top), far = this.bandY(h, !top);
+      const edge = ahead ? this.w - w - 4 : 4, other = ahead ? 4 : this.w - w - 4;
+      return [[edge, near], [this.w / 2 - w / 2, near], [other, near], [edge, far], [this.w / 2 - w / 2, far]];
     });
   }
 
@@ -221,21 +265,12 @@ export class Scene {
 
   // The camera for time t: one scale for the whole drive (the road does not zoom in and out),
   // wide enough along the road to hold both cars whenever they interact; it centres between
-  // them, and on the robot alone (with the other car at the edge) when they are further apart.
+  // them while this canvas holds both (a wide one holds them further apart than they interact),
+  // and keeps the robot in view with the other car towards the edge when they are further apart.
   camera(r, o) {
-    const { xs, ys } = this.scale();
-    const dy = Math.max(-this.span, Math.min(this.span, o.y - r.y));
-    return { cy: r.y + dy / 2, anchor: 0.5, xs, ys };
-  }
-
-  // px per ft across (xs) and along (ys) the road: the reference canvas's (or this one's, if smaller),
-  // holding the study's largest framed span with room for the goal arrow above and the time below.
-  scale() {
-    const refW = Math.min(this.w, refWidth());
-    const base = refW / VIEW_W_FT;
-    const usable = refW * 4 / 3 - 36;
-    const ys = Math.min(base, usable / (this.viewSpan + this.world.car_length + 2 * MARGIN_FT));
-    return { xs: Math.min(base, MAX_SQUEEZE * ys), ys };
+    const holds = Math.max(this.span, this.w / this.s - this.world.car_length - 2 * MARGIN_FT);
+    const dy = Math.max(-holds, Math.min(holds, o.y - r.y));
+    return { cy: r.y + dy / 2, anchor: 0.5, xs: this.s, ys: this.s };
   }
 
   // One animation frame at time t.
@@ -246,14 +281,17 @@ export class Scene {
     const o = sample(this.env.other, t, this.dt);
     const cam = this.camera(r, o);
     this.drawRoad(cam);
-    const otherShown = this.car(cam, o.x, o.y, Math.PI / 2, "other");
-    this.car(cam, r.x, r.y, r.h, "robot");
+    const other = this.car(cam, o.x, o.y, Math.PI / 2, "other");
+    const robot = this.car(cam, r.x, r.y, r.h, "robot");
     const layout = new Layout(this.w, this.h);
+    for (const box of [other, robot]) if (box) layout.avoid(box);
     this.goalMarks(cam, layout);
     this.label(layout, `t = ${t.toFixed(1)} s`);
-    if (!otherShown) this.offscreen(cam, o.x, o.y, r.y, layout);
+    if (!other) this.offscreen(cam, o.x, o.y, r.y, layout);
     this.boxes = layout.boxes;
-    this.lastFrame = { robot: this.toScreen(cam, r.x, r.y), other: otherShown ? this.toScreen(cam, o.x, o.y) : null };
+    this.cars = layout.obstacles;
+    this.lastFrame = { robot: this.toScreen(cam, r.x, r.y), other: other ? this.toScreen(cam, o.x, o.y) : null,
+      robotLength: robot ? robot.len : 0, robotAngle: robot ? robot.angle : 0 };
   }
 
   // Still view of the whole drive: earlier positions faint, later ones more opaque.
@@ -261,26 +299,27 @@ export class Scene {
     this.begin();
     const robotY = this.robot.map((s) => s[1]);
     const lo = Math.min(...robotY) - 20, hi = Math.max(...robotY) + 20;
-    const ys = Math.min(this.w / VIEW_W_FT, (this.h - 16) / (hi - lo));
-    const cam = { cy: (lo + hi) / 2, anchor: 0.5, xs: Math.min(this.w / VIEW_W_FT, 3 * ys), ys };
+    const ys = Math.max(this.s / MAX_SQUEEZE, Math.min(this.s, (this.w - 16) / (hi - lo)));
+    const cam = { cy: (lo + hi) / 2, anchor: 0.5, xs: this.s, ys };
     this.drawRoad(cam);
+    const layout = new Layout(this.w, this.h);
     const last = this.robot.length - 1;
     for (let k = 0; k <= last; k += (last % 2 === 0 ? 2 : 1)) {
       const alpha = 0.12 + 0.88 * (k / last);
       const o = this.env.other[k], r = this.robot[k];
-      this.car(cam, o[0], o[1], Math.PI / 2, "other", alpha);
-      this.car(cam, r[0], r[1], r[2], "robot", alpha);
+      for (const box of [this.car(cam, o[0], o[1], Math.PI / 2, "other", alpha),
+        this.car(cam, r[0], r[1], r[2], "robot", alpha)]) if (box) layout.avoid(box);
     }
-    const layout = new Layout(this.w, this.h);
     this.goalMarks(cam, layout);
     this.label(layout, "trail: whole drive");
     this.boxes = layout.boxes;
+    this.cars = layout.obstacles;
   }
 
-  // The time (or view) label: bottom left, else bottom right, else the first free row.
+  // The time (or view) label: in the band below the road at the left, else above it, else at the right.
   label(layout, text) {
-    tag(this.ctx, layout, "time-label", text, (w, h) => [[4, this.h - h - 4], [this.w - w - 4, this.h - h - 4]],
-      { size: 12 });
+    tag(this.ctx, layout, "time-label", text, (w, h) => [[4, this.bandY(h, false)], [4, this.bandY(h, true)],
+      [this.w - w - 4, this.bandY(h, false)]], { size: 12 });
   }
 
   redraw() {
@@ -289,10 +328,9 @@ export class Scene {
 }
 
 // Along-road distance (ft) the animation's view must hold between the two cars: the largest
-// gap while they interact (within INTERACTION_FT), and at least the gap at their closest approach.
+// gap while they interact (within INTERACTION_FT); 0 where they never do.
 export function framedSpan(robot, other) {
   const gaps = robot.map((r, k) => Math.abs(other[Math.min(k, other.length - 1)][1] - r[1]));
-  const closest = Math.min(...gaps);
   const near = gaps.filter((g) => g <= INTERACTION_FT);
-  return Math.max(closest, near.length ? Math.max(...near) : 0);
+  return near.length ? Math.max(...near) : 0;
 }

@@ -38,18 +38,22 @@ export class Scene {
     this.resize();
   }
 
-  // Canvas buffer in device pixels, drawing in CSS px; 4:3 landscape (the yard is 8 x 6 cells).
+  // Canvas buffer in device pixels, drawing in CSS px.  The canvas's width is the page's; its height
+  // is the yard's at that width plus the label strip (set here), so the yard fills the canvas.
   resize() {
     const dpr = window.devicePixelRatio || 1;
-    const w = Math.max(120, Math.round(this.canvas.clientWidth || this.canvas.width));
-    const h = Math.round(w * 3 / 4);
+    const rows = this.yard.cells.length, cols = this.yard.cells[0].length;
+    const css = Math.round(this.canvas.clientWidth || this.canvas.width);
+    const w = Math.max(120, css);
+    const h = Math.round(w * rows / cols) + STRIP;
+    const cssH = `${Math.round(h * css / w)}px`;  // a canvas narrower than the drawing shows it scaled down whole
+    if (this.canvas.style.height !== cssH) this.canvas.style.height = cssH;
     if (this.canvas.width !== Math.round(w * dpr) || this.canvas.height !== Math.round(h * dpr)) {
       this.canvas.width = Math.round(w * dpr);
       this.canvas.height = Math.round(h * dpr);
     }
     this.w = w; this.h = h; this.dpr = dpr;
     // Square cells of whole px (crisp grid lines), the yard centred above the label strip.
-    const rows = this.yard.cells.length, cols = this.yard.cells[0].length;
     this.cell = Math.max(1, Math.floor(Math.min(w / cols, (h - STRIP) / rows)));
     this.ox = Math.floor((w - cols * this.cell) / 2);
     this.oy = Math.floor((h - STRIP - rows * this.cell) / 2);

@@ -106,15 +106,14 @@ INTERACTION_FT = 150.0
 
 def framed_span(robot, other) -> float:
     """scenes/driving.js's framedSpan: the along-road gap (ft) a view must hold between the two cars (the
-    largest while within INTERACTION_FT, and at least the gap at their closest approach)."""
+    largest while within INTERACTION_FT; 0 where they never come that close: the canvas then marks the
+    other car at its edge with its distance)."""
     gaps = [abs(other[min(k, len(other) - 1)][1] - r[1]) for k, r in enumerate(robot)]
-    near = [g for g in gaps if g <= INTERACTION_FT]
-    return max(min(gaps), max(near, default=0.0))
+    return max((g for g in gaps if g <= INTERACTION_FT), default=0.0)
 
 
 def study_view(scenes) -> dict:
     """{"study_span": ft}: the largest framed span of any canvas of a study, so every canvas is drawn at
-    the one scale that holds it and the same speeds and gaps look the same in training and at test
-    (issue 22: test canvases drew at about half the training's px/ft)."""
+    the one scale that holds it and the same speeds and gaps look the same in training and at test."""
     spans = [framed_span(robot, scene["other"]) for scene, robot in scenes]
     return {"study_span": round(max(spans, default=0.0), 1)}
