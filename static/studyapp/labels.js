@@ -2,7 +2,7 @@
 // one Layout, and a label is put in the first of its candidate places that is inside the canvas
 // and overlaps no box already there, else stacked in the first free row; so no two labels of a
 // canvas overlap and none covers a mark the scene drew first or a thing the scene asked it to
-// avoid (a car). The boxes stay on the scene (scene.boxes) for the browser tests to check.
+// avoid (the robot, what it meets). The boxes stay on the scene (scene.boxes) for the browser tests to check.
 
 export function intersects(a, b) {
   return a.x < b.x + b.w && b.x < a.x + a.w && a.y < b.y + b.h && b.y < a.y + a.h;
