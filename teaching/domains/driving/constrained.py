@@ -1,4 +1,4 @@
-"""The optimum with the world's limits as hard constraints, one trajectory at a time.
+"""The optimum with the world's limits as hard constraints, one trajectory at a time (docs/decisions.md).
 
 The soft penalty of :mod:`teaching.domains.driving.kernels` finds the basins fast, but its minimiser lies a little
 inside each limit it presses against (0.16-0.36 ft from |x| = 12 in a demo table planned with the penalty alone, up to
