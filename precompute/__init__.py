@@ -1,4 +1,4 @@
-"""Celery workers that precompute trajectory tables and teaching sequences (issue 5).
+"""Celery workers that precompute trajectory tables and teaching sequences.
 
 Pieces: :mod:`precompute.jobs` (launching canvases, pure of views),
 :mod:`precompute.tasks` (the Celery tasks), :mod:`precompute.models` (Job and

@@ -125,7 +125,7 @@ class StudyDesignForm(forms.Form):
         required=False, label="Hand-picked condition: environment ids",
         help_text="Optional: environment ids of the table, comma-separated, shown in this order as one more "
                   "condition.")
-    # One closed-loop condition (issue 25): each participant's next example chosen from their answers.
+    # One closed-loop condition: each participant's next example chosen from their answers.
     loop_name = forms.SlugField(
         required=False, max_length=40, label="Closed-loop condition: name (optional)",
         help_text="Adds a condition that picks each participant's next example from their answers to check "

@@ -7,14 +7,14 @@ then refuses any key it does not know and any required key that is missing, with
 naming them, instead of launching a silently different job.
 
 Version history:
-  1  (no "version" key; until issue 22) table: preset, out, queue (absent in the oldest rows);
+  1  (no "version" key) table: preset, out, queue (absent in the oldest rows);
      study: study_id, slug, table, content_hash, seed, approx_star, hyperparameters,
      conditions, open, queue, hand_picked, test_set_thresholds (the last three and
      content_hash absent in the oldest rows).
   2  "version": 2; study: "open" is called "open_when_done" (create_study_job's word).
   3  "version": 3; study: "closed_loop", {condition name: closed-loop settings}, and "closed_loop_fit",
-     {condition name: slug of the study whose best model fit gives its model, τ / λ and ε} (issue 25;
-     empty in every older row, which had none).
+     {condition name: slug of the study whose best model fit gives its model, τ / λ and ε}
+     (empty in every older row, which had none).
 
 Changing the format: add the field here, bump SPEC_VERSION, and add an upgrade from the last
 version that fills it (a test keeps a row of every older version as a literal:

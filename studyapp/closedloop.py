@@ -1,4 +1,4 @@
-"""Closed-loop conditions on the web side (issue 25): built with the study, decided per participant.
+"""Closed-loop conditions on the web side: built with the study, decided per participant.
 
 A closed-loop condition has no fixed training sequence.  A spec names one as
 ``{"name": "closed-loop", "closed_loop": {"model": "det-euclidean", "check_every": 2, ...}}``

@@ -1,4 +1,4 @@
-"""A study's simulated pilot (issue 13): what the researcher sees before opening a study.
+"""A study's simulated pilot: what the researcher sees before opening a study.
 
 * The ideal-user matrix for exactly the study's conditions: P_user(θ*) after a condition's
   examples, for each of the paper's simulated learners.  The study job computes it on the worker
@@ -6,7 +6,7 @@
   stores it as small JSON in ``study.source["pilot"]``.  A study made by `create_study` from
   `python -m teaching.teach` output takes the rows of its conditions from that output's
   matrix.json (studies.spec_from_teach).
-* What participants who learn by each learner model would score in each condition (issue 24, item 3):
+* What participants who learn by each learner model would score in each condition:
   the study job stores, with the matrix, each model's P(option) in every test after each condition's
   examples (teaching's pilot_predictions); the page turns it into the expected accuracy and mean
   confidence score at the lapse rate the researcher picks (teaching's predicted_scores), with no table.

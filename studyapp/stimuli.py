@@ -1,6 +1,6 @@
 """The stimulus sheet (researchers only): every condition's training examples, in order, and
 every test's four options, each drawn as its whole trajectory (a contact sheet) and playable as the
-participant's animation, so a study can be looked over before it is opened (issue 13).
+participant's animation, so a study can be looked over before it is opened.
 
 This page is staff-only, so unlike a participant's page (studyapp/views.py, which carries only
 what it draws) it names what the server knows: each environment's id and class, each option's

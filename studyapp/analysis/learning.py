@@ -1,4 +1,4 @@
-"""Learning curves from the check questions of closed-loop conditions (issue 25, item 5).
+"""Learning curves from the check questions of closed-loop conditions.
 
 Pure pandas and statsmodels, no Django: the curves can be computed (and tested) on any table of check
 answers.  A closed-loop condition asks each participant check questions between its examples

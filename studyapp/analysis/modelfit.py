@@ -1,4 +1,4 @@
-"""Which learner model explains a study's answers (issue 24; docs/analysis.md "Fitting learner models").
+"""Which learner model explains a study's answers (docs/analysis.md "Fitting learner models").
 
 Reads the study's design (each condition's training examples and the test set, as table rows and θ
 indices of the trajectory table the study was built from) and its analysed participants' answers (status

@@ -1,4 +1,5 @@
-"""Planning a study's size: participants per condition needed to detect an effect (issue 13).
+"""Planning a study's size: participants per condition needed to detect an effect (docs/decisions.md,
+"Sample sizes by bisection").
 
 The paper reports its comparisons as Welch t-tests between two conditions' mean scores, so
 the effects here are two-sample effects (Cohen's d) and the sample sizes come from

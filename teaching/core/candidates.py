@@ -26,7 +26,7 @@ def sample_thetas(n: int, sampler: str = "log-uniform", seed: int = 0, *, theta_
     star = np.asarray(theta_star, dtype=float)
     if sampler == "log-uniform":
         # 10**u correctly rounded (detmath): NumPy's power is CPU-dispatched and its AVX-512 loop
-        # differs in the last bit, which moved thousands of a table's trajectories (issue 22)
+        # differs in the last bit, which moved thousands of a table's trajectories
         rest = -np.abs(star) * detmath.pow10(rng.uniform(-1.0, 1.0, size=(n - 1, len(star))))
     else:
         g = np.abs(rng.standard_normal((n - 1, len(star))))

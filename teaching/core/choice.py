@@ -1,4 +1,4 @@
-"""The choice model: which of a test's options a learner picks (issue 24, item 1; docs/analysis.md).
+"""The choice model: which of a test's options a learner picks (docs/analysis.md).
 
 After training examples S, learner model M believes P_M(θ | S) (:func:`learners.posterior`).  A test
 in environment E shows K options, each the optimal trajectory ξ_k of some θ_{o_k} there.  Option k's

@@ -1,4 +1,4 @@
-"""Closed-loop teaching (issue 25): each participant's next example chosen from their answers.
+"""Closed-loop teaching: each participant's next example chosen from their answers (docs/decisions.md).
 
 The robot keeps, for each participant, a belief b(θ) over the θ the participant takes the robot to
 have: their hypothesis.  It starts uniform over the table's thetas and is updated

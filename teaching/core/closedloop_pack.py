@@ -1,4 +1,4 @@
-"""A closed-loop condition on disk: what a web worker needs to decide and to draw (issue 25, item 4).
+"""A closed-loop condition on disk: what a web worker needs to decide and to draw.
 
 A study job writes it once (:func:`write_pack`).  Every web worker maps the same files read-only
 (:func:`load_pack`), so the paper table's 85 MB likelihood matrix is in memory once, however many

@@ -1,4 +1,4 @@
-"""A closed-loop condition in a study's simulated pilot (issue 25, Build 5).
+"""A closed-loop condition in a study's simulated pilot.
 
 An open-loop condition shows every participant one sequence, so the pilot's ideal users each see it once
 (evaluation.study_matrix).  A closed loop shows what the answers call for, so the pilot runs simulated

@@ -1,4 +1,4 @@
-"""Transcendental functions whose results do not depend on the CPU (issue 22, item 2).
+"""Transcendental functions whose results do not depend on the CPU (docs/decisions.md, "Reproducible tables").
 
 A table's content hash must be the same on every machine, but the usual routes to exp, sin or
 10**u are dispatched on the processor: NumPy picks AVX-512 or AVX2 loops for ``np.power`` and

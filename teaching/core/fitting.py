@@ -1,4 +1,4 @@
-"""Fitting learner models to participants' answers (issue 24; equations in docs/analysis.md).
+"""Fitting learner models to participants' answers (equations in docs/analysis.md).
 
 A participant i saw training examples S_i (table rows: their condition's sequence) and answered tests
 t = 1..T, each a choice c_it among the K options of a test in environment E_t.  Under learner model M

@@ -1,4 +1,4 @@
-"""Model and parameter recovery before real data (issue 24, item 5; docs/analysis.md).
+"""Model and parameter recovery before real data (docs/analysis.md).
 
 For a study's design (its conditions' sequences and its test set), simulate many studies whose
 participants all learn by one model (:mod:`.simulate`), fit every model to each (:mod:`.fitting`) and

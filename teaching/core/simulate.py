@@ -1,4 +1,4 @@
-"""Simulated participants who learn by a model (issue 24, item 3; docs/analysis.md).
+"""Simulated participants who learn by a model (docs/analysis.md).
 
 A simulated participant of learner model M (with τ / λ and lapse rate ε) watches its condition's
 training examples, so it believes P_M(θ | S); in each test it picks option k with the choice model's

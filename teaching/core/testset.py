@@ -29,7 +29,7 @@ import numpy as np
 from .domain import siblings
 
 MIN_REGRET = 1e-3  # θ*-reward units; on the demo table |θ*·φ(ξ^θ*)| has median 0.039 (see docs/teaching.md)
-# option sets drawn per environment: 50 missed sets that exist (on the planner-9 demo table no
+# option sets drawn per environment: 50 missed sets that exist (on one demo table no
 # environment of one cluster passed in 50, one 0.87 apart passed in 200)
 MAX_TRIES = 200
 

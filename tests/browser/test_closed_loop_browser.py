@@ -1,4 +1,4 @@
-"""A closed-loop condition with feedback in Debian's Chromium (issue 25): the instructions say what check
+"""A closed-loop condition with feedback in Debian's Chromium: the instructions say what check
 questions are, examples, a check question answered on the test page, the feedback showing θ*'s trajectory
 in that situation, and on to the final questions; every page a participant saw was decided once and the
 decisions replay from the stored answers.  Screenshots: test-output/closed_loop_*.png."""

@@ -1,4 +1,4 @@
-"""Issue 22, item 3, in Chromium: the analysis page answers a bad ``?compare=`` with its message
+"""Condition names in Chromium: the analysis page answers a bad ``?compare=`` with its message
 (and no live report polling behind it), and a study stored with two names of one condition says on
 its dashboard and its analysis page why it cannot open or be analysed.  Screenshots go to
 test-output/compare_error.png and test-output/aliased_study.png."""

@@ -1,4 +1,4 @@
-"""The gridworld through the whole platform (issue 23): its table (built for real) -> `python -m
+"""The gridworld through the whole platform: its table (built for real) -> `python -m
 teaching.teach` -> `manage.py create_study` from that output -> a participant completes the study in
 Debian's Chromium (training animations and the four test options drawn by scenes/gridworld.js,
 screenshots in test-output/ to look at) -> `manage.py analyze`.  A driving study lives in the same

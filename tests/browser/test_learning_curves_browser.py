@@ -1,4 +1,4 @@
-"""The analysis page's learning curves in Chromium (issue 25, Build 5): a demo-table study with an open-loop
+"""The analysis page's learning curves in Chromium: a demo-table study with an open-loop
 condition and a closed-loop one, answered through the real flow by participants who learn by det-euclidean
 (checks included); the page shows the closed loop's curve, its figure decoded and a row per check number.
 Screenshot: test-output/learning_curves.png."""

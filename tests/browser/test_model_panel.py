@@ -1,4 +1,4 @@
-"""The analysis page's learner-model panel in Chromium (issue 24, item 6): a demo-table study answered by
+"""The analysis page's learner-model panel in Chromium: a demo-table study answered by
 participants who learn by det-euclidean, through the real flow; the page fetches the panel after the report,
 which must rank det-euclidean first, show its figure decoded, and offer the CSV.  Screenshot:
 test-output/model_panel.png."""

@@ -1,4 +1,4 @@
-"""What a participant sees (issue 22, item 8): training waits for Play when the participant's system
+"""What a participant sees: training waits for Play when the participant's system
 asks for reduced motion, and a training example that repeats an earlier one says it does so on
 purpose.  Debian's Chromium through Playwright, against the live test server."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The study page's simulated pilot in Chromium (issue 24, item 3): the learner models' predicted scores for a
+"""The study page's simulated pilot in Chromium: the learner models' predicted scores for a
 demo-table study (computed as the study job computes them) and a power table re-planned for another model and
 lapse rate through the form.  Screenshot: test-output/pilot_predictions.png."""
 from __future__ import annotations

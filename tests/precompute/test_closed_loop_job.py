@@ -1,4 +1,4 @@
-"""A closed-loop condition built by the study job (issue 25, Build 1): `build_study --closed-loop` and the
+"""A closed-loop condition built by the study job: `build_study --closed-loop` and the
 designer send its settings with the job; the last task prepares it once the test set is known (check
 questions apart from the final tests, its pack, the study's one scale) and runs simulated participants of
 every learner model through it for the pilot."""

@@ -1,4 +1,4 @@
-"""The study designer (issue 13, item 3, first part): a researcher picks a built table by its
+"""The study designer: a researcher picks a built table by its
 identity, chooses conditions and settings, and "Build" selects every condition and the test set
 on a worker; the study comes out closed, for previewing before it opens."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Typed, versioned job specs (issue 22, item 7): a job stored by older code is relaunched and
+"""Typed, versioned job specs: a job stored by older code is relaunched and
 completes; a stored spec this code cannot read is refused with a message naming the keys, never
 launched as some other job; task arguments travel by keyword."""
 from __future__ import annotations
@@ -17,12 +17,12 @@ from teaching.domains.driving.synthetic import synthetic_table
 
 pytestmark = pytest.mark.slow
 
-# A table job exactly as the code before issue 22 stored it (precompute/jobs.py create_table_job:
+# A table job exactly as format version 1 stored it (precompute/jobs.py create_table_job:
 # {"preset": ..., "out": ..., "queue": ...}, no version); "out" is filled in per test.
 TABLE_V1 = {"preset": {"name": "tiny-8x8-log-uniform-s0", "n_envs": 8, "n_thetas": 8, "sampler": "log-uniform",
                        "seed": 0, "chunk_size": 4, "theta_star": [-64.0, -0.1, -1.0, -0.1, -0.5]},
             "out": None, "queue": None}
-# A study job as the code before issue 22 stored it (precompute/study.py create_study_job), with
+# A study job as format version 1 stored it (precompute/study.py create_study_job), with
 # "open" where today's format says "open_when_done".
 STUDY_V1 = {"study_id": None, "slug": "old-format", "table": None, "content_hash": None, "seed": 0,
             "approx_star": "det-euclidean", "hyperparameters": {}, "conditions": ["exact", "random"],

@@ -1,4 +1,4 @@
-"""The study designer's simulated pilot (issue 13): the study job stores the ideal-user matrix of
+"""The study designer's simulated pilot: the study job stores the ideal-user matrix of
 exactly the study's conditions (teach.py's matrix, computed on the worker), and the study's
 dashboard page shows it with a power table whose α, power and effect size the researcher picks."""
 from __future__ import annotations
@@ -142,7 +142,7 @@ def test_the_power_form_defaults_to_the_papers_effect(study, staff_client):
     ({"alpha": "0"}, "α must lie between 0.0001 and 0.5."),
     ({"power": "abc"}, "Power must be a number, e.g. 0.8."),
     ({"power": "1"}, "Power must be at most 0.999."),
-    ({"alpha": "0.5", "power": "0.3"}, "Power must be above α (0.5)"),  # issue 22: no n reaches less than α
+    ({"alpha": "0.5", "power": "0.3"}, "Power must be above α (0.5)"),  # no n reaches less than α
     ({"d": "-1"}, "The effect size d must lie between 0.05 and 5."),
     ({"d": "1e-9"}, "The effect size d must lie between 0.05 and 5."),
     ({"d": "nan"}, "The effect size d must be a number"),

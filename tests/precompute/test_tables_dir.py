@@ -1,4 +1,4 @@
-"""Where tables live is said once, by settings.TABLES_DIR (issue 22, item 7): a table built on the
+"""Where tables live is said once, by settings.TABLES_DIR: a table built on the
 command line appears in the designer, build_study --preset reads it there, and the demo looks
 there too."""
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """A restarted Celery worker is back quickly: its main process imports Celery, Django and the
 bookkeeping only, never the numeric stack (NumPy's friends Numba and SciPy, the teaching core),
 which a pool process imports at its first task (precompute/steps.py).  That halves a worker's
-start (bench/worker_boot.py), which is what brings a killed worker back within issue 12's 10 s
+start (bench/worker_boot.py), which is what brings a killed worker back within the 10-s bar
 on a busy machine (tests/load/test_supervision.py)."""
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The exporter as it was before issue 22 (main at 3dada65, studyapp/exports.py), kept verbatim as the
+"""The exporter as it was before the exports were streamed (main at 3dada65, studyapp/exports.py), kept verbatim as the
 reference the streamed exports are compared with: an independent, object-at-a-time implementation
 (select_related + prefetch), so a row the new code writes differently shows up in the tests."""
 import csv

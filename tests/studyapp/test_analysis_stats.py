@@ -352,7 +352,7 @@ def _constant(cells, answers_of):
 
 
 def test_identical_scores_everywhere_are_a_message_not_an_f():
-    """Issue 12: every participant identical used to give 'F(2, 11) = 0.41' from rounding noise."""
+    """Every participant identical is a message, not an F: rounding noise used to give 'F(2, 11) = 0.41'."""
     cells = _constant({**APPROX_CELLS, **COVERAGE_CELLS}, lambda c: [(True, 5), (False, 2)])
     an = S.analyze(*make_data(cells))
     for a in an.anovas:

@@ -1,4 +1,4 @@
-"""A closed-loop condition through the participant flow (issue 25, items 1-3): built from a spec on the
+"""A closed-loop condition through the participant flow: built from a spec on the
 tiny table, decided step by step from the participant's answers, each decision stored once whatever the
 browser does (reload, Back, a second tab, a double submit), pages that do not give θ*'s option away, and
 every stored decision recomputed from the stored answers alone."""

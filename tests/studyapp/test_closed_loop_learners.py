@@ -1,4 +1,4 @@
-"""Simulated participants who learn by a model, through a closed-loop condition (issue 25, Build 5): they
+"""Simulated participants who learn by a model, through a closed-loop condition: they
 learn from what the loop showed them and answer its checks by the choice model, so the loop follows their
 answers; the model fit takes each one's own path."""
 import numpy as np
@@ -62,7 +62,7 @@ def test_a_learners_check_answers_follow_its_belief(loop_study):
 def test_the_fit_takes_each_loop_participants_own_path(loop_study):
     # An exact learner (lapse 0.1): its answers tell models apart from guessing on any draw.  Assignment ties and
     # option orders come from the system's randomness, and prob-euclidean (lambda = 1) on the tiny table gave
-    # answers the fit could not tell from guessing in 2 of 4 runs (planner 12's tiny table).
+    # answers the fit could not tell from guessing in 2 of 4 runs.
     simulate(loop_study, n_per_condition=8, seed=5, learner=SimulatedLearner("exact", None, 0.1))
     design = study_design(loop_study)
     assert design.loops == ("closed-loop",) and set(design.sequences) == {"alpha"}

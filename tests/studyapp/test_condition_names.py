@@ -1,4 +1,4 @@
-"""Issue 22, item 3: two names of one condition are refused wherever a study is made, and a study
+"""Two names of one condition are refused wherever a study is made, and a study
 stored with them earlier takes no participants and is not analysed; the Holm family holds
 distinct pairs of the study's conditions only, each once; unknown names are messages.
 

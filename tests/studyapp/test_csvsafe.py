@@ -1,5 +1,5 @@
-"""Formula neutralisation in the CSV exports covers fullwidth and other compatibility forms
-(issue 22, item 6): a spreadsheet folds ``＝`` into ``=`` and runs the cell."""
+"""Formula neutralisation in the CSV exports covers fullwidth and other compatibility forms:
+a spreadsheet folds ``＝`` into ``=`` and runs the cell."""
 import csv
 import io
 

@@ -87,7 +87,7 @@ def test_bad_platform_parameters_are_400(client, study, params):
     assert not Participant.objects.exists()
 
 
-@pytest.mark.parametrize("submit_to", [  # issue 12: each got past a hostname check, or would
+@pytest.mark.parametrize("submit_to", [  # each got past a hostname check, or would
     "javascript://www.mturk.com/%0Aalert(document.domain)",  # script on this site (the form's action)
     "https://evil.example\\@www.mturk.com/",  # a browser reads the backslash as a slash: evil.example
     "https://evil.example@www.mturk.com/",  # userinfo

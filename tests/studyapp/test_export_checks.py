@@ -1,4 +1,4 @@
-"""Check answers of closed-loop conditions in the exports (issue 25, item 5): the long file fills a check's row
+"""Check answers of closed-loop conditions in the exports: the long file fills a check's row
 as a test's, the wide file has per-check columns, and the long export still costs a fixed number of queries
 per page of participants, whatever their number."""
 import csv

@@ -1,6 +1,6 @@
-"""Issue 22, items 4 and 5: every exported participant has a status (complete / incomplete / excluded /
+"""Every exported participant has a status (complete / incomplete / excluded /
 declined), keeping `status == complete` gives the app's own analysed set, the headline names every
-group, and the CSV files are streamed (unchanged for complete participants but for the new column)."""
+group, and the CSV files are streamed (unchanged for complete participants but for the `status` column)."""
 import csv
 import io
 import re
@@ -135,9 +135,9 @@ def test_paging_does_not_split_or_drop_participants(cohort, monkeypatch):
 
 
 def test_unchanged_against_the_previous_exporter(cohort):
-    """The files as the exporter before issue 22 wrote them on the same data: the long file row for row
-    but for `status`; the wide file the same for complete (and excluded) participants, and for incomplete
-    ones only their mean score is now left empty."""
+    """The files as the previous, object-at-a-time exporter (exports_before.py) wrote them on the same
+    data: the long file row for row but for `status`; the wide file the same for complete (and
+    excluded) participants, and for incomplete ones only their mean score is now left empty."""
     def without_status(text):
         return [{k: v for k, v in r.items() if k != "status"} for r in rows(text)]
 

@@ -324,7 +324,7 @@ def test_participant_pages_can_be_framed_by_mturk_only(client, participant, staf
         assert "X-Frame-Options" not in r
         policy = dict(d.strip().split(" ", 1) for d in r["Content-Security-Policy"].split(";"))
         assert policy["frame-ancestors"] == "'self' https://workersandbox.mturk.com https://www.mturk.com"
-        # issue 12, item 8: only this site's own script files run on a participant page
+        # only this site's own script files run on a participant page
         assert policy["script-src"] == "'self'" and policy["default-src"] == "'self'"
         assert policy["form-action"] == "'self' https://workersandbox.mturk.com https://www.mturk.com"
         assert policy["object-src"] == "'none'" and policy["base-uri"] == "'none'"

@@ -1,4 +1,4 @@
-"""Learning curves from the check questions of closed-loop conditions (issue 25, item 5): the numbers on a
+"""Learning curves from the check questions of closed-loop conditions: the numbers on a
 table worked out by hand, and the analysis page of a closed-loop study of simulated participants."""
 import math
 import re

@@ -251,7 +251,7 @@ def _raw_post(base_url: str, path: str, body: bytes, declared: int, close_early:
 
 @pytest.mark.django_db(transaction=True)
 def test_a_body_shorter_than_its_content_length_is_refused_not_stored(live_server, participant, complete):
-    """Issue 12, item 3: `goals=merge` of `goals=merge&goals=forward` arrived, was stored as a failed
+    """`goals=merge` of `goals=merge&goals=forward` once arrived, was stored as a failed
     attention check and excluded the participant; the retry then got 409."""
     p = complete(participant, stop_before=StepKind.ATTENTION)
     step = next(s for s in flow.steps_for(p) if s.kind == StepKind.ATTENTION)

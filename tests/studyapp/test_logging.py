@@ -1,4 +1,4 @@
-"""What the logs say (issue 14, item 3): assignments, completions and job events, one line each,
+"""What the logs say: assignments, completions and job events, one line each,
 without personal data (participants by row id, never by platform id)."""
 import logging
 

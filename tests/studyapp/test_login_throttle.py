@@ -1,4 +1,4 @@
-"""Logins are throttled (django-axes; issue 12, item 6): staff accounts guard every export."""
+"""Logins are throttled (django-axes): staff accounts guard every export."""
 from datetime import timedelta
 
 import pytest

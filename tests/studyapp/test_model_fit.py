@@ -1,4 +1,4 @@
-"""Fitting learner models to a study's stored answers (issue 24, item 6): participants who learn by a model go
+"""Fitting learner models to a study's stored answers: participants who learn by a model go
 through the real assignment and flow into the database, and `manage.py fit_models` reads them back from
 there (another path than teaching's simulate-and-fit), finds the model that generated them, and writes the
 CSV and figure; bad input ends in one line."""

@@ -1,5 +1,5 @@
-"""Every researcher page and CSV export is sent with ``Cache-Control: no-store`` (issue 22,
-item 6): a browser's disk cache or a shared proxy must never keep participant data.
+"""Every researcher page and CSV export is sent with ``Cache-Control: no-store``:
+a browser's disk cache or a shared proxy must never keep participant data.
 
 The URL names come from the live URLconf, so a researcher view added later is checked too.
 """

@@ -96,7 +96,7 @@ def test_the_command(make_study):
             call_command("power", *args, stdout=io.StringIO())
 
 
-# Issue 22: inputs that used to end in "cannot convert float NaN to integer" (statsmodels' solver
+# Inputs that used to end in "cannot convert float NaN to integer" (statsmodels' solver
 # answered NaN) are each refused with a message naming the bound; in bounds an answer always exists.
 @pytest.mark.parametrize("args, message", [
     (["--alpha", "0.5", "--power", "0.3"], "power must be above alpha (0.5) and at most 0.999, got 0.3"),

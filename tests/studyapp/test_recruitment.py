@@ -1,4 +1,4 @@
-"""Recruitment and per-study texts (issue 11): Prolific needs the study's own completion code,
+"""Recruitment and per-study texts: Prolific needs the study's own completion code,
 every SESSION_ID a participant arrives with is kept, and the consent page shows the study's texts."""
 import pytest
 from django.core.exceptions import ValidationError

@@ -1,5 +1,5 @@
 """Researcher accounts: created by a command with Django's password validation, logged in and out
-on the researchers' own pages, not the admin's (issue 13, item 4)."""
+on the researchers' own pages, not the admin's."""
 import io
 
 import pytest

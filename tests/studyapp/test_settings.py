@@ -59,8 +59,8 @@ def test_secret_key_required_without_debug(tmp_path):
 
 
 def test_debug_is_off_unless_asked_for(tmp_path):
-    """Issue 12, item 8: gunicorn started without serve.sh's environment (systemd, by hand) ran with
-    DEBUG on and the public key.  Now no DEBUG means off, which needs a real key."""
+    """gunicorn started without serve.sh's environment (systemd, by hand) must not run with DEBUG on
+    and the public key: no DEBUG means off, which needs a real key."""
     out = probe(tmp_path)
     assert out.returncode != 0 and "SECRET_KEY must be set when DEBUG is off" in out.stderr
     assert "DEBUG=1" in out.stderr  # says how to run locally

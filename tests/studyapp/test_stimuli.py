@@ -1,6 +1,6 @@
-"""What participants' pages carry (issue 11): on a study built from a real trajectory table,
+"""What participants' pages carry: on a study built from a real trajectory table,
 nothing in a test page's HTML, embedded JSON or asset references tells theta*'s option apart
-from the other three, and a training page carries only what it draws: for every domain (issue 23),
+from the other three, and a training page carries only what it draws: for every domain,
 each with its own whitelist (Domain.page_keys)."""
 import json
 import re

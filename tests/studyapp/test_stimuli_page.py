@@ -1,4 +1,4 @@
-"""The stimulus sheet (issue 13, the designer's preview before opening): researchers only; its JSON
+"""The stimulus sheet (the designer's preview before opening): researchers only; its JSON
 holds every condition's training examples in order and every test's options, each exactly as
 the study stores it (what the participant's page draws: studyapp.trajectories.drawn_scene), and
 the page marks theta*'s option once per test; closed and open studies alike; 404 for no study."""

@@ -99,7 +99,7 @@ def test_drawn_scene_of_a_payload_stored_before_sizes_gets_todays():
     assert set(scene) == {"goal", "dt", "other", "robot", "world"}
 
 
-# --- the gridworld's payloads (issue 23): the domain's scene, the path up to its arrival --------------
+# --- the gridworld's payloads: the domain's scene, the path up to its arrival --------------
 def test_gridworld_payloads_draw_the_tables_paths(tmp_path):
     from teaching.core.build import PRESETS, build_table  # noqa: PLC0415
     from teaching.domains.gridworld.environments import get_yard  # noqa: PLC0415

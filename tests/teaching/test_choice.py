@@ -1,4 +1,4 @@
-"""The choice model (issue 24, item 1): option probabilities worked out by hand on a constructed table
+"""The choice model: option probabilities worked out by hand on a constructed table
 of three θ, and the option distances checked against the table's own (built by the planner) on real
 tables of both domains."""
 from math import exp, sqrt

@@ -1,4 +1,4 @@
-"""Closed-loop teaching (issue 25): the belief, the next example and the replay.
+"""Closed-loop teaching: the belief, the next example and the replay.
 
 * On a likelihood matrix written by hand, the best next example after a check answer is worked out by
   hand, and the answer changes it.

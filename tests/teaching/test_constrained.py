@@ -1,4 +1,4 @@
-"""The planner's hard-limit solve (teaching/domains/driving/constrained.py, issue 22): the Lagrangian and the limits
+"""The planner's hard-limit solve (teaching/domains/driving/constrained.py): the Lagrangian and the limits
 have exact derivatives; the QP solver agrees with brute force over active sets; from the soft
 penalty's answer it reaches the optimum that the independent hard-constraint reference
 (teaching/domains/driving/reference_hard.py: its own rollout, starts and SLSQP) finds, where the penalty's answer

@@ -1,4 +1,4 @@
-"""teaching.core.detmath against references computed in decimal arithmetic at 60 digits (issue 22, item 2).
+"""teaching.core.detmath against references computed in decimal arithmetic at 60 digits.
 
 The references share nothing with the code under test: no float range reduction, no split
 constants, no truncated series (each series here runs until its terms vanish at 60 digits), so an

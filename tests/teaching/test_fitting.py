@@ -1,4 +1,4 @@
-"""Fitting learner models to answers (issue 24, item 4): parameter recovery from participants simulated
+"""Fitting learner models to answers: parameter recovery from participants simulated
 by this file's own brute-force learner (loops over θ on the table's raw features and states, none of
 teaching's learner, choice or fitting code), model recovery on the demo study's design, merging of
 identical models, and the bad inputs a researcher can hit."""

@@ -201,12 +201,11 @@ def test_newton_does_not_stop_short_next_to_a_bound():
 def test_a_warm_start_next_to_a_bound_does_not_crawl():
     """A continuation warm start of the paper build (env 7680, a merge; theta 359 of the paper preset,
     from the pool trajectory it was given).  Knot 1's steer is on its upper bound with the gradient
-    pointing inwards, so it is free, but the coupled Newton step for it points outwards.  Until planner
-    11 it was held where it was with a scaled gradient step of ~1e-7 off the bound; the next iteration
-    freed it again and the projection clipped it back, so the others took steps computed for a move it
-    never made: 91 iterations at a projected gradient of ~2e-4, each gaining ~1e-13, to
-    F = 0.0040244356906772617.  Held on the bound and the others solved for that (planner 12), it
-    converges in 4 (docs/decisions.md, "Held on the bound")."""
+    pointing inwards, so it is free, but the coupled Newton step for it points outwards.  Held where it
+    was with a scaled gradient step of ~1e-7 off the bound, it is freed again the next iteration and the
+    projection clips it back, so the others take steps computed for a move it never made: 91 iterations
+    at a projected gradient of ~2e-4, each gaining ~1e-13, to F = 0.0040244356906772617.  Held on the
+    bound and the others solved for that, it converges in 4 (docs/decisions.md, "Held on the bound")."""
     theta = PRESETS["paper"].thetas()[359]
     env = get_environments([7680])
     oxy = other_car_states(env)[0]
@@ -225,12 +224,13 @@ def test_a_warm_start_next_to_a_bound_does_not_crawl():
 
 def test_projected_newton_converges_on_merging_problems():
     """Merging environments are where optima press against the bounds (full steer, full brake)
-    and the road limit.  Until planner version 5, 2.6 % of these cold solves (40 merging
+    and the road limit.  Without two rules of the projected Newton, 2.6 % of these cold solves (40 merging
     environments x 16 thetas x the 8 lane-keeping and lane-change seeds) crawled to the
     200-iteration cap at a projected gradient ~1e-3: a variable on its bound with an inward
     gradient was free, its Newton step pointed outwards, the projection bent the step, the line
-    search shortened it, and the shortened step raised the damping, each iteration again.
-    Version 6: 0.3 %."""
+    search shortened it, and the shortened step raised the damping, each iteration again.  With
+    them (such a variable fixed and the step re-solved; the damping following the gain ratio
+    alone): 0.3 % (docs/decisions.md, "Projected Newton at the bounds")."""
     rng = np.random.default_rng(4)
     ids = np.sort(rng.choice(np.flatnonzero(environment_class(get_environments()) == MERGING), 40, replace=False))
     thetas = sample_thetas(200, seed=3, theta_star=THETA_STAR)[:16]
@@ -247,9 +247,9 @@ def test_projected_newton_converges_on_merging_problems():
 def test_the_planner_finds_the_double_lane_change_the_reference_found():
     """A benchmark pair (env 17587: braking, the other car 140 ft ahead in the centre lane; theta
     800 of the paper's Theta): the independent reference's optimum goes one lane left, then two
-    lanes right, 1.1e-4 better than everything the planner found from its first 8 seeds.  Since
-    version 9 (CPU-independent arithmetic: theta 800 differs in its last bits) the planner finds
-    the mirror image, one lane right then two left, as good to 1e-8: either double change passes."""
+    lanes right, 1.1e-4 better than everything the planner found from its first 8 seeds.  With the
+    CPU-independent arithmetic (theta 800 differs in its last bits) the planner finds the mirror
+    image, one lane right then two left, as good to 1e-8: either double change passes."""
     thetas = sample_thetas(1000, theta_star=THETA_STAR)
     ids = np.array([17587])
     norm = default_normalisers()
@@ -277,11 +277,11 @@ def hard_reference_gap(env_id, theta_index):
 
 
 def test_the_planner_reaches_the_hard_references_basin_version_10_missed():
-    """The one pair of the paper table's 1,000 random pairs (seed 2024) that planner 10 left more than
-    1e-5 short of the hard-constraint reference (env 18182 / theta 861, 2.97e-5): the reference goes
-    right, then two lanes left; version 10 went straight to the left lane, closer to the other car.
-    The double lane change seeds solve only the two anchors, so since version 11 the straight anchors
-    start from them too (planner.PlannerSettings.straight_seeds).  Checked against
+    """The one pair of the paper table's 1,000 random pairs (seed 2024) that the planner left more than
+    1e-5 short of the hard-constraint reference (env 18182 / theta 861, 2.97e-5) while the double lane
+    change seeds solved only the two anchors: the reference goes right, then two lanes left; the planner
+    went straight to the left lane, closer to the other car.  So the straight anchors start from them
+    too (planner.PlannerSettings.straight_seeds).  Checked against
     teaching/domains/driving/reference_hard.py (its own rollout, starts and SLSQP, the limits hard)."""
     gap, _ = hard_reference_gap(18182, 861)
     assert gap <= 1e-5, gap
@@ -290,12 +290,12 @@ def test_the_planner_reaches_the_hard_references_basin_version_10_missed():
 @pytest.mark.slow
 @pytest.mark.parametrize("env_id, theta_index", [(4483, 864), (4504, 437)])
 def test_the_exact_step_converges_where_planner_10s_sqp_stalled(env_id, theta_index):
-    """Two pairs (paper Theta) where planner 10's SQP stalled at its 30-iteration cap and kept the
-    penalty's answer, 4.7e-4 and 4.1e-4 short of the hard reference (traced, 4483 / 864 converged
-    linearly: steps from 3e-5 down to 1e-6 over 26 iterations, each only ~12 % shorter than the last,
-    while the objective had settled at the fourth).  Since version 11 a whole step from a feasible
-    point that promised < 1e-10 ends the SQP, and an SQP that does not converge is run again with a
-    larger augmentation (constrained.RETRY_AUG_GAIN)."""
+    """Two pairs (paper Theta) where an SQP stopped by its step length alone stalled at its
+    30-iteration cap and kept the penalty's answer, 4.7e-4 and 4.1e-4 short of the hard reference
+    (traced, 4483 / 864 converged linearly: steps from 3e-5 down to 1e-6 over 26 iterations, each only
+    ~12 % shorter than the last, while the objective had settled at the fourth).  So a whole step from
+    a feasible point that promised < 1e-10 ends the SQP, and an SQP that does not converge is run
+    again with a larger augmentation (constrained.RETRY_AUG_GAIN)."""
     gap, stats = hard_reference_gap(env_id, theta_index)
     assert gap <= 1e-5, gap
     assert stats["constrained_unconverged"] <= 1, stats  # of ~1,000 constrained solves
@@ -303,12 +303,13 @@ def test_the_exact_step_converges_where_planner_10s_sqp_stalled(env_id, theta_in
 
 @pytest.mark.slow
 def test_the_planner_finds_the_basins_version_7_missed():
-    """Two pairs the independent reference found better than planner version 7 (paper Theta):
+    """Two pairs the independent reference found better than the planner without hops and straight
+    anchors (paper Theta):
 
-    * env 6547 / theta 101: a right-left-right zigzag over all three lanes; version 7 kept the
+    * env 6547 / theta 101: a right-left-right zigzag over all three lanes; a warm start kept the
       timing its start had (F 0.029818), the reference's moves start a knot earlier (0.029405);
       found by a hop (step 5);
-    * env 15014 / theta 887 (tailgating): version 7 changed lane, speeding up in lane is 2.7e-3
+    * env 15014 / theta 887 (tailgating): the warm starts changed lane, speeding up in lane is 2.7e-3
       better; found from the straight anchors (step 1).
     Each is checked against the independent reference, and every trajectory of both
     environments is checked to obey the world's constraints (a hop from a start that breaks
@@ -434,7 +435,7 @@ def test_theta_star_uses_both_strategies_in_every_informative_class():
     for c, pair in ((MERGING, (MERGE_AHEAD, MERGE_BEHIND)), (BRAKING, (BRAKE_STAY, BRAKE_CHANGE)),
                     (TAILGATING, (TAIL_CHANGE, TAIL_STAY))):
         mine = labels[cls == c]
-        for cluster in pair:  # both strategies, each in >= 5 % of the class's environments (issue 10)
+        for cluster in pair:  # both strategies, each in >= 5 % of the class's environments
             assert np.mean(mine == cluster) >= 0.05, (cluster, np.bincount(mine, minlength=9).tolist())
         assert np.mean(mine == NO_STRATEGY) <= 0.10
     # theta* never leaves the lanes to keep away from the other car

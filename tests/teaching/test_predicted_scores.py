@@ -1,4 +1,4 @@
-"""What model-based simulated participants score, in expectation (issue 24, item 3): the closed form behind
+"""What model-based simulated participants score, in expectation: the closed form behind
 the designer's pilot and power table, checked by hand and against participants drawn one by one."""
 import numpy as np
 import pytest

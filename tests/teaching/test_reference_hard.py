@@ -1,4 +1,4 @@
-"""The hard-constraint reference (teaching/domains/driving/reference_hard.py, issue 22): its own features equal the
+"""The hard-constraint reference (teaching/domains/driving/reference_hard.py): its own features equal the
 stored ones, its Jacobians are right, it presses against |x| = 12 when the objective wants to leave
 the road, and where no limit is active it agrees with the penalised reference."""
 import inspect

@@ -267,7 +267,7 @@ def test_worker_processes_build_the_same_table(tmp_path, tiny_table):
     assert "error: --jobs must be at least 1, got 0" in bad.stderr
 
 
-# The tiny preset's content hash under planner 12 (docs/benchmarks.md).  A change meant to keep every
+# The tiny preset's content hash under the current PLANNER_VERSION (docs/benchmarks.md).  A change meant to keep every
 # planned bit (a faster kernel, a refactor) must leave it as it is; a change that moves any bit bumps
 # PLANNER_VERSION (which alone changes the hash), rebuilds the documented tables and updates this pin.
 TINY_CONTENT_HASH = "90ce70003c8ad7f0b9e6be402ab6afcdc2d4c5834433564aa50a9bb49e0a70b3"

@@ -1,5 +1,5 @@
 """What participants see: theta*'s trajectories in a real built table (the `demo` preset, every
-environment) do what their class says (paper, "Example Domain"; issue 10).
+environment) do what their class says (paper, "Example Domain").
 
 The checks read positions off the stored controls with their own thresholds, not the strategy
 labeller's: "in a lane" = the car's centre within 3 ft (a quarter lane) of a lane centre.

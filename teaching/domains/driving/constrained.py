@@ -1,7 +1,7 @@
-"""The optimum with the world's limits as hard constraints (issue 22), one trajectory at a time.
+"""The optimum with the world's limits as hard constraints, one trajectory at a time (docs/decisions.md).
 
 The soft penalty of :mod:`teaching.domains.driving.kernels` finds the basins fast, but its minimiser lies a little
-inside each limit it presses against (0.16-0.36 ft from |x| = 12 in the planner-9 demo table, up to
+inside each limit it presses against (0.16-0.36 ft from |x| = 12 in a demo table planned with the penalty alone, up to
 1.4e-3 normalised reward units short of the constrained optimum).  From that point (feasible, and
 near the optimum) :func:`constrained_one` runs sequential quadratic programming (:func:`sqp_one`):
 Newton steps on the KKT conditions, each the solution of a small dense QP with every linearised

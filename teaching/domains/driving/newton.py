@@ -174,8 +174,8 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol):
             # for them, the line search cuts it to as little as 2^-19 (F rose by 1e6 through a limit's
             # penalty) and the next iteration flips back.  Hold it on the bound and solve again
             # for the others given that displacement: the box-constrained model's step.
-            # (Holding it where it was, with a scaled gradient step off the bound, as until planner
-            # 11, crawled: a tenth of warm starts took 20 to 90 iterations; docs/decisions.md.)
+            # (Holding it where it was, with a scaled gradient step off the bound, crawls: a tenth of
+            # warm starts took 20 to 90 iterations; docs/decisions.md, "Held on the bound".)
             changed = False
             for i in range(NV):
                 if free[i] and ((zf[i] <= -1.0 + eps_act and zf[i] + p[i] < -1.0)
@@ -210,8 +210,8 @@ def newton_one(z, ox, oy, goal, w, maxiter, tol):
         # taken.  Where the quadratic model predicted it poorly, damp the next step;
         # where it predicted well, decay back towards pure Newton.  The ratio alone
         # decides: a step shortened by the line search but well predicted says the
-        # model holds, and damping it as well (as until planner version 5) left 1.5 %
-        # of warm starts crawling to the iteration cap (docs/decisions.md).
+        # model holds, and damping it as well left 1.5 % of warm starts crawling to
+        # the iteration cap (docs/decisions.md, "Projected Newton at the bounds").
         pred = 0.0
         for i in range(NV):
             si = zn[i] - zf[i]

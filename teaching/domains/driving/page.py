@@ -15,7 +15,7 @@ from .world import GOAL_NAMES, WORLD
 DECIMALS = 3  # payload rows are rounded to a thousandth of a foot (or radian, ft/s)
 
 # The one palette: the page's CSS custom properties (--scene-<name>), the canvas and the contact sheet.
-# Not colour alone (issue 22): the goal lane is dark and hatched against a light road, the autonomous
+# Not colour alone (legible in greyscale): the goal lane is dark and hatched against a light road, the autonomous
 # car light with a black outline, the other car dark with a white outline.
 PALETTE = {
     "grass": "#dfe9d8", "road": "#959ca4", "line": "#f4f4f4", "goal": "#1e3a8a",

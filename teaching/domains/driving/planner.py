@@ -64,7 +64,7 @@ class PlannerSettings:
     n_anchors: int = 2  # solved from every seed; 8 is as good as 2 + the straight anchors below, at 1.3x the time
     straight_anchors: int = 8  # the next thetas in anchor order, solved from the straight seeds at higher and
     straight_seeds: tuple = (1, 2, 8, 9)  # lower speed (warm starts missed those basins most), and from the double
-    #                                       lane changes (version 11: env 18182 / theta 861; docs/decisions.md)
+    #                                       lane changes (env 18182 / theta 861 needs them; docs/decisions.md)
     all_anchors_below: int = 32  # with so few thetas the cross-theta step has little to share: multi-start all
     anchor_iters: int = 200
     warm_iters: int = 200  # a cap, not a budget: warm starts run until Newton converges (NEWTON_TOL)
@@ -72,7 +72,7 @@ class PlannerSettings:
     hop_min_crossings: int = 5  # lane-line crossings that make a trajectory hop (step 5): across all three lanes
     #                             and back; 3 (one lane, then two back) found 7 more of 128,000 pairs at 1.07x the time
     hop_shifts: tuple = (-1,)  # knots; (-1, +1) found 2 more pairs above 1e-4 in 128,000, at 1.17x the time
-    exact: bool = True  # step 6: the world's limits as hard constraints (constrained.py; issue 22)
+    exact: bool = True  # step 6: the world's limits as hard constraints (constrained.py)
 
 
 def planner_identity(settings: PlannerSettings = None) -> dict:

@@ -1,4 +1,4 @@
-"""A hard-constraint reference solver for one (environment, theta) problem (issue 22).
+"""A hard-constraint reference solver for one (environment, theta) problem.
 
 teaching/domains/driving/reference.py minimises the planner's own penalised objective, so it cannot
 see what the soft penalty costs.  This module shares nothing with the planner: its
