@@ -13,7 +13,7 @@ export class Layout {
     this.w = w;
     this.h = h;
     this.boxes = [];  // {kind, x, y, w, h} in CSS px
-    this.obstacles = [];  // what no label may cover, though it is not one (a car): {kind, x, y, w, h}
+    this.obstacles = [];  // what no label may cover, though it is not one (the robot): {kind, x, y, w, h}
   }
 
   avoid(box) {
