@@ -4,6 +4,8 @@ Sub-commands:
   build   build (or resume) a trajectory table from a preset, with a progress bar
   info    print a table's identity and a summary (strategy counts, d_reward check)
   sheet   draw every training example and test option of a teach output as one PNG
+  check-domain  check a domain's contracts (plan_chunk's arrays, d_reward, labels, page keys, palette,
+                test-set feasibility): exit 0 when all pass, 1 when one fails, 2 for bad arguments
 """
 from __future__ import annotations
 
@@ -16,7 +18,10 @@ from tqdm import tqdm
 
 from .core.build import PRESETS, build_table, customised, get_preset
 from .core.candidates import SAMPLERS
+from .core.checkdomain import CHECKS, DEFAULT_ENVS, check_domain, default_preset
+from .core.domain import domain_names, get_domain
 from .core.table import TableError, TrajectoryTable
+from .core.testset import MIN_REGRET
 
 
 def summary(table: TrajectoryTable) -> str:
@@ -36,6 +41,40 @@ def summary(table: TrajectoryTable) -> str:
     lines.append("environments per class: "
                  + ", ".join(f"{n} {int((cls == i).sum())}" for i, n in enumerate(domain.class_names)))
     return "\n".join(lines)
+
+
+def check_domain_command(args) -> int:
+    """Run check-domain; 0 when every check passes, 1 when one fails (bad arguments raise ValueError)."""
+    domain = get_domain(args.name)
+    presets = {p.name: p for p in domain.presets}
+    if args.preset is not None and args.preset not in presets:
+        raise ValueError(f"unknown preset {args.preset!r} for domain {domain.name}; choose one of {', '.join(presets)}")
+    if args.envs < 1:
+        raise ValueError(f"--envs must be at least 1, got {args.envs}")
+    if args.min_option_distance is not None and not args.min_option_distance >= 0:
+        raise ValueError(f"--min-option-distance must be >= 0, got {args.min_option_distance}")
+    preset = presets[args.preset] if args.preset else default_preset(domain)
+    print(f"check-domain {domain.name}, preset {preset.name} ({preset.n_envs:,} environments × {preset.n_thetas} θ), "
+          f"a sample of {min(args.envs, preset.n_envs):,} environments", flush=True)
+    start, results = time.time(), []
+    for result in check_domain(domain, preset, n_envs=args.envs, min_regret=args.min_regret,
+                               min_distance=args.min_option_distance,
+                               log=lambda line: print(f"  ... {line}", file=sys.stderr, flush=True)):
+        results.append(result)
+        lines = [f"FAIL  {result.check}: {f}" for f in result.failures] or [f"ok    {result.check}: {result.summary}"]
+        print("\n".join(lines), flush=True)
+    done = {r.check for r in results}
+    for check in CHECKS:
+        if check not in done:
+            print(f"skip  {check}: needs plan_chunk's arrays in their shapes and dtypes")
+    failed = [r.check for r in results if not r.ok]
+    took = f"{time.time() - start:.1f} s"
+    if failed or len(done) < len(CHECKS):
+        skipped = f", {len(CHECKS) - len(done)} skipped" if len(done) < len(CHECKS) else ""
+        print(f"{domain.name}: {len(failed)} of {len(CHECKS)} checks fail ({', '.join(failed)}){skipped} ({took})")
+        return 1
+    print(f"{domain.name}: all {len(CHECKS)} checks pass ({took})")
+    return 0
 
 
 def main(argv=None) -> int:
@@ -61,6 +100,23 @@ def main(argv=None) -> int:
     s.add_argument("--out", required=True, help="PNG file to write")
     s.add_argument("--columns", type=int, default=5, help="panels per row before a sequence wraps")
     s.add_argument("--dpi", type=int, default=140)
+    c = sub.add_parser(
+        "check-domain", help="check a domain's contracts before building and teaching on it",
+        description="Check a domain against the contracts the core and the study's pages rely on: plan_chunk's "
+                    "shapes and dtypes, d_reward >= 0 (each θ's own trajectory the best under θ), labels in range, "
+                    "page_keys against scene_payload, the palette against the colours its scene reads, and each "
+                    "test cluster's test-set feasibility on the preset. Plans a small sample of the preset's "
+                    f"environments (--envs, default {DEFAULT_ENVS}: seconds); the test-set search plans more of the "
+                    "preset's environments only while a test cluster has no test environment. Every failure is one "
+                    "line; exit 0 when all pass, 1 when any fails, 2 for bad arguments.")
+    c.add_argument("name", metavar="NAME", help=f"the domain: one of {', '.join(domain_names())}")
+    c.add_argument("--preset", help="one of the domain's presets (default: its second-smallest, the demo size)")
+    c.add_argument("--envs", type=int, default=DEFAULT_ENVS,
+                   help=f"environments sampled from the preset for the checks (default {DEFAULT_ENVS})")
+    c.add_argument("--min-regret", type=float, default=MIN_REGRET, help="the test set's (as python -m teaching.teach)")
+    c.add_argument("--min-option-distance", type=float, default=None,
+                   help="the test set's (as python -m teaching.teach; default: the domain's). A tiny preset's few θ "
+                        "rarely give options the default distance apart: the app's tests use 0.1 on them.")
     args = parser.parse_args(argv)
     try:
         if args.command == "build":
@@ -94,6 +150,8 @@ def main(argv=None) -> int:
             if no_tests:
                 print(f"note: the teach output has no test set ({no_tests}); drew the training examples only")
             print(f"drew {n} panels -> {args.out}")
+        elif args.command == "check-domain":
+            return check_domain_command(args)
         else:
             print(summary(TrajectoryTable.load(args.path)))
     except (ValueError, TableError) as exc:
