@@ -122,23 +122,23 @@ def check_d_reward(domain, out, env_ids, thetas) -> Result:
     """Under each θ, its own trajectory against every θ's of the environment, through reward()."""
     thetas = np.asarray(thetas, np.float64)
     features = np.asarray(out["features"], np.float64)
-    n_bad, worst = 0, (0.0, 0, 0, 0)
+    n_bad, n_star, worst = 0, 0, (0.0, 0, 0, 0)
     for e in range(len(env_ids)):
         r = reward(features[e][None, :, :], thetas[:, None, :])  # (θ, whose trajectory)
         gap = np.diagonal(r)[:, None] - r
         n_bad += int((gap < 0).any(axis=1).sum())
+        n_star += int((gap[:, 0] < 0).sum())  # the table's d_reward, θ's own against θ*'s
         i, j = np.unravel_index(int(np.argmin(gap)), gap.shape)
         if gap[i, j] < worst[0]:
             worst = (float(gap[i, j]), int(env_ids[e]), int(i), int(j))
     pairs = len(env_ids) * len(thetas)
     if n_bad:
         gap, env, i, j = worst
-        star = " (so d_reward < 0)" if j == 0 else ""
         return Result("d_reward", (
             f"{domain.name}.plan_chunk ({where(domain, 'plan_chunk')}): in {n_bad} of {pairs} (environment, θ) pairs "
-            f"θ's own trajectory is worse under θ than another θ's (worst: environment {env}, θ {i} by {-gap:.3g} "
-            f"against θ {j}'s{star}): give each θ the best under reward() (teaching/core/rewards.py, its summation "
-            f"order) of every θ's trajectory in the environment",))
+            f"θ's own trajectory is worse under θ than another θ's, d_reward < 0 (worse than θ*'s) in {n_star}; worst: "
+            f"environment {env}, θ {i} by {-gap:.3g} against θ {j}'s: give each θ the best under reward() "
+            f"(teaching/core/rewards.py, its summation order) of every θ's trajectory in the environment",))
     return Result("d_reward", (), f"in all {pairs} (environment, θ) pairs θ's own trajectory is the best under θ of "
                                   f"the environment's {len(thetas)}")
 
