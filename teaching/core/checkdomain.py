@@ -135,11 +135,11 @@ def check_d_reward(domain, out, env_ids, thetas) -> Result:
     if n_bad:
         gap, env, i, j = worst
         return Result("d_reward", (
-            f"{domain.name}.plan_chunk ({where(domain, 'plan_chunk')}): in {n_bad} of {pairs} (environment, θ) pairs "
-            f"θ's own trajectory is worse under θ than another θ's, d_reward < 0 (worse than θ*'s) in {n_star}; worst: "
-            f"environment {env}, θ {i} by {-gap:.3g} against θ {j}'s: give each θ the best under reward() "
-            f"(teaching/core/rewards.py, its summation order) of every θ's trajectory in the environment",))
-    return Result("d_reward", (), f"in all {pairs} (environment, θ) pairs θ's own trajectory is the best under θ of "
+            f"{domain.name}.plan_chunk ({where(domain, 'plan_chunk')}): in {n_bad:,} of {pairs:,} (environment, θ) "
+            f"pairs θ's own trajectory is worse under θ than another θ's, d_reward < 0 (worse than θ*'s) in "
+            f"{n_star:,}; worst: environment {env}, θ {i} by {-gap:.3g} against θ {j}'s: give each θ the best under "
+            f"reward() (teaching/core/rewards.py, its summation order) of every θ's trajectory in the environment",))
+    return Result("d_reward", (), f"in all {pairs:,} (environment, θ) pairs θ's own trajectory is the best under θ of "
                                   f"the environment's {len(thetas)}")
 
 
