@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._grid.front import covers
 from .environments import Yard
 from .world import CART, DOG, MOVES, MUD, WALL
 
@@ -32,11 +33,6 @@ def planner_identity() -> dict:
 def _step_features(yard: Yard) -> tuple[np.ndarray, np.ndarray]:
     """(height, width) int: the mud and near-dog count of entering each cell."""
     return (yard.cells == MUD).astype(np.int64), yard.near_dog().astype(np.int64)
-
-
-def _covers(a: tuple, b: tuple) -> bool:
-    """a is at least as good as b: no count of a is larger."""
-    return all(x <= y for x, y in zip(a, b, strict=True))
 
 
 def pareto_paths(yard: Yard) -> tuple[np.ndarray, list[list[tuple[int, int]]]]:
@@ -64,9 +60,9 @@ def pareto_paths(yard: Yard) -> tuple[np.ndarray, list[list[tuple[int, int]]]]:
                 new = (carry + (not cart[i]), pushed + bool(cart[i]), m + int(mud[nr, nc]), d + int(near[nr, nc]))
                 state = ((nr, nc), has)
                 others = live.setdefault(state, [])
-                if any(_covers(phi[j], new) for j in others):
+                if any(covers(phi[j], new) for j in others):
                     continue  # an equal or better label is there: the first stays (the tie rule)
-                for j in [j for j in others if _covers(new, phi[j])]:
+                for j in [j for j in others if covers(new, phi[j])]:
                     dead[j] = True
                     others.remove(j)
                 phi.append(new)
@@ -78,7 +74,7 @@ def pareto_paths(yard: Yard) -> tuple[np.ndarray, list[list[tuple[int, int]]]]:
                 created.append(len(phi) - 1)
         layer = created
     ends = [j for has in (False, True) for j in live.get((yard.goal, has), [])]
-    ends = [j for j in ends if not any(phi[k] != phi[j] and _covers(phi[k], phi[j]) for k in ends)]
+    ends = [j for j in ends if not any(phi[k] != phi[j] and covers(phi[k], phi[j]) for k in ends)]
     ends = sorted(ends, key=lambda j: (phi[j], j))
     paths = []
     for j in ends:
