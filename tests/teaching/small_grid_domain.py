@@ -19,7 +19,7 @@ from teaching.core.build import Preset
 from teaching.core.domain import LegendEntry, ParticipantTexts, register, unregister
 from teaching.domains._grid.cells import shortest_moves
 from teaching.domains._grid.domain import GridDomain
-from teaching.domains._grid.front import pareto_front
+from teaching.domains._grid.front import cell_front
 
 NAME = "small-grid"
 WIDTH, HEIGHT, N_FIELDS = 7, 5, 600
@@ -97,7 +97,7 @@ class SmallGridDomain(GridDomain):
     def front(self, env_id):
         cells, start, goal = cells_of(env_id)
         entry = np.stack([np.ones(cells.shape), cells == PUDDLE, cells == SAND], axis=-1)
-        return pareto_front(entry, np.zeros(cells.shape, bool), start, goal, MOVES)
+        return cell_front(entry, np.zeros(cells.shape, bool), start, goal, MOVES)
 
     def strategy_labels(self, phi, env_class):
         phi, cls = np.asarray(phi), np.asarray(env_class)

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._grid.front import covers
+from .._grid.front import pareto_front
 from .environments import Yard
 from .world import CART, DOG, MOVES, MUD, WALL
 
@@ -37,50 +37,19 @@ def _step_features(yard: Yard) -> tuple[np.ndarray, np.ndarray]:
 
 def pareto_paths(yard: Yard) -> tuple[np.ndarray, list[list[tuple[int, int]]]]:
     """Every non-dominated feature vector of a path from start to goal, lexicographically sorted,
-    and one path (cells visited, start first) for each: ((P, 4) int64, P lists of (row, col))."""
+    and one path (cells visited, start first) for each: ((P, 4) int64, P lists of (row, col)).
+    States are (cell, cart picked up): a move costs a carry or a cart move by whether the robot has it."""
     h, w = yard.cells.shape
     mud, near = _step_features(yard)
     blocked = (yard.cells == WALL) | (yard.cells == DOG)
-    phi, parent, cell, cart = [(0, 0, 0, 0)], [-1], [yard.start], [yard.cells[yard.start] == CART]
-    live: dict[tuple, list[int]] = {(yard.start, cart[0]): [0]}  # state -> labels not dominated there
-    dead = [False]
-    layer = [0]
-    while layer:
-        created = []
-        for i in layer:
-            if dead[i] or cell[i] == yard.goal:  # delivered: a path ends at the drop-off
-                continue
-            r, c = cell[i]
-            for dr, dc in MOVES:
-                nr, nc = r + dr, c + dc
-                if not (0 <= nr < h and 0 <= nc < w) or blocked[nr, nc]:
-                    continue
-                has = cart[i] or yard.cells[nr, nc] == CART
-                carry, pushed, m, d = phi[i]
-                new = (carry + (not cart[i]), pushed + bool(cart[i]), m + int(mud[nr, nc]), d + int(near[nr, nc]))
-                state = ((nr, nc), has)
-                others = live.setdefault(state, [])
-                if any(covers(phi[j], new) for j in others):
-                    continue  # an equal or better label is there: the first stays (the tie rule)
-                for j in [j for j in others if covers(new, phi[j])]:
-                    dead[j] = True
-                    others.remove(j)
-                phi.append(new)
-                parent.append(i)
-                cell.append((nr, nc))
-                cart.append(has)
-                dead.append(False)
-                others.append(len(phi) - 1)
-                created.append(len(phi) - 1)
-        layer = created
-    ends = [j for has in (False, True) for j in live.get((yard.goal, has), [])]
-    ends = [j for j in ends if not any(phi[k] != phi[j] and covers(phi[k], phi[j]) for k in ends)]
-    ends = sorted(ends, key=lambda j: (phi[j], j))
-    paths = []
-    for j in ends:
-        path = []
-        while j >= 0:
-            path.append(cell[j])
-            j = parent[j]
-        paths.append(path[::-1])
-    return np.array([phi[j] for j in ends], np.int64).reshape(-1, 4), paths
+
+    def successors(state):
+        (r, c), has = state
+        for dr, dc in MOVES:
+            nr, nc = r + dr, c + dc
+            if 0 <= nr < h and 0 <= nc < w and not blocked[nr, nc]:
+                # entering the cart's cell picks it up: the moves after it are the cart's
+                after = ((nr, nc), bool(has or yard.cells[nr, nc] == CART))
+                yield after, (int(not has), int(has), int(mud[nr, nc]), int(near[nr, nc]))
+
+    return pareto_front((yard.start, bool(yard.cells[yard.start] == CART)), successors, yard.goal, 4)
