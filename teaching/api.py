@@ -93,7 +93,7 @@ Building a table in chunks (teaching.core.build; precompute/work.py runs one chu
     build_chunk(out, identity, env_ids, thetas, normalisers, domain)  plan and store one chunk
     assemble(out, preset, identity, env_ids, thetas, normalisers)  publish the table
     check_writable(out)      TableError unless chunks can be written under out
-    code_fingerprint(domain=None)  16 hex digits over teaching/core and the domain's package
+    code_fingerprint(domain=None)  16 hex digits over teaching/core and the domain's code_roots
 
 Learners and selection (DESIGN §5-6)
     MODEL_NAMES              the 7 learner models (the paper's ideal users)

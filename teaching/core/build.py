@@ -45,9 +45,12 @@ def code_fingerprint(domain: str | None = None, roots: tuple[Path, ...] | None =
 
     Whole packages, not a hand-kept list of the modules that matter: a module added later is
     covered without anyone remembering to list it.  Per domain, so an edit to one robot does not
-    make workers of another refuse to share its tables.  `roots` replaces the two packages (tests)."""
+    make workers of another refuse to share its tables.  A domain that uses shared code outside its
+    package names it in ``code_roots`` (teaching.core.base.BaseDomain), so an edit there is covered
+    too.  `roots` replaces the packages (tests)."""
     if roots is None:
-        roots = (CORE_DIR, Path(get_domain(domain).code_root))
+        d = get_domain(domain)
+        roots = (CORE_DIR, *map(Path, getattr(d, "code_roots", (d.code_root,))))
     h = hashlib.sha256()
     for root in map(Path, roots):
         for path in source_files(root):

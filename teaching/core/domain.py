@@ -95,6 +95,8 @@ class Domain(Protocol):
     trajectory_shape: tuple[int, ...]  # one stored trajectory's encoding, per (environment, θ)
     trajectory_dtype: np.dtype
     code_root: Path  # the package whose source decides a table's bytes (with teaching/core)
+    # optional: code_roots, every package besides the core that decides them (code_root first), for a
+    # domain built on shared code outside its package (teaching.core.base.BaseDomain gives it)
     presets: tuple  # its teaching.core.build.Preset objects (names unique across domains)
     # --- the study's pages (docs/domains.md "The web side") ---
     texts: ParticipantTexts
@@ -214,6 +216,14 @@ def register(name: str, loader: Callable[[], Domain], default: bool = False) -> 
     _LOADERS[name] = loader
     if default:
         _DEFAULT[:] = [name]
+
+
+def unregister(name: str) -> None:
+    """Forget `name` (a domain a test registered for itself), so later code sees only the others."""
+    _LOADERS.pop(name, None)
+    _LOADED.pop(name, None)
+    if _DEFAULT == [name]:
+        _DEFAULT.clear()
 
 
 def domain_names() -> tuple[str, ...]:

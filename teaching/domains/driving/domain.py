@@ -2,7 +2,8 @@
 
 A bicycle-model car on a 3-lane highway beside one other car (DESIGN §2-4): 21,216
 environments in 4 classes, 8 strategy clusters (two per class), 5 cost features.  Everything
-here delegates to the driving modules; this class only names them for the core.
+here delegates to the driving modules; this class only names them for the core (θ* parsing, all
+five features being costs (DESIGN §3), and the stratified sample are the base domain's).
 """
 from __future__ import annotations
 
@@ -11,13 +12,13 @@ from pathlib import Path
 
 import numpy as np
 
+from ...core.base import BaseDomain
 from ...core.build import Preset
-from ...core.domain import parse_cost_weights
 from . import dynamics, environments, features, page, planner, strategies
 from .world import FEATURE_NAMES, THETA_STAR, WORLD, world_fingerprint
 
 
-class DrivingDomain:
+class DrivingDomain(BaseDomain):
     name = "driving"
     n_environments = environments.N_ENVIRONMENTS
     class_names = environments.CLASS_NAMES
@@ -50,14 +51,8 @@ class DrivingDomain:
     def fingerprint(self) -> str:
         return world_fingerprint()
 
-    def parse_theta_star(self, values) -> tuple[float, ...]:
-        return parse_cost_weights(values, len(FEATURE_NAMES))  # all five are costs (DESIGN §3)
-
     def environment_class(self, env_ids) -> np.ndarray:
         return environments.environment_class(environments.get_environments(env_ids))
-
-    def stratified_sample(self, n: int, seed: int = 0) -> np.ndarray:
-        return environments.stratified_sample(n, seed=seed)
 
     def default_normalisers(self) -> np.ndarray:
         return features.default_normalisers()

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...core.base import stratified_sample as core_stratified_sample
 from .world import GOAL_FORWARD, GOAL_MERGE, WORLD, World
 
 GOALS = np.array([GOAL_MERGE, GOAL_FORWARD])
@@ -123,12 +124,4 @@ def stratified_sample(n: int, seed: int = 0) -> np.ndarray:
     over-represented relative to the full grid, on purpose: they are where
     teaching happens).
     """
-    if n < 4 or n > N_ENVIRONMENTS:
-        raise ValueError(f"sample size must lie in [4, {N_ENVIRONMENTS}]")
-    rng = np.random.default_rng(seed)
-    cls = environment_class(get_environments())
-    picks = []
-    for c, share in enumerate(np.diff(np.linspace(0, n, 5).round().astype(int))):
-        members = np.flatnonzero(cls == c)
-        picks.append(rng.choice(members, size=min(share, len(members)), replace=False))
-    return np.sort(np.concatenate(picks))
+    return core_stratified_sample(environment_class(get_environments()), len(CLASS_NAMES), n, seed=seed)

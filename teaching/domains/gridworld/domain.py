@@ -1,22 +1,22 @@
 """The delivery gridworld behind the :class:`~teaching.core.domain.Domain` interface (docs/domains.md).
 
 17,460 yards in 4 classes (mud, dog, cart, other), 7 strategy clusters, 4 cost features; paths are
-exact (``planner``), so its tables are optimal by construction.
+exact (``planner``: the front of each yard; ``teaching.domains._grid``: each θ's choice), so its
+tables are optimal by construction.  The defaults (cost-only θ*, unit normalisers, the stratified
+sample, the page's keys) are the base domain's.
 """
 from __future__ import annotations
 
 from functools import cached_property
 from pathlib import Path
 
-import numpy as np
-
 from ...core.build import Preset
-from ...core.domain import parse_cost_weights
+from .._grid.domain import GridDomain
 from . import environments, labels, page, planner
 from .world import FEATURE_NAMES, GRID, THETA_STAR, world_fingerprint
 
 
-class GridworldDomain:
+class GridworldDomain(GridDomain):
     name = "gridworld"
     n_environments = environments.N_ENVIRONMENTS
     class_names = environments.CLASS_NAMES
@@ -29,8 +29,9 @@ class GridworldDomain:
                             "dog", "cart", "carts"})
     theta_star = THETA_STAR
     min_option_distance = 0.3  # cells per move, on average: a path in another row for a third of the way
-    trajectory_shape = (GRID.max_moves + 1,)  # the cells visited, row * width + col
-    trajectory_dtype = np.dtype(np.int8)
+    width = GRID.width
+    max_moves = GRID.max_moves
+    state_scale = GRID.state_scale
     code_root = Path(__file__).resolve().parent
     texts = page.TEXTS
     palette = page.PALETTE
@@ -46,44 +47,20 @@ class GridworldDomain:
     def fingerprint(self) -> str:
         return world_fingerprint()
 
-    def parse_theta_star(self, values) -> tuple[float, ...]:
-        return parse_cost_weights(values, len(FEATURE_NAMES))
-
-    def environment_class(self, env_ids) -> np.ndarray:
+    def environment_class(self, env_ids):
         return environments.environment_class(env_ids)
-
-    def stratified_sample(self, n: int, seed: int = 0) -> np.ndarray:
-        return environments.stratified_sample(n, seed=seed)
-
-    def default_normalisers(self) -> np.ndarray:
-        return np.ones(len(FEATURE_NAMES))  # counts of cells are already on one scale
 
     def planner_identity(self) -> dict:
         return planner.planner_identity()
 
-    def plan_chunk(self, env_ids, thetas, normalisers) -> dict:
-        return planner.plan_chunk(env_ids, thetas, normalisers)
+    def front(self, env_id):
+        return planner.pareto_paths(environments.get_yard(env_id))
 
-    def states(self, controls) -> np.ndarray:
-        return planner.states(controls)
-
-    def euclidean_distance(self, states_a, states_b) -> np.ndarray:
-        return planner.euclidean_distance(states_a, states_b)
+    def strategy_labels(self, phi, env_class):
+        return labels.strategy_labels(phi, env_class)
 
     def scene_payload(self, env_id) -> dict:
         return page.scene_payload(env_id)
-
-    def path_rows(self, states) -> list:
-        return page.path_rows(states)
-
-    def page_scene(self, payload) -> dict:
-        return page.page_scene(payload)
-
-    def caption(self, payload):
-        return page.caption(payload)
-
-    def study_view(self, scenes) -> dict:
-        return page.study_view(scenes)
 
     def render_sheet(self, **kwargs) -> int:
         from .sheet import render_sheet  # noqa: PLC0415  (matplotlib loads only for a sheet)

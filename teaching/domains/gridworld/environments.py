@@ -21,12 +21,12 @@ exists), else *cart* when fetching the cart is a detour (no shortest path passes
 """
 from __future__ import annotations
 
-from collections import deque
 from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
 
+from .._grid import cells as grid_cells
 from .world import CART, DOG, FREE, GRID, MOVES, MUD, WALL
 
 N_STARTS = N_GOALS = GRID.height
@@ -51,10 +51,7 @@ class Yard:
 
     def near_dog(self) -> np.ndarray:
         """(height, width) bool: cells next to the dog (its 8 neighbours), entering one costs."""
-        near = np.zeros(self.cells.shape, bool)
-        for r, c in zip(*np.nonzero(self.cells == DOG), strict=True):
-            near[max(r - 1, 0):r + 2, max(c - 1, 0):c + 2] = True
-        return near & (self.cells != DOG)
+        return grid_cells.neighbours(self.cells == DOG)
 
 
 def layout_cells(obstacle: int, cart: int) -> np.ndarray:
@@ -91,20 +88,7 @@ def get_yard(env_id: int) -> Yard:
 
 def shortest_moves(passable: np.ndarray, start, goal) -> float:
     """Fewest moves from start to goal through `passable` cells (breadth-first), inf if none."""
-    h, w = passable.shape
-    dist = np.full((h, w), -1)
-    dist[start] = 0
-    queue = deque([start])
-    while queue:
-        r, c = queue.popleft()
-        if (r, c) == tuple(goal):
-            return float(dist[r, c])
-        for dr, dc in MOVES:
-            nr, nc = r + dr, c + dc
-            if 0 <= nr < h and 0 <= nc < w and passable[nr, nc] and dist[nr, nc] < 0:
-                dist[nr, nc] = dist[r, c] + 1
-                queue.append((nr, nc))
-    return float("inf")
+    return grid_cells.shortest_moves(passable, start, goal, MOVES)
 
 
 def yard_class(yard: Yard) -> int:
@@ -133,16 +117,3 @@ def environment_class(env_ids) -> np.ndarray:
     if len(ids) and (ids.min() < 0 or ids.max() >= N_ENVIRONMENTS):
         raise ValueError(f"environment ids must lie in [0, {N_ENVIRONMENTS}); got {ids.min()}..{ids.max()}")
     return all_classes()[ids]
-
-
-def stratified_sample(n: int, seed: int = 0) -> np.ndarray:
-    """Sorted ids of a seeded sample of n environments, an equal share per class (as the car's)."""
-    if n < 4 or n > N_ENVIRONMENTS:
-        raise ValueError(f"sample size must lie in [4, {N_ENVIRONMENTS}]")
-    rng = np.random.default_rng(seed)
-    cls = all_classes()
-    picks = []
-    for c, share in enumerate(np.diff(np.linspace(0, n, 5).round().astype(int))):
-        members = np.flatnonzero(cls == c)
-        picks.append(rng.choice(members, size=min(share, len(members)), replace=False))
-    return np.sort(np.concatenate(picks))

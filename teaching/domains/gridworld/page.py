@@ -1,12 +1,10 @@
 """What a study page shows of the delivery yard: its scene payload, palette and participant texts.
 
 The browser draws a yard with static/studyapp/scenes/gridworld.js from :func:`scene_payload`
-(the yard's cells) and :func:`path_rows` (the robot's cells, one row per move).  Units: cells;
-x is the column (left to right), y the row (top to bottom), as :func:`planner.states` gives them.
+(the yard's cells) and the domain's ``path_rows`` (the robot's cells, one row per move).  Units: cells;
+x is the column (left to right), y the row (top to bottom), as the domain's ``states`` gives them.
 """
 from __future__ import annotations
-
-import numpy as np
 
 from ...core.domain import LegendEntry, ParticipantTexts
 from .environments import get_yard
@@ -73,25 +71,3 @@ def scene_payload(env_id: int) -> dict:
     return {"dt": SECONDS_PER_MOVE,
             "yard": {"cells": yard.cells.astype(int).tolist(), "near_dog": yard.near_dog().astype(int).tolist(),
                      "start": [yard.start[1], yard.start[0]], "goal": [yard.goal[1], yard.goal[0]]}}
-
-
-def path_rows(states: np.ndarray) -> list[list[int]]:
-    """(max_moves + 1, 2) [col, row] states -> [[col, row]] * (moves + 1): the cells the robot enters,
-    up to its arrival (a table pads a path by waiting at the drop-off; the page need not)."""
-    rows = np.asarray(states, np.int64)
-    moving = np.flatnonzero(np.any(rows != rows[-1], axis=1))
-    end = int(moving[-1]) + 2 if len(moving) else 1
-    return rows[:end].tolist()
-
-
-def page_scene(payload: dict) -> dict:
-    """A stored payload's :data:`PAGE_KEYS` (what the canvas draws)."""
-    return {k: payload[k] for k in PAGE_KEYS}
-
-
-def caption(payload: dict) -> None:
-    return None  # every yard asks the same (texts.watch says it)
-
-
-def study_view(scenes) -> dict:
-    return {}  # every yard is drawn whole, at its canvas's size

@@ -1,0 +1,38 @@
+// The small grid test domain's scene (tests/teaching/small_grid_domain.py), served only by the test
+// that registers the domain: on the grid scene (/static/studyapp/scenes/grid.js) it draws only its
+// field (puddles filled, sand dotted), S and D, and the robot.
+
+import { GridScene } from "/static/studyapp/scenes/grid.js";
+
+const PUDDLE = 1, SAND = 2;   // small_grid_domain.py's codes (0: free)
+
+export class Scene extends GridScene {
+  constructor(canvas, env, robot) {
+    if (!env.field) throw new Error("scene data without a field (env.field)");
+    super(canvas, env, robot, env.field.cells, ["free", "puddle", "sand", "sandMark", "robot", "robotEdge"]);
+    this.field = env.field;
+  }
+
+  drawWorld() {
+    const { ctx, cell: s, c } = this;
+    this.drawCells((kind, r, col, x, y) => {
+      ctx.fillStyle = kind === PUDDLE ? c.puddle : kind === SAND ? c.sand : c.free;
+      ctx.fillRect(x, y, s, s);
+      if (kind === SAND) this.dots(x, y, c.sandMark);
+    });
+  }
+
+  drawMarks() {
+    this.letters([[this.field.start, "S"], [this.field.goal, "D"]], this.c.free);
+  }
+
+  drawRobot(k) {
+    const { ctx, cell: s, c } = this;
+    const [x, y] = this.toScreen(...this.at(k));
+    ctx.fillStyle = c.robot;
+    ctx.strokeStyle = c.robotEdge;
+    ctx.lineWidth = Math.max(1.5, s / 22);
+    ctx.beginPath(); ctx.arc(x, y, 0.32 * s, 0, 2 * Math.PI); ctx.fill(); ctx.stroke();
+    return [x, y];
+  }
+}
