@@ -2,7 +2,10 @@
 
 A scene (``static/studyapp/scenes/<name>.js``) names the colours it needs in one call to
 ``palette.js``'s ``colors(NAMES)``, in camelCase (``goalHatch`` is the page's ``--scene-goal-hatch``);
-its stylesheet (``scenes/<name>.css``) may read ``var(--scene-<name>)`` too.  Custom properties a
+its stylesheet (``scenes/<name>.css``) may read ``var(--scene-<name>)`` too.  A scene built on a base
+module beside it (``import { GridScene } from "./grid.js"``) hands the base its ``const NAMES = [...]``,
+and the base calls ``colors(this.names)`` over its own ``NAMES`` and the scene's: the scene's colours are
+then every ``NAMES`` of the scene and of the modules it imports from ``scenes/``.  Custom properties a
 stylesheet declares itself (the page's reference sizes) are not palette colours.  Reading the files
 statically keeps the check free of a browser: a missing colour is otherwise an error only on the page.
 """
@@ -19,6 +22,8 @@ _STRING = re.compile(r"[\"']([^\"'\s]+)[\"']")
 _CSS_VAR = re.compile(r"var\(\s*--scene-([a-z0-9-]+)\s*[,)]")
 _PROPERTY_LITERAL = re.compile(r"[\"'`]--scene-([a-z0-9-]+)[\"'`]")
 _DECLARED = re.compile(r"(?:@property\s+|[{;\s])--scene-([a-z0-9-]+)\s*[:{]")
+_LOCAL_IMPORT = re.compile(r"import\s*\{[^}]*\}\s*from\s*[\"'](?:\./|/static/studyapp/scenes/)([\w.-]+\.js)[\"']")
+_NAMES_CONST = re.compile(r"(?:const|let|var)\s+NAMES\s*=\s*\[([^\]]*)\]")
 _COMMENT = re.compile(r"/\*.*?\*/|(?<![:\"'])//[^\n]*", re.S)
 
 
@@ -40,6 +45,20 @@ class SceneColours:
 
 def _without_comments(text: str) -> str:
     return _COMMENT.sub(" ", text)
+
+
+def _chain(js_path: Path, find) -> list[Path]:
+    """The scene module and, depth first, every module it imports from the scenes' folder (its base):
+    ``./grid.js`` or ``/static/studyapp/scenes/grid.js``, found by find("scenes/grid.js")."""
+    seen: list[Path] = []
+    todo = [js_path]
+    while todo:
+        path = todo.pop()
+        if path in seen or not path.exists():
+            continue
+        seen.append(path)
+        todo.extend(find(f"scenes/{name}") for name in _LOCAL_IMPORT.findall(_without_comments(path.read_text())))
+    return seen
 
 
 def _aliases(js: str) -> list[str]:
@@ -76,32 +95,48 @@ def _names(js: str, argument: str) -> list[str] | None:
     return None
 
 
-def scene_colours(name: str, static: Path = STATIC) -> SceneColours:
-    """The palette names scenes/<name>.js and scenes/<name>.css read (missing files are reported)."""
-    static = Path(static)
+def scene_colours(name: str, static: Path | tuple[Path, ...] = STATIC) -> SceneColours:
+    """The palette names scenes/<name>.js and scenes/<name>.css read (missing files are reported).
+
+    static: the folder the page serves as /static/studyapp/, or several merged as Django's static files
+    finders merge them (the first that has a file gives it): a test's own scene beside the project's."""
+    roots = [Path(r) for r in ((static,) if isinstance(static, (str, Path)) else static)]
+    static = roots[0]
     out = SceneColours()
-    js_path, css_path = static / "scenes" / f"{name}.js", static / "scenes" / f"{name}.css"
+
+    def find(relative: str) -> Path:
+        return next((r / relative for r in roots if (r / relative).exists()), static / relative)
+
+    js_path, css_path = find(f"scenes/{name}.js"), find(f"scenes/{name}.css")
     declared: set[str] = set()
-    for sheet in (static / "study.css", css_path):
+    for sheet in (find("study.css"), css_path):
         if sheet.exists():
             declared.update(_DECLARED.findall(_without_comments(sheet.read_text())))
     shown = _shown(static)
     if not js_path.exists():
         out.missing_files.append(shown(js_path))
     else:
-        js = _without_comments(js_path.read_text())
-        for alias in _aliases(js):
-            out.uses_palette = True
-            for argument in _call_arguments(js, alias):
-                names = _names(js, argument)
-                if names is None:
-                    out.unreadable.append(f"{shown(js_path)}: {alias}({argument})")
-                    continue
-                for n in names:
-                    out.reads.setdefault(kebab(n), shown(js_path))
-        for n in _PROPERTY_LITERAL.findall(js) + _CSS_VAR.findall(js):
-            if n not in declared:
-                out.reads.setdefault(n, shown(js_path))
+        modules = {path: _without_comments(path.read_text()) for path in _chain(js_path, find)}
+        # the NAMES each module declares: what a base's colors(this.names) reads
+        declared_names = {shown(path): _STRING.findall(m.group(1)) for path, js in modules.items()
+                          for m in [_NAMES_CONST.search(js)] if m}
+        for path, js in modules.items():
+            for alias in _aliases(js):
+                out.uses_palette = True
+                for argument in _call_arguments(js, alias):
+                    names = _names(js, argument)
+                    if names is not None:
+                        for n in names:
+                            out.reads.setdefault(kebab(n), shown(path))
+                    elif argument == "this.names" and declared_names:
+                        for where, base_names in declared_names.items():
+                            for n in base_names:
+                                out.reads.setdefault(kebab(n), where)
+                    else:
+                        out.unreadable.append(f"{shown(path)}: {alias}({argument})")
+            for n in _PROPERTY_LITERAL.findall(js) + _CSS_VAR.findall(js):
+                if n not in declared:
+                    out.reads.setdefault(n, shown(path))
     if css_path.exists():
         for n in _CSS_VAR.findall(_without_comments(css_path.read_text())):
             if n not in declared:
@@ -114,8 +149,10 @@ def _shown(static: Path):
     root = static.parents[1] if len(static.parents) > 1 else static
 
     def show(path: Path) -> str:
-        try:
-            return path.relative_to(root).as_posix()
-        except ValueError:
-            return str(path)
+        for base in (STATIC.parents[1], root):  # the repository's own files by their repository path
+            try:
+                return path.resolve().relative_to(base.resolve()).as_posix()
+            except ValueError:
+                continue
+        return str(path)
     return show

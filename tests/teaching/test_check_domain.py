@@ -98,7 +98,8 @@ def test_a_palette_colour_the_scene_reads_but_does_not_get(grid):
     palette = {k: v for k, v in grid.palette.items() if k != "path"}  # the legend draws no path
     [(check, line)] = failures(Altered(grid, palette=palette))
     assert check == "palette"
-    assert line.startswith("static/studyapp/scenes/gridworld.js reads colour 'path' (--scene-path)")
+    # the path is drawn by the grid scene base the yard's scene imports
+    assert line.startswith("static/studyapp/scenes/grid.js reads colour 'path' (--scene-path)")
     assert "gridworld's palette lacks" in line
 
 
@@ -127,6 +128,23 @@ def test_the_scene_files_are_read_without_a_browser(grid, tmp_path):
     assert "static/studyapp/scenes/gridworld.js: pal(names()): cannot read" in lines[0]
     assert lines[1].startswith("static/studyapp/scenes/gridworld.js reads colour 'foo-bar' (--scene-foo-bar)")
     assert lines[2].startswith("static/studyapp/scenes/gridworld.css reads colour 'ink' (--scene-ink)")
+
+
+def test_a_scene_on_a_base_module_reads_the_colours_of_both(grid, tmp_path):
+    """A scene hands its NAMES to a base beside it, which calls colors(this.names) over its own and the
+    scene's: both lists are read, each colour credited to the module that names it."""
+    scenes = tmp_path / "static" / "studyapp" / "scenes"
+    scenes.mkdir(parents=True)
+    (scenes / "gridworld.js").write_text(
+        'import { Base } from "./base.js";\nconst NAMES = ["free", "fooBar"];\n'
+        'export class Scene extends Base { constructor() { super(NAMES); } }\n')
+    (scenes / "base.js").write_text(
+        'import { colors } from "../palette.js";\nconst NAMES = ["grid", "bazQux"];\n'
+        'export class Base { begin() { this.c = colors(this.names); } }\n')
+    lines = check_palette(grid, tmp_path / "static" / "studyapp").failures
+    assert sorted(line.split(" reads ")[0] for line in lines) == [
+        "static/studyapp/scenes/base.js", "static/studyapp/scenes/gridworld.js"], lines
+    assert any("'baz-qux'" in line for line in lines) and any("'foo-bar'" in line for line in lines)
 
 
 def test_the_command_exits_0_when_every_check_passes():

@@ -11,8 +11,10 @@ import pytest
 
 from teaching.core.base import stratified_sample
 from teaching.core.build import CORE_DIR, build_table, code_fingerprint
+from teaching.core.checkdomain import CHECKS, ROOT, check_domain
 from teaching.core.domain import domain_names, get_domain
 from teaching.core.rewards import reward
+from teaching.core.scenecolours import STATIC
 from teaching.core.table import TrajectoryTable
 from teaching.domains import _grid
 from teaching.teach import main as teach_main
@@ -64,6 +66,17 @@ def test_every_stored_path_is_its_thetas_best_and_has_its_counts(small_grid, tmp
             entered = cells[rows[1:], cols[1:]][np.diff(path) != 0]  # the cells it moved into
             assert list(table.features[m, n]) == [len(entered), (entered == small.PUDDLE).sum(),
                                                   (entered == small.SAND).sum()]
+
+
+def test_it_passes_check_domain(small_grid):
+    """Every contract check-domain knows, on the domain's own preset; its scene (served from the tests'
+    static folder beside the project's) read through the grid scene base it imports."""
+    static = (ROOT / "tests" / "browser" / "static" / "studyapp", STATIC)
+    results = list(check_domain(small_grid, n_envs=48, static=static))
+    assert [r.check for r in results] == list(CHECKS)
+    assert all(r.ok for r in results), [line for r in results for line in r.failures]
+    palette = next(r for r in results if r.check == "palette")
+    assert "the 9 colours the scene reads" in palette.summary  # its 6 and the grid base's grid, path, text
 
 
 def test_the_stratified_sample_shares_any_number_of_classes_evenly():

@@ -5,11 +5,13 @@
 import { GridScene } from "/static/studyapp/scenes/grid.js";
 
 const PUDDLE = 1, SAND = 2;   // small_grid_domain.py's codes (0: free)
+// the palette colours this scene reads beside the grid scene's own (check-domain reads this list)
+const NAMES = ["free", "puddle", "sand", "sandMark", "robot", "robotEdge"];
 
 export class Scene extends GridScene {
   constructor(canvas, env, robot) {
     if (!env.field) throw new Error("scene data without a field (env.field)");
-    super(canvas, env, robot, env.field.cells, ["free", "puddle", "sand", "sandMark", "robot", "robotEdge"]);
+    super(canvas, env, robot, env.field.cells, NAMES);
     this.field = env.field;
   }
 
