@@ -77,6 +77,12 @@ def check_domain_command(args) -> int:
     return 0
 
 
+def _features_by_domain() -> str:
+    """'driving: closeness, ...; gridworld: ...': each registered domain's features, in θ's order."""
+    return "; ".join(f"{name}: {', '.join(f.replace('_', ' ') for f in get_domain(name).feature_names)}"
+                     for name in domain_names())
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m teaching", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -85,8 +91,7 @@ def main(argv=None) -> int:
     b.add_argument("--out", required=True, help="output directory")
     b.add_argument("--thetas", type=int, help="override the number of candidate thetas (>= 2)")
     b.add_argument("--theta-star", help="the robot's objective theta*: one negative weight per feature of the "
-                   "preset's domain, written --theta-star=v1,v2,... (driving: closeness, acceleration, speed, "
-                   "turning, goal; gridworld: carry moves, cart moves, mud, near dog; default: the domain's)")
+                   f"preset's domain, written --theta-star=v1,v2,... ({_features_by_domain()}; default: the domain's)")
     b.add_argument("--sampler", choices=SAMPLERS, help="override how the other thetas are drawn")
     b.add_argument("--seed", type=int, help="override the seed of the theta (and environment) sample")
     b.add_argument("--jobs", type=int, default=1,

@@ -100,3 +100,20 @@ def test_bad_theta_star(tmp_path, value, needle):
     assert_clean_error(run("build", "--preset", "tiny", "--out", str(tmp_path / "t"), f"--theta-star={value}"),
                        "--theta-star", needle)
     assert not (tmp_path / "t").exists()
+
+
+def test_the_theta_star_help_names_every_registered_domains_features(capsys):
+    """The help is written from the registry, so a new domain's features are listed without an edit here."""
+    from teaching.__main__ import main  # noqa: PLC0415
+    from teaching.core.domain import domain_names, get_domain  # noqa: PLC0415
+    from tests.teaching import small_grid_domain as small  # noqa: PLC0415
+
+    with small.registered():
+        with pytest.raises(SystemExit):
+            main(["build", "--help"])
+        names = (*domain_names(), small.NAME)
+        listed = {name: ", ".join(f.replace("_", " ") for f in get_domain(name).feature_names) for name in names}
+    assert small.NAME in names
+    text = " ".join(capsys.readouterr().out.split()).replace("- ", "-")  # argparse wraps lines at hyphens
+    for name, features in listed.items():
+        assert f"{name}: {features}" in text, name
