@@ -41,11 +41,13 @@ from django.db import transaction
 from teaching.api import (
     CONDITIONS,
     TableError,
+    TeachOutputError,
     TrajectoryTable,
     build_sequences,
     default_domain_name,
     domain_names,
     get_domain,
+    read_teach,
     select_test_set,
 )
 
@@ -134,51 +136,35 @@ def check_spec_shape(spec) -> None:
             raise SpecError(f"'{key}' must be a string, not {spec[key]!r}")
 
 
-def _read_json(path: Path):
-    try:
-        return json.loads(path.read_text())
-    except FileNotFoundError:
-        raise SpecError(f"{path} is missing") from None
-    except (OSError, ValueError) as exc:
-        raise SpecError(f"cannot read {path}: {exc}") from None
-
-
 def spec_from_teach(teach_dir, table=None) -> dict:
-    """The table, conditions and test set of a spec from `python -m teaching.teach`'s output.
+    """The table, conditions and test set of a spec from `python -m teaching.teach`'s output
+    (read by teaching's one reader of it, teaching.api.read_teach).
 
     teach_dir: its output directory (or the sequences.json in it).  `table` overrides the table
     path recorded in sequences.json (e.g. the table moved); its content hash must still match.
     """
-    teach_dir = Path(teach_dir)
-    if teach_dir.is_file():
-        teach_dir = teach_dir.parent
-    sequences = _read_json(teach_dir / "sequences.json")
-    if not (isinstance(sequences, dict) and isinstance(sequences.get("conditions"), dict)
-            and isinstance(sequences.get("table"), dict)):
-        raise SpecError(f"{teach_dir / 'sequences.json'} is not an output of `python -m teaching.teach`")
-    tests = _read_json(teach_dir / "test_set.json")
-    if isinstance(tests, dict) and "error" in tests:
-        raise SpecError(f"the teach output in {teach_dir} has no test set: {tests['error']}")
-    conditions = []
-    for name, c in sequences["conditions"].items():
-        if not (isinstance(c, dict) and isinstance(c.get("env_ids"), list)):
-            raise SpecError(f"{teach_dir / 'sequences.json'}: condition {name!r} has no 'env_ids'")
-        conditions.append({"name": name, "env_ids": c["env_ids"]})
-    spec = {"table": str(table or sequences["table"].get("path", "")),
-            "table_hash": sequences["table"].get("content_hash"), "conditions": conditions, "test_set": tests}
-    pilot = _teach_pilot(teach_dir, [c["name"] for c in conditions])
+    try:
+        output = read_teach(teach_dir)
+    except TeachOutputError as exc:
+        raise SpecError(str(exc)) from None
+    if output.no_tests is not None:
+        raise SpecError(f"the teach output in {output.dir} has no test set: {output.no_tests}")
+    conditions = [{"name": name, "env_ids": ids} for name, ids in output.conditions.items()]
+    spec = {"table": str(table or output.table_path), "table_hash": output.table_hash, "conditions": conditions,
+            "test_set": output.tests}
+    pilot = _teach_pilot(output, [c["name"] for c in conditions])
     if pilot:
         spec["pilot"] = pilot
     return spec
 
 
-def _teach_pilot(teach_dir: Path, names: list[str]) -> dict | None:
+def _teach_pilot(output, names: list[str]) -> dict | None:
     """The simulated pilot of a teach output (its matrix.json, the extended rows: the paper's nine
     conditions) restricted to the study's conditions, in the study's order; None if it has none."""
-    path = teach_dir / "matrix.json"
-    if not path.exists():
+    m = output.matrix
+    if m is None:
         return None
-    m = _read_json(path)
+    path = output.dir / "matrix.json"
     try:
         rows = dict(zip(m["extended_sequence_names"], m["extended_matrix"], strict=True))
         pilot = {"conditions": names, "users": list(m["user_names"]), "matrix": [rows[n] for n in names],

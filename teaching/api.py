@@ -173,6 +173,7 @@ from .core.simulate import (
     predicted_scores,
 )
 from .core.table import TableError, TrajectoryTable
+from .core.teachout import TeachOutput, TeachOutputError, read_teach
 from .core.testset import MIN_REGRET, select_test_set
 from .domains.driving.domain import DOMAIN as _DRIVING
 from .domains.driving.environments import (
@@ -207,4 +208,5 @@ __all__ = [
     "ClosedLoop", "ClosedLoopError", "ClosedLoopSpec", "Decision", "Event", "check_questions", "run_learner",
     "loop_pilot", "MAX_EXAMPLES_LIMIT",
     "select_checks", "Pack", "load_pack", "write_pack",
+    "TeachOutput", "TeachOutputError", "read_teach",
 ]

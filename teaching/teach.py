@@ -2,7 +2,7 @@
 
     python -m teaching.teach --table var/tables/demo --out var/teaching/demo
 
-writes to --out:
+writes to --out (the format: teaching/core/teachout.py, which also reads it):
     sequences.json             every condition's environment ids, P(θ*) curve, chosen τ/λ and sweeps
     test_set.json              the 6 test environments and their 4 options
     matrix.json                ideal-user matrix P_M(θ* | sequence for M'), rows = sequences
@@ -16,7 +16,6 @@ stderr and exits with status 2.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -27,6 +26,7 @@ from .core.learners import Distances, model_names, parse_hyperparameters
 from .core.selection import APPROX_STAR, CONDITIONS, COVERAGE_EPSILON, SelectionSettings, teach, theta_star_clusters
 from .core.simulate import pilot_predictions
 from .core.table import TableError, TrajectoryTable
+from .core.teachout import write_json
 from .core.testset import MIN_REGRET, TestSetError, select_test_set
 
 EXIT_BAD_INPUT = 2
@@ -105,7 +105,7 @@ def run(args) -> dict:
                                           for r in result.sweeps.get(k, [])]}
                             for k, m in result.models.items()},
     }
-    _write(out / "sequences.json", seq_json)
+    write_json(out / "sequences.json", seq_json)
 
     try:
         # disjoint from what the study's conditions train on (every learner's sequence but the
@@ -114,7 +114,7 @@ def run(args) -> dict:
                                 min_regret=args.min_regret, min_distance=args.min_option_distance)
     except TestSetError as exc:
         tests = {"error": str(exc)}
-    _write(out / "test_set.json", tests)
+    write_json(out / "test_set.json", tests)
 
     matrix = ideal_user_matrix(result.models, envs, dist)
     ext_names = SEQUENCE_NAMES + ("coverage-approx*", "coverage-random")
@@ -125,10 +125,10 @@ def run(args) -> dict:
     if "error" not in tests:  # what learners of each model choose in the tests, for a study's pilot
         pilot["predicted"] = pilot_predictions(table, {u: result.models[u] for u in USER_NAMES},
                                                {n: envs[n] for n in ext_names}, tests, dist)
-    _write(out / "matrix.json", pilot)
+    write_json(out / "matrix.json", pilot)
     domain = table.domain
     grids = examples_per_cluster(theta_star_clusters(table), envs, ext_names, class_of_cluster=domain.class_of_cluster)
-    _write(out / "examples_per_cluster.json", {"layout": grid_layout(domain),
+    write_json(out / "examples_per_cluster.json", {"layout": grid_layout(domain),
                                                "grids": {n: g.tolist() for n, g in zip(ext_names, grids, strict=True)}})
     # matplotlib loads only when figures are drawn
     from .core.plots import plot_examples_shown, plot_ideal_users  # noqa: PLC0415
@@ -143,18 +143,6 @@ def run(args) -> dict:
 def _seq_json(seq, ids) -> dict:
     return {"env_ids": [int(i) for i in ids[seq.envs]], "p_theta_star": seq.p,
             "added_for_coverage": [int(i) for i in ids[seq.added_for_coverage]]}
-
-
-def _write(path: Path, obj) -> None:
-    path.write_text(json.dumps(obj, indent=1, default=_np_default))
-
-
-def _np_default(o):
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    raise TypeError(type(o).__name__)
 
 
 def main(argv=None) -> int:

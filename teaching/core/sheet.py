@@ -10,7 +10,6 @@ panels (its ``render_sheet``, e.g. teaching/domains/<name>/sheet.py).
 """
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,6 +22,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from .table import TrajectoryTable
+from .teachout import TeachOutputError, check_against, read_teach
 
 OPTION_LETTERS = "ABCD"
 
@@ -45,55 +45,20 @@ def cluster_name(domain, c: int) -> str:
     return domain.cluster_names[c] if 0 <= c < len(domain.cluster_names) else f"cluster {c}"
 
 
-def _read_json(path: Path):
-    try:
-        return json.loads(path.read_text())
-    except FileNotFoundError:
-        raise SheetError(f"no teach output at {path.parent} ({path.name} missing; "
-                         f"run python -m teaching.teach --table TABLE --out {path.parent})") from None
-    except (OSError, ValueError) as exc:
-        raise SheetError(f"{path} is unreadable or not valid JSON: {exc}") from None
-
-
 def load_teach(*, teach_dir, table) -> tuple[dict[str, list[int]], list[dict] | None, str | None]:
-    """Read and check ``teach_dir`` (the output of ``python -m teaching.teach``) against ``table``.
+    """Read and check ``teach_dir`` (the output of ``python -m teaching.teach``, teaching.core.teachout)
+    against ``table``.
 
     Returns (conditions: name -> environment ids in showing order, tests: test_set.json's list or
     None, why there are no tests or None).  Raises SheetError when the directory is missing or
     malformed, or was made from another table (sequences.json's content hash differs).
     """
-    teach_dir = Path(teach_dir)
-    seqs = _read_json(teach_dir / "sequences.json")
-    if not isinstance(seqs, dict) or not isinstance(seqs.get("conditions"), dict):
-        raise SheetError(f"{teach_dir / 'sequences.json'} is not a teach output (no 'conditions')")
-    made_from = (seqs.get("table") or {}).get("content_hash")
-    ours = table.meta.get("content_hash")
-    if made_from and made_from != ours:
-        raise SheetError(f"teach output at {teach_dir} was made from another table (content hash "
-                         f"{made_from[:16]} != {str(ours)[:16]}, the table's)")
-    row_of = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
     try:
-        conditions = {str(k): [int(e) for e in v["env_ids"]] for k, v in seqs["conditions"].items()}
-    except (TypeError, KeyError, ValueError):
-        raise SheetError(f"{teach_dir / 'sequences.json'}: a condition has no list of env_ids") from None
-    for name, ids in conditions.items():
-        missing = [e for e in ids if e not in row_of]
-        if missing:
-            raise SheetError(f"condition {name!r} shows environments not in the table: {missing[:5]}")
-    tests = _read_json(teach_dir / "test_set.json")
-    if isinstance(tests, dict) and "error" in tests:
-        return conditions, None, str(tests["error"])
-    try:
-        for t in tests:
-            if row_of.get(int(t["env_id"])) is None or len(t["options"]) != 4:
-                raise ValueError
-            if any(not 0 <= int(o["theta_index"]) < table.n_thetas or not np.isfinite(float(o.get("regret", 0)))
-                   for o in t["options"]):
-                raise ValueError
-    except (TypeError, KeyError, ValueError):
-        raise SheetError(f"{teach_dir / 'test_set.json'} does not match the table (an environment it "
-                         f"tests is not in the table, or its options are not 4 θ indices of it)") from None
-    return conditions, tests, None
+        output = read_teach(teach_dir)
+        check_against(output, table)
+    except TeachOutputError as exc:
+        raise SheetError(str(exc)) from None
+    return output.conditions, output.tests, output.no_tests
 
 
 def sheet_rows(*, table, conditions, tests, columns: int, head=None) -> list[tuple[str, list[Panel]]]:

@@ -111,7 +111,7 @@ def test_missing_table(syn, tmp_path, capsys):
 
 def test_missing_teach_dir(syn, tmp_path, capsys):
     code = main(["sheet", "--table", str(syn[0]), "--teach", str(tmp_path / "nope"), "--out", str(tmp_path / "s.png")])
-    assert_clean_error(code, capsys.readouterr().err, "no teach output", "sequences.json missing")
+    assert_clean_error(code, capsys.readouterr().err, "no teach output", "sequences.json is missing")
 
 
 def test_invalid_teach_dir(syn, tmp_path, capsys):
