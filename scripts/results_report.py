@@ -39,7 +39,7 @@ TEACH_FILES = ("sequences.json", "matrix.json", "examples_per_cluster.json", "te
 FIGURES = ("sim_users.png", "examples_shown.png")
 GRIDWORLD_PRECISION = ("exact by construction: every non-dominated path of each yard, found by a "
                        "label-setting search and checked against brute-force enumeration and an independent "
-                       "Dijkstra in tests/teaching/test_gridworld.py (docs/domains.md)")
+                       "Dijkstra in tests/teaching/domains/gridworld/test_gridworld.py (docs/domains.md)")
 EXIT_BAD_INPUT = 2
 
 

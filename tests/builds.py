@@ -32,7 +32,7 @@ def built_in(root: Path, name: str, build) -> Path:
 # What another CPU changes: glibc's libm picks FMA/AVX2 variants of exp, sin, tan, ... at load time,
 # NumPy picks AVX-512 loops for power and log10, Numba compiles for the host's instruction set and
 # OpenBLAS picks its kernels by core type.  OTHER_CPU turns all of them off at once
-# (tests/teaching/test_table.py builds a table under it).
+# (tests/teaching/core/test_table.py builds a table under it).
 NUMPY_AVX512 = [f for f in ("X86_V4", "AVX512_ICL", "AVX512_SPR") if __cpu_features__.get(f)]
 OTHER_CPU = {"NUMBA_CPU_NAME": "generic", "GLIBC_TUNABLES": "glibc.cpu.hwcaps=-AVX2,-FMA,-AVX512F",
              "OPENBLAS_CORETYPE": "Prescott", **({"NPY_DISABLE_CPU_FEATURES": " ".join(NUMPY_AVX512)}

@@ -11,7 +11,7 @@ iterated to convergence (Rigoux et al. 2014, eq. A21).  The *exceedance probabil
 P(r_m > r_j for every j ≠ m) under Dirichlet(α), computed by one-dimensional quadrature (Soch & Allefeld
 2016, eq. 14); the *protected* exceedance probability weighs it against the hypothesis that every
 model is equally frequent (the Bayesian omnibus risk, BOR: Rigoux et al. 2014, eq. 7).
-tests/teaching/test_bms.py checks all of it against the groupBMC package and by hand.
+tests/teaching/core/test_bms.py checks all of it against the groupBMC package and by hand.
 """
 from __future__ import annotations
 

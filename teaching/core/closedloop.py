@@ -10,7 +10,7 @@ have: their hypothesis.  It starts uniform over the table's thetas and is update
       b(θ) ← b(θ) · ((1 − η) L_M(E, θ) + η),   L_M(E, θ) = P_M(ξ^{θ*}_E | θ)
 
   With η = 0 and no checks, b is the model's posterior P_M(θ | S) and the closed loop shows exactly the
-  open-loop greedy sequence of selection.greedy (tests/teaching/test_closedloop.py).  With η > 0 no
+  open-loop greedy sequence of selection.greedy (tests/teaching/core/test_closedloop.py).  With η > 0 no
   example rules a θ out for good, so a wrong check answer can bring back the θ it points to: under a
   deterministic model and η = 0 every θ but the few the examples left is gone, a wrong answer reads as
   a lapse, and the loop never changes course (docs/results.md, bench/closedloop.py);

@@ -262,7 +262,7 @@ def test_the_comparison_bench_writes_its_section_from_its_own_figures(tmp_path):
     synthetic_table(200, 40, n_candidates=6, seed=8).save(tmp_path / "table")
     doc = tmp_path / "results.md"
     doc.write_text("# Results\n\nkept\n\n<!-- bench/closedloop.py: begin -->\nold\n<!-- bench/closedloop.py: end -->\n")
-    bench = Path(__file__).resolve().parents[2] / "bench" / "closedloop.py"
+    bench = Path(__file__).resolve().parents[3] / "bench" / "closedloop.py"
     out = subprocess.run([sys.executable, str(bench), "--table", str(tmp_path / "table"), "--participants", "4",
                           "--json", str(tmp_path / "cl.json"), "--update-doc", str(doc)],
                          capture_output=True, text=True, timeout=300)

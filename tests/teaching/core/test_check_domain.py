@@ -16,7 +16,7 @@ from teaching.core.checkdomain import CHECKS, check_domain, check_palette
 from teaching.core.domain import domain_names, get_domain
 from teaching.core.rewards import reward
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 # A tiny preset's 24 θ rarely give four options the domains' default distance apart; the app's tests
 # accept 0.1 on tiny tables (tests/conftest.py TINY_TEST_SET), and so do these.
 TINY_DISTANCE = 0.1

@@ -19,7 +19,7 @@ from teaching.core.sheet import make_sheet
 from teaching.domains.driving.synthetic import synthetic_table
 from teaching.teach import main as teach_main
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def run(*args, timeout=300):
