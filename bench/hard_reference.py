@@ -1,4 +1,4 @@
-"""`bench/planner.py --reference hard`: a table against the hard-constraint reference (issue 22).
+"""`bench/planner.py --reference hard`: a table against the hard-constraint reference.
 
 teaching/domains/driving/reference_hard.py enforces the world's limits as hard constraints with its own
 rollout, features, starts and SLSQP, so unlike teaching/domains/driving/reference.py it sees what the

@@ -1,4 +1,4 @@
-"""Benchmark: closed-loop decisions with many participants answering at once (issue 25, Build 4).
+"""Benchmark: closed-loop decisions with many participants answering at once.
 
     .venv/bin/python bench/loop_latency.py --table var/tables/paper [--participants 200] \\
         [--json docs/bench_loop_latency.json] [--update-doc docs/benchmarks.md]

@@ -1,4 +1,4 @@
-"""Planner benchmark (issue 2, issue 10): speed against per-problem SciPy, projected paper time,
+"""Planner benchmark: speed against per-problem SciPy, projected paper time,
 peak memory, and optimality against the independent reference (teaching/domains/driving/reference.py).
 
     python bench/planner.py [--envs 64] [--pairs 1000] [--scipy-problems 40] [--jobs 2]

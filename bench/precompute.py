@@ -1,4 +1,4 @@
-"""Queue overhead (issue 5): trajectories/s through Celery workers against the
+"""Queue overhead: trajectories/s through Celery workers against the
 planner's own throughput in one process, and the projected paper-table time.
 
     python bench/precompute.py [--chunks 4] [--rounds 3] [--workers 2] [--broker redis://127.0.0.1:6379/14]

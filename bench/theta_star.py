@@ -3,7 +3,7 @@
     python bench/theta_star.py [--step 1]
 
 Plans theta* alone (all strategy seeds, Newton to convergence) in every `step`-th environment
-and prints, per class, how often each strategy appears and the behaviour checks of issue 10,
+and prints, per class, how often each strategy appears and the behaviour checks of the planner tests,
 measured from positions with their own thresholds (in a lane = centre within 3 ft of a lane
 centre; left the centre lane = more than 6 ft from it), as a Markdown table.
 """

@@ -2,7 +2,7 @@
 
 The command is config/supervisord.conf's (prefork, one process, no mingle or gossip, Django's
 checks skipped), on the embedded filesystem broker in a scratch VAR_DIR, so no server is needed.
-A killed worker is back this long after supervisord notices (issue 12's bar: 10 s, on a machine
+A killed worker is back this long after supervisord notices (the bar: 10 s, on a machine
 also serving participants; tests/load/test_supervision.py).
 
     .venv/bin/python bench/worker_boot.py                       # this checkout, 5 starts
