@@ -4,6 +4,8 @@
         [--reps 25] [--json docs/bench_fitting.json] [--update-doc docs/analysis.md]
     .venv/bin/python bench/fitting.py --paper-only --paper-table var/tables/paper --json docs/bench_fitting.json
         # adds the paper table's figures to an earlier run's recovery figures (that table takes ~50 min to build)
+    .venv/bin/python bench/fitting.py --merge A.json B.json --json docs/bench_fitting.json --update-doc docs/analysis.md
+        # joins runs of disjoint --generators (e.g. run on two machines) into one set of figures
 
 The design is what a study built on --table gets (teaching.build_sequences' nine conditions and
 select_test_set's test set, seed 0).  Every distinct learner model generates --reps simulated studies of
@@ -83,6 +85,32 @@ def recovery_figures(table, reps: int, only=None) -> dict:
             "confused": rec.confused(),
         }
         print_recovery(n, out["sizes"][str(n)], gens)
+    return out
+
+
+def merge_recovery(parts: list[dict]) -> dict:
+    """One figure set from runs of disjoint generators (--generators) on the same table, size and lapse
+    rate, in the order given.  A subset run draws its studies from the same seeded stream as a full run
+    only for the generators it starts with: the studies differ from a full run's, the design does not."""
+    first = parts[0]
+    for part in parts[1:]:
+        for key in ("table", "reps", "lapse"):
+            if part[key] != first[key]:
+                raise SystemExit(f"--merge: the runs differ in {key} ({first[key]} != {part[key]})")
+        if set(part["generators"]) & set(first["generators"]) or set(part["sizes"]) != set(first["sizes"]):
+            raise SystemExit("--merge: the runs must be of disjoint generators at the same sizes")
+    out = {k: first[k] for k in ("table", "reps", "lapse")}
+    out["generators"] = {g: d for part in parts for g, d in part["generators"].items()}
+    out["sizes"] = {}
+    for n in first["sizes"]:
+        sizes = [part["sizes"][n] for part in parts]
+        merged = {"seconds": sum(s["seconds"] for s in sizes), "fitted": sizes[0]["fitted"],
+                  "confusion": [row for s in sizes for row in s["confusion"]],
+                  "confused": [c for s in sizes for c in s["confused"]]}
+        for key in ("unfitted", "ties", "recovered", "lapse_recovered", "value_recovered", "median_lapse",
+                    "median_value"):
+            merged[key] = {g: v for s in sizes for g, v in s[key].items()}
+        out["sizes"][n] = merged
     return out
 
 
@@ -176,8 +204,22 @@ def main() -> None:
     p.add_argument("--update-doc", default=None, help="rewrite this document's generated section from --json")
     p.add_argument("--paper-only", action="store_true",
                    help="keep the recovery figures of --json and (re)measure only the paper table's fit")
+    p.add_argument("--merge", nargs="+", metavar="JSON", default=None,
+                   help="no run: join the recovery figures of --generators runs into --json (keeping the paper "
+                        "table's figures --json already holds)")
     p.add_argument("--paper-child", default=None, help=argparse.SUPPRESS)
     args = p.parse_args()
+    if args.merge:
+        if not args.json:
+            p.error("--merge needs --json, the file to write")
+        parts = [json.loads(Path(f).read_text())["recovery"] for f in args.merge]
+        figures = {"recovery": merge_recovery(parts)}
+        if Path(args.json).exists() and "paper" in json.loads(Path(args.json).read_text()):
+            figures["paper"] = json.loads(Path(args.json).read_text())["paper"]
+        Path(args.json).write_text(json.dumps(figures, indent=1))
+        if args.update_doc:
+            rewrite_section(Path(args.json), Path(args.update_doc), BEGIN, END, markdown, "model fitting")
+        return
     if args.paper_child:
         print(json.dumps(paper_fit(args.paper_child)))
         return
