@@ -214,8 +214,9 @@ def main() -> None:
             p.error("--merge needs --json, the file to write")
         parts = [json.loads(Path(f).read_text())["recovery"] for f in args.merge]
         figures = {"recovery": merge_recovery(parts)}
-        if Path(args.json).exists() and "paper" in json.loads(Path(args.json).read_text()):
-            figures["paper"] = json.loads(Path(args.json).read_text())["paper"]
+        earlier = json.loads(Path(args.json).read_text()) if Path(args.json).exists() else {}
+        if "paper" in earlier:
+            figures["paper"] = earlier["paper"]
         Path(args.json).write_text(json.dumps(figures, indent=1))
         if args.update_doc:
             rewrite_section(Path(args.json), Path(args.update_doc), BEGIN, END, markdown, "model fitting")

@@ -161,7 +161,10 @@ def spec_from_teach(teach_dir, table=None) -> dict:
 def _teach_pilot(output, names: list[str]) -> dict | None:
     """The simulated pilot of a teach output (its matrix.json, the extended rows: the paper's nine
     conditions) restricted to the study's conditions, in the study's order; None if it has none."""
-    m = output.matrix
+    try:
+        m = output.matrix()
+    except TeachOutputError as exc:
+        raise SpecError(str(exc)) from None
     if m is None:
         return None
     path = output.dir / "matrix.json"

@@ -30,7 +30,11 @@ class TeachOutput:
     no_tests: str | None  # why there is no test set (test_set.json's error), or None
     table_path: str  # the table it was selected on, as teach was given it
     table_hash: str | None  # that table's content hash
-    matrix: dict | None  # matrix.json, where there is one
+
+    def matrix(self) -> dict | None:
+        """matrix.json, where there is one: read only by who needs it (a study's pilot, not the sheet)."""
+        path = self.dir / "matrix.json"
+        return _read_json(path) if path.exists() else None
 
 
 def write_json(path: Path, obj) -> None:
@@ -80,10 +84,8 @@ def read_teach(teach_dir) -> TeachOutput:
         tests, no_tests = None, str(tests["error"])
     elif not isinstance(tests, list):
         raise TeachOutputError(f"{teach_dir / 'test_set.json'} is neither a list of tests nor an error")
-    matrix = _read_json(teach_dir / "matrix.json") if (teach_dir / "matrix.json").exists() else None
     table = sequences.get("table") or {}
-    return TeachOutput(teach_dir, conditions, tests, no_tests, str(table.get("path", "")), table.get("content_hash"),
-                       matrix)
+    return TeachOutput(teach_dir, conditions, tests, no_tests, str(table.get("path", "")), table.get("content_hash"))
 
 
 def check_against(output: TeachOutput, table) -> None:
