@@ -42,6 +42,22 @@ def _fresh_rate_limits():
         security.reset_rate_limits()
 
 
+@pytest.fixture(autouse=True, scope="session")
+def _fast_password_hashing():
+    """Passwords made in the tests are hashed with MD5 (Django's advice for test suites): the real
+    hasher's million PBKDF2 rounds cost a quarter of a second per user made and per login tried, a
+    minute of the suite's CPU.  PBKDF2 stays in the list, so a password a subprocess (a real server,
+    a management command) hashed the production way still verifies here.  Only in this process: what
+    the tests check about logins (the throttle, the lock) does not depend on the hash's cost."""
+    from django.conf import settings  # noqa: PLC0415
+    from django.test import override_settings  # noqa: PLC0415
+    fast = override_settings(PASSWORD_HASHERS=["django.contrib.auth.hashers.MD5PasswordHasher",
+                                               *settings.PASSWORD_HASHERS])
+    fast.enable()
+    yield
+    fast.disable()
+
+
 @pytest.fixture(scope="session")
 def tiny_table(tmp_path_factory):
     """The `tiny` preset built for real (48 environments × 24 θ, a few seconds), once per run:
