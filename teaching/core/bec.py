@@ -56,7 +56,16 @@ def unit_normals(a: np.ndarray) -> np.ndarray:
     a = np.asarray(a, np.float64).reshape(-1, np.shape(a)[-1])
     norm = np.linalg.norm(a, axis=1)
     keep = norm > ZERO_NORM
-    return np.unique(np.round(a[keep] / norm[keep, None], NORMAL_DECIMALS), axis=0)
+    # + 0.0 turns -0.0 into 0.0: equal normals are then equal bytes too (summaries.cover_matrix)
+    return np.unique(np.round(a[keep] / norm[keep, None], NORMAL_DECIMALS) + 0.0, axis=0)
+
+
+def union(normals: list[np.ndarray]) -> np.ndarray:
+    """(K, D): the distinct rows of several sets of :func:`unit_normals` (the BEC of their
+    environments together), sorted.  Rows are compared as they are: normalising again would move
+    their last rounded digit, and a constraint would no longer match its environment's."""
+    normals = [np.asarray(n, np.float64) for n in normals]
+    return np.unique(np.vstack(normals), axis=0) if normals else np.zeros((0, 0))
 
 
 def half_spaces(features: np.ndarray, signs: np.ndarray, star: int = 0) -> np.ndarray:

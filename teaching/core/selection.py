@@ -413,3 +413,6 @@ def build_sequences(table, *, seed: int = 0, approx_star: str = APPROX_STAR, **k
     result = teach(table, seed=seed, approx_star=approx_star, **kwargs)
     ids = np.asarray(table.env_ids)
     return {c: [int(i) for i in ids[result.sequences[c].envs]] for c in CONDITIONS}
+
+
+from . import summaries  # noqa: E402, F401  (registers the example-based selectors: SCOT, ...)

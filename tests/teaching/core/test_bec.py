@@ -46,7 +46,7 @@ def test_redundant_half_spaces_are_removed_by_hand():
     assert rows(bec.remove_redundant(h[3])) == rows([unit(-1, 2), unit(0.8, -0.6)])
     assert rows(bec.remove_redundant(h[0])) == rows(h[0])  # both sides bound E0
     # all four: the tightest lower bound is E2's 33.69° (-2,3), the tightest upper E3's 53.13° (0.8,-0.6)
-    union = bec.unit_normals(np.vstack(h))
+    union = bec.union(h)
     assert len(union) == 6  # (-1,2) and (2,-1) appear twice
     assert rows(bec.remove_redundant(union)) == rows([unit(-2, 3), unit(0.8, -0.6)])
     # a constraint implied by the sign constraints alone (u ≥ 0) is redundant too
@@ -66,7 +66,7 @@ def test_bec_size_in_two_features_is_the_angle_over_a_right_angle(env, lo, hi):
 
 
 def test_bec_size_of_the_whole_and_the_monte_carlo_estimate_agree_with_the_angle():
-    union = bec.unit_normals(np.vstack(bec.environment_half_spaces(hand_bec_table())))
+    union = bec.union(bec.environment_half_spaces(hand_bec_table()))
     exact = (np.arctan(4 / 3) - np.arctan(2 / 3)) / (np.pi / 2)  # (53.13 - 33.69) / 90 = 0.2160
     assert bec.bec_size(union)[0] == pytest.approx(exact, abs=1e-8)
     # the sampled fraction of the quarter circle (what bec_size does above 2 features) agrees
