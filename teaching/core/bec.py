@@ -35,6 +35,7 @@ LP_TOL = 1e-8
 HIGHS = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10}
 # Monte-Carlo BEC size above 2 features: samples on the orthant's unit sphere, and their seed.
 MC_SAMPLES, MC_SEED = 100_000, 0
+PILOT = 1000  # samples that order the constraints of a Monte-Carlo size (speed only)
 
 
 class BECError(ValueError):
@@ -201,8 +202,11 @@ def bec_size(normals: np.ndarray, samples: np.ndarray | None = None) -> tuple[fl
         return _arc_fraction(normals), 0.0
     if samples is None:
         samples = sphere_samples(d)
+    # one constraint at a time over the survivors, those that reject most of a first few samples
+    # first: most samples die in the first passes, and the order changes no count
+    first = (samples[:PILOT] @ normals.T < 0).sum(0)
     alive = samples
-    for n in normals:  # one constraint at a time over the survivors: most die in the first few
+    for n in normals[np.argsort(-first, kind="stable")]:
         alive = alive[alive @ n >= 0]
     p = len(alive) / len(samples)
     return p, float(np.sqrt(p * (1 - p) / len(samples)))

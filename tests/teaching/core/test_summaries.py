@@ -10,8 +10,16 @@ import pytest
 
 from teaching.core import bec
 from teaching.core.build import PRESETS, build_table
-from teaching.core.selection import condition_sequence
-from teaching.core.summaries import SummaryError, cover_matrix, greedy_cover, scot_cover, showable_half_spaces
+from teaching.core.selection import condition_sequence, theta_star_clusters
+from teaching.core.summaries import (
+    SummaryError,
+    bec_sizes,
+    cover_matrix,
+    greedy_cover,
+    importance,
+    scot_cover,
+    showable_half_spaces,
+)
 from teaching.core.table import TrajectoryTable
 from tests.conftest import built_once
 from tests.teaching.core.hand_bec_table import hand_bec_table
@@ -94,3 +102,51 @@ def test_scot_examples_hold_the_whole_bec_and_no_smaller_set_does(tiny):
     if smallest is None:
         pytest.skip("too many subsets to brute-force")
     assert len(envs) == smallest
+
+
+def test_highlights_importance_and_order_by_hand():
+    table = hand_bec_table(theta_star_clusters=(0, 1, 2, 1))
+    # θ* = (-1,-1) earns -6 with (3,3); its worst of the table's trajectories: E0 (2,5) or (5,2) -7,
+    # E1 (2,6) -8, E2 (1,6) -7, E3 (9,0) -9: importance 1, 2, 1, 3
+    np.testing.assert_allclose(importance(table), [1, 2, 1, 3])
+    # by importance E3, E1, E0, E2 (E0 before E2: the lower id); E1 shares E3's cluster 1: skipped
+    assert condition_sequence(table, "highlights")[0].envs == [3, 0, 2]
+    assert condition_sequence(table, "highlights", params={"k": 2})[0].envs == [3, 0]
+
+
+def test_bec_scaffold_orders_scot_easy_to_hard_with_easier_examples_added():
+    table = hand_bec_table()
+    # sizes (test_bec.py): E0 .4097, E1 .4209, E2 .6257, E3 .2952; SCOT's cover E2, E3
+    assert condition_sequence(table, "bec-scaffold", params={"k": 0})[0].envs == [2, 3]
+    # levels of 2 by rank: E2, E1 easy; E0, E3 hard.  One scaffold from the easy level, nearest its
+    # median (.5233): E1 (.4209, off by .1024; E2 is in the cover) -> sizes .6257, .4209, .2952
+    assert condition_sequence(table, "bec-scaffold", params={"k": 1, "levels": 2})[0].envs == [2, 1, 3]
+    assert condition_sequence(table, "bec-scaffold", params={"k": 1, "levels": 2})[0].envs == \
+        condition_sequence(table, "bec-scaffold", params={"k": 1, "levels": 2})[0].envs
+
+
+def test_bec_scaffold_and_highlights_on_the_tiny_tables(tiny):
+    cover = scot_cover(tiny)[0]
+    seq = condition_sequence(tiny, "bec-scaffold", params={"k": 2, "samples": 20_000})[0].envs
+    assert set(cover) <= set(seq) and len(seq) <= len(cover) + 2 and len(set(seq)) == len(seq)
+    rows, normals = showable_half_spaces(tiny)
+    size = dict(zip(rows.tolist(), bec_sizes(normals, 20_000), strict=True))
+    assert [size[e] for e in seq] == sorted((size[e] for e in seq), reverse=True)  # easy to hard
+    envs = condition_sequence(tiny, "highlights", params={"k": 3})[0].envs
+    clusters = theta_star_clusters(tiny)
+    assert len(envs) <= 3 and len(set(clusters[envs].tolist())) == len(envs)
+    assert list(importance(tiny)[envs]) == sorted(importance(tiny)[envs], reverse=True)
+
+
+@pytest.mark.parametrize("name, params, message", [
+    ("highlights", {"k": 0}, "selector 'highlights': parameter 'k': must be an integer >= 1, got 0"),
+    ("highlights", {"k": 2.5}, "selector 'highlights': parameter 'k': must be an integer >= 1, got 2.5"),
+    ("bec-scaffold", {"levels": 1}, "selector 'bec-scaffold': parameter 'levels': must be an integer >= 2"),
+    ("bec-scaffold", {"samples": "many"}, "selector 'bec-scaffold': parameter 'samples': "),
+    ("scot", {"k": 1}, "selector 'scot': unknown parameter 'k'; it takes no parameters"),
+    ("sco", {}, "unknown condition 'sco'; choose from "),
+])
+def test_bad_selector_parameters_get_one_line_errors(name, params, message):
+    with pytest.raises(ValueError) as info:
+        condition_sequence(hand_bec_table(), name, params=params)
+    assert str(info.value).startswith(message) and "\n" not in str(info.value)
