@@ -26,12 +26,12 @@ NORMAL_DECIMALS = 9
 # A feature difference shorter than this is θ*'s own trajectory: no constraint.
 ZERO_NORM = 1e-12
 # An LP minimum of normal·u (u on the simplex Σu = 1) at or above -LP_TOL counts as ≥ 0.  Rounding
-# the normals to NORMAL_DECIMALS moves normal·u by up to 5e-10 per feature, and on the driving tiny
+# the normals to NORMAL_DECIMALS moves normal·u by up to 5e-10 per feature, and on the 5-feature tiny
 # table constraints whose minimum is -3e-9 against the others come and go with the order they are
 # tested in; 1e-8 lies above both, so a constraint that cuts less than that is redundant.
 LP_TOL = 1e-8
 # HiGHS's default feasibility tolerances (1e-7) let an LP's optimum violate constraints by more
-# than LP_TOL, which moved the minima by 8e-8 on the driving tiny table: tightened below it.
+# than LP_TOL, which moved the minima by 8e-8 on the 5-feature tiny table: tightened below it.
 HIGHS = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10}
 # Monte-Carlo BEC size above 2 features: samples on the orthant's unit sphere, and their seed.
 MC_SAMPLES, MC_SEED = 100_000, 0
