@@ -107,8 +107,14 @@ Learners and selection (DESIGN §5-6)
     APPROX_STAR              "det-euclidean": the model coverage-approx* augments by default
     SelectionSettings        frozen: grid (τ / λ values swept), epsilon, max_examples, allow_repeats
     build_sequences(table, seed=0, ...)  {condition: environment ids in the order shown}
-    condition_sequence(table, name, seed=0, ...)  (Sequence of table row indices, with P(θ*)
-                             after each example; its model; whether the τ / λ rule held or None)
+    condition_sequence(table, name, seed=0, ..., params=None)  (Sequence of table row indices, with
+                             P(θ*) after each example; its model; whether the τ / λ rule held or None);
+                             name: any registered selector
+    selector_names()         every registered selector (teaching.core.selectors): the conditions above
+                             (greedy under each learner model, random, coverage-approx*, coverage-random)
+                             and any added; get_selector(name) -> Selector (.params: {name: Param
+                             (default, check, doc)}, .doc); check_params(name, params) -> every
+                             parameter checked, defaults filled (ValueError, one line, naming it)
     select_test_set(table, training_env_ids, seed=0, min_regret=, min_distance=)  6 dicts: env_id,
                              env_index, cluster and 4 options {theta_index, is_theta_star, cluster, regret}
     MIN_REGRET, MIN_OPTION_DISTANCE  the test set's default thresholds: θ*-reward units (1e-3), and
@@ -164,6 +170,7 @@ from .core.selection import (
     build_sequences,
     condition_sequence,
 )
+from .core.selectors import check_params, get_selector, selector_names
 from .core.simulate import (
     AnswerModel,
     PredictedScores,
@@ -209,4 +216,5 @@ __all__ = [
     "loop_pilot", "MAX_EXAMPLES_LIMIT",
     "select_checks", "Pack", "load_pack", "write_pack",
     "TeachOutput", "TeachOutputError", "read_teach",
+    "check_params", "get_selector", "selector_names",
 ]

@@ -2,7 +2,9 @@
 
 All selectors work on a likelihood matrix L (M, N) float32 = P(ξ^{θ*}_{E_m} | θ_n)
 from a :class:`~teaching.core.learners.LearnerModel`, and return environment
-*indices* (rows of the table); :func:`build_sequences` maps them to ids.
+*indices* (rows of the table); :func:`build_sequences` maps them to ids.  Each condition is a
+selector in the registry (:mod:`teaching.core.selectors`): the greedy sequence of every learner
+model (named after it), random, coverage-approx* and coverage-random register themselves here.
 
 With weights w_n = Π_{shown} L[E, n] (uniform prior), showing E next gives
 P(θ*) = w_0 L[E, 0] / (L[E] · w), so one greedy step is one matrix-vector
@@ -18,6 +20,7 @@ from tqdm.auto import tqdm
 
 from .domain import n_clusters
 from .learners import LEARNER_NAMES, Distances, LearnerModel, has_hyperparameter, make_model, p_curve
+from .selectors import Param, Selector, check_params, get_selector, register_selector, selector_names
 
 GRID = tuple(10.0 ** k for k in range(-5, 6))  # τ, λ ∈ {1e-5, ..., 1e5}
 MAX_EXAMPLES = 10
@@ -265,29 +268,99 @@ def random_draws(table, dist: Distances, seed: int):
     return envs, coverage_random(theta_star_clusters(table), rng, n_clusters(table.domain)), random_p
 
 
+class SelectionContext:
+    """What the selectors of one run share: the table, its distances, the seed, the settings and
+    the fixed τ / λ; each learner model fitted once (its sweep, if any) and the random stream
+    drawn once, whichever selector asks first.  One (M, N) float32 buffer is reused for every
+    likelihood matrix, so a selector uses its matrix before asking for another."""
+
+    def __init__(self, table, *, seed: int = 0, hyperparameters: dict | None = None,
+                 settings: SelectionSettings = DEFAULT_SETTINGS, dist: Distances | None = None):
+        self.table, self.seed, self.settings = table, seed, settings
+        self.hyperparameters = dict(hyperparameters or {})
+        self.dist = dist or Distances(table)
+        self.eligible = showable(table)
+        self._buffer = None
+        self._fitted: dict[str, tuple] = {}
+        self._random = None
+
+    @property
+    def buffer(self) -> np.ndarray:
+        if self._buffer is None:
+            self._buffer = np.empty(self.dist.shape, np.float32)
+        return self._buffer
+
+    def fitted(self, name: str) -> tuple[LearnerModel, list[SweepRow] | None, bool | None]:
+        """(model with its τ / λ, sweep rows or None, rule met or None): :func:`fitted_model`, once."""
+        if name not in self._fitted:
+            self._fitted[name] = fitted_model(name, self.dist, self.hyperparameters, self.settings,
+                                              buffer=self.buffer)
+        return self._fitted[name]
+
+    def likelihood(self, name: str) -> np.ndarray:
+        """(M, N) float32 likelihood matrix of the fitted model ``name`` (in the shared buffer)."""
+        return self.fitted(name)[0].likelihood(self.dist, out=self.buffer)
+
+    def random(self) -> tuple[list[int], list[int], np.ndarray]:
+        """:func:`random_draws` of this run's seed, once."""
+        if self._random is None:
+            self._random = random_draws(self.table, self.dist, self.seed)
+        return self._random
+
+    def evaluated(self, envs: list[int], model_name: str) -> Sequence:
+        """``envs`` with P(θ*) after each under the fitted model ``model_name``."""
+        return _evaluated(envs, self.fitted(model_name)[0], self.dist)
+
+
+def _model_name(value) -> str:
+    make_model(value)  # raises for an unknown name
+    return str(value)
+
+
+def greedy_selector(model_name: str) -> Selector:
+    """The greedy sequence under learner model ``model_name`` (its τ / λ fixed or swept):
+    the condition named after the model."""
+    return Selector(model_name, lambda ctx: _greedy(ctx.likelihood(model_name), ctx.settings, ctx.eligible),
+                    scored_by=lambda params: model_name,
+                    doc=f"greedy maximisation of P(θ*) under the {model_name} learner")
+
+
+_MODEL_PARAM = {"model": Param(APPROX_STAR, _model_name, "the learner model (approx*)")}
+for _name in LEARNER_NAMES:
+    register_selector(greedy_selector(_name))
+register_selector(Selector(
+    "random", lambda ctx: ctx.evaluated(ctx.random()[0], "exact"),
+    doc="the median by exact-IRL P(θ*) of RANDOM_DRAWS random sequences of RANDOM_LENGTH environments"))
+register_selector(Selector(
+    "coverage-approx*", lambda ctx, model: _coverage(ctx.likelihood(model), ctx.table, ctx.settings),
+    params=_MODEL_PARAM, scored_by=lambda params: params["model"],
+    doc="greedy under approx* until the gain is below ε, then the best example of each missing cluster"))
+register_selector(Selector(
+    "coverage-random", lambda ctx, model: ctx.evaluated(ctx.random()[1], model),
+    params=_MODEL_PARAM, scored_by=lambda params: params["model"],
+    doc="one random environment per strategy cluster θ* shows, scored under approx*"))
+
+
+def _condition_params(name: str, approx_star: str) -> dict:
+    """A condition's parameters when named the paper's way (approx* for both coverage conditions)."""
+    return {"model": approx_star} if "model" in get_selector(name).params else {}
+
+
 def condition_sequence(table, name: str, *, seed: int = 0, approx_star: str = APPROX_STAR,
                        hyperparameters: dict | None = None, settings: SelectionSettings = DEFAULT_SETTINGS,
-                       dist: Distances | None = None):
+                       dist: Distances | None = None, params: dict | None = None):
     """One condition's sequence on its own (the unit of a worker's task): the same result as
-    ``teach(...).sequences[name]``.  Returns (Sequence, its model, rule met or None)."""
-    if name not in ALL_CONDITIONS:
-        raise ValueError(f"unknown condition {name!r}; choose from {', '.join(ALL_CONDITIONS)}")
-    hyperparameters = dict(hyperparameters or {})
-    dist = dist or Distances(table)
-    buffer = np.empty(dist.shape, np.float32)
-
-    def fit(model_name):
-        return fitted_model(model_name, dist, hyperparameters, settings, buffer=buffer)
-
-    if name in ("random", "coverage-random"):
-        random_envs, coverage_envs, _ = random_draws(table, dist, seed)
-        model, _, met = fit("exact" if name == "random" else approx_star)
-        return _evaluated(random_envs if name == "random" else coverage_envs, model, dist), model, met
-    model, _, met = fit(approx_star if name == "coverage-approx*" else name)
-    lik = model.likelihood(dist, out=buffer)
-    if name == "coverage-approx*":
-        return _coverage(lik, table, settings), model, met
-    return _greedy(lik, settings, showable(table)), model, met
+    ``teach(...).sequences[name]``.  ``name``: any registered selector (:func:`selector_names`);
+    params: its parameters (approx_star fills a coverage condition's ``model`` when params do not).
+    Returns (Sequence, the model it is scored under, rule met or None)."""
+    if name not in selector_names():
+        raise ValueError(f"unknown condition {name!r}; choose from {', '.join(selector_names())}")
+    params = check_params(name, {**_condition_params(name, approx_star), **(params or {})})
+    ctx = SelectionContext(table, seed=seed, hyperparameters=hyperparameters, settings=settings, dist=dist)
+    selector = get_selector(name)
+    sequence = selector.select(ctx, **params)
+    model, _, met = ctx.fitted(selector.scored_by(params))
+    return sequence, model, met
 
 
 def teach(table, *, seed: int = 0, approx_star: str = APPROX_STAR, hyperparameters: dict | None = None,
@@ -298,8 +371,8 @@ def teach(table, *, seed: int = 0, approx_star: str = APPROX_STAR, hyperparamete
 
     hyperparameters: {model name: τ or λ} fixes a value instead of sweeping.  settings: the
     sweep grid, ε, the longest sequence and repeats (:class:`SelectionSettings`).  Each model is
-    swept once and the random stream drawn once, so this is cheaper than calling
-    :func:`condition_sequence` per condition, with the same results.
+    swept once and the random stream drawn once (one :class:`SelectionContext`), so this is
+    cheaper than calling :func:`condition_sequence` per condition, with the same results.
     """
     hyperparameters = dict(hyperparameters or {})
     for name, value in hyperparameters.items():
@@ -307,28 +380,24 @@ def teach(table, *, seed: int = 0, approx_star: str = APPROX_STAR, hyperparamete
     make_model(approx_star)
     if table.n_envs == 0:
         raise ValueError("the table has no environments")
-    dist = dist or Distances(table)
-    buffer = np.empty(dist.shape, np.float32)
+    ctx = SelectionContext(table, seed=seed, hyperparameters=hyperparameters, settings=settings, dist=dist)
     models, sequences, sweeps, rule_met = {}, {}, {}, {}
     names = LEARNER_NAMES + (() if approx_star in LEARNER_NAMES else (approx_star,))
-    eligible = showable(table)
     bar = tqdm(total=len(names) + 1, desc="teaching", disable=not progress)
     for name in names:
-        model, rows, met = fitted_model(name, dist, hyperparameters, settings, buffer=buffer)
+        model, rows, met = ctx.fitted(name)
         if rows is not None:
             sweeps[name], rule_met[name] = rows, met
         models[name] = model
-        lik = model.likelihood(dist, out=buffer)
-        sequences[name] = _greedy(lik, settings, eligible)
+        sequences[name] = greedy_selector(name).select(ctx)
         if name == approx_star:
-            sequences["coverage-approx*"] = _coverage(lik, table, settings)
+            sequences["coverage-approx*"] = get_selector("coverage-approx*").select(ctx, model=approx_star)
         bar.update()
-    random_envs, coverage_envs, random_p = random_draws(table, dist, seed)
-    sequences["random"] = _evaluated(random_envs, models["exact"], dist)
-    sequences["coverage-random"] = _evaluated(coverage_envs, models[approx_star], dist)
+    for name in ("random", "coverage-random"):
+        sequences[name] = get_selector(name).select(ctx, **_condition_params(name, approx_star))
     bar.update()
     bar.close()
-    return TeachingResult(models, sequences, sweeps, rule_met, random_p)
+    return TeachingResult(models, sequences, sweeps, rule_met, ctx.random()[2])
 
 
 def _evaluated(envs: list[int], model, dist) -> Sequence:
@@ -344,3 +413,6 @@ def build_sequences(table, *, seed: int = 0, approx_star: str = APPROX_STAR, **k
     result = teach(table, seed=seed, approx_star=approx_star, **kwargs)
     ids = np.asarray(table.env_ids)
     return {c: [int(i) for i in ids[result.sequences[c].envs]] for c in CONDITIONS}
+
+
+from . import summaries  # noqa: E402, F401  (registers the example-based selectors: SCOT, ...)

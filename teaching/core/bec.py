@@ -1,0 +1,225 @@
+"""Behavioural equivalence classes (BEC): the weights under which θ*'s trajectories stay optimal.
+
+Brown & Niekum (2019): a demonstration ξ* in environment E holds the reward weights w for which
+w·(φ(ξ*) − φ(ξ)) ≥ 0 for every other trajectory ξ of E.  Here the other trajectories are the
+table's: the optimal trajectory of every candidate θ in E, a finite stand-in for "all
+trajectories" (so a BEC here contains the true one).  The BEC of a set of environments is the
+intersection of theirs.
+
+Weights live in the domain's sign-constrained space, the orthant of θ* (every weight ≤ 0 in
+both domains: weights are costs).  Internally everything is in the positive orthant
+u = s ⊙ w ≥ 0 with s = sign(θ*) (D,), where a half-space w·a ≥ 0 reads u·(s ⊙ a) ≥ 0; the
+normals this module returns are in u-space, scaled to unit length and rounded to
+NORMAL_DECIMALS decimals, so that two constraints equal up to positive scaling are equal arrays.
+
+Non-redundant constraints come from linear programs (SciPy's HiGHS) over the slice
+{u ≥ 0, Σu = 1} of the cone, which holds every direction of the orthant once.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import linprog
+from scipy.spatial import HalfspaceIntersection, QhullError
+
+# Unit normals equal to this many decimals are one constraint (same half-space up to scaling).
+NORMAL_DECIMALS = 9
+# A feature difference shorter than this is θ*'s own trajectory: no constraint.
+ZERO_NORM = 1e-12
+# An LP minimum of normal·u (u on the simplex Σu = 1) at or above -LP_TOL counts as ≥ 0.  Rounding
+# the normals to NORMAL_DECIMALS moves normal·u by up to 5e-10 per feature, and on the 5-feature tiny
+# table constraints whose minimum is -3e-9 against the others come and go with the order they are
+# tested in; 1e-8 lies above both, so a constraint that cuts less than that is redundant.
+LP_TOL = 1e-8
+# HiGHS's default feasibility tolerances (1e-7) let an LP's optimum violate constraints by more
+# than LP_TOL, which moved the minima by 8e-8 on the 5-feature tiny table: tightened below it.
+HIGHS = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10}
+# Monte-Carlo BEC size above 2 features: samples on the orthant's unit sphere, and their seed.
+MC_SAMPLES, MC_SEED = 100_000, 0
+PILOT = 1000  # samples that order the constraints of a Monte-Carlo size (speed only)
+
+
+class BECError(ValueError):
+    """A table whose BECs cannot be formed (one-line message)."""
+
+
+def weight_signs(theta_star) -> np.ndarray:
+    """(D,) ±1: the sign of each weight in the domain's space, θ*'s.  BECError if θ* has a 0."""
+    s = np.sign(np.asarray(theta_star, np.float64))
+    if not len(s) or (s == 0).any():
+        raise BECError(f"θ* {np.asarray(theta_star).tolist()} has a zero weight: "
+                       "its sign-constrained space is undefined")
+    return s
+
+
+def unit_normals(a: np.ndarray) -> np.ndarray:
+    """(K, D) -> (K', D): rows scaled to unit length and rounded to NORMAL_DECIMALS, rows shorter
+    than ZERO_NORM dropped, duplicates dropped; sorted lexicographically (np.unique)."""
+    a = np.asarray(a, np.float64).reshape(-1, np.shape(a)[-1])
+    norm = np.linalg.norm(a, axis=1)
+    keep = norm > ZERO_NORM
+    # + 0.0 turns -0.0 into 0.0: equal normals are then equal bytes too (summaries.cover_matrix)
+    return np.unique(np.round(a[keep] / norm[keep, None], NORMAL_DECIMALS) + 0.0, axis=0)
+
+
+def union(normals: list[np.ndarray]) -> np.ndarray:
+    """(K, D): the distinct rows of several sets of :func:`unit_normals` (the BEC of their
+    environments together), sorted.  Rows are compared as they are: normalising again would move
+    their last rounded digit, and a constraint would no longer match its environment's."""
+    normals = [np.asarray(n, np.float64) for n in normals]
+    return np.unique(np.vstack(normals), axis=0) if normals else np.zeros((0, 0))
+
+
+def half_spaces(features: np.ndarray, signs: np.ndarray, star: int = 0) -> np.ndarray:
+    """The BEC of one environment as (K, D) unit normals in u-space (u·normal ≥ 0).
+
+    features: (N, D) φ of each candidate θ's trajectory in the environment (row ``star`` is θ*'s),
+    in the table's normalised feature units.  signs: (D,) from :func:`weight_signs`.
+    """
+    f = np.asarray(features, np.float64)
+    return unit_normals((f[star] - f) * signs)
+
+
+def environment_half_spaces(table) -> list[np.ndarray]:
+    """(M,) list of each environment's BEC normals (K_m, D) (:func:`half_spaces`, θ* = theta 0)."""
+    signs = weight_signs(table.theta_star)
+    return [half_spaces(table.features[m], signs, table.theta_star_index) for m in range(table.n_envs)]
+
+
+def lp_minimum(normals: np.ndarray, c: np.ndarray) -> float:
+    """min c·u over {u ≥ 0, Σu = 1, normals·u ≥ 0} (normals (K, D), c (D,)); +inf if empty."""
+    d = len(c)
+    res = linprog(c, A_ub=-normals if len(normals) else None, b_ub=np.zeros(len(normals)) if len(normals) else None,
+                  A_eq=np.ones((1, d)), b_eq=[1.0], bounds=[(0, None)] * d, method="highs", options=HIGHS)
+    return float(res.fun) if res.status == 0 else np.inf
+
+
+def is_implied(normals: np.ndarray, c: np.ndarray) -> bool:
+    """Whether every u of the region ``normals`` (K, D) satisfies c·u ≥ 0 (c (D,)): c is
+    redundant given them."""
+    return lp_minimum(np.asarray(normals, np.float64).reshape(-1, len(c)), np.asarray(c, np.float64)) >= -LP_TOL
+
+
+def interior_point(normals: np.ndarray) -> tuple[np.ndarray, float]:
+    """(u (D,), r): the point of {u ≥ 0, Σu = 1, normals·u ≥ 0} deepest inside every constraint
+    (unit normals: u·n ≥ r and u_i ≥ r for all), r ≤ 0 when the region has no interior."""
+    k, d = normals.shape
+    a_ub = np.vstack([np.hstack([-normals, np.ones((k, 1))]), np.hstack([-np.eye(d), np.ones((d, 1))])])
+    res = linprog(np.r_[np.zeros(d), -1.0], A_ub=a_ub, b_ub=np.zeros(k + d), A_eq=np.r_[np.ones(d), 0.0][None],
+                  b_eq=[1.0], bounds=[(0, None)] * d + [(None, 1.0)], method="highs", options=HIGHS)
+    if res.status != 0:
+        return np.full(d, 1.0 / d), -np.inf
+    return res.x[:d], float(-res.fun)
+
+
+def _vertices(normals: np.ndarray, inside: np.ndarray) -> np.ndarray:
+    """(V, D) vertices of {u ≥ 0, Σu = 1, normals·u ≥ 0}, given a point strictly inside it.
+    Works on y = u[:-1] (u[-1] = 1 − Σy), a (D−1)-dimensional polytope."""
+    d = normals.shape[1]
+    a = np.vstack([normals, np.eye(d)])  # u ≥ 0 as rows e_i·u ≥ 0
+    # a·u = (a[:-1] − a[-1])·y + a[-1] ≥ 0  ->  qhull's form  A y + b ≤ 0
+    rows = np.hstack([-(a[:, :-1] - a[:, -1:]), -a[:, -1:]])
+    if d == 2:
+        c, b = rows[:, 0], rows[:, 1]  # c y + b ≤ 0 bounds y from below (c < 0) or above (c > 0)
+        with np.errstate(divide="ignore"):
+            bound = -b / c
+        y = np.array([[max(bound[c < 0], default=0.0)], [min(bound[c > 0], default=1.0)]])
+    else:
+        y = HalfspaceIntersection(rows, inside[:-1]).intersections
+    return np.hstack([y, 1.0 - y.sum(1, keepdims=True)])
+
+
+def remove_redundant(normals: np.ndarray) -> np.ndarray:
+    """The non-redundant rows of ``normals`` (K, D) (unit, deduplicated: :func:`unit_normals`):
+    the smallest subset with the same region inside the orthant, in the input's order.
+
+    Clarkson's method: keep a set R of proven facets; the region of R has vertices (qhull), and a
+    constraint no vertex violates is redundant; a violated one gives a ray from an interior point
+    to the vertex, and the first constraint the ray crosses is a facet of the whole, added to R.
+    Costs one vertex enumeration per facet, not one LP per constraint.  A region without interior
+    (θ* indifferent between two trajectories), or one qhull cannot take, falls back to one LP per
+    constraint against the others.
+    """
+    normals = np.asarray(normals, np.float64)
+    if not len(normals):
+        return normals
+    inside, depth = interior_point(normals)
+    kept = None
+    if depth > LP_TOL:
+        try:
+            kept = _clarkson(normals, inside)
+        except QhullError:
+            kept = None
+    if kept is None:
+        kept = list(range(len(normals)))
+    for i in list(kept):  # whatever survived is irredundant only once tested against the rest
+        others = [j for j in kept if j != i]
+        if is_implied(normals[others], normals[i]):
+            kept = others
+    return normals[sorted(kept)]
+
+
+def _clarkson(normals: np.ndarray, inside: np.ndarray) -> list[int]:
+    facets: list[int] = []
+    at_inside = normals @ inside  # > 0: strictly inside every constraint
+    while True:
+        v = _vertices(normals[facets], inside)
+        worst = (normals @ v.T).min(1)
+        violated = np.flatnonzero(worst < -LP_TOL)
+        if not len(violated):
+            return facets
+        target = v[int(np.argmin(normals[violated[0]] @ v.T))]
+        along = normals @ (target - inside)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.where(along < 0, at_inside / -along, np.inf)
+        t[facets] = np.inf
+        facets.append(int(np.argmin(t)))  # the first crossed: lowest index on exact ties
+
+
+def implies(normals: np.ndarray, others: np.ndarray) -> bool:
+    """Whether the region of ``normals`` (K, D) lies inside that of ``others`` (K', D): every
+    constraint of ``others`` is implied (one LP each)."""
+    return all(is_implied(normals, c) for c in np.asarray(others, np.float64))
+
+
+def sphere_samples(d: int, n: int = MC_SAMPLES, seed: int = MC_SEED) -> np.ndarray:
+    """(n, d) float64 uniform on the unit sphere's positive orthant (|N(0, I)| normalised), seeded."""
+    g = np.abs(np.random.default_rng(seed).standard_normal((n, d)))
+    return g / np.linalg.norm(g, axis=1, keepdims=True)
+
+
+def bec_size(normals: np.ndarray, samples: np.ndarray | None = None) -> tuple[float, float]:
+    """(size, standard error): the fraction of the orthant's unit sphere inside the region
+    ``normals`` (K, D), a number in [0, 1].
+
+    D = 2: exact, the region's angle over the quarter circle's π/2 (standard error 0).
+    D > 2: the fraction of ``samples`` (S, D) (default :func:`sphere_samples`: MC_SAMPLES with
+    seed MC_SEED) inside, standard error sqrt(p(1 − p)/S).  Passing the same samples for every
+    region (common random numbers) makes their sizes comparable beyond that error.
+    """
+    normals = np.asarray(normals, np.float64)
+    d = normals.shape[1]
+    if d == 2:
+        return _arc_fraction(normals), 0.0
+    if samples is None:
+        samples = sphere_samples(d)
+    # one constraint at a time over the survivors, those that reject most of a first few samples
+    # first: most samples die in the first passes, and the order changes no count
+    first = (samples[:PILOT] @ normals.T < 0).sum(0)
+    alive = samples
+    for n in normals[np.argsort(-first, kind="stable")]:
+        alive = alive[alive @ n >= 0]
+    p = len(alive) / len(samples)
+    return p, float(np.sqrt(p * (1 - p) / len(samples)))
+
+
+def _arc_fraction(normals: np.ndarray) -> float:
+    """2 features: the angles of u = (cos a, sin a), a ∈ [0, π/2], with normals·u ≥ 0, over π/2."""
+    lo, hi = 0.0, np.pi / 2
+    for n1, n2 in normals:  # n1 cos a + n2 sin a ≥ 0  <=>  a on one side of the boundary angle
+        if n1 >= 0 and n2 >= 0:
+            continue
+        if n1 < 0 and n2 < 0:
+            return 0.0
+        boundary = np.arctan2(-n1, n2) if n2 > 0 else np.arctan2(n1, -n2)
+        lo, hi = (max(lo, boundary), hi) if n2 > 0 else (lo, min(hi, boundary))
+    return max(hi - lo, 0.0) / (np.pi / 2)

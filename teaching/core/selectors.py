@@ -1,0 +1,119 @@
+"""The selector registry: every teaching algorithm a study's condition can come from, by name.
+
+A selector turns a table (and the run's shared state: seed, settings, fitted learner models, the
+random stream; :class:`~teaching.core.selection.SelectionContext`) into a
+:class:`~teaching.core.selection.Sequence` of table rows.  Each declares its name, its parameters
+(with defaults and a check) and a ``select(ctx, **params)``; :func:`check_params` turns what a
+caller passes into the full, checked set, with one-line errors naming the selector and the
+parameter.  Learner models have the same shape of registry (:mod:`teaching.core.learners`).
+
+The greedy, coverage and random selectors register themselves in :mod:`teaching.core.selection`,
+the example-based ones (SCOT, BEC scaffolding, HIGHLIGHTS) in :mod:`teaching.core.summaries`;
+:func:`selector_names` lists them all once both are imported (``teaching.core.selection`` imports
+the second).
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+
+
+@dataclass(frozen=True)
+class Param:
+    """One parameter of a selector: its default and a check that returns the value to use
+    (a normalised copy) or raises ValueError with what was wrong (the selector is named by
+    :func:`check_params`)."""
+
+    default: object
+    check: Callable[[object], object]
+    doc: str = ""
+
+
+@dataclass(frozen=True)
+class Selector:
+    """A teaching algorithm: ``select(ctx, **params) -> Sequence`` over the context's table.
+
+    scored_by(params): the learner model whose P(θ*) the sequence reports after each example
+    (a model name; the greedy ones report their own).
+    """
+
+    name: str
+    select: Callable
+    params: Mapping[str, Param] = field(default_factory=dict)
+    scored_by: Callable[[dict], str] = lambda params: "exact"
+    doc: str = ""
+
+    def __post_init__(self):
+        object.__setattr__(self, "params", MappingProxyType(dict(self.params)))
+
+
+_REGISTRY: dict[str, Selector] = {}
+
+
+def register_selector(selector: Selector) -> Selector:
+    """Make ``selector`` available by its name (a later registration under the same name replaces
+    the earlier one, as :func:`teaching.core.learners.register_model` does)."""
+    _REGISTRY[selector.name] = selector
+    return selector
+
+
+def selector_names() -> tuple[str, ...]:
+    """Every registered selector, in registration order."""
+    return tuple(_REGISTRY)
+
+
+def get_selector(name: str) -> Selector:
+    if name not in _REGISTRY:
+        raise ValueError(f"unknown selector {name!r}; choose from {', '.join(_REGISTRY)}")
+    return _REGISTRY[name]
+
+
+def check_params(name: str, params: Mapping | None = None) -> dict:
+    """Every parameter of selector ``name``: ``params``' values checked, defaults for the rest.
+    Raises ValueError (one line, naming the selector and the parameter) for an unknown selector,
+    an unknown parameter or a bad value."""
+    selector = get_selector(name)
+    params = dict(params or {})
+    unknown = sorted(set(params) - set(selector.params))
+    if unknown:
+        takes = ", ".join(selector.params) or "no parameters"
+        raise ValueError(f"selector {name!r}: unknown parameter {unknown[0]!r}; it takes {takes}")
+    out = {}
+    for key, param in selector.params.items():
+        try:
+            out[key] = param.check(params.get(key, param.default))
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"selector {name!r}: parameter {key!r}: {exc}") from None
+    return out
+
+
+# --- checks shared by the selectors' parameters ------------------------------------------------
+def integer_at_least(lowest: int) -> Callable[[object], int]:
+    """A check: an integer ≥ ``lowest`` (a bool or a float with a fraction is refused)."""
+    def check(value) -> int:
+        if isinstance(value, bool) or not float(value).is_integer() or int(value) < lowest:
+            raise ValueError(f"must be an integer >= {lowest}, got {value!r}")
+        return int(value)
+    return check
+
+
+def number_at_least(lowest: float) -> Callable[[object], float]:
+    """A check: a finite number ≥ ``lowest``."""
+    def check(value) -> float:
+        if isinstance(value, bool):
+            raise ValueError(f"must be a number >= {lowest:g}, got {value!r}")
+        v = float(value)
+        if not (v == v and abs(v) != float("inf")) or v < lowest:
+            raise ValueError(f"must be a finite number >= {lowest:g}, got {value!r}")
+        return v
+    return check
+
+
+def one_of(choices: tuple[str, ...]) -> Callable[[object], str]:
+    """A check: one of ``choices`` (a string)."""
+    def check(value) -> str:
+        if value not in choices:
+            raise ValueError(f"must be one of {', '.join(choices)}, got {value!r}")
+        return str(value)
+    return check
