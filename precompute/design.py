@@ -10,17 +10,17 @@ import json
 from pathlib import Path
 
 from django import forms
+from django.core import validators
+from django.core.exceptions import NON_FIELD_ERRORS
 
+from studyapp import specrules, specschema
 from studyapp.analysis.conditions import aliased_pairs
 from studyapp.models import Study
-from studyapp.studies import TEXT_FIELDS
+from studyapp.specschema import CONDITION_FIELDS, JOB_FIELDS, STUDY_FIELDS, TEXT_FIELDS, THRESHOLD_FIELDS
 from teaching.api import (
-    ALL_CONDITIONS,
     APPROX_STAR,
     CONDITIONS,
     MAX_EXAMPLES_LIMIT,
-    MIN_REGRET,
-    MODEL_NAMES,
     PRESETS,
     SAMPLERS,
     USER_NAMES,
@@ -62,7 +62,7 @@ def built_tables(root: Path | None = None) -> list[dict]:
 
 # The learner models whose τ (deterministic) or λ (probabilistic) the researcher may fix: one
 # optional field each, so an error is said under the model it is about.
-TUNABLE = [(m, "τ" if make_model(m).param == "tau" else "λ") for m in USER_NAMES if has_hyperparameter(make_model(m))]
+TUNABLE = [(m, specrules.hyperparameter_symbol(m)) for m in USER_NAMES if has_hyperparameter(make_model(m))]
 
 
 def fixed_field(model: str) -> str:
@@ -96,38 +96,62 @@ def preset_choices() -> list:
     return out
 
 
+class _SchemaChoice(forms.ChoiceField):
+    """A choice the spec's schema judges (in its words); the widget offers the choices."""
+
+    def validate(self, value):
+        forms.Field.validate(self, value)
+
+
+class _SchemaMultipleChoice(forms.MultipleChoiceField):
+    def validate(self, value):
+        forms.Field.validate(self, value)
+
+
+_BOUNDS = (validators.MinValueValidator, validators.MaxValueValidator, validators.MinLengthValidator,
+           validators.MaxLengthValidator)
+
+
+def schema_field(f: specschema.Field, **kwargs) -> forms.Field:
+    """The form field of a study spec's field `f` (studyapp/specschema.py): its bounds, choices, default
+    and help are the schema's.  It only reads the text: the schema judges the value in the form's clean(),
+    in the words every other entry point uses, and the bounds stay on the widget."""
+    kwargs = {"help_text": f.help, "initial": f.default, "required": f.default not in (None, ""), **kwargs}
+    if f.kind is specrules.whole:
+        field = forms.IntegerField(min_value=f.minimum, max_value=f.maximum, **kwargs)
+    elif f.kind is specrules.number:
+        field = forms.FloatField(min_value=f.minimum, max_value=f.maximum, **kwargs)
+    elif f.choices:
+        kind = _SchemaMultipleChoice if f.kind is specrules.selected else _SchemaChoice
+        field = kind(choices=f.choices, **kwargs)
+    else:
+        field = forms.CharField(max_length=f.max_length, **kwargs)
+    field.validators = [v for v in field.validators if not isinstance(v, _BOUNDS)]
+    return field
+
+
 class StudyDesignForm(forms.Form):
     table = forms.ChoiceField(help_text="The trajectory table every condition and test is drawn from: one built "
                                         "below, on the command line, or by a table job. Its domain (the robot "
                                         "participants see) is the study's.")
-    slug = forms.SlugField(max_length=50, help_text="The study's URL: /s/SLUG/.")
-    name = forms.CharField(max_length=200, required=False, help_text="Title for researchers (default: the slug).")
-    conditions = forms.MultipleChoiceField(
-        choices=[(c, c) for c in ALL_CONDITIONS], initial=list(CONDITIONS), widget=forms.CheckboxSelectMultiple,
-        required=False, help_text="The paper's nine conditions (ticked) and the hierarchical learner's (strategy "
-                                  "first, then the trajectory within it): each selects its own training examples "
-                                  "for θ*.")
-    target_per_condition = forms.IntegerField(
-        min_value=2, max_value=100_000, initial=30,
-        help_text="Participants wanted per condition; new arrivals go to the condition furthest from it.")
-    recruitment = forms.ChoiceField(choices=Study.RECRUITMENTS, initial=Study.LINK,
-                                    help_text="How participants arrive: a plain link, Prolific or MTurk.")
-    completion_code = forms.CharField(max_length=64, required=False,
-                                      help_text="Prolific's completion code (required for Prolific).")
-    approx_star = forms.ChoiceField(choices=[(m, m) for m in MODEL_NAMES], initial=APPROX_STAR,
-                                    label="approx* (the model coverage-approx* augments)",
-                                    help_text="The learner model whose examples coverage-approx* starts from.")
-    seed = forms.IntegerField(min_value=0, initial=0, help_text="Seeds the random conditions and the test set.")
-    hand_picked_name = forms.SlugField(required=False, max_length=40, initial="hand-picked",
-                                       label="Hand-picked condition: name",
-                                       help_text="Its name in the study (letters, digits, - and _).")
+    slug = schema_field(STUDY_FIELDS["slug"])
+    name = schema_field(STUDY_FIELDS["name"])
+    conditions = schema_field(JOB_FIELDS["conditions"], initial=list(CONDITIONS), required=False,
+                              widget=forms.CheckboxSelectMultiple)
+    target_per_condition = schema_field(STUDY_FIELDS["target_per_condition"])
+    recruitment = schema_field(STUDY_FIELDS["recruitment"])
+    completion_code = schema_field(STUDY_FIELDS["completion_code"])
+    approx_star = schema_field(JOB_FIELDS["approx_star"], label="approx* (the model coverage-approx* augments)")
+    seed = schema_field(JOB_FIELDS["seed"])
+    hand_picked_name = schema_field(CONDITION_FIELDS["name"], required=False, initial="hand-picked",
+                                    label="Hand-picked condition: name")
     hand_picked_env_ids = forms.CharField(
         required=False, label="Hand-picked condition: environment ids",
         help_text="Optional: environment ids of the table, comma-separated, shown in this order as one more "
                   "condition.")
     # One closed-loop condition: each participant's next example chosen from their answers.
-    loop_name = forms.SlugField(
-        required=False, max_length=40, label="Closed-loop condition: name (optional)",
+    loop_name = schema_field(
+        CONDITION_FIELDS["name"], required=False, label="Closed-loop condition: name (optional)",
         help_text="Adds a condition that picks each participant's next example from their answers to check "
                   "questions shown between the examples (docs/study.md); empty: none.")
     loop_model = forms.ChoiceField(choices=[(m, m) for m in USER_NAMES], initial=APPROX_STAR, required=False,
@@ -152,11 +176,13 @@ class StudyDesignForm(forms.Form):
         required=False, label="Closed loop: model from a fit (optional)",
         help_text="A study whose participants' answers set the model, τ / λ and ε above: the learner model that "
                   "best explains them, fitted when this study is built; empty: the settings above.")
-    min_regret = forms.FloatField(min_value=0, initial=MIN_REGRET, label="Test set: minimum θ*-regret",
-                                  help_text="Each wrong option is at least this much worse for θ* (reward units).")
-    min_distance = forms.FloatField(min_value=0, required=False, label="Test set: minimum distance (optional)",
-                                    help_text="The four options are at least this far apart (scaled state units); "
-                                              "empty: the table's domain's default.")
+    min_regret = schema_field(THRESHOLD_FIELDS["min_regret"], label="Test set: minimum θ*-regret")
+    min_distance = schema_field(THRESHOLD_FIELDS["min_distance"], label="Test set: minimum distance (optional)")
+    # Where a problem the schema finds is said: its path there -> the field here (else the same name).
+    SCHEMA_PLACES = {"test_set_thresholds.min_regret": "min_regret", "test_set_thresholds.min_distance": "min_distance",
+                     "hand_picked.name": "hand_picked_name", "hand_picked.env_ids": "hand_picked_env_ids",
+                     "closed_loop.name": "loop_name", "closed_loop.settings": "loop_model",
+                     "closed_loop_fit": "loop_fit_from"}
 
     def __init__(self, *args, tables: list[dict], **kwargs):
         super().__init__(*args, **kwargs)
@@ -173,25 +199,21 @@ class StudyDesignForm(forms.Form):
                 required=False, label=f"{model}: fixed {symbol} (optional)",
                 help_text=f"A number > 0 used instead of the paper's rule (the {rule} that still teaches θ*); "
                           "empty: the rule.")
-        # The consent page's texts, declared once on the Study model.
-        self.fields.update(forms.fields_for_model(Study, fields=TEXT_FIELDS))
+        # The consent page's texts (the Study model's columns, through the schema).
+        self.fields.update({k: schema_field(STUDY_FIELDS[k], widget=forms.Textarea if k == "consent_text" else None)
+                            for k in TEXT_FIELDS})
 
-    def _fixed_values(self) -> dict[str, float]:
-        """{model: τ or λ} the researcher fixed; each bad value is said under its own field."""
+    def _fixed_values(self) -> dict:
+        """{model: τ or λ} the researcher fixed, each read as a number where it is one (the schema judges
+        them, in clean())."""
         fixed = {}
-        for model, symbol in TUNABLE:
+        for model, _ in TUNABLE:
             text = (self.cleaned_data.get(fixed_field(model)) or "").strip()
-            if not text:
-                continue
-            try:
-                value = float(text)
-            except ValueError:
-                value = None
-            if value is None or not 0 < value < float("inf"):
-                self.add_error(fixed_field(model), f"{symbol} of {model} must be a number greater than 0 "
-                                                   f"(e.g. 0.5), not {text!r}; leave it empty for the paper's rule.")
-            else:
-                fixed[model] = value
+            if text:
+                try:
+                    fixed[model] = float(text)
+                except ValueError:
+                    fixed[model] = text
         return fixed
 
     def clean_hand_picked_env_ids(self):
@@ -263,7 +285,36 @@ class StudyDesignForm(forms.Form):
                 self._check_in_table(data["table"], ids)
         elif not data.get("conditions") and not data.get("loop_name") and "conditions" not in self.errors:
             self.add_error("conditions", "Choose at least one condition, or give a hand-picked or closed-loop one.")
+        self._check_job(data)
         return data
+
+    def _job_arguments(self, data: dict) -> dict:
+        """create_study_job's arguments (but the table) from the cleaned data."""
+        ids = data.get("hand_picked_env_ids")
+        return {"slug": data.get("slug"), "name": data.get("name") or None, "seed": data.get("seed"),
+                "approx_star": data.get("approx_star"), "conditions": data.get("conditions"),
+                "target_per_condition": data.get("target_per_condition"), "hyperparameters": data["hyperparameters"],
+                "hand_picked": {data.get("hand_picked_name") or "hand-picked": ids} if ids else {},
+                "test_set_thresholds": {k: data[k] for k in THRESHOLD_FIELDS if data.get(k) is not None},
+                "closed_loop": data["closed_loop"], "closed_loop_fit": data["closed_loop_fit"],
+                "completion_code": (data.get("completion_code") or "").strip(), "recruitment": data.get("recruitment"),
+                **{k: data.get(k) for k in TEXT_FIELDS}}
+
+    def _check_job(self, data: dict) -> None:
+        """The job's arguments through the study spec's checks (studyapp/specschema.py), each problem under
+        its own field (unless one is said there already); data["job"]: the arguments, once all is well."""
+        args = self._job_arguments(data)
+        for problem in specschema.job_problems(args)[1]:
+            place = self.SCHEMA_PLACES.get(problem.field, problem.field)
+            message = str(problem)
+            if problem.field.startswith("hyperparameters."):
+                place = fixed_field(problem.field.split(".", 1)[1])
+                message += "; leave it empty for the paper's rule."
+            place = place if place in self.fields else None
+            if (place or NON_FIELD_ERRORS) not in self.errors:
+                self.add_error(place, message)
+        if not self.errors:
+            data["job"] = {"table_path": data["table"], **args}
 
     def _check_in_table(self, table_path: str, ids: list[int]) -> None:
         try:

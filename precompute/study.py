@@ -17,16 +17,9 @@ from pathlib import Path
 from django.db import transaction
 
 from studyapp.models import Study
+from studyapp.specschema import STUDY_FIELDS, check_job
 from studyapp.studies import SpecError, new_study
-from teaching.api import (
-    ALL_CONDITIONS,
-    APPROX_STAR,
-    CONDITIONS,
-    ClosedLoopError,
-    ClosedLoopSpec,
-    TrajectoryTable,
-    make_model,
-)
+from teaching.api import ClosedLoopSpec, TrajectoryTable
 
 from .jobs import launch
 from .models import Job
@@ -37,96 +30,69 @@ class StudyJobError(ValueError):
     """Bad input for a study job: reported in one line by the command."""
 
 
-def create_study_job(table_path, slug: str, name: str | None = None, seed: int = 0,
-                     approx_star: str = APPROX_STAR, hyperparameters: dict | None = None,
+def create_study_job(table_path, slug: str, name: str | None = None, seed: int | None = None,
+                     approx_star: str | None = None, hyperparameters: dict | None = None,
                      conditions=None, open_when_done: bool = True, replace: bool = False,
-                     target_per_condition: int = 30, queue=None, start: bool = True,
+                     target_per_condition: int | None = None, queue=None, start: bool = True,
                      hand_picked: dict | None = None, test_set_thresholds: dict | None = None,
                      closed_loop: dict | None = None, closed_loop_fit: dict | None = None,
                      **study_fields) -> Job:
     """A job that selects every condition's sequence and the test set on `table_path`.
 
-    `hand_picked`: {condition name: environment ids}, conditions shown in the given order (after
-    the selected ones).  `test_set_thresholds`: min_regret and/or min_distance for
-    ``select_test_set``.  `closed_loop`: {condition name: closed-loop settings (teaching's
-    ClosedLoopSpec fields; {} for every default)}, conditions that decide each participant's examples
-    from their answers, prepared by the last task once the test set is known (docs/study.md).
-    `closed_loop_fit`: {closed-loop condition: slug of a study} whose best learner-model fit, made by the
-    last task, gives that condition's model, τ / λ and lapse rate (where the study cannot be fitted, the
-    settings given stand, and the job's result says why).
-    `study_fields`: completion_code, recruitment and the consent page's texts (studyapp's new_study).
+    Every argument but the table follows a study spec's rules and defaults (studyapp/specschema.py,
+    JOB_FIELDS and STUDY_FIELDS), checked before the table is read.  `hand_picked`: {condition name:
+    environment ids}, conditions shown in the given order (after the selected ones).
+    `test_set_thresholds`: min_regret and/or min_distance for ``select_test_set``.  `closed_loop`:
+    {condition name: closed-loop settings (teaching's ClosedLoopSpec fields; {} for every default)},
+    conditions that decide each participant's examples from their answers, prepared by the last task
+    once the test set is known (docs/study.md).  `closed_loop_fit`: {closed-loop condition: slug of a
+    study} whose best learner-model fit, made by the last task, gives that condition's model, τ / λ and
+    lapse rate (where the study cannot be fitted, the settings given stand, and the job's result says
+    why).  `study_fields`: completion_code, recruitment and the consent page's texts.
     The table is verified here, once per job: its content hash goes into the job's params, and
     the tasks check the table still records that hash instead of re-hashing it (tasks._table).
     """
+    given = {"slug": slug, "name": name, "seed": seed, "approx_star": approx_star, "conditions": conditions,
+             "hyperparameters": hyperparameters, "target_per_condition": target_per_condition,
+             "hand_picked": hand_picked, "test_set_thresholds": test_set_thresholds, "closed_loop": closed_loop,
+             "closed_loop_fit": closed_loop_fit, **study_fields}
+    try:
+        args = check_job(given)
+    except SpecError as exc:
+        raise StudyJobError(str(exc)) from None
     table_path = Path(table_path).resolve()
     table = TrajectoryTable.load(table_path)  # TableError: missing, altered, other world constants
-    conditions = list(conditions or ([] if hand_picked or closed_loop else CONDITIONS))
-    unknown = [c for c in conditions if c not in ALL_CONDITIONS]
-    if unknown:
-        raise StudyJobError(f"unknown condition(s) {', '.join(unknown)}; choose from {', '.join(ALL_CONDITIONS)}")
-    hand_picked = {str(k): [int(e) for e in v] for k, v in (hand_picked or {}).items()}
     in_table = {int(e) for e in table.env_ids}
-    for condition, ids in hand_picked.items():
+    for condition, ids in args["hand_picked"].items():
         missing = sorted(set(ids) - in_table)
-        if not ids or missing:
-            raise StudyJobError(f"hand-picked condition {condition!r}: " + (
-                f"environments {missing[:10]} are not in the table" if missing else "no environment ids given"))
-    conditions += list(hand_picked)
-    loops = _closed_loop_settings(closed_loop)
-    fit_from = {str(k): str(v) for k, v in (closed_loop_fit or {}).items()}
-    for name, source in fit_from.items():
-        if name not in loops:
-            raise StudyJobError(f"a fit is asked for {name!r}, which is not a closed-loop condition of this study")
+        if missing:
+            raise StudyJobError(f"hand-picked condition {condition!r}: environments {missing[:10]} are not in the "
+                                "table")
+    for name, source in args["closed_loop_fit"].items():
         if not Study.objects.filter(slug=source).exists():
             raise StudyJobError(f"closed-loop condition {name!r}: there is no study {source!r} to take a fit from")
-    if len(set(conditions) | set(loops)) != len(conditions) + len(loops):
-        raise StudyJobError("a condition is listed twice")
-    thresholds = {k: float(v) for k, v in (test_set_thresholds or {}).items()}
-    unknown = set(thresholds) - {"min_regret", "min_distance"}
-    if unknown or any(v < 0 for v in thresholds.values()):
-        raise StudyJobError("test-set thresholds are min_regret and min_distance, each >= 0")
-    hyperparameters = {k: float(v) for k, v in (hyperparameters or {}).items()}
-    try:
-        make_model(approx_star)
-        for model, value in hyperparameters.items():
-            make_model(model, value)
-    except ValueError as exc:
-        raise StudyJobError(str(exc)) from None
-    if not slug:
-        raise StudyJobError("a study needs a slug")
+    conditions = args["conditions"] + list(args["hand_picked"])
+    loops = args["closed_loop"]
     source = {"kind": "table", "table": str(table_path), "content_hash": table.meta.get("content_hash"),
-              "theta_star": [float(v) for v in table.theta_star], "domain": table.domain.name, "seed": seed,
-              "approx_star": approx_star,
-              "hyperparameters": hyperparameters, "hand_picked": hand_picked, "test_set_thresholds": thresholds}
+              "theta_star": [float(v) for v in table.theta_star], "domain": table.domain.name,
+              **{k: args[k] for k in ("seed", "approx_star", "hyperparameters", "hand_picked", "test_set_thresholds")}}
+    fields = {k: args[k] for k in STUDY_FIELDS if k not in ("slug", "name") and k in args}
     with transaction.atomic():
         try:  # the study app's own rules for a new study (studyapp/studies.py)
-            study = new_study(slug=slug, name=name, conditions=conditions + list(loops), source=source, replace=replace,
-                              target_per_condition=target_per_condition, **study_fields)
+            study = new_study(slug=args["slug"], name=args.get("name"), conditions=conditions + list(loops),
+                              source=source, replace=replace, **fields)
         except SpecError as exc:
             raise StudyJobError(str(exc)) from None
-        spec = StudyJobSpec(study_id=study.pk, slug=slug, table=str(table_path), content_hash=source["content_hash"],
-                            seed=seed, approx_star=approx_star, hyperparameters=hyperparameters,
-                            conditions=conditions, open_when_done=open_when_done, queue=queue,
-                            hand_picked=hand_picked, test_set_thresholds=thresholds, closed_loop=loops,
-                            closed_loop_fit=fit_from)
+        spec = StudyJobSpec(study_id=study.pk, slug=study.slug, table=str(table_path),
+                            content_hash=source["content_hash"], seed=args["seed"], approx_star=args["approx_star"],
+                            hyperparameters=args["hyperparameters"], conditions=conditions,
+                            open_when_done=open_when_done, queue=queue, hand_picked=args["hand_picked"],
+                            test_set_thresholds=args["test_set_thresholds"], closed_loop=loops,
+                            closed_loop_fit=args["closed_loop_fit"])
         job = Job.objects.create(kind=Job.STUDY, chunks_total=len(conditions) + 1, params=spec.to_json())
     if start:
         launch(job)
     return job
-
-
-def _closed_loop_settings(closed_loop: dict | None) -> dict:
-    """{name: settings} checked here, where a bad value is one line to the researcher, not a failed task."""
-    loops = {}
-    for name, settings in (closed_loop or {}).items():
-        if not isinstance(settings, dict):
-            raise StudyJobError(f"closed-loop condition {name!r}: its settings must be an object, e.g. "
-                                f'{{"model": "det-euclidean", "check_every": 2}}')
-        try:
-            loops[str(name)] = ClosedLoopSpec.from_dict(settings).as_dict()
-        except (ClosedLoopError, TypeError) as exc:
-            raise StudyJobError(f"closed-loop condition {name!r}: {exc}") from None
-    return loops
 
 
 _TRUE, _FALSE = {"1", "yes", "true", "on"}, {"0", "no", "false", "off"}

@@ -13,7 +13,6 @@ from django.utils import timezone
 from django.views.decorators.http import require_POST
 
 from studyapp.access import researcher_required
-from studyapp.studies import TEXT_FIELDS
 from teaching.api import TableError
 
 from . import jobs
@@ -89,16 +88,7 @@ def design(request):
     if request.method == "POST" and form.is_valid():
         d = form.cleaned_data
         try:
-            hand_picked = {d["hand_picked_name"]: d["hand_picked_env_ids"]} if d["hand_picked_env_ids"] else {}
-            job = create_study_job(d["table"], d["slug"], name=d["name"] or None, seed=d["seed"],
-                                   approx_star=d["approx_star"], hyperparameters=d["hyperparameters"],
-                                   conditions=d["conditions"], hand_picked=hand_picked, open_when_done=False,
-                                   test_set_thresholds={k: d[k] for k in ("min_regret", "min_distance")
-                                                        if d.get(k) is not None},
-                                   target_per_condition=d["target_per_condition"], start=False,
-                                   closed_loop=d["closed_loop"], closed_loop_fit=d["closed_loop_fit"],
-                                   completion_code=d["completion_code"].strip(), recruitment=d["recruitment"],
-                                   **{k: d[k] for k in TEXT_FIELDS})
+            job = create_study_job(**d["job"], open_when_done=False, start=False)
         except (StudyJobError, TableError) as exc:
             form.add_error(None, str(exc))
         else:

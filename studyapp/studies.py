@@ -1,16 +1,12 @@
 """Creating studies from a JSON spec, and the demo study.
 
-Spec (a JSON file for ``manage.py create_study``)::
+Spec (a JSON file for ``manage.py create_study``; its fields, their defaults and rules are declared
+once in studyapp/specschema.py, and documented in docs/study.md)::
 
     {
-      "slug": "study-2026", "name": "What the robot prefers",
-      "target_per_condition": 30,                  # optional
-      "completion_code": "C1ABCDEF",               # Prolific's code (required with "recruitment": "prolific")
-      "recruitment": "prolific",                   # optional: link (default), prolific, mturk
-      "consent_text": "...", "estimated_minutes": 15, "payment": "...", "contact": "...",
-      "ethics_reference": "...",                   # optional: the consent page's texts
-      "table": "var/tables/demo",                  # a teaching TrajectoryTable (required)
-      "theta_star": [-64, -0.1, -1, -0.1, -0.5],   # optional: refuse a table built for another theta*
+      "slug": "study-2026", "name": "What the robot prefers", "target_per_condition": 30,
+      "recruitment": "prolific", "completion_code": "C1ABCDEF",
+      "table": "var/tables/demo",
       "conditions": [{"name": "exact", "env_ids": [12, 4031, ...]}, ...],
       "test_set": [{"env_id": 77, "options": [{"theta_index": 0, "is_theta_star": true}, ...]}, ...]
     }
@@ -34,8 +30,6 @@ from pathlib import Path
 
 import numpy as np
 from django.conf import settings
-from django.core.exceptions import ValidationError
-from django.core.validators import validate_slug
 from django.db import transaction
 
 from teaching.api import (
@@ -51,9 +45,9 @@ from teaching.api import (
     select_test_set,
 )
 
-from . import closedloop, trajectories
-from .analysis.conditions import ConditionError, check_distinct_conditions
+from . import closedloop, specschema, trajectories
 from .models import Condition, Study
+from .specschema import TEXT_FIELDS, SpecError
 
 # The paper's nine conditions (Secs. "User Study" and "User Study on Coverage"), spelled as the
 # teaching selectors name them so a study built from either source reads the same.
@@ -62,78 +56,9 @@ DEMO_SLUG = "demo"
 DEMO_TABLE_ENV = "DEMO_TABLE"
 DEMO_TABLE_NAME = "demo"  # the demo table is settings.TABLES_DIR/demo, where `make demo` writes it
 
-
-# The per-study texts of the consent page a spec may set (models.Study; defaults there).
-TEXT_FIELDS = ("consent_text", "estimated_minutes", "payment", "contact", "ethics_reference")
 DEMO_COMPLETION_CODE = "DEMO2026"  # Prolific rejects a per-participant code: the demo sets one
 PILOT_KEY = "pilot"  # study.source["pilot"]: the simulated pilot (studyapp/pilot.py)
 SCENE_VIEW_KEY = "scene_view"  # study.source["scene_view"]: the one scale, stored when closed loops widen it
-
-
-class SpecError(ValueError):
-    pass
-
-
-def _is_int(v) -> bool:
-    return isinstance(v, int) and not isinstance(v, bool)
-
-
-def _check_slug(slug) -> None:
-    try:
-        validate_slug(slug or "")
-    except ValidationError:
-        raise SpecError(f"'slug' may hold only letters, digits, - and _, not {slug!r}") from None
-
-
-def _check_condition_names(names) -> None:
-    if not names or any(not n for n in names) or len(set(names)) != len(names):
-        raise SpecError("every condition needs a unique, non-empty 'name'")
-    try:  # two spellings of one condition would be one group to the analysis (analysis/conditions.py)
-        check_distinct_conditions(names)
-    except ConditionError as exc:
-        raise SpecError(str(exc)) from None
-
-
-def check_spec_shape(spec) -> None:
-    """The spec's JSON types, before anything reads it: a SpecError naming the first problem."""
-    if not isinstance(spec, dict):
-        raise SpecError(f"a study spec is a JSON object, not a {type(spec).__name__} "
-                        "(for the output of `python -m teaching.teach`, give its directory)")
-    slug = spec.get("slug")
-    if not isinstance(slug, str) or not slug:
-        raise SpecError("spec needs a 'slug'")
-    _check_slug(slug)
-    conditions = spec.get("conditions")
-    if not isinstance(conditions, list) or not conditions:
-        raise SpecError("spec needs a non-empty 'conditions' list")
-    for i, c in enumerate(conditions):
-        if not isinstance(c, dict):
-            raise SpecError(f"condition {i} must be an object with 'name' and 'env_ids'")
-        if "closed_loop" in c and not isinstance(c["closed_loop"], dict):
-            raise SpecError(f"condition {c.get('name', i)!r}: 'closed_loop' must be an object of settings")
-        if not isinstance(c.get("env_ids", []), list) or not all(_is_int(e) for e in c.get("env_ids", [])):
-            raise SpecError(f"condition {c.get('name', i)!r}: 'env_ids' must be a list of environment ids")
-    tests = spec.get("test_set")
-    if tests is not None:
-        if not isinstance(tests, list):
-            raise SpecError("'test_set' must be a list of tests")
-        for j, t in enumerate(tests):
-            if not (isinstance(t, dict) and _is_int(t.get("env_id")) and isinstance(t.get("options"), list)
-                    and all(isinstance(o, dict) and _is_int(o.get("theta_index"))
-                            and isinstance(o.get("is_theta_star"), bool) for o in t["options"])):
-                raise SpecError(f"test {j} must be an object with an 'env_id' and 'options' "
-                                "[{'theta_index': int, 'is_theta_star': bool}, ...]")
-    star = spec.get("theta_star")  # its length is the table's domain's (checked with the table: _load_table)
-    if star is not None and not (isinstance(star, list) and star
-                                 and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in star)):
-        raise SpecError(f"'theta_star' must be a list of numbers, one per feature, not {star!r}")
-    for key in ("target_per_condition", "estimated_minutes"):
-        if key in spec and not (_is_int(spec[key]) and spec[key] > 0):
-            raise SpecError(f"'{key}' must be a positive whole number, not {spec[key]!r}")
-    for key in ("name", "completion_code", "recruitment", "table", "consent_text", "payment", "contact",
-                "ethics_reference"):
-        if key in spec and not isinstance(spec[key], str):
-            raise SpecError(f"'{key}' must be a string, not {spec[key]!r}")
 
 
 def spec_from_teach(teach_dir, table=None) -> dict:
@@ -204,20 +129,8 @@ def _load_table(spec: dict):
 
 
 def _payloads(spec: dict):
-    """Training and test payloads of a spec that passed check_spec_shape."""
+    """Training and test payloads of a spec that passed specschema.check_spec."""
     conditions = spec["conditions"]
-    _check_condition_names([c.get("name") for c in conditions])  # before any table is read
-    for c in conditions:
-        if "closed_loop" in c and c.get("env_ids"):
-            raise SpecError(f"condition {c['name']!r}: a closed-loop condition chooses its own examples; "
-                            f"drop its 'env_ids'")
-        if not c.get("env_ids") and "closed_loop" not in c:
-            raise SpecError(f"condition {c['name']!r} needs a non-empty 'env_ids' list")
-    if not spec.get("table"):
-        raise SpecError("a spec needs a 'table': the trajectory table its trajectories come from "
-                        "(build one with `python -m teaching build --preset demo`)")
-    if not spec.get("test_set"):
-        raise SpecError("a spec with a 'table' needs its 'test_set'")
     table = _load_table(spec)
     try:
         training = {c["name"]: trajectories.training_from_table(table, c.get("env_ids", [])) for c in conditions}
@@ -261,10 +174,7 @@ def new_study(*, slug: str, conditions: list[str], source: dict, name: str | Non
     Refuses a bad slug, duplicate condition names, an existing study unless `replace`, and
     replacing a study that has participants.
     """
-    _check_slug(slug)
-    _check_condition_names(conditions)
-    if fields.get("recruitment", Study.LINK) not in dict(Study.RECRUITMENTS):
-        raise SpecError(f"'recruitment' must be one of {', '.join(dict(Study.RECRUITMENTS))}")
+    specschema.check_study({"slug": slug, "name": name, **fields}, conditions)
     with transaction.atomic():
         existing = Study.objects.select_for_update().filter(slug=slug).first()
         if existing and not replace:
@@ -360,7 +270,7 @@ def build_study(spec: dict, replace: bool = False) -> Study:
     An existing study with the same slug is kept as is unless `replace`,
     which is refused once it has participants.
     """
-    check_spec_shape(spec)
+    spec = specschema.check_spec(spec)
     existing = Study.objects.filter(slug=spec["slug"]).first()
     if existing and not replace:
         return existing
@@ -368,9 +278,8 @@ def build_study(spec: dict, replace: bool = False) -> Study:
     with transaction.atomic():
         study = new_study(slug=spec["slug"], name=spec.get("name"), conditions=[c["name"] for c in conditions],
                           source=source, replace=replace,
-                          target_per_condition=spec.get("target_per_condition", 30),
-                          completion_code=spec.get("completion_code", ""),
-                          recruitment=spec.get("recruitment", Study.LINK),
+                          target_per_condition=spec["target_per_condition"],
+                          completion_code=spec["completion_code"], recruitment=spec["recruitment"],
                           **{k: spec[k] for k in TEXT_FIELDS if k in spec})
         targets = {c["name"]: c.get("target") for c in conditions}
         for c in study.conditions.all():
@@ -378,7 +287,7 @@ def build_study(spec: dict, replace: bool = False) -> Study:
                 freeze_closed_loop(c, training[c.name], targets[c.name])
             else:
                 freeze_condition(c, training[c.name], targets[c.name])
-        freeze_test_set(study, tests, open_study=spec.get("is_open", True))
+        freeze_test_set(study, tests, open_study=spec["is_open"])
     return study
 
 

@@ -103,7 +103,7 @@ def test_parse_closed_loop_says_what_it_cannot_read(text, message):
     ({"cl": {"lapse": 0}}, "closed-loop condition 'cl': the lapse rate must lie in (0, 1]"),
     ({"cl": {"model": "nonsense"}}, "closed-loop condition 'cl': unknown learner model"),
     ({"random": {}}, "a condition is listed twice"),
-    ({"cl": "det-reward"}, "its settings must be an object"),
+    ({"cl": "det-reward"}, "closed-loop condition 'cl': 'closed_loop' must be an object of settings"),
 ])
 def test_bad_closed_loop_settings_are_refused_before_any_task(db, tiny_table, loops, message):
     with pytest.raises(StudyJobError, match=message.replace("(", r"\(").replace("]", r"\]")):

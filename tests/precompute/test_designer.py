@@ -103,7 +103,7 @@ def test_design_form_errors(db, tables, staff_client, make_study):
     make_study(slug="taken")
     cases = [
         (dict(FORM, slug="taken"), "exists already"),
-        (dict(FORM, slug="bad slug"), "Enter a valid"),
+        (dict(FORM, slug="bad slug"), "'slug' may hold only letters, digits, - and _, not 'bad slug'"),
         (dict(FORM, completion_code=""), "Prolific only accepts its study"),
         (dict(FORM, conditions=[]), "Choose at least one condition, or give a hand-picked or closed-loop one."),
         (dict(FORM, fixed_det_euclidean="abc"), "τ of det-euclidean must be a number greater than 0 (e.g. 0.5), "
@@ -112,9 +112,9 @@ def test_design_form_errors(db, tables, staff_client, make_study):
         (dict(FORM, hand_picked_env_ids="12, x"), "Give whole environment ids"),
         (dict(FORM, hand_picked_env_ids="999999"), "Not in this table: 999999"),
         (dict(FORM, hand_picked_env_ids="1", hand_picked_name="random"), "already one of the chosen conditions"),
-        (dict(FORM, min_distance="-1"), "greater than or equal to 0"),
+        (dict(FORM, min_distance="-1"), "test-set threshold 'min_distance' must be a number, 0 or more, not -1.0"),
         (dict(FORM, estimated_minutes="ten"), "Enter a whole number"),
-        (dict(FORM, target_per_condition="1"), "greater than or equal to 2"),
+        (dict(FORM, target_per_condition="0"), "'target_per_condition' must be a positive whole number up to 100,000"),
         (dict(FORM, table="/nowhere"), "Select a valid choice"),
     ]
     for data, message in cases:

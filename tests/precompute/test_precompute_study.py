@@ -132,8 +132,8 @@ def test_a_study_task_refuses_a_table_other_than_the_verified_one(db, table_path
     (["--slug", "x", "--hyper", "det-euclidean"], "--hyper expects MODEL=VALUE"),
     (["--slug", "x", "--hyper", "det-euclidean=-1"], "must be a finite number > 0"),
     (["--slug", "x", "--hyper", "psychic=1"], "unknown learner model 'psychic'"),
-    (["--slug", "x", "--approx-star", "psychic"], "unknown learner model 'psychic'"),
-    (["--slug", "x", "--target-per-condition", "0"], "--target-per-condition must be positive"),
+    (["--slug", "x", "--approx-star", "psychic"], "'approx_star' must be one of exact, det-reward"),
+    (["--slug", "x", "--target-per-condition", "0"], "'target_per_condition' must be a positive whole number"),
     (["--slug", "bad slug"], "'slug' may hold only letters, digits, - and _"),  # studyapp's rule, one place
 ])
 def test_build_study_rejects_bad_arguments(db, table_path, argv, message, settings, tmp_path):

@@ -18,9 +18,15 @@ from django.core.management.base import BaseCommand, CommandError
 
 from precompute import jobs
 from precompute.study import StudyJobError, create_study_job, parse_closed_loop
-from teaching.api import ALL_CONDITIONS, APPROX_STAR, CONDITIONS, TableError, parse_hyperparameters
+from studyapp.specschema import JOB_FIELDS, STUDY_FIELDS
+from teaching.api import ALL_CONDITIONS, CONDITIONS, TableError, parse_hyperparameters
 
 from ._waiting import wait_for_job
+
+
+def _help(field) -> str:
+    """A study spec field's help and default, as the schema declares them (studyapp/specschema.py)."""
+    return f"{field.help} (default {field.default})"
 
 
 class Command(BaseCommand):
@@ -33,8 +39,8 @@ class Command(BaseCommand):
                                           "($TABLES_DIR/<preset>)")
         parser.add_argument("--slug", required=True, help="the study's slug (its URL)")
         parser.add_argument("--name", help="the study's title (default: the slug)")
-        parser.add_argument("--seed", type=int, default=0, help="seed of the random conditions and the test set")
-        parser.add_argument("--approx-star", default=APPROX_STAR, help="model that coverage-approx* augments")
+        parser.add_argument("--seed", type=int, help=_help(JOB_FIELDS["seed"]))
+        parser.add_argument("--approx-star", help=_help(JOB_FIELDS["approx_star"]))
         parser.add_argument("--hyper", action="append", default=[], metavar="MODEL=VALUE",
                             help="fix τ or λ of a model instead of sweeping (repeatable)")
         parser.add_argument("--conditions", help=f"comma-separated subset of {','.join(ALL_CONDITIONS)} "
@@ -43,7 +49,7 @@ class Command(BaseCommand):
                             help="a closed-loop condition NAME (repeatable): each participant's next example "
                                  "chosen from their answers; settings model, value, lapse, example_lapse, "
                                  "max_examples, check_every, feedback, stop_at (docs/study.md)")
-        parser.add_argument("--target-per-condition", type=int, default=30)
+        parser.add_argument("--target-per-condition", type=int, help=_help(STUDY_FIELDS["target_per_condition"]))
         parser.add_argument("--closed", action="store_true", help="leave the study closed when done")
         parser.add_argument("--replace", action="store_true", help="rebuild an existing study without participants")
         parser.add_argument("--queue", help="Celery queue (default: settings.PRECOMPUTE_QUEUE)")
@@ -59,8 +65,6 @@ class Command(BaseCommand):
         except ValueError as exc:  # StudyJobError is one
             raise CommandError(str(exc)) from None
         conditions = [c.strip() for c in opts["conditions"].split(",") if c.strip()] if opts["conditions"] else None
-        if opts["target_per_condition"] <= 0:
-            raise CommandError("--target-per-condition must be positive")
         try:
             job = create_study_job(table, opts["slug"], opts["name"], opts["seed"], opts["approx_star"], hyper,
                                    conditions, open_when_done=not opts["closed"], replace=opts["replace"],
