@@ -18,15 +18,24 @@ def built_in(root: Path, name: str, build) -> Path:
     reuse it (so a 20-s table is not built once per xdist worker).  root/name.built marks a
     finished build: a build that raised leaves no marker, and the next caller starts it afresh.
     """
-    out, done = root / name, root / f"{name}.built"
+    out = root / name
     with open(root / f"{name}.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes, also if build raises
-        if not done.exists():
+        if not (root / f"{name}.built").exists():
             shutil.rmtree(out, ignore_errors=True)  # what a build that raised left half-written
             out.mkdir()
             build(out)
-            done.touch()
+            mark_built(root, name)
     return out
+
+
+def mark_built(root: Path, name: str) -> None:
+    """root/name is finished: built_in reuses it from now on (tests/prebuild.py builds before any run)."""
+    (root / f"{name}.built").touch()
+
+
+# The `tiny` preset's table, shared by every test that reads it (tests/conftest.py tiny_table)
+TINY_TABLE = "tiny-table"
 
 
 # What another CPU changes: glibc's libm picks FMA/AVX2 variants of exp, sin, tan, ... at load time,

@@ -62,7 +62,7 @@ def _fast_password_hashing():
 def tiny_table(tmp_path_factory):
     """The `tiny` preset built for real (48 environments × 24 θ, a few seconds), once per run:
     every study the app's tests make draws its trajectories from it."""
-    return built_once(tmp_path_factory, "tiny-table", functools.partial(build_table, PRESETS["tiny"]))
+    return built_once(tmp_path_factory, builds.TINY_TABLE, functools.partial(build_table, PRESETS["tiny"]))
 
 
 @pytest.fixture

@@ -5,7 +5,9 @@
 1. Compiles the planner's Numba kernels into their disk caches, twice side by side (one core each):
    for this CPU, and for the "other CPU" of the reproducibility test (tests/builds.py OTHER_CPU).
    In a fresh clone each is a cold compile of about a minute; inside the runs it would be paid on
-   cores the other tests are competing for.
+   cores the other tests are competing for.  The build that compiles for this CPU is the `tiny`
+   table itself, left where tests/conftest.py's tiny_table fixture looks for it (and marked built
+   the way tests/builds.py built_in marks it), so no test builds it again.
 2. Builds the demo table (tests/builds.py built_in, the directory tests/conftest.py's demo_table
    fixture reads), on both cores: the table a dozen tests of both runs wait for.
 
@@ -21,22 +23,23 @@ import time
 from pathlib import Path
 
 from teaching.core.build import PRESETS, build_table
-from tests.builds import OTHER_CPU_NUMBA_CACHE, built_in, other_cpu_env
+from tests.builds import OTHER_CPU_NUMBA_CACHE, TINY_TABLE, built_in, mark_built, other_cpu_env
 
 
 def compile_kernels(root: Path) -> None:
-    """A tiny build for this CPU and one for the other CPU, in two processes at once."""
+    """The tiny table for this CPU and a tiny build for the other CPU, in two processes at once."""
     def build(name: str, env: dict) -> subprocess.Popen:
         return subprocess.Popen([sys.executable, "-m", "teaching", "build", "--preset", "tiny",
                                  "--out", str(root / name)], env=env, stdout=subprocess.DEVNULL,
                                 stderr=subprocess.PIPE, text=True)
 
-    builds = {"this CPU": build("kernels-this-cpu", dict(os.environ)),
+    builds = {"this CPU": build(TINY_TABLE, dict(os.environ)),
               "the other CPU": build("kernels-other-cpu", other_cpu_env(os.environ, root / OTHER_CPU_NUMBA_CACHE))}
     for what, proc in builds.items():
         _, err = proc.communicate()
         if proc.returncode != 0:
             raise SystemExit(f"prebuild: compiling the kernels for {what} failed:\n{err}")
+    mark_built(root, TINY_TABLE)
 
 
 def main() -> int:

@@ -1,6 +1,6 @@
 """`python -m teaching sheet`: the contact sheet of every training example and test option.
 
-The tiny table is built once for the module (~20 s).  Its teach output has no test set (too few
+The tiny table is the run's shared one (tests/conftest.py tiny_table).  Its teach output has no test set (too few
 environments per cluster), so a synthetic table (as in test_teach_cli.py) covers the 6 tests × 4
 options.  No Django."""
 import json
@@ -14,7 +14,6 @@ import pytest
 from PIL import Image
 
 from teaching.__main__ import main
-from teaching.core.build import PRESETS, build_table
 from teaching.core.sheet import make_sheet
 from teaching.domains.driving.synthetic import synthetic_table
 from teaching.teach import main as teach_main
@@ -36,10 +35,8 @@ def taught(table_dir: Path, out: Path) -> Path:
 
 
 @pytest.fixture(scope="module")
-def tiny(tmp_path_factory):
-    root = tmp_path_factory.mktemp("sheet-tiny")
-    build_table(PRESETS["tiny"], root / "table")
-    return root / "table", taught(root / "table", root / "teach")
+def tiny(tiny_table, tmp_path_factory):
+    return tiny_table, taught(tiny_table, tmp_path_factory.mktemp("sheet-tiny") / "teach")
 
 
 @pytest.fixture(scope="module")

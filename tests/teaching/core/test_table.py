@@ -24,10 +24,9 @@ TINY = PRESETS["tiny"]
 
 
 @pytest.fixture(scope="module")
-def built(tmp_path_factory):
-    out = tmp_path_factory.mktemp("tiny")
-    table = build_table(TINY, out)
-    return out, table
+def built(tiny_table):
+    """The run's shared `tiny` table (read only: a test that alters one alters a copy_of it)."""
+    return tiny_table, TrajectoryTable.load(tiny_table)
 
 
 def copy_of(built, tmp_path):
