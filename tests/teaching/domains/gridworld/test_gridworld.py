@@ -188,14 +188,18 @@ def test_every_path_of_a_built_table_is_valid_and_optimal(tiny):
 
 
 def test_theta_star_shows_both_strategies_of_every_informative_class():
+    """On 400 yards of each informative class, drawn with a fixed seed: over all 17,460 yards the
+    shares are mud 24 / 76 %, dog 25 / 75 %, cart 47 / 53 % (the whole set is 40 s of label-setting,
+    these 1,200 yards 3 s), so the 5 % floor sits 9 standard errors below the smallest share."""
     star = np.asarray(GRIDWORLD.theta_star, float)
     cls = E.all_classes()
-    picks = np.empty(E.N_ENVIRONMENTS, np.int8)
-    for i in range(E.N_ENVIRONMENTS):
-        phi, _ = pareto_paths(E.get_yard(i))
-        picks[i] = L.strategy_labels(phi[np.argmax(reward(phi.astype(float), star))], cls[i])
+    rng = np.random.default_rng(0)
     for c in (E.MUD_CLASS, E.DOG_CLASS, E.CART_CLASS):
-        share = np.bincount(picks[cls == c], minlength=8)[[2 * c, 2 * c + 1]] / (cls == c).sum()
+        picks = []
+        for i in rng.choice(np.flatnonzero(cls == c), 400, replace=False):
+            phi, _ = pareto_paths(E.get_yard(int(i)))
+            picks.append(L.strategy_labels(phi[np.argmax(reward(phi.astype(float), star))], cls[i]))
+        share = np.bincount(picks, minlength=8)[[2 * c, 2 * c + 1]] / len(picks)
         assert (share >= 0.05).all(), (E.CLASS_NAMES[c], share)
         assert share.sum() == 1  # every path of the class shows one of its two strategies
 
