@@ -21,8 +21,8 @@ from pathlib import Path
 sys.path.pop(0)
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from teaching.core.conditions import condition_sequence
 from teaching.core.learners import Distances
-from teaching.core.selection import condition_sequence
 from teaching.core.selectors import selector_names
 from teaching.core.table import TrajectoryTable
 

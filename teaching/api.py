@@ -158,18 +158,12 @@ from .core.closedloop import (
 )
 from .core.closedloop_pack import Pack, load_pack, write_pack
 from .core.closedloop_pilot import loop_pilot
+from .core.conditions import build_sequences, condition_sequence
 from .core.domain import Domain, LegendEntry, ParticipantTexts, default_domain_name, domain_names, get_domain
 from .core.evaluation import USER_NAMES, study_matrix
 from .core.fitting import TIE_TOLERANCE, Answers, Comparison, FitError, Question, compare_models, questions_of
 from .core.learners import MODEL_NAMES, has_hyperparameter, make_model, model_names, parse_hyperparameters
-from .core.selection import (
-    ALL_CONDITIONS,
-    APPROX_STAR,
-    CONDITIONS,
-    SelectionSettings,
-    build_sequences,
-    condition_sequence,
-)
+from .core.selection import ALL_CONDITIONS, APPROX_STAR, CONDITIONS, SelectionSettings
 from .core.selectors import check_params, get_selector, selector_names
 from .core.simulate import (
     AnswerModel,

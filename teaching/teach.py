@@ -21,9 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
+from .core.conditions import teach
 from .core.evaluation import SEQUENCE_NAMES, USER_NAMES, examples_per_cluster, grid_layout, ideal_user_matrix
 from .core.learners import Distances, model_names, parse_hyperparameters
-from .core.selection import APPROX_STAR, CONDITIONS, COVERAGE_EPSILON, SelectionSettings, teach, theta_star_clusters
+from .core.selection import APPROX_STAR, CONDITIONS, COVERAGE_EPSILON, SelectionSettings, theta_star_clusters
 from .core.simulate import pilot_predictions
 from .core.table import TableError, TrajectoryTable
 from .core.teachout import write_json

@@ -19,8 +19,9 @@ from __future__ import annotations
 import numpy as np
 
 from . import bec
+from .conditions import SelectionContext
 from .rewards import reward
-from .selection import SelectionContext, Sequence, showable, theta_star_clusters
+from .selection import Sequence, showable, theta_star_clusters
 from .selectors import Param, Selector, integer_at_least, register_selector
 
 

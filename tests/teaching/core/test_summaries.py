@@ -10,7 +10,8 @@ import pytest
 
 from teaching.core import bec
 from teaching.core.build import PRESETS, build_table
-from teaching.core.selection import condition_sequence, theta_star_clusters
+from teaching.core.conditions import condition_sequence
+from teaching.core.selection import theta_star_clusters
 from teaching.core.summaries import (
     SummaryError,
     bec_sizes,
