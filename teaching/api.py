@@ -115,8 +115,11 @@ Learners and selection (DESIGN §5-6)
                              and any added; get_selector(name) -> Selector (.params: {name: Param
                              (default, check, doc)}, .doc); check_params(name, params) -> every
                              parameter checked, defaults filled (ValueError, one line, naming it)
-    select_test_set(table, training_env_ids, seed=0, min_regret=, min_distance=)  6 dicts: env_id,
-                             env_index, cluster and 4 options {theta_index, is_theta_star, cluster, regret}
+    select_test_set(table, training_env_ids, seed=0, min_regret=, min_distance=, difficulty=None)  6 dicts:
+                             env_id, env_index, cluster and 4 options {theta_index, is_theta_star, cluster,
+                             regret}; with a difficulty also difficulty, bec_size (in [0, 1]), bec_tertiles
+    DIFFICULTIES             ("low", "medium", "high"): a graded test's levels, by tertile of BEC size
+                             (large BEC = easy = low; docs/teaching.md); TeachOutput.test_difficulty
     MIN_REGRET, MIN_OPTION_DISTANCE  the test set's default thresholds: θ*-reward units (1e-3), and
                              scaled state units between options (0.5)
 
@@ -175,7 +178,7 @@ from .core.simulate import (
 )
 from .core.table import TableError, TrajectoryTable
 from .core.teachout import TeachOutput, TeachOutputError, read_teach
-from .core.testset import MIN_REGRET, select_test_set
+from .core.testset import DIFFICULTIES, MIN_REGRET, select_test_set
 from .domains.driving.domain import DOMAIN as _DRIVING
 from .domains.driving.environments import (
                     CLASS_NAMES,
@@ -210,5 +213,5 @@ __all__ = [
     "loop_pilot", "MAX_EXAMPLES_LIMIT",
     "select_checks", "Pack", "load_pack", "write_pack",
     "TeachOutput", "TeachOutputError", "read_teach",
-    "check_params", "get_selector", "selector_names",
+    "check_params", "get_selector", "selector_names", "DIFFICULTIES",
 ]

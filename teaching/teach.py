@@ -4,7 +4,8 @@
 
 writes to --out (the format: teaching/core/teachout.py, which also reads it):
     sequences.json             every condition's environment ids, P(θ*) curve, chosen τ/λ and sweeps
-    test_set.json              the 6 test environments and their 4 options
+    test_set.json              the 6 test environments and their 4 options (with --test-difficulty,
+                               each test's difficulty, BEC size and the tertiles it was graded by)
     matrix.json                ideal-user matrix P_M(θ* | sequence for M'), rows = sequences
     examples_per_cluster.json  2 × 4 cluster grids per sequence
     sim_users.png, examples_shown.png
@@ -21,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .core.bec import BECError
 from .core.conditions import teach
 from .core.evaluation import SEQUENCE_NAMES, USER_NAMES, examples_per_cluster, grid_layout, ideal_user_matrix
 from .core.learners import Distances, model_names, parse_hyperparameters
@@ -28,7 +30,7 @@ from .core.selection import APPROX_STAR, CONDITIONS, COVERAGE_EPSILON, Selection
 from .core.simulate import pilot_predictions
 from .core.table import TableError, TrajectoryTable
 from .core.teachout import write_json
-from .core.testset import MIN_REGRET, TestSetError, select_test_set
+from .core.testset import DIFFICULTIES, MIN_REGRET, TestSetError, select_test_set
 
 EXIT_BAD_INPUT = 2
 
@@ -49,6 +51,10 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--min-regret", type=float, default=MIN_REGRET)
     p.add_argument("--min-option-distance", type=float, default=None,
                    help="test options at least this far apart (default: the table's domain's; the car: 0.5)")
+    p.add_argument("--test-difficulty", choices=DIFFICULTIES, default=None,
+                   help="draw every test among environments of this difficulty: tertiles of the BEC size of the "
+                        "eligible test environments, low = large BEC = easy (docs/teaching.md, 'Test set'); "
+                        "each test then records its difficulty and BEC size")
     p.add_argument("--no-progress", action="store_true")
     return p.parse_args(argv)
 
@@ -112,9 +118,12 @@ def run(args) -> dict:
         # disjoint from what the study's conditions train on (every learner's sequence but the
         # hierarchical one is a condition's: adding that learner left the test set as it was)
         tests = select_test_set(table, [ids[envs[c]].tolist() for c in CONDITIONS], seed=args.seed,
-                                min_regret=args.min_regret, min_distance=args.min_option_distance)
+                                min_regret=args.min_regret, min_distance=args.min_option_distance,
+                                difficulty=args.test_difficulty)
     except TestSetError as exc:
         tests = {"error": str(exc)}
+    except BECError as exc:  # grading needs θ*'s sign-constrained space
+        raise InputError(f"--test-difficulty: {exc}") from None
     write_json(out / "test_set.json", tests)
 
     matrix = ideal_user_matrix(result.models, envs, dist)

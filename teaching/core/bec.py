@@ -212,6 +212,22 @@ def bec_size(normals: np.ndarray, samples: np.ndarray | None = None) -> tuple[fl
     return p, float(np.sqrt(p * (1 - p) / len(samples)))
 
 
+def bec_sizes(normals: list[np.ndarray], samples: int = MC_SAMPLES) -> np.ndarray:
+    """(E,) BEC size of each environment's half-spaces (:func:`teaching.core.bec_size`), every
+    one measured on the same seeded samples above 2 features, so their order is not sampling noise
+    between environments (common random numbers)."""
+    d = next((len(n[0]) for n in normals if len(n)), 2)
+    points = sphere_samples(d, samples) if d > 2 else None
+    return np.array([bec_size(n, points)[0] if len(n) else 1.0 for n in normals])
+
+
+def environment_sizes(table, rows, samples: int = MC_SAMPLES) -> np.ndarray:
+    """(E,) the BEC size of each of the table rows ``rows`` (E,) alone (:func:`bec_sizes`, θ* =
+    the table's): an environment's size does not depend on which others are measured with it."""
+    signs = weight_signs(table.theta_star)
+    return bec_sizes([half_spaces(table.features[m], signs, table.theta_star_index) for m in rows], samples)
+
+
 def _arc_fraction(normals: np.ndarray) -> float:
     """2 features: the angles of u = (cos a, sin a), a ∈ [0, π/2], with normals·u ≥ 0, over π/2."""
     lo, hi = 0.0, np.pi / 2
