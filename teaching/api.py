@@ -114,7 +114,8 @@ Learners and selection (DESIGN §5-6)
                              (greedy under each learner model, random, coverage-approx*, coverage-random)
                              and any added; get_selector(name) -> Selector (.params: {name: Param
                              (default, check, doc)}, .doc); check_params(name, params) -> every
-                             parameter checked, defaults filled (ValueError, one line, naming it)
+                             parameter checked, defaults filled (ValueError, one line, naming it);
+                             parse_selector("bec-scaffold:k=2") -> (label, name, checked parameters)
     select_test_set(table, training_env_ids, seed=0, min_regret=, min_distance=, difficulty=None)  6 dicts:
                              env_id, env_index, cluster and 4 options {theta_index, is_theta_star, cluster,
                              regret}; with a difficulty also difficulty, bec_size (in [0, 1]), bec_tertiles
@@ -167,7 +168,7 @@ from .core.evaluation import USER_NAMES, study_matrix
 from .core.fitting import TIE_TOLERANCE, Answers, Comparison, FitError, Question, compare_models, questions_of
 from .core.learners import MODEL_NAMES, has_hyperparameter, make_model, model_names, parse_hyperparameters
 from .core.selection import ALL_CONDITIONS, APPROX_STAR, CONDITIONS, SelectionSettings
-from .core.selectors import check_params, get_selector, selector_names
+from .core.selectors import check_params, get_selector, parse_selector, selector_names
 from .core.simulate import (
     AnswerModel,
     PredictedScores,
@@ -213,5 +214,5 @@ __all__ = [
     "loop_pilot", "MAX_EXAMPLES_LIMIT",
     "select_checks", "Pack", "load_pack", "write_pack",
     "TeachOutput", "TeachOutputError", "read_teach",
-    "check_params", "get_selector", "selector_names", "DIFFICULTIES",
+    "check_params", "get_selector", "parse_selector", "selector_names", "DIFFICULTIES",
 ]

@@ -140,7 +140,7 @@ def condition_sequence(table, name: str, *, seed: int = 0, approx_star: str = AP
 
 def teach(table, *, seed: int = 0, approx_star: str = APPROX_STAR, hyperparameters: dict | None = None,
           settings: SelectionSettings = DEFAULT_SETTINGS, progress: bool = False,
-          dist: Distances | None = None) -> TeachingResult:
+          dist: Distances | None = None, added: dict[str, tuple[str, dict]] | None = None) -> TeachingResult:
     """Run every selector on ``table``: hyperparameter sweeps, the 8 learners' sequences,
     random, coverage-approx* and coverage-random.  Seeded and deterministic.
 
@@ -148,17 +148,24 @@ def teach(table, *, seed: int = 0, approx_star: str = APPROX_STAR, hyperparamete
     sweep grid, ε, the longest sequence and repeats (:class:`SelectionSettings`).  Each model is
     swept once and the random stream drawn once (one :class:`SelectionContext`), so this is
     cheaper than calling :func:`condition_sequence` per condition, with the same results.
+    added: {label: (selector name, its parameters)}: more sequences under those labels (e.g. from
+    :func:`teaching.core.selectors.parse_selector`), run on the same context after the conditions.
     """
     hyperparameters = dict(hyperparameters or {})
     for name, value in hyperparameters.items():
         make_model(name, value)  # validates name and value
+    taken = {*LEARNER_NAMES, approx_star, "random", "coverage-approx*", "coverage-random"}
+    for label, (name, params) in (added or {}).items():  # before the sweeps: a bad one fails at once
+        if label in taken:
+            raise ValueError(f"selector {label!r}: the teach output already has a sequence of that name")
+        check_params(name, params)
     make_model(approx_star)
     if table.n_envs == 0:
         raise ValueError("the table has no environments")
     ctx = SelectionContext(table, seed=seed, hyperparameters=hyperparameters, settings=settings, dist=dist)
     models, sequences, sweeps, rule_met = {}, {}, {}, {}
     names = LEARNER_NAMES + (() if approx_star in LEARNER_NAMES else (approx_star,))
-    bar = tqdm(total=len(names) + 1, desc="teaching", disable=not progress)
+    bar = tqdm(total=len(names) + 1 + len(added or {}), desc="teaching", disable=not progress)
     for name in names:
         model, rows, met = ctx.fitted(name)
         if rows is not None:
@@ -171,6 +178,12 @@ def teach(table, *, seed: int = 0, approx_star: str = APPROX_STAR, hyperparamete
     for name in ("random", "coverage-random"):
         sequences[name] = get_selector(name).select(ctx, **_condition_params(name, approx_star))
     bar.update()
+    for label, (name, params) in (added or {}).items():
+        try:
+            sequences[label] = get_selector(name).select(ctx, **check_params(name, params))
+        except ValueError as exc:  # e.g. a table an example-based selector has nothing to choose from
+            raise ValueError(f"selector {label!r}: {exc}") from None
+        bar.update()
     bar.close()
     return TeachingResult(models, sequences, sweeps, rule_met, ctx.random()[2])
 

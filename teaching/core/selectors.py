@@ -103,6 +103,34 @@ def check_params(name: str, params: Mapping | None = None) -> dict:
     return out
 
 
+def _value(text: str):
+    """A parameter's value as typed: an int, else a float, else the text."""
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text
+
+
+def parse_selector(spec: str) -> tuple[str, str, dict]:
+    """``NAME`` or ``NAME:KEY=VALUE,KEY=VALUE`` (a command line's ``--selector``) -> (label, name,
+    every parameter checked, defaults filled: :func:`check_params`).  The label names the sequence
+    in a teach output: the name, then the parameters as given.  ValueError, one line, if malformed."""
+    name, _, rest = str(spec).strip().partition(":")
+    given = {}
+    for item in filter(None, (i.strip() for i in rest.split(","))):
+        key, eq, text = item.partition("=")
+        if not eq or not key.strip() or not text.strip():
+            raise ValueError(f"selector {name!r}: {item!r} is not KEY=VALUE (write NAME:KEY=VALUE,KEY=VALUE)")
+        if key.strip() in given:
+            raise ValueError(f"selector {name!r}: parameter {key.strip()!r} given twice")
+        given[key.strip()] = _value(text.strip())
+    params = check_params(name, given)
+    label = name + (":" + ",".join(f"{k}={v}" for k, v in given.items()) if given else "")
+    return label, name, params
+
+
 # --- checks shared by the selectors' parameters ------------------------------------------------
 def integer_at_least(lowest: int) -> Callable[[object], int]:
     """A check: an integer ≥ ``lowest`` (a bool or a float with a fraction is refused)."""
