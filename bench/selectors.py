@@ -8,6 +8,7 @@
 distinct constraints than the planner's table).  Each selector runs alone (its own
 SelectionContext: learner fits and sweeps included in a greedy one's time).  Prints wall seconds
 and the sequence length; the bar for SCOT and bec-scaffold at paper size is 2 minutes on 2 cores.
+Other processes on the machine slow every figure (note the load average).
 """
 from __future__ import annotations
 
