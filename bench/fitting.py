@@ -30,10 +30,11 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench.doc_section import rewrite_section
+from teaching.core.conditions import teach
 from teaching.core.fitting import fit_models, questions_of
 from teaching.core.learners import Distances
 from teaching.core.recovery import LAPSE_TOLERANCE, VALUE_TOLERANCE, model_recovery
-from teaching.core.selection import CONDITIONS, fitted_model, teach
+from teaching.core.selection import CONDITIONS, fitted_model
 from teaching.core.simulate import SimulatedLearner, simulate_answers
 from teaching.core.table import TrajectoryTable
 from teaching.core.testset import select_test_set

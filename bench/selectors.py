@@ -8,6 +8,7 @@
 distinct constraints than the planner's table).  Each selector runs alone (its own
 SelectionContext: learner fits and sweeps included in a greedy one's time).  Prints wall seconds
 and the sequence length; the bar for SCOT and bec-scaffold at paper size is 2 minutes on 2 cores.
+Other processes on the machine slow every figure (note the load average).
 """
 from __future__ import annotations
 
@@ -21,8 +22,8 @@ from pathlib import Path
 sys.path.pop(0)
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from teaching.core.conditions import condition_sequence
 from teaching.core.learners import Distances
-from teaching.core.selection import condition_sequence
 from teaching.core.selectors import selector_names
 from teaching.core.table import TrajectoryTable
 

@@ -17,9 +17,9 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from teaching.core.conditions import teach
 from teaching.core.evaluation import ideal_user_matrix
 from teaching.core.learners import Distances
-from teaching.core.selection import teach
 from teaching.domains.driving.synthetic import synthetic_table
 
 

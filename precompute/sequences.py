@@ -1,6 +1,6 @@
 """One study condition's teaching sequence, and a study's simulated pilot, as a worker's JSON.
 
-The selection itself is ``teaching.core.selection.condition_sequence`` (the same
+The selection itself is ``teaching.core.conditions.condition_sequence`` (the same
 steps ``teach`` composes for all conditions), the pilot ``teaching.core.evaluation.study_matrix``
 (teach.py's ideal-user matrix); this module only shapes their results for the job record and
 the study.  No Django here.
@@ -17,7 +17,7 @@ def condition_sequence(table, name: str, **kwargs) -> dict:
     """The sequence of condition `name` (one of teaching.core.selection.CONDITIONS) as JSON-able data:
     env_ids (in the order shown), env_indices, p (P(θ*) after each example), prior, model,
     value (τ / λ), rule_met (the hyperparameter rule held), added_for_coverage (env ids).
-    Keyword arguments go to ``teaching.core.selection.condition_sequence``."""
+    Keyword arguments go to ``teaching.core.conditions.condition_sequence``."""
     seq, model, rule_met = select(table, name, **kwargs)
     ids = np.asarray(table.env_ids)
     value = model.value if has_hyperparameter(model) else None

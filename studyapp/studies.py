@@ -295,7 +295,7 @@ def build_study(spec: dict, replace: bool = False) -> Study:
 def table_spec(table_path, *, slug: str, sequences: dict | None = None, seed: int = 0, **test_set_kw) -> dict:
     """A spec whose conditions and test set come from the real pipeline on the table at `table_path`.
 
-    sequences: {condition: env_ids}; by default ``teaching.core.selection.build_sequences`` (the paper's
+    sequences: {condition: env_ids}; by default ``teaching.core.conditions.build_sequences`` (the paper's
     nine conditions).  The test set is ``teaching.core.testset.select_test_set`` (its thresholds in
     `test_set_kw`: min_regret, min_distance), disjoint from every sequence.  A table that cannot
     give a test set is a SpecError naming why.

@@ -114,9 +114,13 @@ Learners and selection (DESIGN §5-6)
                              (greedy under each learner model, random, coverage-approx*, coverage-random)
                              and any added; get_selector(name) -> Selector (.params: {name: Param
                              (default, check, doc)}, .doc); check_params(name, params) -> every
-                             parameter checked, defaults filled (ValueError, one line, naming it)
-    select_test_set(table, training_env_ids, seed=0, min_regret=, min_distance=)  6 dicts: env_id,
-                             env_index, cluster and 4 options {theta_index, is_theta_star, cluster, regret}
+                             parameter checked, defaults filled (ValueError, one line, naming it);
+                             parse_selector("bec-scaffold:k=2") -> (label, name, checked parameters)
+    select_test_set(table, training_env_ids, seed=0, min_regret=, min_distance=, difficulty=None)  6 dicts:
+                             env_id, env_index, cluster and 4 options {theta_index, is_theta_star, cluster,
+                             regret}; with a difficulty also difficulty, bec_size (in [0, 1]), bec_tertiles
+    DIFFICULTIES             ("low", "medium", "high"): a graded test's levels, by tertile of BEC size
+                             (large BEC = easy = low; docs/teaching.md); TeachOutput.test_difficulty
     MIN_REGRET, MIN_OPTION_DISTANCE  the test set's default thresholds: θ*-reward units (1e-3), and
                              scaled state units between options (0.5)
 
@@ -158,19 +162,13 @@ from .core.closedloop import (
 )
 from .core.closedloop_pack import Pack, load_pack, write_pack
 from .core.closedloop_pilot import loop_pilot
+from .core.conditions import build_sequences, condition_sequence
 from .core.domain import Domain, LegendEntry, ParticipantTexts, default_domain_name, domain_names, get_domain
 from .core.evaluation import USER_NAMES, study_matrix
 from .core.fitting import TIE_TOLERANCE, Answers, Comparison, FitError, Question, compare_models, questions_of
 from .core.learners import MODEL_NAMES, has_hyperparameter, make_model, model_names, parse_hyperparameters
-from .core.selection import (
-    ALL_CONDITIONS,
-    APPROX_STAR,
-    CONDITIONS,
-    SelectionSettings,
-    build_sequences,
-    condition_sequence,
-)
-from .core.selectors import check_params, get_selector, selector_names
+from .core.selection import ALL_CONDITIONS, APPROX_STAR, CONDITIONS, SelectionSettings
+from .core.selectors import check_params, get_selector, parse_selector, selector_names
 from .core.simulate import (
     AnswerModel,
     PredictedScores,
@@ -181,7 +179,7 @@ from .core.simulate import (
 )
 from .core.table import TableError, TrajectoryTable
 from .core.teachout import TeachOutput, TeachOutputError, read_teach
-from .core.testset import MIN_REGRET, select_test_set
+from .core.testset import DIFFICULTIES, MIN_REGRET, select_test_set
 from .domains.driving.domain import DOMAIN as _DRIVING
 from .domains.driving.environments import (
                     CLASS_NAMES,
@@ -216,5 +214,5 @@ __all__ = [
     "loop_pilot", "MAX_EXAMPLES_LIMIT",
     "select_checks", "Pack", "load_pack", "write_pack",
     "TeachOutput", "TeachOutputError", "read_teach",
-    "check_params", "get_selector", "selector_names",
+    "check_params", "get_selector", "parse_selector", "selector_names", "DIFFICULTIES",
 ]

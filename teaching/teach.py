@@ -4,14 +4,20 @@
 
 writes to --out (the format: teaching/core/teachout.py, which also reads it):
     sequences.json             every condition's environment ids, P(θ*) curve, chosen τ/λ and sweeps
-    test_set.json              the 6 test environments and their 4 options
+    test_set.json              the 6 test environments and their 4 options (with --test-difficulty,
+                               each test's difficulty, BEC size and the tertiles it was graded by)
     matrix.json                ideal-user matrix P_M(θ* | sequence for M'), rows = sequences
     examples_per_cluster.json  2 × 4 cluster grids per sequence
     sim_users.png, examples_shown.png
 
+--selector NAME[:KEY=VALUE,...] (repeatable) adds a registered selector's sequence to the
+conditions under that label (with its selector and parameters), to the extended matrix, the
+cluster grids and the pilot's predictions; the test set keeps clear of it too.
+
 Bad input (unknown model, τ/λ <= 0, a table without θ*, no environments,
-an unreadable table, a table with no valid test set) prints one line to
-stderr and exits with status 2.
+an unreadable table, a table with no valid test set, a selector with nothing to choose) prints one
+line to stderr and exits with status 2; an unknown selector or a bad parameter is refused by the
+argument parser (one line, status 2).
 """
 from __future__ import annotations
 
@@ -21,13 +27,16 @@ from pathlib import Path
 
 import numpy as np
 
+from .core.bec import BECError
+from .core.conditions import teach
 from .core.evaluation import SEQUENCE_NAMES, USER_NAMES, examples_per_cluster, grid_layout, ideal_user_matrix
 from .core.learners import Distances, model_names, parse_hyperparameters
-from .core.selection import APPROX_STAR, CONDITIONS, COVERAGE_EPSILON, SelectionSettings, teach, theta_star_clusters
+from .core.selection import APPROX_STAR, CONDITIONS, COVERAGE_EPSILON, SelectionSettings, theta_star_clusters
+from .core.selectors import parse_selector, selector_names
 from .core.simulate import pilot_predictions
 from .core.table import TableError, TrajectoryTable
 from .core.teachout import write_json
-from .core.testset import MIN_REGRET, TestSetError, select_test_set
+from .core.testset import DIFFICULTIES, MIN_REGRET, TestSetError, select_test_set
 
 EXIT_BAD_INPUT = 2
 
@@ -48,8 +57,23 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--min-regret", type=float, default=MIN_REGRET)
     p.add_argument("--min-option-distance", type=float, default=None,
                    help="test options at least this far apart (default: the table's domain's; the car: 0.5)")
+    p.add_argument("--selector", action="append", default=[], type=_selector, metavar="NAME[:KEY=VALUE,...]",
+                   help="add the sequence of a registered selector to the conditions, e.g. scot, bec-scaffold:k=2, "
+                        f"highlights:k=5 (repeatable; one of {', '.join(selector_names())})")
+    p.add_argument("--test-difficulty", choices=DIFFICULTIES, default=None,
+                   help="draw every test among environments of this difficulty: tertiles of the BEC size of the "
+                        "eligible test environments, low = large BEC = easy (docs/teaching.md, 'Test set'); "
+                        "each test then records its difficulty and BEC size")
     p.add_argument("--no-progress", action="store_true")
     return p.parse_args(argv)
+
+
+def _selector(spec: str) -> tuple[str, str, dict]:
+    """--selector NAME[:KEY=VALUE,...] -> (label, name, parameters); argparse reports a bad one in one line."""
+    try:
+        return parse_selector(spec)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def parse_hyper(items: list[str]) -> dict[str, float]:
@@ -88,15 +112,23 @@ def run(args) -> dict:
     out.mkdir(parents=True, exist_ok=True)
 
     dist = Distances(table)
-    result = teach(table, seed=args.seed, approx_star=args.approx_star, hyperparameters=hyper,
-                   settings=SelectionSettings(epsilon=args.epsilon), progress=not args.no_progress, dist=dist)
+    added = {label: (name, params) for label, name, params in args.selector}
+    try:
+        result = teach(table, seed=args.seed, approx_star=args.approx_star, hyperparameters=hyper,
+                       settings=SelectionSettings(epsilon=args.epsilon), progress=not args.no_progress, dist=dist,
+                       added=added)
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
+    conditions = CONDITIONS + tuple(added)
     ids = np.asarray(table.env_ids)
     envs = {k: s.envs for k, s in result.sequences.items()}
     seq_json = {
         "table": {"path": str(args.table), "content_hash": table.meta.get("content_hash"),
                   "envs": table.n_envs, "thetas": table.n_thetas},
         "seed": args.seed, "approx_star": args.approx_star, "epsilon": args.epsilon,
-        "conditions": {k: _seq_json(result.sequences[k], ids) for k in CONDITIONS},
+        "conditions": {**{k: _seq_json(result.sequences[k], ids) for k in CONDITIONS},
+                       **{k: {**_seq_json(result.sequences[k], ids), "selector": name, "params": params}
+                          for k, (name, params) in added.items()}},
         "model_sequences": {k: _seq_json(result.sequences[k], ids) for k in USER_NAMES},
         "hyperparameters": {k: {"param": m.param, "value": m.value, "rule_met": result.rule_met.get(k),
                                 "fixed": k in hyper,
@@ -108,16 +140,20 @@ def run(args) -> dict:
     write_json(out / "sequences.json", seq_json)
 
     try:
-        # disjoint from what the study's conditions train on (every learner's sequence but the
-        # hierarchical one is a condition's: adding that learner left the test set as it was)
-        tests = select_test_set(table, [ids[envs[c]].tolist() for c in CONDITIONS], seed=args.seed,
-                                min_regret=args.min_regret, min_distance=args.min_option_distance)
+        # disjoint from what the study's conditions train on (the paper's nine and every --selector;
+        # every learner's sequence but the hierarchical one is a condition's: adding that learner left
+        # the test set as it was)
+        tests = select_test_set(table, [ids[envs[c]].tolist() for c in conditions], seed=args.seed,
+                                min_regret=args.min_regret, min_distance=args.min_option_distance,
+                                difficulty=args.test_difficulty)
     except TestSetError as exc:
         tests = {"error": str(exc)}
+    except BECError as exc:  # grading needs θ*'s sign-constrained space
+        raise InputError(f"--test-difficulty: {exc}") from None
     write_json(out / "test_set.json", tests)
 
     matrix = ideal_user_matrix(result.models, envs, dist)
-    ext_names = SEQUENCE_NAMES + ("coverage-approx*", "coverage-random")
+    ext_names = SEQUENCE_NAMES + ("coverage-approx*", "coverage-random") + tuple(added)
     extended = ideal_user_matrix(result.models, envs, dist, sequence_names=ext_names)
     pilot = {"sequence_names": list(SEQUENCE_NAMES), "user_names": list(USER_NAMES),
              "matrix": matrix.tolist(), "extended_sequence_names": list(ext_names),

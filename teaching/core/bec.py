@@ -36,6 +36,7 @@ HIGHS = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e
 # Monte-Carlo BEC size above 2 features: samples on the orthant's unit sphere, and their seed.
 MC_SAMPLES, MC_SEED = 100_000, 0
 PILOT = 1000  # samples that order the constraints of a Monte-Carlo size (speed only)
+CHUNK = 1 << 22  # (sample, constraint) products held at once when testing every constraint together
 
 
 class BECError(ValueError):
@@ -202,14 +203,57 @@ def bec_size(normals: np.ndarray, samples: np.ndarray | None = None) -> tuple[fl
         return _arc_fraction(normals), 0.0
     if samples is None:
         samples = sphere_samples(d)
-    # one constraint at a time over the survivors, those that reject most of a first few samples
-    # first: most samples die in the first passes, and the order changes no count
-    first = (samples[:PILOT] @ normals.T < 0).sum(0)
+    # The count is the samples every constraint keeps, in any order.  For speed, first the few
+    # constraints that between them reject all of a pilot's samples they can (chosen greedily, each
+    # rejecting most of what the earlier ones kept: environments have hundreds of near-parallel
+    # constraints, so ordering them one by one would keep many passes over many samples), one pass
+    # each over the survivors; then every constraint at once on the few samples left.
     alive = samples
-    for n in normals[np.argsort(-first, kind="stable")]:
+    for n in normals[_pilot_cover(samples[:PILOT] @ normals.T < 0)]:
         alive = alive[alive @ n >= 0]
-    p = len(alive) / len(samples)
+    inside = _count_inside(alive, normals)
+    p = inside / len(samples)
     return p, float(np.sqrt(p * (1 - p) / len(samples)))
+
+
+def bec_sizes(normals: list[np.ndarray], samples: int = MC_SAMPLES) -> np.ndarray:
+    """(E,) BEC size of each environment's half-spaces (:func:`teaching.core.bec_size`), every
+    one measured on the same seeded samples above 2 features, so their order is not sampling noise
+    between environments (common random numbers)."""
+    d = next((len(n[0]) for n in normals if len(n)), 2)
+    points = sphere_samples(d, samples) if d > 2 else None
+    return np.array([bec_size(n, points)[0] if len(n) else 1.0 for n in normals])
+
+
+def environment_sizes(table, rows, samples: int = MC_SAMPLES) -> np.ndarray:
+    """(E,) the BEC size of each of the table rows ``rows`` (E,) alone (:func:`bec_sizes`, θ* =
+    the table's): an environment's size does not depend on which others are measured with it."""
+    signs = weight_signs(table.theta_star)
+    return bec_sizes([half_spaces(table.features[m], signs, table.theta_star_index) for m in rows], samples)
+
+
+def _pilot_cover(rejects: np.ndarray) -> list[int]:
+    """Columns of ``rejects`` (P, K) bool (pilot sample p violates constraint k) chosen greedily, each
+    the one rejecting most of the samples no earlier one rejected (lowest index on ties), until no
+    column rejects any of those left."""
+    left = np.ones(len(rejects), bool)
+    chosen: list[int] = []
+    while left.any():
+        counts = rejects[left].sum(0)
+        best = int(np.argmax(counts))
+        if counts[best] == 0:
+            break
+        chosen.append(best)
+        left &= ~rejects[:, best]
+    return chosen
+
+
+def _count_inside(points: np.ndarray, normals: np.ndarray) -> int:
+    """How many of ``points`` (S, D) lie on the inner side (n·x ≥ 0) of every row of ``normals``
+    (K, D), in chunks of CHUNK products."""
+    step = max(1, CHUNK // max(len(normals), 1))
+    return sum(int(np.count_nonzero((points[i:i + step] @ normals.T >= 0).all(1)))
+               for i in range(0, len(points), step))
 
 
 def _arc_fraction(normals: np.ndarray) -> float:

@@ -2,9 +2,10 @@
 
 All selectors work on a likelihood matrix L (M, N) float32 = P(ξ^{θ*}_{E_m} | θ_n)
 from a :class:`~teaching.core.learners.LearnerModel`, and return environment
-*indices* (rows of the table); :func:`build_sequences` maps them to ids.  Each condition is a
-selector in the registry (:mod:`teaching.core.selectors`): the greedy sequence of every learner
-model (named after it), random, coverage-approx* and coverage-random register themselves here.
+*indices* (rows of the table).  These are the numeric parts; the conditions built from them
+(the greedy sequence of every learner model, random, coverage-approx*, coverage-random) are
+selectors registered in :mod:`teaching.core.conditions`, which also runs them (``teach``,
+``condition_sequence``, ``build_sequences``).
 
 With weights w_n = Π_{shown} L[E, n] (uniform prior), showing E next gives
 P(θ*) = w_0 L[E, 0] / (L[E] · w), so one greedy step is one matrix-vector
@@ -16,11 +17,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from tqdm.auto import tqdm
 
 from .domain import n_clusters
-from .learners import LEARNER_NAMES, Distances, LearnerModel, has_hyperparameter, make_model, p_curve
-from .selectors import Param, Selector, check_params, get_selector, register_selector, selector_names
+from .learners import Distances, LearnerModel, has_hyperparameter, make_model, p_curve
 
 GRID = tuple(10.0 ** k for k in range(-5, 6))  # τ, λ ∈ {1e-5, ..., 1e5}
 MAX_EXAMPLES = 10
@@ -172,16 +171,18 @@ def sweep(model: LearnerModel, dist: Distances, settings: SelectionSettings = DE
     eligible = showable(dist.table)
     for value in settings.grid:
         lik = model.with_value(value).likelihood(dist, out=buffer)
-        rows.append(SweepRow(float(value), _greedy(lik, settings, eligible)))
+        rows.append(SweepRow(float(value), greedy_sequence(lik, settings, eligible)))
     return rows
 
 
-def _greedy(lik: np.ndarray, settings: SelectionSettings, eligible: np.ndarray) -> Sequence:
+def greedy_sequence(lik: np.ndarray, settings: SelectionSettings, eligible: np.ndarray) -> Sequence:
+    """:func:`greedy` on lik (M, N) with ``settings``' cap and repeats, over ``eligible`` (M,) bool."""
     return greedy(lik, max_examples=settings.max_examples, allow_repeats=settings.allow_repeats,
                   eligible=eligible)[0]
 
 
-def _coverage(lik: np.ndarray, table, settings: SelectionSettings) -> Sequence:
+def coverage_sequence(lik: np.ndarray, table, settings: SelectionSettings) -> Sequence:
+    """:func:`coverage_augmented` on lik (M, N) over ``table``'s θ* clusters with ``settings``."""
     return coverage_augmented(lik, theta_star_clusters(table), n_clusters=n_clusters(table.domain),
                               epsilon=settings.epsilon, max_examples=settings.max_examples,
                               allow_repeats=settings.allow_repeats)
@@ -236,17 +237,6 @@ def coverage_random(clusters: np.ndarray, rng: np.random.Generator, n_clusters: 
     return out
 
 
-@dataclass
-class TeachingResult:
-    """Everything the selectors produce for one table (indices are table rows)."""
-
-    models: dict[str, LearnerModel]  # the 8 user models (LEARNER_NAMES) with their chosen τ / λ
-    sequences: dict[str, Sequence]  # per model name, plus random / coverage conditions
-    sweeps: dict[str, list[SweepRow]]
-    rule_met: dict[str, bool]
-    random_p: np.ndarray  # exact-IRL P(θ*) of the 1000 random draws
-
-
 def fitted_model(name: str, dist: Distances, hyperparameters: dict, settings: SelectionSettings = DEFAULT_SETTINGS,
                  *, buffer=None):
     """The learner model `name` with its τ / λ: the value in `hyperparameters`, else the
@@ -268,151 +258,6 @@ def random_draws(table, dist: Distances, seed: int):
     return envs, coverage_random(theta_star_clusters(table), rng, n_clusters(table.domain)), random_p
 
 
-class SelectionContext:
-    """What the selectors of one run share: the table, its distances, the seed, the settings and
-    the fixed τ / λ; each learner model fitted once (its sweep, if any) and the random stream
-    drawn once, whichever selector asks first.  One (M, N) float32 buffer is reused for every
-    likelihood matrix, so a selector uses its matrix before asking for another."""
-
-    def __init__(self, table, *, seed: int = 0, hyperparameters: dict | None = None,
-                 settings: SelectionSettings = DEFAULT_SETTINGS, dist: Distances | None = None):
-        self.table, self.seed, self.settings = table, seed, settings
-        self.hyperparameters = dict(hyperparameters or {})
-        self.dist = dist or Distances(table)
-        self.eligible = showable(table)
-        self._buffer = None
-        self._fitted: dict[str, tuple] = {}
-        self._random = None
-
-    @property
-    def buffer(self) -> np.ndarray:
-        if self._buffer is None:
-            self._buffer = np.empty(self.dist.shape, np.float32)
-        return self._buffer
-
-    def fitted(self, name: str) -> tuple[LearnerModel, list[SweepRow] | None, bool | None]:
-        """(model with its τ / λ, sweep rows or None, rule met or None): :func:`fitted_model`, once."""
-        if name not in self._fitted:
-            self._fitted[name] = fitted_model(name, self.dist, self.hyperparameters, self.settings,
-                                              buffer=self.buffer)
-        return self._fitted[name]
-
-    def likelihood(self, name: str) -> np.ndarray:
-        """(M, N) float32 likelihood matrix of the fitted model ``name`` (in the shared buffer)."""
-        return self.fitted(name)[0].likelihood(self.dist, out=self.buffer)
-
-    def random(self) -> tuple[list[int], list[int], np.ndarray]:
-        """:func:`random_draws` of this run's seed, once."""
-        if self._random is None:
-            self._random = random_draws(self.table, self.dist, self.seed)
-        return self._random
-
-    def evaluated(self, envs: list[int], model_name: str) -> Sequence:
-        """``envs`` with P(θ*) after each under the fitted model ``model_name``."""
-        return _evaluated(envs, self.fitted(model_name)[0], self.dist)
-
-
-def _model_name(value) -> str:
-    make_model(value)  # raises for an unknown name
-    return str(value)
-
-
-def greedy_selector(model_name: str) -> Selector:
-    """The greedy sequence under learner model ``model_name`` (its τ / λ fixed or swept):
-    the condition named after the model."""
-    return Selector(model_name, lambda ctx: _greedy(ctx.likelihood(model_name), ctx.settings, ctx.eligible),
-                    scored_by=lambda params: model_name,
-                    doc=f"greedy maximisation of P(θ*) under the {model_name} learner")
-
-
-_MODEL_PARAM = {"model": Param(APPROX_STAR, _model_name, "the learner model (approx*)")}
-for _name in LEARNER_NAMES:
-    register_selector(greedy_selector(_name))
-register_selector(Selector(
-    "random", lambda ctx: ctx.evaluated(ctx.random()[0], "exact"),
-    doc="the median by exact-IRL P(θ*) of RANDOM_DRAWS random sequences of RANDOM_LENGTH environments"))
-register_selector(Selector(
-    "coverage-approx*", lambda ctx, model: _coverage(ctx.likelihood(model), ctx.table, ctx.settings),
-    params=_MODEL_PARAM, scored_by=lambda params: params["model"],
-    doc="greedy under approx* until the gain is below ε, then the best example of each missing cluster"))
-register_selector(Selector(
-    "coverage-random", lambda ctx, model: ctx.evaluated(ctx.random()[1], model),
-    params=_MODEL_PARAM, scored_by=lambda params: params["model"],
-    doc="one random environment per strategy cluster θ* shows, scored under approx*"))
-
-
-def _condition_params(name: str, approx_star: str) -> dict:
-    """A condition's parameters when named the paper's way (approx* for both coverage conditions)."""
-    return {"model": approx_star} if "model" in get_selector(name).params else {}
-
-
-def condition_sequence(table, name: str, *, seed: int = 0, approx_star: str = APPROX_STAR,
-                       hyperparameters: dict | None = None, settings: SelectionSettings = DEFAULT_SETTINGS,
-                       dist: Distances | None = None, params: dict | None = None):
-    """One condition's sequence on its own (the unit of a worker's task): the same result as
-    ``teach(...).sequences[name]``.  ``name``: any registered selector (:func:`selector_names`);
-    params: its parameters (approx_star fills a coverage condition's ``model`` when params do not).
-    Returns (Sequence, the model it is scored under, rule met or None)."""
-    if name not in selector_names():
-        raise ValueError(f"unknown condition {name!r}; choose from {', '.join(selector_names())}")
-    params = check_params(name, {**_condition_params(name, approx_star), **(params or {})})
-    ctx = SelectionContext(table, seed=seed, hyperparameters=hyperparameters, settings=settings, dist=dist)
-    selector = get_selector(name)
-    sequence = selector.select(ctx, **params)
-    model, _, met = ctx.fitted(selector.scored_by(params))
-    return sequence, model, met
-
-
-def teach(table, *, seed: int = 0, approx_star: str = APPROX_STAR, hyperparameters: dict | None = None,
-          settings: SelectionSettings = DEFAULT_SETTINGS, progress: bool = False,
-          dist: Distances | None = None) -> TeachingResult:
-    """Run every selector on ``table``: hyperparameter sweeps, the 8 learners' sequences,
-    random, coverage-approx* and coverage-random.  Seeded and deterministic.
-
-    hyperparameters: {model name: τ or λ} fixes a value instead of sweeping.  settings: the
-    sweep grid, ε, the longest sequence and repeats (:class:`SelectionSettings`).  Each model is
-    swept once and the random stream drawn once (one :class:`SelectionContext`), so this is
-    cheaper than calling :func:`condition_sequence` per condition, with the same results.
-    """
-    hyperparameters = dict(hyperparameters or {})
-    for name, value in hyperparameters.items():
-        make_model(name, value)  # validates name and value
-    make_model(approx_star)
-    if table.n_envs == 0:
-        raise ValueError("the table has no environments")
-    ctx = SelectionContext(table, seed=seed, hyperparameters=hyperparameters, settings=settings, dist=dist)
-    models, sequences, sweeps, rule_met = {}, {}, {}, {}
-    names = LEARNER_NAMES + (() if approx_star in LEARNER_NAMES else (approx_star,))
-    bar = tqdm(total=len(names) + 1, desc="teaching", disable=not progress)
-    for name in names:
-        model, rows, met = ctx.fitted(name)
-        if rows is not None:
-            sweeps[name], rule_met[name] = rows, met
-        models[name] = model
-        sequences[name] = greedy_selector(name).select(ctx)
-        if name == approx_star:
-            sequences["coverage-approx*"] = get_selector("coverage-approx*").select(ctx, model=approx_star)
-        bar.update()
-    for name in ("random", "coverage-random"):
-        sequences[name] = get_selector(name).select(ctx, **_condition_params(name, approx_star))
-    bar.update()
-    bar.close()
-    return TeachingResult(models, sequences, sweeps, rule_met, ctx.random()[2])
-
-
-def _evaluated(envs: list[int], model, dist) -> Sequence:
+def evaluated(envs: list[int], model, dist) -> Sequence:
+    """``envs`` (table rows, in showing order) with P(θ*) after each under ``model``."""
     return Sequence(envs=list(envs), p=p_curve(model, dist, envs).tolist(), prior=1.0 / dist.shape[1])
-
-
-def build_sequences(table, *, seed: int = 0, approx_star: str = APPROX_STAR, **kwargs) -> dict[str, list[int]]:
-    """The study's conditions (CONDITIONS) -> environment *ids* in the order to show.
-
-    approx_star: the model that coverage-approx* augments (APPROX_STAR, the paper's
-    best, by default).  Other keyword arguments go to :func:`teach`.
-    """
-    result = teach(table, seed=seed, approx_star=approx_star, **kwargs)
-    ids = np.asarray(table.env_ids)
-    return {c: [int(i) for i in ids[result.sequences[c].envs]] for c in CONDITIONS}
-
-
-from . import summaries  # noqa: E402, F401  (registers the example-based selectors: SCOT, ...)

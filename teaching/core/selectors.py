@@ -1,19 +1,21 @@
 """The selector registry: every teaching algorithm a study's condition can come from, by name.
 
 A selector turns a table (and the run's shared state: seed, settings, fitted learner models, the
-random stream; :class:`~teaching.core.selection.SelectionContext`) into a
+random stream; :class:`~teaching.core.conditions.SelectionContext`) into a
 :class:`~teaching.core.selection.Sequence` of table rows.  Each declares its name, its parameters
 (with defaults and a check) and a ``select(ctx, **params)``; :func:`check_params` turns what a
 caller passes into the full, checked set, with one-line errors naming the selector and the
 parameter.  Learner models have the same shape of registry (:mod:`teaching.core.learners`).
 
-The greedy, coverage and random selectors register themselves in :mod:`teaching.core.selection`,
-the example-based ones (SCOT, BEC scaffolding, HIGHLIGHTS) in :mod:`teaching.core.summaries`;
-:func:`selector_names` lists them all once both are imported (``teaching.core.selection`` imports
-the second).
+The greedy, coverage and random selectors register themselves in :mod:`teaching.core.conditions`,
+the example-based ones (SCOT, BEC scaffolding, HIGHLIGHTS) in :mod:`teaching.core.summaries`.
+Those modules (BUILTIN_MODULES) are imported by the first lookup (:func:`selector_names`,
+:func:`get_selector`, :func:`check_params`), so every built-in selector is there whichever module
+a caller imported, and this module imports none of them at its top (they import it).
 """
 from __future__ import annotations
 
+import importlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -49,6 +51,17 @@ class Selector:
 
 
 _REGISTRY: dict[str, Selector] = {}
+# The modules whose import registers the built-in selectors, in the order they are listed.
+BUILTIN_MODULES = ("teaching.core.conditions", "teaching.core.summaries")
+_builtins_loaded = False
+
+
+def _load_builtins() -> None:
+    global _builtins_loaded
+    if not _builtins_loaded:
+        _builtins_loaded = True
+        for module in BUILTIN_MODULES:
+            importlib.import_module(module)
 
 
 def register_selector(selector: Selector) -> Selector:
@@ -60,10 +73,12 @@ def register_selector(selector: Selector) -> Selector:
 
 def selector_names() -> tuple[str, ...]:
     """Every registered selector, in registration order."""
+    _load_builtins()
     return tuple(_REGISTRY)
 
 
 def get_selector(name: str) -> Selector:
+    _load_builtins()
     if name not in _REGISTRY:
         raise ValueError(f"unknown selector {name!r}; choose from {', '.join(_REGISTRY)}")
     return _REGISTRY[name]
@@ -86,6 +101,34 @@ def check_params(name: str, params: Mapping | None = None) -> dict:
         except (TypeError, ValueError) as exc:
             raise ValueError(f"selector {name!r}: parameter {key!r}: {exc}") from None
     return out
+
+
+def _value(text: str):
+    """A parameter's value as typed: an int, else a float, else the text."""
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text
+
+
+def parse_selector(spec: str) -> tuple[str, str, dict]:
+    """``NAME`` or ``NAME:KEY=VALUE,KEY=VALUE`` (a command line's ``--selector``) -> (label, name,
+    every parameter checked, defaults filled: :func:`check_params`).  The label names the sequence
+    in a teach output: the name, then the parameters as given.  ValueError, one line, if malformed."""
+    name, _, rest = str(spec).strip().partition(":")
+    given = {}
+    for item in filter(None, (i.strip() for i in rest.split(","))):
+        key, eq, text = item.partition("=")
+        if not eq or not key.strip() or not text.strip():
+            raise ValueError(f"selector {name!r}: {item!r} is not KEY=VALUE (write NAME:KEY=VALUE,KEY=VALUE)")
+        if key.strip() in given:
+            raise ValueError(f"selector {name!r}: parameter {key.strip()!r} given twice")
+        given[key.strip()] = _value(text.strip())
+    params = check_params(name, given)
+    label = name + (":" + ",".join(f"{k}={v}" for k, v in given.items()) if given else "")
+    return label, name, params
 
 
 # --- checks shared by the selectors' parameters ------------------------------------------------

@@ -19,8 +19,9 @@ from __future__ import annotations
 import numpy as np
 
 from . import bec
+from .conditions import SelectionContext
 from .rewards import reward
-from .selection import SelectionContext, Sequence, showable, theta_star_clusters
+from .selection import Sequence, showable, theta_star_clusters
 from .selectors import Param, Selector, integer_at_least, register_selector
 
 
@@ -87,15 +88,6 @@ def scot(ctx: SelectionContext) -> Sequence:
     return _exact(ctx, scot_cover(ctx.table)[0])
 
 
-def bec_sizes(normals: list[np.ndarray], samples: int = bec.MC_SAMPLES) -> np.ndarray:
-    """(E,) BEC size of each environment's half-spaces (:func:`teaching.core.bec.bec_size`), every
-    one measured on the same seeded samples above 2 features, so their order is not sampling noise
-    between environments (common random numbers)."""
-    d = next((len(n[0]) for n in normals if len(n)), 2)
-    points = bec.sphere_samples(d, samples) if d > 2 else None
-    return np.array([bec.bec_size(n, points)[0] if len(n) else 1.0 for n in normals])
-
-
 def size_levels(size: np.ndarray, env_ids: np.ndarray, levels: int) -> tuple[np.ndarray, np.ndarray]:
     """(order (E,): easiest first, by size descending then id; level (E,) 0 = easiest .. levels - 1):
     equal-count clusters of BEC size by rank, so ties in size cannot empty a cluster."""
@@ -151,7 +143,7 @@ def bec_scaffold(ctx: SelectionContext, k: int, levels: int, samples: int) -> Se
     rows, normals = showable_half_spaces(ctx.table)
     position = {int(r): i for i, r in enumerate(rows)}
     ids = np.asarray(ctx.table.env_ids)[rows]
-    order = scaffolded([position[c] for c in cover], bec_sizes(normals, samples), ids, k=k, levels=levels)
+    order = scaffolded([position[c] for c in cover], bec.bec_sizes(normals, samples), ids, k=k, levels=levels)
     return _exact(ctx, [int(rows[e]) for e in order])
 
 

@@ -2,7 +2,9 @@
 
     sequences.json             every condition's environment ids (and P(θ*) curve, chosen τ/λ, sweeps),
                                with the table it was selected on: {"table": {"path", "content_hash", ...}}
-    test_set.json              the tests and their 4 options, or {"error": why there is no test set}
+    test_set.json              the tests and their 4 options, or {"error": why there is no test set}; tests
+                               graded by difficulty (teach --test-difficulty) also hold difficulty,
+                               bec_size and bec_tertiles (teaching.core.testset)
     matrix.json                the ideal-user matrix (a study's simulated pilot reads it)
     examples_per_cluster.json  the cluster grids
 
@@ -17,6 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .testset import DIFFICULTIES
+
 
 class TeachOutputError(ValueError):
     """A teach output that is missing, unreadable or malformed: one line, saying which file and why."""
@@ -30,6 +34,7 @@ class TeachOutput:
     no_tests: str | None  # why there is no test set (test_set.json's error), or None
     table_path: str  # the table it was selected on, as teach was given it
     table_hash: str | None  # that table's content hash
+    test_difficulty: str | None = None  # every test's difficulty (one of DIFFICULTIES), None if ungraded
 
     def matrix(self) -> dict | None:
         """matrix.json, where there is one: read only by who needs it (a study's pilot, not the sheet)."""
@@ -85,7 +90,18 @@ def read_teach(teach_dir) -> TeachOutput:
     elif not isinstance(tests, list):
         raise TeachOutputError(f"{teach_dir / 'test_set.json'} is neither a list of tests nor an error")
     table = sequences.get("table") or {}
-    return TeachOutput(teach_dir, conditions, tests, no_tests, str(table.get("path", "")), table.get("content_hash"))
+    return TeachOutput(teach_dir, conditions, tests, no_tests, str(table.get("path", "")), table.get("content_hash"),
+                       _difficulty(tests, teach_dir / "test_set.json"))
+
+
+def _difficulty(tests: list | None, path: Path) -> str | None:
+    """The difficulty all ``tests`` were drawn at (None: ungraded, or no tests); TeachOutputError if
+    they disagree or name an unknown one."""
+    found = {t.get("difficulty") if isinstance(t, dict) else None for t in tests or []}
+    if len(found) > 1 or not found <= {None, *DIFFICULTIES}:
+        raise TeachOutputError(f"{path}: tests of {sorted(map(str, found))} difficulty; a test set is graded at one "
+                               f"of {', '.join(DIFFICULTIES)} or not at all")
+    return found.pop() if found else None
 
 
 def check_against(output: TeachOutput, table) -> None:

@@ -13,7 +13,8 @@ from precompute.sequences import condition_sequence
 from precompute.study import create_study_job
 from precompute.tasks import study_condition, study_finish
 from studyapp.models import Study
-from teaching.core.selection import ALL_CONDITIONS, CONDITIONS, build_sequences, teach
+from teaching.core.conditions import build_sequences, teach
+from teaching.core.selection import ALL_CONDITIONS, CONDITIONS
 from teaching.core.table import TableError, TrajectoryTable
 from teaching.core.testset import select_test_set
 from teaching.domains.driving.synthetic import synthetic_table

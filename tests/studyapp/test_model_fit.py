@@ -18,7 +18,7 @@ from studyapp.analysis.modelfit import CSV_COLUMNS, ModelFitError, fit_study, st
 from studyapp.analysis.simulate import make_study, simulate
 from studyapp.models import Participant
 from teaching.api import SimulatedLearner, TrajectoryTable
-from teaching.core.selection import teach
+from teaching.core.conditions import teach
 
 pytestmark = pytest.mark.django_db
 

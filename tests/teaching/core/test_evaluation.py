@@ -3,6 +3,7 @@ import matplotlib.image as mpimg
 import numpy as np
 import pytest
 
+from teaching.core.conditions import teach
 from teaching.core.evaluation import (
     SEQUENCE_NAMES,
     USER_NAMES,
@@ -13,7 +14,7 @@ from teaching.core.evaluation import (
 )
 from teaching.core.learners import MODEL_NAMES, Distances, make_model
 from teaching.core.plots import plot_examples_shown, plot_ideal_users
-from teaching.core.selection import teach, theta_star_clusters
+from teaching.core.selection import theta_star_clusters
 from teaching.domains.driving.domain import DOMAIN as DRIVING
 from teaching.domains.driving.synthetic import hand_table, synthetic_table
 

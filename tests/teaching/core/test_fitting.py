@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize, minimize_scalar
 
+from teaching.core.conditions import teach
 from teaching.core.fitting import (
     Answers,
     FitError,
@@ -20,7 +21,7 @@ from teaching.core.fitting import (
 )
 from teaching.core.learners import Distances, make_model
 from teaching.core.recovery import model_recovery
-from teaching.core.selection import CONDITIONS, teach
+from teaching.core.selection import CONDITIONS
 from teaching.core.simulate import SimulatedLearner, simulate_answers
 from teaching.core.table import TrajectoryTable
 from teaching.core.testset import select_test_set

@@ -8,21 +8,19 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
+from teaching.core.conditions import build_sequences, condition_sequence, teach
 from teaching.core.learners import MODEL_NAMES, Distances, make_model, p_theta_star
 from teaching.core.selection import (
     CONDITIONS,
     GRID,
     Sequence,
     SweepRow,
-    build_sequences,
     choose_hyperparameter,
-    condition_sequence,
     coverage_augmented,
     coverage_random,
     greedy,
     random_baseline,
     sweep,
-    teach,
     theta_star_clusters,
 )
 from teaching.domains.driving.strategies import NO_STRATEGY

@@ -11,13 +11,15 @@ from __future__ import annotations
 import functools
 import json
 import os
+import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 
 from teaching.core.build import PRESETS, build_table
-from teaching.core.selection import ALL_CONDITIONS, CONDITIONS, build_sequences, condition_sequence, teach
+from teaching.core.conditions import build_sequences, condition_sequence, teach
+from teaching.core.selection import ALL_CONDITIONS, CONDITIONS
 from teaching.core.selectors import check_params, get_selector, selector_names
 from teaching.core.table import TrajectoryTable
 from tests.conftest import built_once
@@ -69,6 +71,14 @@ def test_every_condition_is_a_registered_selector():
     assert set(CONDITIONS) <= set(selector_names())
     assert check_params("coverage-approx*") == {"model": "det-euclidean"}
     assert check_params("exact") == {}
+
+
+def test_the_registry_holds_every_built_in_selector_whichever_module_was_imported():
+    # a fresh interpreter that imports the registry alone: its first lookup registers the rest
+    code = "from teaching.core.selectors import selector_names; print(' '.join(selector_names()))"
+    names = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert names == list(selector_names())
+    assert {"scot", "bec-scaffold", "highlights", *ALL_CONDITIONS} <= set(names)
 
 
 @pytest.mark.parametrize("call, message", [

@@ -10,10 +10,10 @@ import pytest
 
 from teaching.core import bec
 from teaching.core.build import PRESETS, build_table
-from teaching.core.selection import condition_sequence, theta_star_clusters
+from teaching.core.conditions import condition_sequence
+from teaching.core.selection import theta_star_clusters
 from teaching.core.summaries import (
     SummaryError,
-    bec_sizes,
     cover_matrix,
     greedy_cover,
     importance,
@@ -130,7 +130,7 @@ def test_bec_scaffold_and_highlights_on_the_tiny_tables(tiny):
     seq = condition_sequence(tiny, "bec-scaffold", params={"k": 2, "samples": 20_000})[0].envs
     assert set(cover) <= set(seq) and len(seq) <= len(cover) + 2 and len(set(seq)) == len(seq)
     rows, normals = showable_half_spaces(tiny)
-    size = dict(zip(rows.tolist(), bec_sizes(normals, 20_000), strict=True))
+    size = dict(zip(rows.tolist(), bec.bec_sizes(normals, 20_000), strict=True))
     assert [size[e] for e in seq] == sorted((size[e] for e in seq), reverse=True)  # easy to hard
     envs = condition_sequence(tiny, "highlights", params={"k": 3})[0].envs
     clusters = theta_star_clusters(tiny)

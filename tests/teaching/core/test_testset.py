@@ -4,8 +4,8 @@ import copy
 import numpy as np
 import pytest
 
+from teaching.core.conditions import build_sequences
 from teaching.core.domain import siblings
-from teaching.core.selection import build_sequences
 from teaching.core.testset import (
     MIN_REGRET,
     TestSetError,
