@@ -1,6 +1,6 @@
 """Benchmark: each registered selector's time on a table (the demo table, and a paper-size one).
 
-    .venv/bin/python bench/selectors.py --table DIR [--paper-synthetic] [--only scot,bec-scaffold]
+    .venv/bin/python bench/teaching_selectors.py --table DIR [--paper-synthetic] [--only scot,bec-scaffold]
 
 --table: a built table (e.g. the demo preset: `python -m teaching build --preset demo --out DIR`).
 --paper-synthetic: also time the BEC selectors on a synthetic table of the paper's shape (21,216 ×
