@@ -58,6 +58,7 @@ class SelectionContext:
         self._buffer = None
         self._fitted: dict[str, tuple] = {}
         self._random = None
+        self._shared: dict[str, object] = {}
 
     @property
     def buffer(self) -> np.ndarray:
@@ -81,6 +82,13 @@ class SelectionContext:
         if self._random is None:
             self._random = random_draws(self.table, self.dist, self.seed)
         return self._random
+
+    def shared(self, key: str, compute):
+        """compute() once per run under ``key``: what several selectors derive from the table alike
+        (e.g. the BECs of the showable environments and SCOT's cover, which bec-scaffold builds on)."""
+        if key not in self._shared:
+            self._shared[key] = compute()
+        return self._shared[key]
 
     def evaluated(self, envs: list[int], model_name: str) -> Sequence:
         """``envs`` with P(θ*) after each under the fitted model ``model_name``."""

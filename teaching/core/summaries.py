@@ -66,11 +66,12 @@ def showable_half_spaces(table) -> tuple[np.ndarray, list[np.ndarray]]:
     return rows, [bec.half_spaces(table.features[m], signs, table.theta_star_index) for m in rows]
 
 
-def scot_cover(table) -> tuple[list[int], np.ndarray]:
+def scot_cover(table, showable_bec: tuple[np.ndarray, list[np.ndarray]] | None = None) -> tuple[list[int], np.ndarray]:
     """SCOT's examples (table rows, in the order chosen) and the whole's non-redundant
-    constraints (F, D) (u-space unit normals, :mod:`teaching.core.bec`).  SummaryError when no
-    showable environment constrains θ* (every alternative is θ*'s own trajectory)."""
-    rows, normals = showable_half_spaces(table)
+    constraints (F, D) (u-space unit normals, :mod:`teaching.core.bec`).  showable_bec: what
+    :func:`showable_half_spaces` gives, if already at hand.  SummaryError when no showable
+    environment constrains θ* (every alternative is θ*'s own trajectory)."""
+    rows, normals = showable_bec or showable_half_spaces(table)
     union = bec.union(normals)
     if not len(union):
         raise SummaryError("no showable environment constrains θ* (every alternative is θ*'s own trajectory): "
@@ -84,8 +85,16 @@ def _exact(ctx: SelectionContext, envs: list[int]) -> Sequence:
     return ctx.evaluated(envs, "exact")
 
 
+def _showable_bec(ctx: SelectionContext) -> tuple[np.ndarray, list[np.ndarray]]:
+    return ctx.shared("showable half-spaces", lambda: showable_half_spaces(ctx.table))
+
+
+def _scot_cover(ctx: SelectionContext) -> list[int]:
+    return ctx.shared("scot cover", lambda: scot_cover(ctx.table, _showable_bec(ctx)))[0]
+
+
 def scot(ctx: SelectionContext) -> Sequence:
-    return _exact(ctx, scot_cover(ctx.table)[0])
+    return _exact(ctx, _scot_cover(ctx))
 
 
 def size_levels(size: np.ndarray, env_ids: np.ndarray, levels: int) -> tuple[np.ndarray, np.ndarray]:
@@ -139,8 +148,8 @@ def highlights_envs(value: np.ndarray, clusters: np.ndarray, env_ids: np.ndarray
 
 
 def bec_scaffold(ctx: SelectionContext, k: int, levels: int, samples: int) -> Sequence:
-    cover = scot_cover(ctx.table)[0]
-    rows, normals = showable_half_spaces(ctx.table)
+    cover = _scot_cover(ctx)
+    rows, normals = _showable_bec(ctx)
     position = {int(r): i for i, r in enumerate(rows)}
     ids = np.asarray(ctx.table.env_ids)[rows]
     order = scaffolded([position[c] for c in cover], bec.bec_sizes(normals, samples), ids, k=k, levels=levels)

@@ -10,8 +10,9 @@ import pytest
 
 from teaching.core import bec
 from teaching.core.build import PRESETS, build_table
-from teaching.core.conditions import condition_sequence
+from teaching.core.conditions import SelectionContext, condition_sequence
 from teaching.core.selection import theta_star_clusters
+from teaching.core.selectors import check_params, get_selector
 from teaching.core.summaries import (
     SummaryError,
     cover_matrix,
@@ -136,6 +137,19 @@ def test_bec_scaffold_and_highlights_on_the_tiny_tables(tiny):
     clusters = theta_star_clusters(tiny)
     assert len(envs) <= 3 and len(set(clusters[envs].tolist())) == len(envs)
     assert list(importance(tiny)[envs]) == sorted(importance(tiny)[envs], reverse=True)
+
+
+def test_one_run_covers_once_for_scot_and_bec_scaffold(monkeypatch):
+    """SCOT's cover is bec-scaffold's first step: in one run (a teach with both) it is found once,
+    and each sequence is what the selector gives alone."""
+    table = hand_bec_table()
+    alone = {name: condition_sequence(table, name)[0].envs for name in ("scot", "bec-scaffold")}
+    calls = []
+    real = bec.remove_redundant
+    monkeypatch.setattr(bec, "remove_redundant", lambda *a, **k: calls.append(1) or real(*a, **k))
+    ctx = SelectionContext(table)
+    together = {name: get_selector(name).select(ctx, **check_params(name)).envs for name in alone}
+    assert together == alone and len(calls) == 1
 
 
 @pytest.mark.parametrize("name, params, message", [
