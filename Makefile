@@ -60,7 +60,7 @@ test: venv browser-deps serve-deps
 	export TEST_BUILDS_DIR=$$(mktemp -d /tmp/test-builds.XXXXXX); \
 	$(PY) -m tests.prebuild || exit 1; \
 	$(PY) -m pytest -p no:cacheprovider -m "postgres or redis" > $(SERVICES_LOG) 2>&1 & svc=$$!; \
-	$(PY) -m pytest -n 2 -m "not (postgres or redis)"; a=$$?; \
+	$(PY) -m pytest -n 3 -m "not (postgres or redis)"; a=$$?; \
 	echo "--- the shared-services tests ($(SERVICES_LOG)) ---"; wait $$svc; b=$$?; cat $(SERVICES_LOG); \
 	rm -rf "$$TEST_BUILDS_DIR"; \
 	for rc in $$a $$b; do if [ $$rc -eq 5 ]; then echo "pytest collected no tests" >&2; exit 1; fi; done; \

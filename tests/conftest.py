@@ -176,7 +176,7 @@ def require_service(ci):
 # --- real tables ----------------------------------------------------------------------------
 def built_once(tmp_path_factory, name: str, build) -> Path:
     """The directory `name`, filled by build(out) once per run and read-only afterwards (tests/builds.py).
-    Under pytest-xdist (make test: -n 2) the workers share it, and `make test`'s two pytest runs share
+    Under pytest-xdist (make test: -n 3) the workers share it, and `make test`'s two pytest runs share
     one directory, $TEST_BUILDS_DIR, made afresh for that command (where tests/prebuild.py has already
     built the demo table before either run starts)."""
     root = tmp_path_factory.getbasetemp()
