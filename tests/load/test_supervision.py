@@ -57,12 +57,22 @@ def test_a_killed_worker_comes_back_and_its_job_resumes_while_participants_carry
         out = tmp_path / "table"
 
         def kill_worker_mid_chunk():
-            job_id = start_table_job(server, out)
+            # The worker is stopped while the job is launched: the launch is a subprocess that, on a
+            # busy machine, can take longer to start and exit than the job's four chunks take to
+            # run, and the kill below must find a chunk in progress.
+            os.killpg(worker_pid, signal.SIGSTOP)
+            try:
+                job_id = start_table_job(server, out)
+            finally:
+                os.killpg(worker_pid, signal.SIGCONT)
 
             def mid_chunk():
                 log = work.read_journal(out)
                 stored = {e["key"] for e in log if e["event"] == "stored"}
-                return [e for e in log if e["event"] == "start" and e["key"] not in stored]
+                started = [e for e in log if e["event"] == "start" and e["key"] not in stored]
+                assert started or not any(e["event"] == "published" for e in log), \
+                    "the job finished before a chunk was seen in progress"
+                return started
 
             victim = wait_until(mid_chunk, 900, "the worker starting a chunk", poll=0.01)[-1]
             readies = server.log_tail(10**9).count(" ready.")
