@@ -10,7 +10,6 @@ import json
 from pathlib import Path
 
 from django import forms
-from django.core import validators
 from django.core.exceptions import NON_FIELD_ERRORS
 
 from studyapp import specrules, specschema
@@ -36,6 +35,7 @@ from teaching.api import (
 )
 
 from .jobs import table_preset, tables_dir
+from .schemafields import param_field_name, schema_field, selector_param_fields
 
 
 def built_tables(root: Path | None = None) -> list[dict]:
@@ -96,40 +96,6 @@ def preset_choices() -> list:
     return out
 
 
-class _SchemaChoice(forms.ChoiceField):
-    """A choice the spec's schema judges (in its words); the widget offers the choices."""
-
-    def validate(self, value):
-        forms.Field.validate(self, value)
-
-
-class _SchemaMultipleChoice(forms.MultipleChoiceField):
-    def validate(self, value):
-        forms.Field.validate(self, value)
-
-
-_BOUNDS = (validators.MinValueValidator, validators.MaxValueValidator, validators.MinLengthValidator,
-           validators.MaxLengthValidator)
-
-
-def schema_field(f: specschema.Field, **kwargs) -> forms.Field:
-    """The form field of a study spec's field `f` (studyapp/specschema.py): its bounds, choices, default
-    and help are the schema's.  It only reads the text: the schema judges the value in the form's clean(),
-    in the words every other entry point uses, and the bounds stay on the widget."""
-    kwargs = {"help_text": f.help, "initial": f.default, "required": f.default not in (None, ""), **kwargs}
-    if f.kind is specrules.whole:
-        field = forms.IntegerField(min_value=f.minimum, max_value=f.maximum, **kwargs)
-    elif f.kind is specrules.number:
-        field = forms.FloatField(min_value=f.minimum, max_value=f.maximum, **kwargs)
-    elif f.choices:
-        kind = _SchemaMultipleChoice if f.kind is specrules.selected else _SchemaChoice
-        field = kind(choices=f.choices, **kwargs)
-    else:
-        field = forms.CharField(max_length=f.max_length, **kwargs)
-    field.validators = [v for v in field.validators if not isinstance(v, _BOUNDS)]
-    return field
-
-
 class StudyDesignForm(forms.Form):
     table = forms.ChoiceField(help_text="The trajectory table every condition and test is drawn from: one built "
                                         "below, on the command line, or by a table job. Its domain (the robot "
@@ -178,6 +144,7 @@ class StudyDesignForm(forms.Form):
                   "best explains them, fitted when this study is built; empty: the settings above.")
     min_regret = schema_field(THRESHOLD_FIELDS["min_regret"], label="Test set: minimum θ*-regret")
     min_distance = schema_field(THRESHOLD_FIELDS["min_distance"], label="Test set: minimum distance (optional)")
+    test_difficulty = schema_field(JOB_FIELDS["test_difficulty"], label="Test set: difficulty", required=False)
     # Where a problem the schema finds is said: its path there -> the field here (else the same name).
     SCHEMA_PLACES = {"test_set_thresholds.min_regret": "min_regret", "test_set_thresholds.min_distance": "min_distance",
                      "hand_picked.name": "hand_picked_name", "hand_picked.env_ids": "hand_picked_env_ids",
@@ -186,6 +153,11 @@ class StudyDesignForm(forms.Form):
 
     def __init__(self, *args, tables: list[dict], **kwargs):
         super().__init__(*args, **kwargs)
+        # Each selector's parameters right below the conditions, where the selector is ticked.
+        self.selector_params = selector_param_fields()
+        fields = list(self.fields.items())
+        at = [name for name, _ in fields].index("conditions") + 1
+        self.fields = dict(fields[:at] + [(k, f) for k, (_, _, f) in self.selector_params.items()] + fields[at:])
         self.fields["table"].choices = table_choices(tables)
         self.fields["min_distance"].help_text += " (" + "; ".join(  # each domain's, in its own units
             f"{name}: {get_domain(name).min_option_distance}" for name in domain_names()) + ")"
@@ -288,11 +260,21 @@ class StudyDesignForm(forms.Form):
         self._check_job(data)
         return data
 
+    def _selected(self, data: dict) -> list[dict]:
+        """The ticked conditions as the job names them: each its selector, with the parameters filled in
+        below it (an empty one: the selector's default)."""
+        params = {}
+        for field, (name, key, _) in self.selector_params.items():
+            if data.get(field) is not None:
+                params.setdefault(name, {})[key] = data[field]
+        return [{"name": c, "selector": c, "params": params.get(c, {})} for c in data.get("conditions") or []]
+
     def _job_arguments(self, data: dict) -> dict:
         """create_study_job's arguments (but the table) from the cleaned data."""
         ids = data.get("hand_picked_env_ids")
         return {"slug": data.get("slug"), "name": data.get("name") or None, "seed": data.get("seed"),
-                "approx_star": data.get("approx_star"), "conditions": data.get("conditions"),
+                "approx_star": data.get("approx_star"), "conditions": self._selected(data),
+                "test_difficulty": data.get("test_difficulty") or None,
                 "target_per_condition": data.get("target_per_condition"), "hyperparameters": data["hyperparameters"],
                 "hand_picked": {data.get("hand_picked_name") or "hand-picked": ids} if ids else {},
                 "test_set_thresholds": {k: data[k] for k in THRESHOLD_FIELDS if data.get(k) is not None},
@@ -306,6 +288,8 @@ class StudyDesignForm(forms.Form):
         args = self._job_arguments(data)
         for problem in specschema.job_problems(args)[1]:
             place = self.SCHEMA_PLACES.get(problem.field, problem.field)
+            if problem.field.startswith("conditions."):  # a selector's parameter: under its own field
+                place = param_field_name(*problem.field.split(".")[1:3])
             message = str(problem)
             if problem.field.startswith("hyperparameters."):
                 place = fixed_field(problem.field.split(".", 1)[1])

@@ -9,16 +9,25 @@ from __future__ import annotations
 
 import numpy as np
 
-from teaching.api import USER_NAMES, has_hyperparameter, loop_pilot, pilot_predictions, study_matrix
+from teaching.api import (
+    APPROX_STAR,
+    USER_NAMES,
+    condition_params,
+    has_hyperparameter,
+    loop_pilot,
+    pilot_predictions,
+    study_matrix,
+)
 from teaching.api import condition_sequence as select
 
 
-def condition_sequence(table, name: str, **kwargs) -> dict:
-    """The sequence of condition `name` (one of teaching.core.selection.CONDITIONS) as JSON-able data:
-    env_ids (in the order shown), env_indices, p (P(θ*) after each example), prior, model,
-    value (τ / λ), rule_met (the hyperparameter rule held), added_for_coverage (env ids).
-    Keyword arguments go to ``teaching.core.conditions.condition_sequence``."""
-    seq, model, rule_met = select(table, name, **kwargs)
+def condition_sequence(table, name: str, params: dict | None = None, **kwargs) -> dict:
+    """The sequence of selector `name` (any of teaching's selector_names) run with `params`, as JSON-able
+    data: env_ids (in the order shown), env_indices, p (P(θ*) after each example), prior, model,
+    value (τ / λ), rule_met (the hyperparameter rule held), added_for_coverage (env ids), selector and
+    params (every parameter it ran with).  Keyword arguments go to
+    ``teaching.core.conditions.condition_sequence``."""
+    seq, model, rule_met = select(table, name, params=params, **kwargs)
     ids = np.asarray(table.env_ids)
     value = model.value if has_hyperparameter(model) else None
     return {
@@ -31,6 +40,8 @@ def condition_sequence(table, name: str, **kwargs) -> dict:
         "value": float(value) if value is not None else None,
         "rule_met": rule_met,
         "added_for_coverage": [int(ids[i]) for i in seq.added_for_coverage],
+        "selector": name,
+        "params": condition_params(name, params, kwargs.get("approx_star", APPROX_STAR)),
     }
 
 

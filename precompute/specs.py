@@ -15,6 +15,10 @@ Version history:
   3  "version": 3; study: "closed_loop", {condition name: closed-loop settings}, and "closed_loop_fit",
      {condition name: slug of the study whose best model fit gives its model, τ / λ and ε}
      (empty in every older row, which had none).
+  4  "version": 4; study: "selectors", {condition name: {"selector", "params"}}: the registered selector
+     and every parameter a selected condition runs with (empty in older rows: each condition's name was
+     its selector, with approx* as a coverage condition's model), and "test_difficulty", none or a
+     difficulty of every test (None in older rows: any environment).
 
 Changing the format: add the field here, bump SPEC_VERSION, and add an upgrade from the last
 version that fills it (a test keeps a row of every older version as a literal:
@@ -24,7 +28,7 @@ from __future__ import annotations
 
 from dataclasses import MISSING, asdict, dataclass, field, fields
 
-SPEC_VERSION = 3
+SPEC_VERSION = 4
 
 
 class SpecFormatError(ValueError):
@@ -55,7 +59,15 @@ def _v2_to_v3(kind: str, data: dict) -> dict:
     return data
 
 
-_UPGRADES = {1: _v1_to_v2, 2: _v2_to_v3}  # version -> function(kind, data) giving version + 1
+def _v3_to_v4(kind: str, data: dict) -> dict:
+    data = dict(data)
+    if kind == "study":
+        data.setdefault("selectors", {})
+        data.setdefault("test_difficulty", None)
+    return data
+
+
+_UPGRADES = {1: _v1_to_v2, 2: _v2_to_v3, 3: _v3_to_v4}  # version -> function(kind, data) giving version + 1
 
 
 @dataclass(frozen=True)
@@ -115,6 +127,9 @@ class StudyJobSpec(_Spec):
     # {name: teaching's ClosedLoopSpec as a dict}: conditions decided per participant, prepared with the test set
     closed_loop: dict = field(default_factory=dict)
     closed_loop_fit: dict = field(default_factory=dict)  # {name: study slug}: that study's best fit sets the model
+    # {name: {"selector", "params"}}: a selected condition's selector; absent: its name, with approx*
+    selectors: dict = field(default_factory=dict)
+    test_difficulty: str | None = None  # None: tests among any environments
     open_when_done: bool = True
     queue: str | None = None
 

@@ -76,8 +76,10 @@ def select_condition(spec: StudyJobSpec, condition: Condition) -> dict:
     if name in spec.hand_picked:  # the researcher's own list: shown as given, no selection
         result = {"condition": name, "env_ids": spec.hand_picked[name], "model": "hand-picked", "value": None}
     else:
-        result = condition_sequence(table, name, seed=spec.seed, approx_star=spec.approx_star,
-                                    hyperparameters=spec.hyperparameters)
+        chosen = spec.selectors.get(name, {"selector": name, "params": {}})
+        result = {**condition_sequence(table, chosen["selector"], seed=spec.seed, approx_star=spec.approx_star,
+                                       hyperparameters=spec.hyperparameters, params=chosen["params"]),
+                  "condition": name}
     freeze_condition(condition, training_from_table(table, result["env_ids"]))
     return result
 
@@ -115,7 +117,8 @@ def finish_study(job_id, spec: StudyJobSpec, study: Study, conditions: list[Cond
     simulated pilot, stored with the study, which opens if the job asks.  Returns (tests, loops
     {name: stored data}, {name: what their settings came from})."""
     table = _table(spec)
-    tests = select_test_set(table, [c.env_ids for c in conditions], seed=spec.seed, **spec.test_set_thresholds)
+    tests = select_test_set(table, [c.env_ids for c in conditions], seed=spec.seed, difficulty=spec.test_difficulty,
+                            **spec.test_set_thresholds)
     test_set = test_set_from_table(table, tests)
     settings, from_fit = closed_loop_settings(spec)
     loops = prepare_closed_loops(table, study.slug, settings, tests)  # their checks apart from the tests

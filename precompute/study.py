@@ -19,7 +19,7 @@ from django.db import transaction
 from studyapp.models import Study
 from studyapp.specschema import STUDY_FIELDS, check_job
 from studyapp.studies import SpecError, new_study
-from teaching.api import ClosedLoopSpec, TrajectoryTable
+from teaching.api import ClosedLoopSpec, TrajectoryTable, condition_params
 
 from .jobs import launch
 from .models import Job
@@ -36,11 +36,14 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int |
                      target_per_condition: int | None = None, queue=None, start: bool = True,
                      hand_picked: dict | None = None, test_set_thresholds: dict | None = None,
                      closed_loop: dict | None = None, closed_loop_fit: dict | None = None,
-                     **study_fields) -> Job:
+                     test_difficulty: str | None = None, **study_fields) -> Job:
     """A job that selects every condition's sequence and the test set on `table_path`.
 
     Every argument but the table follows a study spec's rules and defaults (studyapp/specschema.py,
-    JOB_FIELDS and STUDY_FIELDS), checked before the table is read.  `hand_picked`: {condition name:
+    JOB_FIELDS and STUDY_FIELDS), checked before the table is read.  `conditions`: registered selectors,
+    each a name, "NAME:KEY=VALUE,..." (teaching's --selector form) or {"selector", "params", "name"}; each
+    condition's selector and every parameter it runs with are recorded in the study's source ("selectors")
+    and on its task's Part.  `test_difficulty`: none, or every test of that difficulty.  `hand_picked`: {condition name:
     environment ids}, conditions shown in the given order (after the selected ones).
     `test_set_thresholds`: min_regret and/or min_distance for ``select_test_set``.  `closed_loop`:
     {condition name: closed-loop settings (teaching's ClosedLoopSpec fields; {} for every default)},
@@ -55,7 +58,7 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int |
     given = {"slug": slug, "name": name, "seed": seed, "approx_star": approx_star, "conditions": conditions,
              "hyperparameters": hyperparameters, "target_per_condition": target_per_condition,
              "hand_picked": hand_picked, "test_set_thresholds": test_set_thresholds, "closed_loop": closed_loop,
-             "closed_loop_fit": closed_loop_fit, **study_fields}
+             "closed_loop_fit": closed_loop_fit, "test_difficulty": test_difficulty, **study_fields}
     try:
         args = check_job(given)
     except SpecError as exc:
@@ -71,11 +74,16 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int |
     for name, source in args["closed_loop_fit"].items():
         if not Study.objects.filter(slug=source).exists():
             raise StudyJobError(f"closed-loop condition {name!r}: there is no study {source!r} to take a fit from")
-    conditions = args["conditions"] + list(args["hand_picked"])
+    selectors = {c["name"]: {"selector": c["selector"],
+                             "params": condition_params(c["selector"], c["params"], args["approx_star"])}
+                 for c in args["conditions"]}
+    conditions = list(selectors) + list(args["hand_picked"])
     loops = args["closed_loop"]
+    difficulty = None if args["test_difficulty"] == "none" else args["test_difficulty"]
     source = {"kind": "table", "table": str(table_path), "content_hash": table.meta.get("content_hash"),
               "theta_star": [float(v) for v in table.theta_star], "domain": table.domain.name,
-              **{k: args[k] for k in ("seed", "approx_star", "hyperparameters", "hand_picked", "test_set_thresholds")}}
+              **{k: args[k] for k in ("seed", "approx_star", "hyperparameters", "hand_picked", "test_set_thresholds")},
+              "selectors": selectors, "test_difficulty": difficulty}
     fields = {k: args[k] for k in STUDY_FIELDS if k not in ("slug", "name") and k in args}
     with transaction.atomic():
         try:  # the study app's own rules for a new study (studyapp/studies.py)
@@ -88,7 +96,8 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int |
                             hyperparameters=args["hyperparameters"], conditions=conditions,
                             open_when_done=open_when_done, queue=queue, hand_picked=args["hand_picked"],
                             test_set_thresholds=args["test_set_thresholds"], closed_loop=loops,
-                            closed_loop_fit=args["closed_loop_fit"])
+                            closed_loop_fit=args["closed_loop_fit"], selectors=selectors,
+                            test_difficulty=difficulty)
         job = Job.objects.create(kind=Job.STUDY, chunks_total=len(conditions) + 1, params=spec.to_json())
     if start:
         launch(job)

@@ -204,8 +204,9 @@ def study_finish(self, job_id, spec):
     tests, loops, from_fit = steps().finish_study(job_id, spec, study, conditions)
     record_part(job_id, "test-set", len(conditions), True, time.perf_counter() - t0,
                 result={"env_ids": [t["env_id"] for t in tests]})
+    kept = ("env_ids", "selector", "params", "value", "rule_met", "p")
     summary = {"study_slug": study.slug, "study_id": study.pk, "test_env_ids": [t["env_id"] for t in tests],
-               "conditions": {p.key: {k: p.result.get(k) for k in ("env_ids", "value", "rule_met", "p")}
+               "conditions": {p.key: {k: p.result.get(k) for k in kept}
                               for p in Part.objects.filter(job_id=job_id).exclude(key="test-set")},
                "closed_loop": {name: {"checks": [t["env_id"] for t in data["checks"]], "eligible": data["eligible"],
                                       "settings": data["settings"], "from_fit": from_fit.get(name, "")}

@@ -15,11 +15,19 @@ from numbers import Integral
 
 from django.core.validators import slug_re
 
-from teaching.api import ALL_CONDITIONS, ClosedLoopError, ClosedLoopSpec, make_model
+from teaching.api import (
+    DIFFICULTIES,
+    ClosedLoopError,
+    ClosedLoopSpec,
+    check_params,
+    make_model,
+    parse_selector,
+    selector_names,
+)
 
 LOOP_EXAMPLE = '{"model": "det-euclidean", "check_every": 2}'
 # The selectors' own names that are not slugs ("coverage-approx*"): a condition may carry them.
-SELECTOR_SPELLINGS = tuple(c for c in ALL_CONDITIONS if not slug_re.match(c))
+SELECTOR_SPELLINGS = tuple(c for c in selector_names() if not slug_re.match(c))
 
 
 class SpecError(ValueError):
@@ -178,6 +186,10 @@ def tests(f, v, found, where):
             found.append(SpecError(f"test {j} must be an object with an 'env_id' and 'options' "
                                    "[{'theta_index': int, 'is_theta_star': bool}, ...]", where))
             break
+        if "difficulty" in t and t["difficulty"] not in DIFFICULTIES:
+            found.append(SpecError(f"test {j}: 'difficulty' must be one of {', '.join(DIFFICULTIES)}, "
+                                   f"not {t['difficulty']!r}", where))
+            break
     return v
 
 
@@ -194,17 +206,80 @@ def loop(f, v, found, where):
         return v
 
 
+def selector(f, v, found, where):
+    """A registered selector's name (teaching's selector_names)."""
+    if v not in selector_names():
+        found.append(SpecError(f"{f.label}: unknown selector {v!r}; choose from {', '.join(selector_names())}",
+                               where))
+    return v
+
+
+def selector_params(who: str, name: str, params, found, where) -> dict:
+    """`params` of selector `name`, as given, each checked by the selector's own declaration (teaching's
+    check_params, whose message names the selector and the parameter); `who`: how messages name the
+    condition."""
+    if not isinstance(params, dict):
+        found.append(SpecError(f"{who}: 'params' must be an object of the selector's parameters, not {params!r}",
+                               where))
+        return params
+    try:
+        checked = check_params(name, params)
+    except ValueError as exc:
+        key = next((k for k in params if f"parameter {k!r}" in str(exc)), "")
+        found.append(SpecError(f"{who}: {exc}", f"{where}.{name}.{key}" if key else where))
+        return params
+    return {k: checked[k] for k in params}  # only those given: a coverage condition's model is approx*'s
+
+
+def condition_label(name: str, params: dict) -> str:
+    """A selected condition's default name: the selector's, then each parameter given, as a slug
+    ("bec-scaffold:k=2" -> "bec-scaffold-k2")."""
+    if not params:
+        return name
+    return "-".join([name.replace("*", ""), *(f"{k}{v}" for k, v in params.items())]).replace(".", "_")
+
+
+def _selection(text: str) -> dict:
+    """ "NAME" or "NAME:KEY=VALUE,..." (teaching's --selector form, read by its parse_selector) ->
+    {"selector", "params": the parameters given}; ValueError (one line) if malformed or refused."""
+    if ":" not in text:
+        return {"selector": text.strip(), "params": {}}
+    try:
+        label, name, params = parse_selector(text)
+    except ValueError as exc:
+        raise ValueError(f"condition {text!r}: {exc}") from None
+    given = [item.partition("=")[0] for item in label.partition(":")[2].split(",")]
+    return {"selector": name, "params": {k: params[k] for k in given}}
+
+
 def selected(f, v, found, where):
-    """Conditions a selector chooses the examples of, by its name."""
-    if not (isinstance(v, list | tuple) and all(isinstance(c, str) for c in v)):
+    """Conditions a selector chooses the examples of: each a selector's name, "NAME:KEY=VALUE,..." or an
+    object {"selector", "params", "name"}; stored as such objects, the parameters as given (checked), the
+    name by default the selector's and its parameters' (condition_label)."""
+    if not (isinstance(v, list | tuple) and all(isinstance(c, str | dict) for c in v)):
         found.append(SpecError(f"{f.label} must be a list of condition names, not {v!r}", where))
         return v
-    unknown = [c for c in v if c not in f.values()]
-    if unknown:
-        found.append(SpecError(f"unknown condition(s) {', '.join(unknown)}; choose from {', '.join(f.values())}",
-                               where))
-    return list(v)
-
+    out = []
+    for c in v:
+        try:
+            c = _selection(c) if isinstance(c, str) else {"params": {}, **c}
+        except ValueError as exc:
+            found.append(SpecError(str(exc), where))
+            continue
+        unknown = sorted(set(c) - {"selector", "params", "name"})
+        if unknown or "selector" not in c:
+            found.append(SpecError(f"a selected condition is an object of 'selector', 'params' and 'name', not "
+                                   f"{c!r}", where))
+            continue
+        label = c.get("name") or c["selector"]
+        if c["selector"] not in selector_names():
+            found.append(SpecError(f"condition {label!r}: unknown selector {c['selector']!r}; choose from "
+                                   f"{', '.join(selector_names())}", where))
+            continue
+        params = selector_params(f"condition {label!r}", c["selector"], c["params"], found, where)
+        out.append({"name": c.get("name") or condition_label(c["selector"], params), "selector": c["selector"],
+                    "params": params})
+    return out
 
 def mapping(f, v, found, where) -> bool:
     if not isinstance(v, dict):

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from teaching.api import ALL_CONDITIONS, APPROX_STAR, CONDITIONS, MIN_REGRET, model_names
+from teaching.api import APPROX_STAR, CONDITIONS, DIFFICULTIES, MIN_REGRET, model_names, selector_names
 
 from . import specrules as rules
 from .analysis.conditions import aliased_pairs
@@ -61,9 +61,11 @@ def spec_conditions(f, v, found, where):
             return v
         label = c.get("name", i)
         says = {"closed_loop": f"closed-loop condition {label!r}", "env_ids": f"condition {label!r}: 'env_ids'",
-                "target": f"condition {label!r}: 'target'"}
+                "target": f"condition {label!r}: 'target'", "selector": f"condition {label!r}"}
         for key in (k for k in says if k in c):
             found += replace(CONDITION_FIELDS[key], says=says[key]).problems(c[key], where)[1]
+        if not found and ("params" in c or "selector" in c):
+            _selected_by(c, label, found, where)
         if found:
             return v
     check_condition_names([(c.get("name"), where) for c in v], found)
@@ -74,6 +76,18 @@ def spec_conditions(f, v, found, where):
         elif not c.get("env_ids") and "closed_loop" not in c:
             found.append(SpecError(f"condition {c['name']!r} needs a non-empty 'env_ids' list", where))
     return v
+
+
+def _selected_by(c: dict, label, found, where) -> None:
+    """A spec condition's record of what selected it: params only with a selector, the selector's own
+    checks on them, and no selector for a closed loop (it chooses per participant)."""
+    if "closed_loop" in c:
+        found.append(SpecError(f"closed-loop condition {label!r} chooses its own examples: drop its 'selector' "
+                               "and 'params'", where))
+    elif "selector" not in c:
+        found.append(SpecError(f"condition {label!r}: 'params' needs the 'selector' they are for", where))
+    else:
+        rules.selector_params(f"condition {label!r}", c["selector"], c.get("params", {}), found, where)
 
 
 def _per_condition(key: str, who: str, part: str):
@@ -131,6 +145,10 @@ CONDITION_FIELDS: dict[str, Field] = {f.name: f for f in (
     Field("env_ids", rules.ids, "Environment ids of the table, in the order they are shown."),
     Field("closed_loop", rules.loop, "A closed-loop condition's settings, instead of env_ids ({}: every default)."),
     Field("target", target, "This condition's own target of participants (default: target_per_condition)."),
+    Field("selector", rules.selector, "The registered selector that chose env_ids (teaching's selector_names), "
+          "recorded with the study."),
+    Field("params", rules.obj, "That selector's parameters, each checked by its declaration (default: its "
+          "defaults)."),
 )}
 
 # A JSON spec's own fields (create_study): the table, and what was selected on it.
@@ -161,9 +179,10 @@ THRESHOLD_FIELDS: dict[str, Field] = {f.name: f for f in (
 
 # The study job's own fields (precompute/study.py): what the workers select, and how.
 JOB_FIELDS: dict[str, Field] = {f.name: f for f in (
-    Field("conditions", rules.selected, "The paper's nine conditions (ticked) and the hierarchical learner's "
-          "(strategy first, then the trajectory within it): each selects its own training examples for θ*.",
-          choices=tuple((c, c) for c in ALL_CONDITIONS)),
+    Field("conditions", rules.selected, "The paper's nine conditions (ticked), the hierarchical learner's "
+          "(strategy first, then the trajectory within it) and the field's example-based teachers (SCOT, BEC "
+          "scaffolding, HIGHLIGHTS): each selects its own training examples for θ*.",
+          choices=lambda: [(c, c) for c in selector_names()]),
     Field("hand_picked", _per_condition("env_ids", "hand-picked", "env_ids"), "{condition name: environment ids "
           "of the table}, each shown in the order given, after the selected conditions.", default={}),
     Field("closed_loop", _per_condition("closed_loop", "closed-loop", "settings"), "{condition name: closed-loop "
@@ -175,6 +194,9 @@ JOB_FIELDS: dict[str, Field] = {f.name: f for f in (
     Field("hyperparameters", rules.hyperparameters, "{learner model: τ or λ} used instead of the paper's rule "
           "(the largest τ or smallest λ that still teaches θ*).", default={}),
     Field("seed", rules.whole, "Seeds the random conditions and the test set.", default=0, minimum=0),
+    Field("test_difficulty", rules.choice, "Draw every test among environments of this difficulty (a tertile "
+          "of BEC size: low is a large BEC, easy); none: any environment.", default="none",
+          choices=(("none", "none: any environment"), *((d, d) for d in DIFFICULTIES))),
     Field("test_set_thresholds", rules.parts, "The test set's thresholds: min_regret and min_distance.",
           default={}, parts=tuple(THRESHOLD_FIELDS.values())),
 )}
@@ -255,8 +277,9 @@ def job_problems(args: dict) -> tuple[dict, list[SpecError]]:
     if found:
         return out, found
     if not out.get("conditions"):  # by default the paper's, unless the study has conditions of its own
-        out["conditions"] = [] if out["hand_picked"] or out["closed_loop"] else list(CONDITIONS)
-    check_condition_names([(c, "conditions") for c in out["conditions"]]
+        out["conditions"] = [] if out["hand_picked"] or out["closed_loop"] else \
+            [{"name": c, "selector": c, "params": {}} for c in CONDITIONS]
+    check_condition_names([(c["name"], "conditions") for c in out["conditions"]]
                           + [(n, "hand_picked.name") for n in out["hand_picked"]]
                           + [(n, "closed_loop.name") for n in out["closed_loop"]], found)
     stray = [name for name in out["closed_loop_fit"] if name not in out["closed_loop"]]

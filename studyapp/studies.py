@@ -38,6 +38,7 @@ from teaching.api import (
     TeachOutputError,
     TrajectoryTable,
     build_sequences,
+    condition_params,
     default_domain_name,
     domain_names,
     get_domain,
@@ -141,6 +142,10 @@ def _payloads(spec: dict):
         raise SpecError(str(exc)) from None
     source = {"kind": "table", "table": str(spec["table"]), "content_hash": table.meta.get("content_hash"),
               "theta_star": [float(v) for v in table.theta_star], "domain": table.domain.name}
+    selectors = {c["name"]: {"selector": c["selector"], "params": condition_params(c["selector"], c.get("params"))}
+                 for c in conditions if "selector" in c}
+    if selectors:  # what chose each condition's examples, as the study job records it
+        source["selectors"] = selectors
     if loops:
         source[SCENE_VIEW_KEY] = closed_loop_view(table, training.values(), tests, loops.values())
         for name, data in loops.items():

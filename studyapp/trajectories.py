@@ -99,8 +99,14 @@ def training_from_table(table, env_ids) -> list[dict]:
     return [_star_payload(table, env_id)[1] for env_id in env_ids]
 
 
+# What a graded test (select_test_set with a difficulty) says of itself, kept with its payload: the
+# analysis reports scores by difficulty.
+GRADED_KEYS = ("difficulty", "bec_size", "bec_tertiles")
+
+
 def test_set_from_table(table, test_set) -> list[dict]:
-    """Payloads of a test set from ``teaching.core.testset.select_test_set``."""
+    """Payloads of a test set from ``teaching.core.testset.select_test_set`` (a graded test keeps its
+    GRADED_KEYS)."""
     out = []
     star = table.theta_star_index
     for test in test_set:
@@ -116,6 +122,7 @@ def test_set_from_table(table, test_set) -> list[dict]:
             option_payload(table.domain, o["theta_index"], o["is_theta_star"], table.strategy[i, o["theta_index"]],
                            table.states(i, o["theta_index"]))
             for o in test["options"]]
+        payload.update({k: test[k] for k in GRADED_KEYS if k in test})
         out.append(payload)
     check_test_set(out)
     return out

@@ -109,7 +109,9 @@ Learners and selection (DESIGN §5-6)
     build_sequences(table, seed=0, ...)  {condition: environment ids in the order shown}
     condition_sequence(table, name, seed=0, ..., params=None)  (Sequence of table row indices, with
                              P(θ*) after each example; its model; whether the τ / λ rule held or None);
-                             name: any registered selector
+                             name: any registered selector; condition_params(name, params=None,
+                             approx_star=) every parameter it runs with (approx* as a coverage condition's
+                             model unless params name one, defaults filled): what a study records
     selector_names()         every registered selector (teaching.core.selectors): the conditions above
                              (greedy under each learner model, random, coverage-approx*, coverage-random)
                              and any added; get_selector(name) -> Selector (.params: {name: Param
@@ -162,7 +164,7 @@ from .core.closedloop import (
 )
 from .core.closedloop_pack import Pack, load_pack, write_pack
 from .core.closedloop_pilot import loop_pilot
-from .core.conditions import build_sequences, condition_sequence
+from .core.conditions import build_sequences, condition_params, condition_sequence
 from .core.domain import Domain, LegendEntry, ParticipantTexts, default_domain_name, domain_names, get_domain
 from .core.evaluation import USER_NAMES, study_matrix
 from .core.fitting import TIE_TOLERANCE, Answers, Comparison, FitError, Question, compare_models, questions_of
@@ -202,7 +204,7 @@ __all__ = [
     "MODEL_NAMES", "N_CLUSTERS", "USER_NAMES",
     "N_ENVIRONMENTS", "PRESETS", "SAMPLERS", "WORLD", "Preset", "SelectionSettings", "TableError",
     "TrajectoryTable", "assemble", "build_chunk", "build_sequences", "check_writable", "chunk_key", "chunk_path",
-    "chunks_of", "code_fingerprint", "condition_sequence", "customised", "default_normalisers",
+    "chunks_of", "code_fingerprint", "condition_params", "condition_sequence", "customised", "default_normalisers",
     "environment_class", "get_environments", "get_preset", "has_hyperparameter", "make_model", "other_car_states",
     "parse_hyperparameters", "select_test_set", "strategy_labels", "stratified_sample", "study_matrix",
     "table_identity",

@@ -10,7 +10,8 @@
   :mod:`studyapp.analysis.learning`), for the same participants as ``frames``.
 * ``test_cluster`` of a test is the strategy cluster stored with the study's test set
   (``test_set[j]["cluster"]``, theta*'s trajectory there); the training clusters come from each
-  condition's frozen ``training[i]["cluster"]``.
+  condition's frozen ``training[i]["cluster"]``.  ``test_difficulty`` is the test's difficulty
+  (``test_set[j]["difficulty"]``: low / medium / high) where the study's tests were graded, else None.
 """
 from __future__ import annotations
 
@@ -25,7 +26,7 @@ from . import stats as S
 
 PARTICIPANT_COLUMNS = ["participant_id", "condition", "attention_ok", "excluded", "exclusion_reason", "age",
                        "gender", "platform", "completed", "status"]
-ANSWER_COLUMNS = ["participant_id", "test_index", "test_cluster", "correct", "confidence", "score"]
+ANSWER_COLUMNS = ["participant_id", "test_index", "test_cluster", "test_difficulty", "correct", "confidence", "score"]
 TRAINING_COLUMNS = ["condition", "position", "environment_id", "cluster"]
 
 
@@ -63,8 +64,9 @@ def frames(study: Study, include_incomplete: bool = False) -> tuple[pd.DataFrame
             demo[pid] = a["data"] or {}
         elif a["confidence_score"] is not None and a["item"] is not None:
             j = int(a["item"])
-            cluster = tests[j].get("cluster") if j < len(tests) else None
-            arows.append({"participant_id": str(pid), "test_index": j, "test_cluster": cluster,
+            test = tests[j] if j < len(tests) else {}
+            arows.append({"participant_id": str(pid), "test_index": j, "test_cluster": test.get("cluster"),
+                          "test_difficulty": test.get("difficulty"),
                           "correct": bool(a["correct"]), "confidence": abs(int(a["confidence_score"])),
                           "score": float(a["confidence_score"])})
     prows = []

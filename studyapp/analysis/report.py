@@ -105,6 +105,10 @@ def context(analysis: S.Analysis, title: str = "Study analysis", figures: dict |
                       "total": int(epc.loc[c].sum())} for c in epc.index],
         "participant_columns": cols, "participant_rows": part_rows,
         "headline": headline(analysis), "learning": learning_rows(analysis),
+        "by_difficulty": [{"condition": S.label(r["condition"], analysis.approx_star), "difficulty": r["difficulty"],
+                           "n": int(r["n"]), "answers": int(r["n_answers"]), "mean": _num(r["mean"]),
+                           "sd": _num(r["sd"]), "se": _num(r["se"]), "accuracy": _num(r["accuracy"])}
+                          for _, r in analysis.by_difficulty.iterrows()],
     }
 
 
@@ -211,6 +215,8 @@ def write_csvs(analysis: S.Analysis, out: Path) -> list[Path]:
     w(analysis.examples_per_cluster, "examples_per_cluster.csv", index=True)
     if len(analysis.learning):
         w(analysis.learning, "learning_curves.csv")
+    if len(analysis.by_difficulty):
+        w(analysis.by_difficulty, "scores_by_difficulty.csv")
     anova_rows = []
     for a in analysis.anovas:
         if a.ok:

@@ -26,6 +26,7 @@ age, gender           any      optional demographics, passed through
 participant_id        str
 test_index            int      0..5, the position of the test in the shared test set
 test_cluster          int      strategy cluster 0..C-1 of theta*'s trajectory in that test
+test_difficulty       str      optional; low / medium / high for a graded test (BEC-size tertile)
 correct               bool     the chosen option is theta*'s trajectory
 confidence            int      1..7 rating the participant gave the chosen option
 score                 float    optional; defaults to confidence if correct else -confidence
@@ -115,7 +116,7 @@ from .correlations import (
     per_test_frame,
 )
 from .learning import empty_curves, learning_curves
-from .tables import condition_summary, included, participant_table
+from .tables import condition_summary, difficulty_summary, included, participant_table
 
 __all__ = [
     # conditions
@@ -124,7 +125,7 @@ __all__ = [
     "aliased_pairs", "canonical", "check_distinct_conditions",
     "canonicalize", "Clusters", "condition_factors", "default_clusters", "label",
     # tables
-    "condition_summary", "included", "participant_table",
+    "condition_summary", "difficulty_summary", "included", "participant_table",
     # anova
     "AnovaResult", "coverage_model_anova", "coverage_model_frame", "distance_determinism_anovas",
     "factorial_anova",
@@ -155,6 +156,8 @@ class Analysis:
     clusters: Clusters = field(default_factory=default_clusters)
     # closed-loop conditions' learning curves (learning.CURVE_COLUMNS); no rows when no check was answered
     learning: pd.DataFrame = field(default_factory=empty_curves)
+    # scores by test difficulty per condition (tables.DIFFICULTY_COLUMNS); no rows when the tests are not graded
+    by_difficulty: pd.DataFrame = field(default_factory=lambda: difficulty_summary(pd.DataFrame()))
 
     @property
     def n_included(self) -> int:
@@ -196,10 +199,11 @@ def analyze(participants: pd.DataFrame, answers: pd.DataFrame, training: pd.Data
     cors = correlations(table, answers, training, clusters)
     messages += [f"Pearson r, {c.name} ({c.level}): {c.message}." for c in cors if not c.ok]
     epc = examples_per_cluster(training, conditions=conditions, clusters=clusters)
+    per_test = per_test_frame(table, answers, training, clusters)
     return Analysis(participants=table, summary=summary, anovas=anovas, welch=w, correlations=cors,
-                    examples_per_cluster=epc, per_test=per_test_frame(table, answers, training, clusters),
-                    messages=messages, approx_star=approx_star, clusters=clusters,
-                    learning=learning_curves(checks, included(table)["participant_id"]))
+                    examples_per_cluster=epc, per_test=per_test, messages=messages, approx_star=approx_star,
+                    clusters=clusters, learning=learning_curves(checks, included(table)["participant_id"]),
+                    by_difficulty=difficulty_summary(per_test))
 
 
 def fmt_p(p: float) -> str:

@@ -74,3 +74,29 @@ def condition_summary(table: pd.DataFrame, order=None) -> pd.DataFrame:
     out.index.name = "condition"
     return out
 
+
+
+DIFFICULTY_COLUMNS = ["condition", "difficulty", "n", "n_answers", "mean", "sd", "se", "accuracy"]
+DIFFICULTY_ORDER = ("low", "medium", "high")  # teaching's DIFFICULTIES: easy (a large BEC) to hard
+
+
+def difficulty_summary(per_test: pd.DataFrame) -> pd.DataFrame:
+    """Scores by test difficulty per condition, from the included participants' answers (per_test, with
+    ``test_difficulty``): n participants, answers, mean / SD / SE over participants of their mean score on
+    that difficulty's tests, and the share of those answers with θ*'s option.  No rows when no test
+    carries a difficulty (a study whose tests were drawn from any environment)."""
+    if "test_difficulty" not in per_test or per_test["test_difficulty"].isna().all():
+        return pd.DataFrame(columns=DIFFICULTY_COLUMNS)
+    a = per_test[per_test["test_difficulty"].notna()]
+    person = (a.groupby(["condition", "test_difficulty", "participant_id"])
+              .agg(score=("score", "mean"), answers=("score", "size"), correct=("correct", "sum")).reset_index())
+    g = person.groupby(["condition", "test_difficulty"])
+    out = pd.DataFrame({"n": g.size(), "n_answers": g["answers"].sum(), "mean": g["score"].mean(),
+                        "sd": g["score"].std(ddof=1)})
+    out["se"] = out["sd"] / np.sqrt(out["n"])
+    out["accuracy"] = g["correct"].sum() / out["n_answers"]
+    out = out.reset_index().rename(columns={"test_difficulty": "difficulty"})
+    rank = {d: i for i, d in enumerate(DIFFICULTY_ORDER)}
+    out = out.sort_values(["condition", "difficulty"], key=lambda col: col.map(rank) if col.name == "difficulty"
+                          else col, kind="stable")
+    return out[DIFFICULTY_COLUMNS].reset_index(drop=True)

@@ -129,6 +129,12 @@ def _condition_params(name: str, approx_star: str) -> dict:
     return {"model": approx_star} if "model" in get_selector(name).params else {}
 
 
+def condition_params(name: str, params: dict | None = None, approx_star: str = APPROX_STAR) -> dict:
+    """Every parameter :func:`condition_sequence` runs selector ``name`` with: ``params`` checked, approx*
+    as a coverage condition's ``model`` where params name none, defaults for the rest (ValueError, one line)."""
+    return check_params(name, {**_condition_params(name, approx_star), **(params or {})})
+
+
 def condition_sequence(table, name: str, *, seed: int = 0, approx_star: str = APPROX_STAR,
                        hyperparameters: dict | None = None, settings: SelectionSettings = DEFAULT_SETTINGS,
                        dist: Distances | None = None, params: dict | None = None):
@@ -138,7 +144,7 @@ def condition_sequence(table, name: str, *, seed: int = 0, approx_star: str = AP
     Returns (Sequence, the model it is scored under, rule met or None)."""
     if name not in selector_names():
         raise ValueError(f"unknown condition {name!r}; choose from {', '.join(selector_names())}")
-    params = check_params(name, {**_condition_params(name, approx_star), **(params or {})})
+    params = condition_params(name, params, approx_star)
     ctx = SelectionContext(table, seed=seed, hyperparameters=hyperparameters, settings=settings, dist=dist)
     selector = get_selector(name)
     sequence = selector.select(ctx, **params)

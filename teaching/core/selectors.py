@@ -138,6 +138,7 @@ def integer_at_least(lowest: int) -> Callable[[object], int]:
         if isinstance(value, bool) or not float(value).is_integer() or int(value) < lowest:
             raise ValueError(f"must be an integer >= {lowest}, got {value!r}")
         return int(value)
+    check.minimum = lowest  # declared, so a form can bound its field without running the check
     return check
 
 
@@ -150,6 +151,7 @@ def number_at_least(lowest: float) -> Callable[[object], float]:
         if not (v == v and abs(v) != float("inf")) or v < lowest:
             raise ValueError(f"must be a finite number >= {lowest:g}, got {value!r}")
         return v
+    check.minimum = lowest
     return check
 
 
@@ -159,4 +161,5 @@ def one_of(choices: tuple[str, ...]) -> Callable[[object], str]:
         if value not in choices:
             raise ValueError(f"must be one of {', '.join(choices)}, got {value!r}")
         return str(value)
+    check.choices = tuple(choices)
     return check

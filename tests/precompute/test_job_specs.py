@@ -101,7 +101,18 @@ STUDY_V2 = {"version": 2, "study_id": 5, "slug": "v2", "table": "/t", "content_h
 def test_a_version_2_study_spec_reads_with_no_closed_loop_condition():
     spec = read_spec("study", STUDY_V2)
     assert spec.closed_loop == {} and spec.conditions == ["exact"] and spec.seed == 1
-    assert spec.to_json()["version"] == SPEC_VERSION == 3
+    assert spec.to_json()["version"] == SPEC_VERSION == 4
+
+
+# A study job as version 3 stored it (before selectors with parameters and graded tests): each condition
+# is its own selector, with approx* for a coverage condition, and the tests are drawn from any environment.
+STUDY_V3 = {**STUDY_V2, "version": 3, "conditions": ["exact", "coverage-approx*"], "closed_loop": {},
+            "closed_loop_fit": {}}
+
+
+def test_a_version_3_study_spec_reads_with_each_condition_its_own_selector():
+    spec = read_spec("study", STUDY_V3)
+    assert spec.selectors == {} and spec.test_difficulty is None and spec.conditions == ["exact", "coverage-approx*"]
 
 
 def test_task_arguments_travel_by_keyword(tmp_path):

@@ -128,7 +128,14 @@ def test_a_study_task_refuses_a_table_other_than_the_verified_one(db, table_path
 @pytest.mark.parametrize("argv, message", [
     (["--table", "/nonexistent/table", "--slug", "x"], "no trajectory table at /nonexistent/table"),
     (["--preset", "nope", "--slug", "x"], "build it first: manage.py precompute_table"),
-    (["--slug", "x", "--conditions", "exact,greedy"], "unknown condition(s) greedy"),
+    (["--slug", "x", "--conditions", "exact,greedy"],
+     "condition 'greedy': unknown selector 'greedy'; choose from exact"),
+    (["--slug", "x", "--conditions", "exact,highlights:k=0"],
+     "condition 'highlights:k=0': selector 'highlights': parameter 'k': must be an integer >= 1, got 0"),
+    (["--slug", "x", "--conditions", "scot:k=2"], "condition 'scot:k=2': selector 'scot': unknown parameter 'k'; "
+                                                  "it takes no parameters"),
+    (["--slug", "x", "--test-difficulty", "hard"], "'test_difficulty' must be one of none, low, medium, high, not "
+                                                   "'hard'"),
     (["--slug", "x", "--conditions", "exact,exact"], "a condition is listed twice"),
     (["--slug", "x", "--hyper", "det-euclidean"], "--hyper expects MODEL=VALUE"),
     (["--slug", "x", "--hyper", "det-euclidean=-1"], "must be a finite number > 0"),

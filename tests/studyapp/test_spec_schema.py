@@ -21,6 +21,7 @@ from studyapp import specschema
 from studyapp.models import Study
 from studyapp.specschema import CONDITION_FIELDS, JOB_FIELDS, SPEC_FIELDS, STUDY_FIELDS, THRESHOLD_FIELDS
 from studyapp.studies import build_study, table_spec
+from teaching.api import selector_names
 from tests.conftest import SMALL_SEQUENCES, TINY_TEST_SET
 
 pytestmark = pytest.mark.django_db
@@ -56,6 +57,22 @@ CASES = [
      "'completion_code' must be a string, not 5"),
     ("theta* not numbers", {"theta_star": ["-64", -0.1]}, None, None, None,
      "'theta_star' must be a list of numbers, one per feature, not ['-64', -0.1]"),
+    ("unknown selector", {"conditions": [{"name": "mine", "selector": "greedy", "env_ids": [500, 5780]}]},
+     {"conditions": [{"name": "mine", "selector": "greedy"}]}, None, None,
+     f"condition 'mine': unknown selector 'greedy'; choose from {', '.join(selector_names())}"),
+    ("bad selector parameter",
+     {"conditions": [{"name": "highlights", "selector": "highlights", "params": {"k": 0}, "env_ids": [500, 5780]}]},
+     {"conditions": [{"selector": "highlights", "params": {"k": 0}}]},
+     {"conditions": ["highlights"], "highlights_k": "0"},
+     "highlights_k", "condition 'highlights': selector 'highlights': parameter 'k': must be an integer >= 1, got 0"),
+    ("unknown selector parameter",
+     {"conditions": [{"name": "scot", "selector": "scot", "params": {"k": 2}, "env_ids": [500, 5780]}]},
+     {"conditions": [{"selector": "scot", "params": {"k": 2}}]}, None, None,
+     "condition 'scot': selector 'scot': unknown parameter 'k'; it takes no parameters"),
+    ("parameters without a selector", {"conditions": [{"name": "mine", "params": {"k": 2}, "env_ids": [500, 5780]}]},
+     None, None, None, "condition 'mine': 'params' needs the 'selector' they are for"),
+    ("unknown test difficulty", None, {"test_difficulty": "hard"}, {"test_difficulty": "hard"}, "test_difficulty",
+     "'test_difficulty' must be one of none, low, medium, high, not 'hard'"),
 ]
 
 
@@ -106,6 +123,21 @@ def test_every_entry_point_refuses_a_bad_input_in_the_schemas_words(tiny_table, 
     if form_change is not None:
         assert form_errors(tiny_table, form_change, field) == [message]
     assert not Study.objects.exists() and not Job.objects.exists()
+
+
+def test_a_spec_records_its_conditions_selectors_and_refuses_a_test_of_an_unknown_difficulty(tiny_table, tmp_path):
+    conditions = [{"name": "top", "selector": "highlights", "params": {"k": 2}, "env_ids": [500, 5780]},
+                  {"name": "paper", "selector": "coverage-approx*", "env_ids": [7107]}]
+    study = build_study({**spec(tiny_table, "recorded"), "conditions": conditions})
+    assert study.source["selectors"] == {
+        "top": {"selector": "highlights", "params": {"k": 2}},
+        "paper": {"selector": "coverage-approx*", "params": {"model": "det-euclidean"}}}
+    tests = spec(tiny_table)["test_set"]
+    graded = [{**t, "difficulty": "medium"} for t in tests]
+    assert build_study({**spec(tiny_table, "graded"), "test_set": graded}).test_set[0]["difficulty"] == "medium"
+    tests[2]["difficulty"] = "hard"
+    assert spec_error(tiny_table, tmp_path, {"test_set": tests}) == \
+        "test 2: 'difficulty' must be one of low, medium, high, not 'hard'"
 
 
 def test_the_designer_says_every_bad_value_at_once_under_its_field(tiny_table):

@@ -3,6 +3,8 @@
     python manage.py build_study --preset demo --slug demo-study --wait
     python manage.py build_study --table /shared/tables/paper --slug paper-2026 \\
         --hyper det-euclidean=0.1 --conditions exact,det-euclidean,random --wait
+    python manage.py build_study --preset demo --slug field --conditions exact,scot,bec-scaffold:k=2,highlights:k=5 \\
+        --test-difficulty high --wait
     python manage.py build_study --preset demo --slug loop --conditions det-euclidean \\
         --closed-loop closed-loop:model=det-euclidean,check_every=2,feedback=yes --wait
 
@@ -19,9 +21,21 @@ from django.core.management.base import BaseCommand, CommandError
 from precompute import jobs
 from precompute.study import StudyJobError, create_study_job, parse_closed_loop
 from studyapp.specschema import JOB_FIELDS, STUDY_FIELDS
-from teaching.api import ALL_CONDITIONS, CONDITIONS, TableError, parse_hyperparameters
+from teaching.api import CONDITIONS, TableError, parse_hyperparameters
 
 from ._waiting import wait_for_job
+
+
+def split_conditions(text: str) -> list[str]:
+    """--conditions' comma-separated list, where a selector's own KEY=VALUE,KEY=VALUE parameters keep their
+    commas: an item with "=" and no ":" continues the selector before it ("bec-scaffold:k=2,levels=3")."""
+    out: list[str] = []
+    for item in filter(None, (i.strip() for i in text.split(","))):
+        if "=" in item and ":" not in item and out and ":" in out[-1]:
+            out[-1] += "," + item
+        else:
+            out.append(item)
+    return out
 
 
 def _help(field) -> str:
@@ -43,8 +57,11 @@ class Command(BaseCommand):
         parser.add_argument("--approx-star", help=_help(JOB_FIELDS["approx_star"]))
         parser.add_argument("--hyper", action="append", default=[], metavar="MODEL=VALUE",
                             help="fix τ or λ of a model instead of sweeping (repeatable)")
-        parser.add_argument("--conditions", help=f"comma-separated subset of {','.join(ALL_CONDITIONS)} "
-                                                 f"(default: the paper's {len(CONDITIONS)})")
+        parser.add_argument("--conditions", metavar="SELECTOR[:KEY=VALUE,...],...",
+                            help="comma-separated registered selectors, each optionally with its parameters, "
+                                 "e.g. exact,scot,bec-scaffold:k=2,highlights:k=5 (teaching's --selector form; "
+                                 f"default: the paper's {len(CONDITIONS)})")
+        parser.add_argument("--test-difficulty", help=_help(JOB_FIELDS["test_difficulty"]))
         parser.add_argument("--closed-loop", action="append", default=[], metavar="NAME[:SETTING=VALUE,...]",
                             help="a closed-loop condition NAME (repeatable): each participant's next example "
                                  "chosen from their answers; settings model, value, lapse, example_lapse, "
@@ -64,12 +81,12 @@ class Command(BaseCommand):
             loops = dict(parse_closed_loop(text) for text in opts["closed_loop"])
         except ValueError as exc:  # StudyJobError is one
             raise CommandError(str(exc)) from None
-        conditions = [c.strip() for c in opts["conditions"].split(",") if c.strip()] if opts["conditions"] else None
+        conditions = split_conditions(opts["conditions"]) if opts["conditions"] else None
         try:
             job = create_study_job(table, opts["slug"], opts["name"], opts["seed"], opts["approx_star"], hyper,
                                    conditions, open_when_done=not opts["closed"], replace=opts["replace"],
                                    target_per_condition=opts["target_per_condition"], queue=opts["queue"],
-                                   closed_loop=loops)
+                                   closed_loop=loops, test_difficulty=opts["test_difficulty"])
         except TableError as exc:
             hint = " (build it first: manage.py precompute_table --preset NAME --wait)" if opts["preset"] else ""
             raise CommandError(f"{exc}{hint}") from None
@@ -83,7 +100,9 @@ class Command(BaseCommand):
         job = wait_for_job(self, job, opts)
         for name, r in job.result.get("conditions", {}).items():
             value = f" (τ/λ={r['value']:g})" if r.get("value") is not None else ""
-            self.stdout.write(f"  {name:18s} {len(r['env_ids']):2d} examples{value}: {r['env_ids']}")
+            params = ",".join(f"{k}={v}" for k, v in (r.get("params") or {}).items())
+            chosen = f" [{r['selector']}{':' + params if params else ''}]" if r.get("selector") else ""
+            self.stdout.write(f"  {name:18s} {len(r['env_ids']):2d} examples{value}{chosen}: {r['env_ids']}")
         for name, r in job.result.get("closed_loop", {}).items():
             s = r["settings"]
             self.stdout.write(f"  {name:18s} closed loop: {s['model']}, up to {s['max_examples']} examples, a check "
