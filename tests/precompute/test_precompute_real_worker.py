@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import collections
 import os
+import re
 import signal
 import time
 import uuid
@@ -133,7 +134,10 @@ def test_killed_worker_is_replaced_and_nothing_stored_is_recomputed(redis_url, t
             info = result.get(timeout=150, propagate=True)
         except Exception as exc:
             pytest.fail(f"{type(exc).__name__}: {exc}\nworker 2 log:\n{log_tail(second)}")
-        assert "put back 1 task(s) left by a worker that died" in log_tail(second)
+        # the interrupted chunk's message, and on a busy machine sometimes the next one worker 1 had
+        # already reserved: every unacknowledged message goes back, however many
+        put_back = re.search(r"put back (\d+) task\(s\) left by a worker that died", log_tail(second))
+        assert put_back and int(put_back.group(1)) >= 1, log_tail(second)
         assert info["content_hash"] == work.load_table(reference).meta["content_hash"]
         assert_same_table(out, reference)
 
