@@ -16,8 +16,9 @@ Declining consent still posts the plain form and shows the server's page, and wi
 JavaScript the forms post as plain forms.
 
 At the end the SQLite file must hold exactly one answer per step, question 2's as given.
-The page's clock is Playwright's (installed, but running in real time, so backoff timers
-fire as they would) and is only fast-forwarded to finish the animations.
+The page's clock is Playwright's: installed, running in real time (so backoff timers fire as
+they would) and fast-forwarded to finish the animations, except in the offline step, where
+it stands still and the test advances it.
 """
 from __future__ import annotations
 
@@ -32,9 +33,7 @@ import time
 from pathlib import Path
 
 import pytest
-from playwright.sync_api import expect, sync_playwright
-
-from tests.services import wait_until
+from playwright.sync_api import Error, expect, sync_playwright
 
 CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 ROOT = Path(__file__).resolve().parents[2]
@@ -47,6 +46,32 @@ def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
+
+
+def pause_clock(page) -> None:
+    """Stop the page's (installed, running) clock now.
+
+    Playwright pauses only at a time still ahead; the page's clock runs on while the time is
+    read, so the margin grows until one is far enough ahead. Nothing is pending when this is
+    called, so the short jump fires no timer that matters."""
+    for margin_s in (0.05, 0.5, 2.0):
+        try:
+            page.clock.pause_at(page.evaluate("Date.now()") / 1000 + margin_s)
+            return
+        except Error as exc:
+            if "past" not in str(exc):
+                raise
+    raise AssertionError("the page's clock could not be paused")
+
+
+def advance_until(page, done, step_ms: int = 250, limit_ms: int = 30_000) -> None:
+    """Run the paused clock in small steps until `done()`; each step's requests get real time."""
+    for _ in range(limit_ms // step_ms):
+        if done():
+            return
+        page.clock.run_for(step_ms)
+        page.wait_for_timeout(50)
+    raise AssertionError(f"not done after {limit_ms} ms of the page's time")
 
 
 class Server:
@@ -150,17 +175,17 @@ def test_answers_survive_a_server_outage(server, tmp_path):
                 submit = page.locator('form[data-save] button[type="submit"]')
                 expect(submit).to_be_enabled()
                 if i == 0:
-                    # offline: kept and retried with backoff; back online: sent at once
+                    # offline: kept and retried with backoff; back online: sent at once. The page's
+                    # clock stands still from here, so only the test's steps fire the backoff's
+                    # timers and what sends the answer at the end can only be the "online" event.
+                    pause_clock(page)
                     context.set_offline(True)
                     submit.click()
                     expect(banner).to_be_visible()
                     expect(banner).to_contain_text("Connection lost")
-                    # the 4th try failed (the backoff's timers ran: 0.5-1, 1-2, 2-4 s); the next waits 4-8 s
-                    wait_until(lambda: (page.wait_for_timeout(100), len(failed_posts) >= 4)[1], 300,
-                               "four failed tries")
-                    # The page's clock stops, so no retry timer can fire: what sends the answer now can
-                    # only be the browser's "online" event.
-                    page.clock.pause_at(page.evaluate("Date.now()") / 1000 + 0.001)
+                    # the 4th try fails after the backoff's 0.5-1, 1-2 and 2-4 s; the next waits 4-8 s
+                    advance_until(page, lambda: len(failed_posts) >= 4)
+                    page.wait_for_timeout(300)  # a try the last step fired has failed by now
                     tries = len(failed_posts)
                     context.set_offline(False)
                     expect(h1).to_have_text(f"Example 2 of {n_train}", timeout=60_000)
