@@ -43,7 +43,7 @@ load: venv serve-deps table
 lint: venv
 	.venv/bin/ruff check .
 
-# Two pytest runs side by side: most of the suite in two pytest-xdist workers, and the tests of the
+# Two pytest runs side by side: most of the suite in three pytest-xdist workers, and the tests of the
 # machine's shared services (marked postgres or redis) one after another, as they must be (the load
 # test restarts PostgreSQL under every connection; the load harness and the real-worker tests own
 # Redis databases).  The first run touches neither service, so the two cannot disturb each other;
