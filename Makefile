@@ -4,13 +4,11 @@ PIP := .venv/bin/pip
 
 .PHONY: demo test lint venv browser-deps serve-deps table bench clean serve load
 
-# --no-compile: pip would byte-compile every installed module (21 of its 37 s in a fresh clone, one
-# core); Python compiles the ones a command imports, once, on first use.
 venv: .venv/.installed
 .venv/.installed: requirements.txt
 	test -x $(PY) || python3 -m venv .venv
 	$(PIP) install -q --upgrade pip
-	$(PIP) install -q --no-compile -r requirements.txt
+	$(PIP) install -q -r requirements.txt
 	touch $@
 
 # Debian's Chromium for the Playwright browser tests (CI runs as root on Debian).
