@@ -74,11 +74,18 @@ def design_study(page, base: str) -> None:
     for box in page.locator("input[name=conditions]").all():
         if box.get_attribute("value") not in CONDITIONS:
             box.uncheck()
+    page.locator("summary", has_text="A hand-picked condition").click()  # a folded group, opened
     page.fill("#id_hand_picked_name", "mine")
     page.fill("#id_hand_picked_env_ids", HAND_PICKED)
     page.fill("#id_target_per_condition", "5")
     page.fill("#id_min_distance", "0.1")  # 24 θ: few options are 0.5 apart (tests/conftest.py TINY_TEST_SET)
+    page.locator("summary", has_text="The consent page").click()
     page.fill("#id_contact", "ada@example.org")
+    # the summary above Build says what will be built, as the researcher filled it in
+    summary = page.locator("[data-design-summary]")
+    expect(summary).to_contain_text("Conditions (2)")
+    expect(summary).to_contain_text("exact, mine (hand-picked: 2 environments)")
+    expect(summary).to_contain_text("5 per condition × 2 = 10 participants")
     page.get_by_role("button", name="Build", exact=True).click()
     wait_for_job(page)
     page.locator(f"a[href='/dashboard/{SLUG}/']").click()  # the job page links to its study
