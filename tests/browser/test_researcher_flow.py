@@ -112,13 +112,13 @@ def submit_and_wait(page, button) -> None:
     expect(page.locator("h1")).not_to_have_text(before)
 
 
-def complete_as_participant(browser, base: str) -> None:
+def complete_as_participant(browser, base: str, slug: str = SLUG) -> None:
     """A participant on the open study, by mouse, with animations fast-forwarded (tests/browser/
     test_participant_flow.py drives every step by keyboard and checks each in detail)."""
     context = browser.new_context(viewport={"width": 1200, "height": 1000})
     page = context.new_page()
     page.clock.install()
-    page.goto(f"{base}/s/{SLUG}/")
+    page.goto(f"{base}/s/{slug}/")
     submit_and_wait(page, page.get_by_role("button", name=re.compile("agree|consent|yes", re.I)).first)
     submit_and_wait(page, page.locator("button.primary"))
     while page.locator("h1").inner_text().startswith("Example"):
