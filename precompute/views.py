@@ -15,7 +15,7 @@ from django.views.decorators.http import require_POST
 from studyapp.access import researcher_required
 from teaching.api import TableError
 
-from . import jobs
+from . import designlayout, jobs
 from .design import StudyDesignForm, TableBuildForm, built_tables, tables_dir
 from .models import Job
 from .specs import SpecFormatError
@@ -102,6 +102,7 @@ def design_context(**ctx) -> dict:
     ctx.setdefault("tables", built_tables())
     ctx.setdefault("form", StudyDesignForm(tables=ctx["tables"]))
     ctx.setdefault("table_form", TableBuildForm())
+    ctx["sections"] = designlayout.sections(ctx["form"])
     ctx["table_jobs"] = Job.objects.filter(kind=Job.TABLE).exclude(status__in=(Job.SUCCEEDED,))[:10]
     # study jobs the watchdog relaunched or failed (precompute/watchdog.py): the researcher must see it
     ctx["alarmed_jobs"] = Job.objects.exclude(kind=Job.TABLE).exclude(alarm="").exclude(status=Job.SUCCEEDED)[:10]

@@ -120,6 +120,27 @@ def distance_determinism_anovas(table: pd.DataFrame) -> list[AnovaResult]:
     return [r1, r2]
 
 
+# The conditions each of the paper's ANOVAs compares: a study without every one of them has no such
+# design, and gets no such ANOVA (a message about its empty cells would only be noise); a study that has
+# them all gets it, with a message if a cell lacks participants.
+ADDITIVE_CONDITIONS = ("det-reward", "det-euclidean", "det-strategy", "prob-reward", "prob-euclidean")
+SQUARE_CONDITIONS = ("det-reward", "det-euclidean", "prob-reward", "prob-euclidean")
+
+
+def coverage_conditions(approx_star: str = APPROX_STAR_DEFAULT) -> tuple[str, ...]:
+    return ("random", COVERAGE_RANDOM, approx_star, COVERAGE_APPROX)
+
+
+def paper_anovas(table: pd.DataFrame, conditions, approx_star: str = APPROX_STAR_DEFAULT) -> list[AnovaResult]:
+    """The paper's ANOVAs whose conditions are all among the study's `conditions` (canonical names)."""
+    present = set(conditions)
+    additive, square = distance_determinism_anovas(table)
+    designs = [(additive, ADDITIVE_CONDITIONS), (square, SQUARE_CONDITIONS)]
+    if set(coverage_conditions(approx_star)) <= present:
+        designs.append((coverage_model_anova(table, approx_star), coverage_conditions(approx_star)))
+    return [anova for anova, needs in designs if set(needs) <= present]
+
+
 def coverage_model_frame(table: pd.DataFrame, approx_star: str = APPROX_STAR_DEFAULT) -> pd.DataFrame:
     inc = included(table)
     keep = inc["condition"].isin(["random", COVERAGE_RANDOM, approx_star, COVERAGE_APPROX])

@@ -76,7 +76,14 @@ import pandas as pd
 
 # The implementation lives in the modules below; this module stays the public entry point, so
 # ``from studyapp.analysis import stats as S; S.<name>`` keeps working for every name it had.
-from .anova import AnovaResult, coverage_model_anova, coverage_model_frame, distance_determinism_anovas, factorial_anova
+from .anova import (
+    AnovaResult,
+    coverage_model_anova,
+    coverage_model_frame,
+    distance_determinism_anovas,
+    factorial_anova,
+    paper_anovas,
+)
 from .comparisons import (
     APPROX_STAR_NAMES,
     check_approx_star,
@@ -185,14 +192,16 @@ def analyze(participants: pd.DataFrame, answers: pd.DataFrame, training: pd.Data
     participants, training = canonicalize(participants), canonicalize(training)
     approx_star = check_approx_star(approx_star)
     known = set(participants.get("condition", [])) | set(training.get("condition", []))
-    planned = list(comparisons) if comparisons is not None else default_comparisons(approx_star)
+    # the paper's planned comparisons where the study has both conditions; given ones as given
+    planned = list(comparisons) if comparisons is not None else [
+        pair for pair in default_comparisons(approx_star) if set(pair) <= known]
     comps = comparison_family(planned, extra_comparisons, known)  # ConditionError before any work
     table = participant_table(participants, answers, training, approx_star)
     conditions = list(dict.fromkeys([*[c for c in PAPER_CONDITIONS if c in set(table["condition"])],
                                      *sorted(set(table["condition"]) | set(training.get("condition", [])))]))
     summary = condition_summary(table, order=PAPER_CONDITIONS)
     messages = []
-    anovas = distance_determinism_anovas(table) + [coverage_model_anova(table, approx_star)]
+    anovas = paper_anovas(table, known, approx_star)
     messages += [r.message for r in anovas if not r.ok]
     w, msgs = welch_tests(table, comps, approx_star)
     messages += msgs

@@ -74,11 +74,18 @@ def design_study(page, base: str) -> None:
     for box in page.locator("input[name=conditions]").all():
         if box.get_attribute("value") not in CONDITIONS:
             box.uncheck()
+    page.locator("summary", has_text="A hand-picked condition").click()  # a folded group, opened
     page.fill("#id_hand_picked_name", "mine")
     page.fill("#id_hand_picked_env_ids", HAND_PICKED)
     page.fill("#id_target_per_condition", "5")
     page.fill("#id_min_distance", "0.1")  # 24 θ: few options are 0.5 apart (tests/conftest.py TINY_TEST_SET)
+    page.locator("summary", has_text="The consent page").click()
     page.fill("#id_contact", "ada@example.org")
+    # the summary above Build says what will be built, as the researcher filled it in
+    summary = page.locator("[data-design-summary]")
+    expect(summary).to_contain_text("Conditions (2)")
+    expect(summary).to_contain_text("exact, mine (hand-picked: 2 environments)")
+    expect(summary).to_contain_text("5 per condition × 2 = 10 participants")
     page.get_by_role("button", name="Build", exact=True).click()
     wait_for_job(page)
     page.locator(f"a[href='/dashboard/{SLUG}/']").click()  # the job page links to its study
@@ -105,13 +112,13 @@ def submit_and_wait(page, button) -> None:
     expect(page.locator("h1")).not_to_have_text(before)
 
 
-def complete_as_participant(browser, base: str) -> None:
+def complete_as_participant(browser, base: str, slug: str = SLUG) -> None:
     """A participant on the open study, by mouse, with animations fast-forwarded (tests/browser/
     test_participant_flow.py drives every step by keyboard and checks each in detail)."""
     context = browser.new_context(viewport={"width": 1200, "height": 1000})
     page = context.new_page()
     page.clock.install()
-    page.goto(f"{base}/s/{SLUG}/")
+    page.goto(f"{base}/s/{slug}/")
     submit_and_wait(page, page.get_by_role("button", name=re.compile("agree|consent|yes", re.I)).first)
     submit_and_wait(page, page.locator("button.primary"))
     while page.locator("h1").inner_text().startswith("Example"):

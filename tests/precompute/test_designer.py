@@ -10,10 +10,11 @@ import re
 import pytest
 
 from precompute import jobs
-from precompute.design import TUNABLE, StudyDesignForm, TableBuildForm, fixed_field
+from precompute.design import TUNABLE, StudyDesignForm, TableBuildForm, built_tables, fixed_field
+from precompute.designlayout import placed_fields
 from precompute.models import Job
 from studyapp.models import Study
-from teaching.api import TrajectoryTable, select_test_set
+from teaching.api import TrajectoryTable, select_test_set, selector_names
 
 pytestmark = pytest.mark.slow
 FORM = {"slug": "designed", "name": "Designed", "conditions": ["exact", "random", "coverage-random"],
@@ -254,3 +255,42 @@ def test_design_a_gridworld_study_on_a_worker(inprocess_worker, transactional_db
     for condition in study.conditions.all():  # every condition previews (its pages draw yards)
         r = staff_client.post(f"/dashboard/yard-designed/preview/{condition.pk}/")
         assert r.status_code == 302 and staff_client.get(r["Location"]).status_code == 200
+
+
+# --- the page's layout: sections, conditions as rows, a summary before Build ---------------------------------
+def test_every_designer_field_stands_in_exactly_one_place(db, tables):
+    form = StudyDesignForm(tables=built_tables(tables.parent))
+    placed = placed_fields(form)
+    assert len(placed) == len(set(placed)), [f for f in placed if placed.count(f) > 1]
+    assert set(placed) == set(form.fields)
+
+
+def test_the_designer_is_in_sections_with_the_conditions_as_rows_and_a_summary_before_build(db, tables,
+                                                                                           staff_client):
+    page = staff_client.get("/precompute/design/").content.decode()
+    legends = re.findall(r"<legend>(.*?)</legend>", page)
+    assert legends == ["1. Study and table", "2. Conditions", "3. Tests", "4. Participants and payment", "5. Texts"]
+    assert page.index('id="design-summary"') < page.index('<button type="submit">Build</button>')
+    assert page.index("</fieldset>", page.index("5. Texts")) < page.index('id="design-summary"')
+    rows = re.findall(r'<tr data-condition="([^"]+)">(.*?)</tr>', page, re.S)
+    assert [name for name, _ in rows] == list(selector_names())  # one row per registered selector, in order
+    for name, row in rows:
+        assert f'name="conditions" value="{name}"' in row
+        for field, (selector, _key, _f) in StudyDesignForm(tables=[]).selector_params.items():
+            assert (f'name="{field}"' in row) == (selector == name), (name, field)  # its parameters on its row
+    folds = re.findall(r'<details class="design-group"( open)?><summary>(.*?)</summary>', page)
+    assert [title for _, title in folds] == ["A hand-picked condition", "A closed-loop condition",
+                                             "Learner models and seed", "The consent page"]
+    assert not any(opened for opened, _ in folds)  # folded until needed
+
+
+def test_a_folded_group_opens_on_its_error_and_the_sections_list_points_to_it(db, tables, staff_client):
+    page = staff_client.post("/precompute/design/", dict(FORM, table=str(tables), hand_picked_env_ids="12, x",
+                                                         loop_name="adaptive", loop_lapse="7")).content.decode()
+    folds = dict((title, bool(opened)) for opened, title in
+                 re.findall(r'<details class="design-group"( open)?><summary>(.*?)</summary>', page))
+    assert folds == {"A hand-picked condition": True, "A closed-loop condition": True,
+                     "Learner models and seed": False, "The consent page": False}
+    assert '<a href="#design-conditions" class="error">2. Conditions (to correct)</a>' in page
+    assert '<a href="#design-tests">3. Tests</a>' in page
+    assert "Give whole environment ids" in page

@@ -270,11 +270,28 @@ def test_too_few_participants_give_messages_not_nan():
     tested = an.welch[an.welch["t"].notna()]
     assert len(tested) == 3
     assert np.allclose(tested["p_holm"], hand_holm(tested["p"]))
-    cov = an.anovas[-1]
+    # the coverage design is complete (its cell lacks participants: said); of the five approximate models
+    # only det-euclidean is a condition, so there is no distance x determinism design and no such ANOVA
+    [cov] = an.anovas
+    assert cov.name.startswith("coverage x model")
     assert not cov.ok and "(with, random): 1" in cov.message
-    # no approximate-model conditions other than det-euclidean: the distance ANOVAs say why
-    assert not an.anovas[0].ok and "(reward, deterministic): 0" in an.anovas[0].message
     assert any("coverage x model" in m for m in an.messages)
+    assert not any("distance" in m for m in an.messages)
+
+
+def test_the_papers_anovas_and_comparisons_only_where_their_conditions_are():
+    """A study of the five approximate models has both distance x determinism ANOVAs and no coverage one;
+    a study of exact and random alone has no ANOVA and no planned comparison (and says nothing about them);
+    pairs the researcher names are compared whatever the study's conditions."""
+    approx = S.analyze(*make_data(APPROX_CELLS))
+    assert [a.name.split(" (")[0] for a in approx.anovas] == ["distance + determinism", "distance x determinism"]
+    assert set(approx.welch["comparison"]) == set()  # neither exact nor random: no planned pair
+    two = {"exact": COVERAGE_CELLS["exact"], "random": COVERAGE_CELLS["random"]}
+    bare = S.analyze(*make_data(two))
+    assert bare.anovas == [] and bare.welch.empty
+    assert not any(m.startswith(("distance", "coverage", "approx*", "Welch")) for m in bare.messages), bare.messages
+    named = S.analyze(*make_data(two), extra_comparisons=[("exact", "random")])
+    assert list(named.welch["comparison"]) == ["exact vs random"] and named.welch["t"].notna().all()
 
 
 def hand_pearson(x, y):

@@ -1,0 +1,73 @@
+// The study designer's summary, kept up to date as the researcher fills in the sections above it:
+// what "Build" will make, in a few lines, right above the button. It reads the form and writes
+// text only (textContent), so nothing typed into a field can become markup here.
+
+const form = document.querySelector("form[data-designer]");
+const list = form && form.querySelector("[data-design-summary]");
+
+function value(name) {
+  const el = form.elements.namedItem(name);
+  return el && "value" in el ? el.value.trim() : "";
+}
+
+function chosenText(name) {
+  const el = form.elements.namedItem(name);
+  return el && el.selectedOptions && el.selectedOptions.length ? el.selectedOptions[0].textContent.trim() : "";
+}
+
+// Each ticked row's condition, with the parameters the researcher changed from their defaults.
+function tickedConditions() {
+  const out = [];
+  for (const row of form.querySelectorAll("tr[data-condition]")) {
+    const box = row.querySelector('input[type="checkbox"]');
+    if (!box || !box.checked) continue;
+    const changed = [...row.querySelectorAll("input:not([type=checkbox])")]
+      .filter((input) => input.value.trim() !== "" && input.value.trim() !== input.defaultValue.trim())
+      .map((input) => `${input.labels.length ? input.labels[0].textContent.trim() : input.name} ${input.value.trim()}`);
+    out.push(changed.length ? `${row.dataset.condition} (${changed.join("; ")})` : row.dataset.condition);
+  }
+  if (value("hand_picked_env_ids")) {
+    const ids = value("hand_picked_env_ids").split(/[\s,]+/).filter(Boolean).length;
+    out.push(`${value("hand_picked_name") || "hand-picked"} (hand-picked: ${ids} environment${ids === 1 ? "" : "s"})`);
+  }
+  if (value("loop_name")) out.push(`${value("loop_name")} (closed loop: ${chosenText("loop_model")})`);
+  return out;
+}
+
+function entries() {
+  const conditions = tickedConditions();
+  const target = parseInt(value("target_per_condition"), 10);
+  const people = target >= 1 && conditions.length
+    ? `${target} per condition × ${conditions.length} = ${(target * conditions.length).toLocaleString("en")} participants`
+    : "give the participants per condition and at least one condition";
+  const code = value("completion_code");
+  const tests = [chosenText("test_difficulty") || "any difficulty", `θ*-regret ≥ ${value("min_regret") || "the default"}`];
+  if (value("min_distance")) tests.push(`options ≥ ${value("min_distance")} apart`);
+  return [
+    ["Table", chosenText("table") || "none chosen"],
+    ["Study", `${value("name") || "(no name)"} — /s/${value("slug") || "…"}/`],
+    [`Conditions (${conditions.length})`, conditions.length ? conditions.join(", ") : "none: tick at least one row"],
+    ["Tests", tests.join("; ")],
+    ["Participants", people],
+    ["Recruitment", `${chosenText("recruitment")}${code ? `, completion code ${code}` : ""}`],
+    ["Payment and time", `${value("payment") || "no payment given"}, about ${value("estimated_minutes") || "?"} minutes`],
+  ];
+}
+
+function render() {
+  const items = [];
+  for (const [term, description] of entries()) {
+    const dt = document.createElement("dt");
+    dt.textContent = term;
+    const dd = document.createElement("dd");
+    dd.textContent = description;
+    items.push(dt, dd);
+  }
+  list.replaceChildren(...items);
+}
+
+if (list) {
+  form.addEventListener("input", render);
+  form.addEventListener("change", render);
+  render();
+}
