@@ -63,6 +63,9 @@ LONG_COLUMNS = PARTICIPANT_COLUMNS + [
     ("rating_2", "Test or check: rating of canonical option 2."),
     ("rating_3", "Test or check: rating of canonical option 3."),
     ("theta_star_option", "Test or check: canonical index of theta*'s option."),
+    ("test_difficulty", "Test: low, medium or high when the study's tests were graded by difficulty (the "
+                        "tertile of the environment's behaviour-equivalence class size among the eligible "
+                        "ones: a large class is low); empty for ungraded tests and for checks."),
     ("display_order", "Test or check: canonical option indices in the order displayed (A first), space separated."),
     ("answer_json", "The stored answer exactly as saved (JSON)."),
     ("answered_at", "UTC time the answer was stored."),
@@ -121,6 +124,7 @@ class _Context:
     def __init__(self, study: Study):
         self.slug = study.slug
         self.stars = [_star(t) for t in study.test_set]
+        self.difficulties = [neutralise(str(t.get("difficulty") or "")) for t in study.test_set]  # a spec's text
         self.conditions, self.check_stars, self.n_checks = {}, {}, 0
         for pk, name, training, loop in study.conditions.values_list("pk", "name", "training", "closed_loop"):
             self.conditions[pk] = (name, len(training))
@@ -167,14 +171,15 @@ def _check_questions(page: list[dict]) -> dict[tuple[int, int], int]:
     return {(pid, index): question for pid, index, question in steps.values_list("participant_id", "index", "question")}
 
 
-def _test_fields(answer: dict, star: int) -> dict:
-    """The long file's test cells of a test or check answer whose question has theta*'s option `star`."""
+def _test_fields(answer: dict, star: int, difficulty: str = "") -> dict:
+    """The long file's test cells of a test or check answer whose question has theta*'s option `star`
+    (and, a graded test, its `difficulty`)."""
     data = answer["data"]
     choice = data["choice"]
     fields = {
         "chosen_option": choice, "chosen_display_position": data["order"].index(choice),
         "chosen_is_theta_star": int(choice == star), "chosen_rating": data["ratings"][choice],
-        "confidence_score": answer["confidence_score"], "theta_star_option": star,
+        "confidence_score": answer["confidence_score"], "theta_star_option": star, "test_difficulty": difficulty,
         "display_order": " ".join(str(k) for k in data["order"]),
     }
     fields.update({f"rating_{k}": r for k, r in enumerate(data["ratings"])})
@@ -205,7 +210,7 @@ def long_rows(study: Study):
                 data = a["data"]
                 kind = a["kind"]
                 if kind == TEST:
-                    test = _test_fields(a, ctx.stars[a["item"]])
+                    test = _test_fields(a, ctx.stars[a["item"]], ctx.difficulties[a["item"]])
                     test = [test[c] for c in _TEST_CELLS]
                 elif kind == CHECK:
                     test = _test_fields(a, ctx.check_stars[p["condition_id"]][questions[p["pk"], a["item"]]])

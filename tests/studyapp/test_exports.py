@@ -5,6 +5,7 @@ import io
 import pytest
 
 from studyapp import assignment, exports, flow
+from studyapp.analysis.simulate import make_study
 from studyapp.models import Participant, StepKind
 
 pytestmark = pytest.mark.django_db
@@ -33,7 +34,19 @@ def test_long_export_one_row_per_answer(study, complete):
         assert int(r["chosen_display_position"]) == p.option_orders[j].index(0)
         assert r["display_order"] == " ".join(map(str, p.option_orders[j]))
         assert r["env_id"] == str(study.test_set[j]["env_id"])
+        assert r["test_difficulty"] == ""  # its tests were not graded
     assert out[0]["platform_session_id"] == "X" and out[0]["excluded"] == "0"
+
+
+def test_a_graded_tests_difficulty_is_in_the_long_export_and_its_dictionary(demo_table, complete):
+    graded = make_study(demo_table, "graded", difficulty="high")
+    assert {t["difficulty"] for t in graded.test_set} == {"high"}
+    complete(assignment.assign(graded, "link", "G1"))
+    out = rows(exports.long_csv(graded))
+    assert [r["test_difficulty"] for r in out if r["kind"] == StepKind.TEST] == ["high"] * 6
+    assert {r["test_difficulty"] for r in out if r["kind"] != StepKind.TEST} == {""}
+    dictionary = {r["column"]: r["description"] for r in rows(exports.dictionary_csv(graded)) if r["file"] == "long"}
+    assert "low, medium or high" in dictionary["test_difficulty"]
 
 
 def test_wide_export_one_row_per_participant(study, complete):
