@@ -134,11 +134,14 @@ def coverage_conditions(approx_star: str = APPROX_STAR_DEFAULT) -> tuple[str, ..
 def paper_anovas(table: pd.DataFrame, conditions, approx_star: str = APPROX_STAR_DEFAULT) -> list[AnovaResult]:
     """The paper's ANOVAs whose conditions are all among the study's `conditions` (canonical names)."""
     present = set(conditions)
-    additive, square = distance_determinism_anovas(table)
-    designs = [(additive, ADDITIVE_CONDITIONS), (square, SQUARE_CONDITIONS)]
+    out = []
+    if set(SQUARE_CONDITIONS) <= present:  # the additive design holds the square one: neither without it
+        additive, square = distance_determinism_anovas(table)
+        out += [anova for anova, needs in ((additive, ADDITIVE_CONDITIONS), (square, SQUARE_CONDITIONS))
+                if set(needs) <= present]
     if set(coverage_conditions(approx_star)) <= present:
-        designs.append((coverage_model_anova(table, approx_star), coverage_conditions(approx_star)))
-    return [anova for anova, needs in designs if set(needs) <= present]
+        out.append(coverage_model_anova(table, approx_star))
+    return out
 
 
 def coverage_model_frame(table: pd.DataFrame, approx_star: str = APPROX_STAR_DEFAULT) -> pd.DataFrame:
