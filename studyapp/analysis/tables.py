@@ -7,6 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from teaching.api import DIFFICULTIES
+
 from .conditions import APPROX_STAR_DEFAULT, canonicalize, condition_factors
 
 
@@ -75,9 +77,7 @@ def condition_summary(table: pd.DataFrame, order=None) -> pd.DataFrame:
     return out
 
 
-
 DIFFICULTY_COLUMNS = ["condition", "difficulty", "n", "n_answers", "mean", "sd", "se", "accuracy"]
-DIFFICULTY_ORDER = ("low", "medium", "high")  # teaching's DIFFICULTIES: easy (a large BEC) to hard
 
 
 def difficulty_summary(per_test: pd.DataFrame) -> pd.DataFrame:
@@ -96,7 +96,7 @@ def difficulty_summary(per_test: pd.DataFrame) -> pd.DataFrame:
     out["se"] = out["sd"] / np.sqrt(out["n"])
     out["accuracy"] = g["correct"].sum() / out["n_answers"]
     out = out.reset_index().rename(columns={"test_difficulty": "difficulty"})
-    rank = {d: i for i, d in enumerate(DIFFICULTY_ORDER)}
+    rank = {d: i for i, d in enumerate(DIFFICULTIES)}  # easy (a large BEC) to hard
     out = out.sort_values(["condition", "difficulty"], key=lambda col: col.map(rank) if col.name == "difficulty"
                           else col, kind="stable")
     return out[DIFFICULTY_COLUMNS].reset_index(drop=True)
