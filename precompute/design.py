@@ -153,7 +153,8 @@ class StudyDesignForm(forms.Form):
 
     def __init__(self, *args, tables: list[dict], **kwargs):
         super().__init__(*args, **kwargs)
-        # Each selector's parameters right below the conditions, where the selector is ticked.
+        # Each selector's parameters right after the conditions in the form's order (the page draws them
+        # on the selector's own row: designlayout.py).
         self.selector_params = selector_param_fields()
         fields = list(self.fields.items())
         at = [name for name, _ in fields].index("conditions") + 1
