@@ -44,6 +44,7 @@ MIN_REGRET = 1e-3  # θ*-reward units; on the demo table |θ*·φ(ξ^θ*)| has m
 # option sets drawn per environment: 50 missed sets that exist (on one demo table no
 # environment of one cluster passed in 50, one 0.87 apart passed in 200)
 MAX_TRIES = 200
+_PAIRS = np.triu_indices(4, 1)  # the 6 pairs among a test's 4 options
 # Difficulty levels of a graded test, easiest first (large BEC first).
 DIFFICULTIES = ("low", "medium", "high")
 
@@ -92,7 +93,7 @@ def _draw_options(table, env_index: int, cluster: int, rng, min_regret, min_dist
     if len(same) < 1 or len(other) < 2 + relaxed:
         return None
     pool = np.concatenate([[0], same, other])
-    dist = pairwise_distance(table.domain, np.asarray(table.states(env_index, pool), np.float64))
+    states = np.asarray(table.states(env_index, pool), np.float64)
     pos = {int(t): i for i, t in enumerate(pool)}
     for _ in range(max_tries):
         first = int(rng.choice(same))
@@ -100,8 +101,9 @@ def _draw_options(table, env_index: int, cluster: int, rng, min_regret, min_dist
         if len(rest) < 2:
             return None
         pick = [0, first, *map(int, rng.choice(rest, size=2, replace=False))]
-        idx = [pos[t] for t in pick]
-        d = dist[np.ix_(idx, idx)][np.triu_indices(4, 1)]
+        # only the drawn options' distances: a draw is accepted within a few tries, and the whole pool's
+        # matrix (a few hundred trajectories squared) cost most of the test set's time
+        d = pairwise_distance(table.domain, states[[pos[t] for t in pick]])[_PAIRS]
         if d.min() >= min_distance:
             return pick, regret, float(d.min())
     return None
