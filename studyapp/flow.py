@@ -128,7 +128,10 @@ def record(participant: Participant, step_index: int, post) -> Participant:
         # reused: reading them again decoded the study's JSON (test set, pilot) once more per answer.
         locked = Participant.objects.select_for_update(of=("self",)).get(pk=participant.pk)
         locked.study, locked.condition = participant.study, participant.condition
-        stored = Answer.objects.filter(participant=locked, step=step_index).first()
+        # Only a step before the participant's position can hold an answer (the position moves on with each
+        # answer stored, under this lock), so an answer to the current step needs no lookup.
+        stored = (Answer.objects.filter(participant=locked, step=step_index).first()
+                  if step_index < locked.position else None)
         if stored is not None:
             if stored.data == data:
                 return locked  # idempotent repeat
