@@ -150,7 +150,8 @@ def test_the_whole_researcher_flow(tmp_path, require_service, demo_table):
     assert os.path.exists(CHROMIUM), f"Chromium not installed at {CHROMIUM} (apt-get install chromium)"
     out = harness.ROOT / "test-output"
     out.mkdir(exist_ok=True)
-    with harness.Server(tmp_path, demo_table=demo_table) as server, sync_playwright() as pw:
+    with (harness.Server(tmp_path, workers=harness.FEW_WORKERS, demo_table=demo_table) as server,
+          sync_playwright() as pw):
         create_researcher(server)
         base = server.base_url
         browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)

@@ -142,7 +142,8 @@ class SlowBodies:
 def server(tmp_path_factory, demo_table, ci):
     require_service(postgres_reachable(), f"PostgreSQL at {PG_URL} is unreachable", ci)
     require_service(redis_reachable(harness.REDIS_URL), f"Redis at {harness.REDIS_URL} is unreachable", ci)
-    with harness.Server(tmp_path_factory.mktemp("slow-bodies"), demo_table=demo_table) as server:
+    with harness.Server(tmp_path_factory.mktemp("slow-bodies"), workers=harness.FEW_WORKERS,
+                        demo_table=demo_table) as server:
         yield server
 
 

@@ -51,7 +51,7 @@ def test_a_killed_worker_comes_back_and_its_job_resumes_while_participants_carry
     require_service(postgres_reachable(), f"PostgreSQL at {PG_URL} is unreachable")
     require_service(redis_reachable(harness.REDIS_URL), f"Redis at {harness.REDIS_URL} is unreachable")
     events: dict = {}
-    with harness.Server(tmp_path, demo_table=demo_table) as server:
+    with harness.Server(tmp_path, workers=harness.FEW_WORKERS, demo_table=demo_table) as server:
         web_pid, worker_pid = program_pid(server, "web"), program_pid(server, "worker")
         assert web_pid and worker_pid
         out = tmp_path / "table"
