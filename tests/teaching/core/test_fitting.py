@@ -2,6 +2,8 @@
 by this file's own brute-force learner (loops over θ on the table's raw features and states, none of
 teaching's learner, choice or fitting code), model recovery on the demo study's design, merging of
 identical models, and the bad inputs a researcher can hit."""
+import functools
+
 import numpy as np
 import pytest
 from scipy.optimize import minimize, minimize_scalar
@@ -28,17 +30,25 @@ from teaching.core.testset import select_test_set
 
 
 # --- a learner written out by hand, for simulating ---------------------------------------------------
-def brute_choice(table, metric, kind, value, lapse, sequence, env, options):
-    """(K,) P(option): belief over θ from `sequence`'s θ* examples, then each option's belief-weighted
-    likelihood, normalised, mixed with the lapse rate.  Every distance from the table's raw arrays."""
+def brute_distance(table, metric):
+    """d(e, θ, ref): how far θ's optimal trajectory in environment e is from θ ref's, from the table's raw
+    arrays.  Memoised: every condition asks for the same (environment, θ, option) again."""
     thetas = np.asarray(table.thetas, np.float64)
     feats = np.asarray(table.features, np.float64)
-    n = len(thetas)
 
-    def dist(e, th, ref):  # how far θ th's optimal trajectory in e is from θ ref's
+    @functools.cache
+    def dist(e, th, ref):
         if metric == "reward":
             return float(thetas[th] @ (feats[e, th] - feats[e, ref]))
         return float(table.domain.euclidean_distance(table.states(e, th), table.states(e, ref)))
+
+    return dist
+
+
+def brute_choice(table, dist, kind, value, lapse, sequence, env, options):
+    """(K,) P(option): belief over θ from `sequence`'s θ* examples, then each option's belief-weighted
+    likelihood, normalised, mixed with the lapse rate; `dist` is brute_distance's."""
+    n = table.n_thetas
 
     def lik(d):
         return float(d <= value) if kind == "det" else float(np.exp(-value * d))
@@ -52,7 +62,8 @@ def brute_choice(table, metric, kind, value, lapse, sequence, env, options):
 def brute_answers(table, metric, kind, value, lapse, sequences, tests, n_per_sequence, rng):
     names = list(sequences)
     group = np.repeat(np.arange(len(names)), n_per_sequence)
-    probs = {g: [brute_choice(table, metric, kind, value, lapse, sequences[names[g]], t.env_index, t.options)
+    dist = brute_distance(table, metric)
+    probs = {g: [brute_choice(table, dist, kind, value, lapse, sequences[names[g]], t.env_index, t.options)
                  for t in tests] for g in range(len(names))}
     choice = np.array([[rng.choice(len(p), p=p) for p in probs[g]] for g in group])
     return Answers(sequence_names=tuple(names), sequences=tuple(tuple(sequences[n]) for n in names),
