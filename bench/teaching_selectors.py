@@ -67,11 +67,13 @@ def time_selectors(table, names, label: str) -> dict:
     fig["distances_seconds"] = time.perf_counter() - t0
     print(f"  {'(distances)':18s} {fig['distances_seconds']:8.2f} s")
     for name in names:
-        t0 = time.perf_counter()
+        load, t0 = os.getloadavg()[0], time.perf_counter()
         seq = condition_sequence(table, name, seed=0, dist=dist)[0]
-        row = {"name": name, "seconds": time.perf_counter() - t0, "length": len(seq.envs)}
+        row = {"name": name, "seconds": time.perf_counter() - t0, "length": len(seq.envs),
+               "load_start": load, "load_end": os.getloadavg()[0]}
         fig["selectors"].append(row)
-        print(f"  {name:18s} {row['seconds']:8.2f} s  {row['length']:3d} examples  {verdict(fig, row)}")
+        print(f"  {name:18s} {row['seconds']:8.2f} s  {row['length']:3d} examples  load average "
+              f"{row['load_start']:.2f} -> {row['load_end']:.2f}  {verdict(fig, row)}")
     fig["load_end"] = os.getloadavg()[0]
     return fig
 
@@ -86,7 +88,7 @@ def verdict(table_fig: dict, row: dict) -> str:
 def markdown(fig: dict) -> str:
     rows = "\n".join(
         f"| `{t['table']}` | {t['shape'][0]:,} × {t['shape'][1]:,} | {r['name']} | **{r['seconds']:.1f}** | "
-        f"{r['length']} | {t['load_start']:.2f} → {t['load_end']:.2f} | "
+        f"{r['length']} | {r['load_start']:.2f} → {r['load_end']:.2f} | "
         + (f"≤ {BAR_SECONDS:.0f} s: **{verdict(t, r)}**" if verdict(t, r) else "") + " |"
         for t in fig["tables"] for r in t["selectors"])
     distances = ", ".join(f"`{t['table']}` {t['distances_seconds']:.1f} s" for t in fig["tables"])

@@ -17,7 +17,8 @@ def figures(tables: list[dict]) -> dict:
 def table(path: str, envs: int, thetas: int, rows: dict[str, float]) -> dict:
     return {"table": path, "shape": [envs, thetas, 5], "load_start": 0.5, "load_end": 1.0,
             "distances_seconds": 3.0, "waited_seconds": 0.0,
-            "selectors": [{"name": n, "seconds": s, "length": 20} for n, s in rows.items()]}
+            "selectors": [{"name": n, "seconds": s, "length": 20, "load_start": 0.5, "load_end": 1.0}
+                          for n, s in rows.items()]}
 
 
 def row(md: str, path: str, name: str) -> str:
