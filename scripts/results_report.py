@@ -31,7 +31,8 @@ if str(ROOT) not in sys.path:
 from teaching.core.domain import get_domain, n_clusters  # noqa: E402
 from teaching.core.evaluation import grid_cells  # noqa: E402
 from teaching.core.learners import EXACT_TOLERANCE, MODEL_NAMES, Distances, make_model, p_theta_star  # noqa: E402
-from teaching.core.selection import MIN_RISE, greedy, showable  # noqa: E402
+from teaching.core.selection import APPROX_STAR, COVERAGE_EPSILON, MIN_RISE, greedy, showable  # noqa: E402
+from teaching.core.selectors import get_selector  # noqa: E402
 from teaching.core.table import TableError, TrajectoryTable  # noqa: E402
 
 TOLERANCES = (0.0, 1e-7, 1e-6, 1e-5)
@@ -157,8 +158,10 @@ def section_sequences(table, data, index_of, h) -> list[str]:
     seq = data["sequences"]
 
     def model_of(cond):
-        name = {"random": "exact", "coverage-approx*": seq["approx_star"],
-                "coverage-random": seq["approx_star"]}.get(cond, cond)
+        s = seq["conditions"][cond]
+        name = (get_selector(s["selector"]).scored_by(s["params"]) if "selector" in s else
+                {"random": "exact", "coverage-approx*": seq["approx_star"],
+                 "coverage-random": seq["approx_star"]}.get(cond, cond))
         hp = seq["hyperparameters"].get(name, {})
         return name if hp.get("param") is None or "strategy" in name else f"{name}, {_param(hp)}"
 
@@ -170,7 +173,8 @@ def section_sequences(table, data, index_of, h) -> list[str]:
         rows.append((cond, f"{len(ids)} ({len(set(ids))})", envs or "—", f"{final} ({model_of(cond)})"))
     return [f"{h} Sequences", "",
             "Environment ids in the order shown, each with θ*'s strategy there (class: strategy); P(θ*) after "
-            "the last example under the condition's own model (random: exact IRL; coverage: approx*).", "",
+            "the last example under the condition's own model (random: exact IRL; coverage: approx*; an added "
+            "selector: the model its selector scores by).", "",
             *md_table(("condition", "examples (unique)", "environments in order", "final P(θ*) (model)"), rows)]
 
 
@@ -185,20 +189,26 @@ def section_clusters(domain, data, fig_links, h) -> list[str]:
 
 
 def section_matrix(data, fig_links, h) -> list[str]:
-    mx = data["matrix"]
+    mx, seq = data["matrix"], data["sequences"]
     users, base = mx["user_names"], set(mx["sequence_names"])
     paper = [i for i, u in enumerate(users) if u in MODEL_NAMES]  # the means are over the paper's users
     approx = [i for i in paper if users[i] != "exact"]
-    rows = [(name if name in base else "*{}*".format(name.replace("*", "\\*")), *(f"{v:.3f}" for v in r),
-             f"{r[paper].mean():.3f}", f"{r[approx].mean():.3f}")
+    ids = {**seq["model_sequences"], **seq["conditions"]}
+
+    def length(name):
+        return f"{len(ids[name]['env_ids'])} ({len(set(ids[name]['env_ids']))})"
+
+    rows = [(name if name in base else "*{}*".format(name.replace("*", "\\*")), length(name),
+             *(f"{v:.3f}" for v in r), f"{r[paper].mean():.3f}", f"{r[approx].mean():.3f}")
             for name, r in zip(mx["extended_sequence_names"], np.asarray(mx["extended_matrix"]), strict=False)]
     return [f"{h} Ideal-user matrix", "",
-            "Entry = P_user(θ* | the sequence of the row), 3 decimals. Rows in italics are the coverage "
-            "conditions (extended matrix; not in the paper's figure); the hierarchical learner (row and column) "
-            "is the paper's Discussion's, not in its figure either, and the means leave it out. "
+            "Entry = P_user(θ* | the sequence of the row), 3 decimals; beside each row, its sequence's length "
+            "(unique examples in brackets). Rows in italics are not in the paper's figure (extended matrix): the "
+            "coverage conditions and any selector added with `--selector`; the hierarchical learner (row and "
+            "column) is the paper's Discussion's, not in its figure either, and the means leave it out. "
             "Users use the chosen τ/λ: "
             + ", ".join(f"`{m}`" for m in mx["models"].values()) + ".", "",
-            *md_table(("sequence \\ user", *users, f"mean of the paper's {len(paper)}",
+            *md_table(("sequence \\ user", "examples", *users, f"mean of the paper's {len(paper)}",
                        f"mean of {len(approx)} approximate"), rows),
             f"![ideal-user matrix]({fig_links['sim_users.png']})", ""]
 
@@ -321,6 +331,25 @@ def section_gridworld(args, out_dir, figures) -> list[str]:
                                  GRIDWORLD_PRECISION)
 
 
+def commands_of(table_dir, teach_dir) -> list[str]:
+    """The build and teach commands behind a table and its teach outputs, the teach options read back from
+    what the outputs record (seed, approx*, ε, fixed τ/λ, the test difficulty, every --selector)."""
+    preset = json.loads((Path(table_dir) / "meta.json").read_text()).get("preset")
+    seq = json.loads((Path(teach_dir) / "sequences.json").read_text())
+    argv = ["--table", str(table_dir), "--out", str(teach_dir)]
+    for key, default in (("seed", 0), ("approx_star", APPROX_STAR), ("epsilon", COVERAGE_EPSILON)):
+        if seq.get(key, default) != default:
+            argv += ["--" + key.replace("_", "-"), str(seq[key])]
+    argv += [a for m, hp in seq["hyperparameters"].items() if hp.get("fixed")
+             for a in ("--hyper", f"{m}={hp['value']}")]
+    tests = json.loads((Path(teach_dir) / "test_set.json").read_text())
+    if isinstance(tests, list) and tests and tests[0].get("difficulty"):
+        argv += ["--test-difficulty", tests[0]["difficulty"]]
+    argv += [a for label, c in seq["conditions"].items() if "selector" in c for a in ("--selector", label)]
+    return [f".venv/bin/python -m teaching build --preset {preset} --out {table_dir}",
+            ".venv/bin/python -m teaching.teach " + shlex.join(argv)]
+
+
 def build_report(args) -> str:
     out = Path(args.out)
     figures = Path(args.figures) if args.figures else out.parent / "figures"
@@ -329,13 +358,14 @@ def build_report(args) -> str:
     argv = ["scripts/results_report.py"] + [a for f in flags if getattr(args, f)
                                              for a in ("--" + f.replace("_", "-"), getattr(args, f))]
     body = table_sections(args.table, args.teach, out.parent, figures, "", "##", args.planner_precision)
-    preset = json.loads((Path(args.table) / "meta.json").read_text()).get("preset")
+    pairs = [(args.table, args.teach), (args.paper_table, args.paper_teach),
+             (args.gridworld_table, args.gridworld_teach)]
+    commands = [c for t, o in pairs if t and o and (Path(t) / "meta.json").is_file()
+                and (Path(o) / "sequences.json").is_file() for c in commands_of(t, o)]
     head = ["# Results: ideal-user analysis", "",
             "Generated by `scripts/results_report.py` from the table and the teach outputs; do not edit by hand. "
             f"Generated {datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC with:", "", "```",
-            f".venv/bin/python -m teaching build --preset {preset} --out {args.table}",
-            f".venv/bin/python -m teaching.teach --table {args.table} --out {args.teach}",
-            ".venv/bin/python " + shlex.join(argv), "```", ""]
+            *commands, ".venv/bin/python " + shlex.join(argv), "```", ""]
     return "\n".join(head + body + section_paper(args, out.parent, figures)
                      + section_gridworld(args, out.parent, figures))
 

@@ -21,12 +21,15 @@ HEADINGS = ("# Results", "## θ*'s strategy per environment", "## Chosen hyperpa
             "## Examples per strategy cluster", "## Ideal-user matrix", "## Test set", "## Exact IRL's tolerance",
             "## The paper table")
 
+SELECTORS = ("--selector", "scot", "--selector", "highlights:k=3")
+
 
 @pytest.fixture(scope="module")
 def inputs(tmp_path_factory):
     root = tmp_path_factory.mktemp("report")
     synthetic_table(200, 40, n_candidates=6, seed=8).save(root / "table")
-    assert teach_main(["--table", str(root / "table"), "--out", str(root / "teach"), "--no-progress"]) == 0
+    assert teach_main(["--table", str(root / "table"), "--out", str(root / "teach"), "--no-progress",
+                       *SELECTORS]) == 0
     return root
 
 
@@ -52,6 +55,28 @@ def test_every_section_and_identity(inputs, generated):
     for png in ("sim_users.png", "examples_shown.png"):
         assert (out.parent / "figures" / png).read_bytes()[:4] == b"\x89PNG"
         assert f"(figures/{png})" in text
+
+
+def test_the_header_names_the_teach_command_with_its_selectors(inputs, generated):
+    _, text = generated
+    header = text.split("```")[1]
+    assert (f"python -m teaching.teach --table {inputs / 'table'} --out {inputs / 'teach'} "
+            "--selector scot --selector highlights:k=3\n") in header
+
+
+def test_the_matrix_shows_every_sequence_and_its_length(inputs, generated):
+    _, text = generated
+    section = text.split("## Ideal-user matrix")[1].split("\n## ")[0]
+    seqs = json.loads((inputs / "teach" / "sequences.json").read_text())
+    matrix = json.loads((inputs / "teach" / "matrix.json").read_text())
+    names = matrix["extended_sequence_names"]
+    assert {"scot", "highlights:k=3", "hierarchical"} <= set(names)
+    for name in names:
+        ids = {**seqs["model_sequences"], **seqs["conditions"]}[name]["env_ids"]
+        label = name if name in matrix["sequence_names"] else "*{}*".format(name.replace("*", "\\*"))
+        assert f"| {label} | {len(ids)} ({len(set(ids))}) | " in section, name
+    # an added selector's P(θ*) is reported under the model it is scored by, not under its own name
+    assert re.search(r"^\| scot \| .* \| [\d.]+ \(exact\) \|$", text, re.M)
 
 
 def test_tolerance_rows_and_exact_sequence_match_teach_outputs(inputs, generated):
