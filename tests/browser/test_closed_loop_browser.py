@@ -129,7 +129,7 @@ def test_a_slow_next_page_shows_a_progress_message_not_a_frozen_page(loop_study,
             page.wait_for_timeout(200)
         assert held and any("preparing your next page" in b for b in banner), (held, banner)
         held[0].continue_()
-        expect(page.locator("h1")).to_have_text("Example 1 of up to 4", timeout=20_000)
+        expect(page.locator("h1")).to_have_text("Example 1 of up to 4", timeout=120_000)  # a hang guard
         browser.close()
     assert not errors, errors
     p = Participant.objects.get(platform_pid="slow-next")

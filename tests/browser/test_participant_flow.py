@@ -199,7 +199,7 @@ def test_participant_flow_in_chromium(demo_study, live_server, monkeypatch):  # 
         expect(page.locator("h1")).to_have_text("Thank you!")
         code = page.locator("#completion-code").inner_text()
         page.clock.run_for(4000)
-        page.wait_for_url("https://app.prolific.com/**", timeout=15000)
+        page.wait_for_url("https://app.prolific.com/**", timeout=60_000)  # a hang guard
         expect(page.locator("h1")).to_have_text("Prolific: submission complete")
         browser.close()
         connections.close_all()  # the ORM calls above ran in Playwright's context: close its connection

@@ -81,7 +81,7 @@ def test_every_stimulus_is_drawn_and_plays(staff_cookie, make_study, live_server
             before = cell.locator("canvas").evaluate("c => c.toDataURL()")
             cell.locator('[data-action="play"]').click()
             page.wait_for_function("c => c.scene.mode === 'frame' && c.scene.t > 0.5",
-                                   arg=cell.locator("canvas").element_handle(), timeout=5000)
+                                   arg=cell.locator("canvas").element_handle(), timeout=60_000)  # a hang guard
             first = cell.locator("canvas").evaluate("c => [c.toDataURL(), c.scene.t]")
             page.wait_for_timeout(400)
             second = cell.locator("canvas").evaluate("c => [c.toDataURL(), c.scene.t]")
