@@ -32,7 +32,7 @@ from tests.services import PG_URL, postgres_reachable
 ROOT = Path(__file__).resolve().parents[2]
 REDIS_URL = os.environ.get("LOAD_TEST_REDIS", "redis://127.0.0.1:6379/14")
 NO_PROXY = urllib.request.build_opener(urllib.request.ProxyHandler({}))  # loopback only, never via a proxy
-# gunicorn workers of a server whose test checks behaviour rather than capacity (supervision, slow
+# gunicorn workers of a server whose test checks behaviour rather than capacity (supervision, slow bodies, slow
 # clients, the researcher's browser walk): each worker costs about 3 s of CPU to start and warm, which the
 # suite's two cores share with every other test.  The load test keeps the production default (2 x cores + 1).
 FEW_WORKERS = 2
