@@ -146,7 +146,7 @@ def paper_anovas(table: pd.DataFrame, conditions, approx_star: str = APPROX_STAR
 
 def coverage_model_frame(table: pd.DataFrame, approx_star: str = APPROX_STAR_DEFAULT) -> pd.DataFrame:
     inc = included(table)
-    keep = inc["condition"].isin(["random", COVERAGE_RANDOM, approx_star, COVERAGE_APPROX])
+    keep = inc["condition"].isin(coverage_conditions(approx_star))
     d = inc[keep].copy()
     d["model"] = np.where(d["condition"].isin(["random", COVERAGE_RANDOM]), "random", "approx*")
     d["coverage"] = np.where(d["coverage"], "with", "without")
