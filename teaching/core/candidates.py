@@ -12,11 +12,11 @@ SAMPLERS = ("log-uniform", "sphere")
 
 
 def sample_thetas(n: int, sampler: str = "log-uniform", seed: int = 0, *, theta_star) -> np.ndarray:
-    """(n, D) candidate thetas, row 0 = theta_star (D,), the domain's objective (every weight negative).
+    """(n, D) candidate thetas, row 0 = theta_star (D,), the domain's objective.
 
-    log-uniform: each component negative, |theta_i| = |theta*_i| * 10^U(-1, 1)
-    (within one decade either side).  sphere: uniform on the negative orthant
-    of the unit sphere (|N(0, I)| normalised, negated).
+    Every candidate lies in θ*'s orthant (each weight with θ*'s sign; a 0 counts as negative).
+    log-uniform: |theta_i| = |theta*_i| * 10^U(-1, 1) (within one decade either side).  sphere:
+    uniform on θ*'s orthant of the unit sphere (|N(0, I)| normalised, given θ*'s signs).
     """
     if n < 2:
         raise ValueError(f"need at least 2 candidate thetas (theta* and one other), got {n}")
@@ -24,11 +24,14 @@ def sample_thetas(n: int, sampler: str = "log-uniform", seed: int = 0, *, theta_
         raise ValueError(f"unknown sampler {sampler!r}; choose one of {', '.join(SAMPLERS)}")
     rng = np.random.default_rng(seed)
     star = np.asarray(theta_star, dtype=float)
+    # each weight keeps θ*'s sign (a cost stays a cost, a reward a reward); -1.0 * x is exactly -x,
+    # so an all-cost θ* draws the same bits as negating did
+    signs = np.where(star > 0, 1.0, -1.0)
     if sampler == "log-uniform":
         # 10**u correctly rounded (detmath): NumPy's power is CPU-dispatched and its AVX-512 loop
         # differs in the last bit, which moved thousands of a table's trajectories
-        rest = -np.abs(star) * detmath.pow10(rng.uniform(-1.0, 1.0, size=(n - 1, len(star))))
+        rest = signs * np.abs(star) * detmath.pow10(rng.uniform(-1.0, 1.0, size=(n - 1, len(star))))
     else:
         g = np.abs(rng.standard_normal((n - 1, len(star))))
-        rest = -g / np.linalg.norm(g, axis=1, keepdims=True)
+        rest = signs * g / np.linalg.norm(g, axis=1, keepdims=True)
     return np.vstack([star, rest])
