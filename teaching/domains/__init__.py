@@ -6,8 +6,12 @@ its modules load only when it is used) is all the core and the web side need.  d
 from __future__ import annotations
 
 from importlib import import_module
+from pathlib import Path
 
 from ..core.domain import register
+
+# the grid worlds shipped as files (docs/gridworlds.md)
+WORLDS = Path(__file__).resolve().parent / "worlds"
 
 
 def _loader(module: str):

@@ -1,0 +1,235 @@
+"""A world file as a registered domain: :class:`FileGridDomain` and :func:`world_domain`.
+
+Everything a domain needs comes from the file (teaching.domains._grid.worldfile) and the exact
+planner (teaching.domains._grid.fileworld): environments are variants x starts, classes and strategy
+clusters are the file's rules over a trajectory's counts, θ* and the presets are the file's.
+
+An environment's class, never from θ: the first of the file's classes of which at least two
+strategies are shown by some trajectory on the environment's fronts (so the environment can tell
+them apart), else "other".
+"""
+from __future__ import annotations
+
+import re
+from functools import cache, cached_property
+from pathlib import Path
+
+import numpy as np
+
+from ...core.base import BaseDomain
+from ...core.build import Preset
+from ...core.domain import LegendEntry, ParticipantTexts
+from . import ROOT
+from .cells import padded_distance, shortest_moves
+from .domain import best_of_front
+from .fileworld import EXIT, MOVES, endings, fronts, world_fingerprint
+from .worldfile import HELD, World, WorldFileError, load_world
+
+PLANNER_VERSION = 1  # bump whenever a change alters the trajectories the planner returns
+SECONDS_PER_ACTION = 0.4
+
+
+class FileGridDomain(BaseDomain):
+    """The domain of one world file (module docstring)."""
+
+    extra_code_roots = ()
+    code_root = ROOT
+    trajectory_dtype = np.dtype(np.int16)
+    # the Euclidean learner compares positions in cells; holding the object is part of a state (a
+    # pick-up is an action taken) but adds no distance
+    state_scale = (1.0, 1.0, np.inf)
+    page_keys = ("dt", "world")
+
+    def __init__(self, world: World):
+        self.world = world
+        self.name = world.name
+        self.n_starts = len(world.starts)
+        self.n_environments = world.n_variants * self.n_starts
+        self.feature_names = world.feature_names
+        self.theta_star = np.array(world.theta_star)
+        self.min_option_distance = world.min_option_distance
+        self.max_moves = world.max_moves
+        self.trajectory_shape = (world.max_moves + 1,)
+        self.class_names = (*(c.name for c in world.classes), "other")
+        strategies = [(i, s) for i, c in enumerate(world.classes) for s in c.strategies]
+        self._strategies = strategies
+        self.cluster_names = (*(f"{world.classes[i].name}: {s.name}" for i, s in strategies),
+                              f"other: {world.other}", "none of its class's strategies")
+        self.class_of_cluster = np.array([i for i, _ in strategies] + [len(world.classes)])
+        self.test_clusters = tuple(next(k for k, (_, s) in enumerate(strategies) if s.name == t) for t in world.tests)
+        words = {world.name, *world.kinds, *(world.obj or "").split()} | {c.name for c in world.classes}
+        self.vocabulary = frozenset(w for word in words for w in re.findall(r"[a-z]+", word.lower()) if len(w) > 2)
+        self.palette = {"free": "#f4f1e8", "grid": "#c8c2b4", "wall": "#2f3338", "robot": "#f5c518",
+                        "robot-edge": "#111111", "path": "#ff7a1a", "text": "#111111", "object": "#1d4ed8",
+                        **{f"cell-{k}": v.colour for k, v in world.kinds.items()}}
+        self.texts = _texts(world)
+        self._check_reachable()
+
+    def _check_reachable(self) -> None:
+        """One line for a goal or destination no start can reach even with every optional cell off."""
+        w = self.world
+        open_ = ~w.blocked(0)
+        targets = [(f"features[{i}].at", f.at) for i, f in enumerate(w.features) if f.counts == "reach"]
+        if w.destination is not None:
+            targets += [("object.destination", w.destination), ("object.at", w.obj_at)]
+        for where, cell in targets:
+            if all(shortest_moves(open_, s, cell, MOVES) == np.inf for s, _ in w.starts):
+                x, y = cell[1] + 1, w.height - cell[0]
+                raise WorldFileError(f"{w.source}: {where}: cell [{x}, {y}] cannot be reached from any start")
+
+    @cached_property
+    def presets(self) -> tuple[Preset, ...]:
+        return tuple(Preset(self.name if suffix == "full" else f"{self.name}-{suffix}",
+                            n_envs=min(envs or self.n_environments, self.n_environments), n_thetas=thetas,
+                            chunk_size=64, domain=self.name)
+                     for suffix, (envs, thetas) in self.world.presets.items())
+
+    def fingerprint(self) -> str:
+        return world_fingerprint(self.world)
+
+    def planner_identity(self) -> dict:
+        return {"version": PLANNER_VERSION, "algorithm": "label-setting over (cell, object) per ending"}
+
+    def parse_theta_star(self, values) -> tuple[float, ...]:
+        """θ* from one number per feature, each with the sign the file's θ* gives it."""
+        if isinstance(values, str):
+            try:
+                values = [float(v) for v in values.replace(" ", "").split(",") if v]
+            except ValueError:
+                raise ValueError(f"theta* must be {len(self.feature_names)} numbers separated by commas") from None
+        star = tuple(float(v) for v in values)
+        if len(star) != len(self.feature_names):
+            raise ValueError(f"theta* needs one weight per feature ({len(self.feature_names)}), got {len(star)}")
+        for name, v, ref in zip(self.feature_names, star, self.theta_star, strict=True):
+            if not np.isfinite(v) or np.sign(v) != np.sign(ref):
+                raise ValueError(f"the weight of {name!r} must be {'negative' if ref < 0 else 'positive'}, got {v}")
+        return star
+
+    def split(self, env_id: int) -> tuple[int, int]:
+        """Environment id -> (variant, start)."""
+        env_id = int(env_id)
+        if not 0 <= env_id < self.n_environments:
+            raise ValueError(f"environment ids must lie in [0, {self.n_environments}); got {env_id}")
+        return divmod(env_id, self.n_starts)
+
+    @cache  # noqa: B019  (one domain object per world, alive as long as the process)
+    def front(self, env_id: int) -> tuple[np.ndarray, list]:
+        """fileworld.fronts of environment `env_id`; ValueError if a trajectory needs more actions
+        than the table holds."""
+        phi, paths = fronts(self.world, *self.split(env_id))
+        longest = max(len(p) for p in paths) - 1
+        if longest > self.max_moves:
+            raise WorldFileError(f"{self.world.source}: max_moves: environment {env_id} has an optimal "
+                                 f"trajectory of {longest} actions; raise max_moves to at least {longest}")
+        return phi, paths
+
+    def environment_class(self, env_ids) -> np.ndarray:
+        ids = np.asarray(env_ids, np.int64)
+        return np.array([self._class_of(int(i)) for i in ids], np.int8).reshape(ids.shape)
+
+    def _class_of(self, env_id: int) -> int:
+        phi, _ = self.front(env_id)
+        for c, cls in enumerate(self.world.classes):
+            if sum(bool(s.holds(phi).any()) for s in cls.strategies) >= 2:
+                return c
+        return len(self.world.classes)
+
+    def strategy_labels(self, phi, env_class) -> np.ndarray:
+        """phi (..., D) counts, env_class (...) -> (...) int8 cluster: the first strategy of the
+        environment's class that the counts meet (C: none), "other" for the other class."""
+        phi, cls = np.asarray(phi), np.asarray(env_class)
+        S = len(self._strategies)  # clusters 0..S-1 the strategies, S "other", S + 1 none
+        out = np.full(cls.shape, S + 1, np.int8)
+        out[cls == len(self.world.classes)] = S
+        for k in reversed(range(S)):  # reversed: the first strategy that holds is written last
+            c, s = self._strategies[k]
+            out[(cls == c) & s.holds(phi)] = k
+        return out
+
+    def encode(self, path) -> np.ndarray:
+        """A trajectory [state, ...] -> (max_moves + 1,) int16 codes cell * 2 + holding, the last repeated."""
+        codes = [(r * self.world.width + c) * 2 + (place == HELD) for (r, c), place in path]
+        out = np.empty(self.max_moves + 1, np.int16)
+        out[:len(codes)] = codes
+        out[len(codes):] = codes[-1]
+        return out
+
+    def states(self, controls) -> np.ndarray:
+        """Stored codes (..., max_moves + 1) -> states (..., max_moves + 1, 3) float64 [col, row, holding]."""
+        codes = np.asarray(controls, np.int64)
+        cell, holding = codes // 2, codes % 2
+        return np.stack([cell % self.world.width, cell // self.world.width, holding], axis=-1).astype(np.float64)
+
+    def euclidean_distance(self, states_a, states_b) -> np.ndarray:
+        return padded_distance(states_a, states_b, self.state_scale)
+
+    def plan_chunk(self, env_ids, thetas, normalisers) -> dict:
+        """As teaching.core.domain.Domain.plan_chunk: each θ takes its best among the environment's fronts."""
+        env_ids = np.asarray(env_ids, np.int64)
+        thetas = np.asarray(thetas, np.float64)
+        n, N, L, D = len(env_ids), len(thetas), self.max_moves + 1, len(self.feature_names)
+        out = {"controls": np.empty((n, N, L), np.int16), "features": np.empty((n, N, D)),
+               "strategy": np.empty((n, N), np.int8), "d_euclid": np.empty((n, N), np.float32)}
+        classes = self.environment_class(env_ids)
+        for k, env_id in enumerate(env_ids):
+            phi, paths = self.front(int(env_id))
+            pick, feats = best_of_front(phi, thetas, normalisers)
+            encoded = np.stack([self.encode(p) for p in paths])
+            labels = self.strategy_labels(phi, np.full(len(phi), classes[k]))
+            pos = self.states(encoded)
+            to_star = self.euclidean_distance(pos, pos[pick[0]][None])
+            out["controls"][k] = encoded[pick]
+            out["features"][k] = feats[pick]
+            out["strategy"][k] = labels[pick]
+            out["d_euclid"][k] = to_star[pick]
+        return out
+
+    # --- the page ---------------------------------------------------------------------------
+    def scene_payload(self, env_id) -> dict:
+        """The variant's cells (kind names, "" free), the start, the object and the goals, in (x, y)
+        screen cells: x the column, y the row from the top."""
+        variant, start = self.split(env_id)
+        w = self.world
+        (r, c), place = w.starts[start]
+        return {"dt": SECONDS_PER_ACTION, "env_id": int(env_id), "variant": variant,
+                "world": {"cells": w.cells(variant).tolist(), "start": [c, r],
+                          "object": None if place is None else (HELD if place == HELD else [place[1], place[0]]),
+                          "destination": None if w.destination is None else [w.destination[1], w.destination[0]],
+                          "goals": [[f.at[1], f.at[0]] for f in w.features if f.counts == "reach"],
+                          "exit": bool(w.exit)}}
+
+    def path_rows(self, states) -> list[list[int]]:
+        """(max_moves + 1, 3) states -> [[col, row, holding]] up to the episode's end."""
+        rows = np.asarray(states, np.int64)
+        moving = np.flatnonzero(np.any(rows != rows[-1], axis=1))
+        end = int(moving[-1]) + 2 if len(moving) else 1
+        return rows[:end].tolist()
+
+
+def _texts(world: World) -> ParticipantTexts:
+    """The file's [texts], with plain defaults for what it leaves out."""
+    t = world.texts
+    return ParticipantTexts(
+        summary=t.get("summary", f"you watch a robot act in a small grid world ({world.title}) and answer "
+                                 "questions about what it prefers"),
+        consent=t.get("consent", f"This is a research study about how people understand what a robot in a "
+                                 f"grid world ({world.title}) prefers. Taking part is voluntary."),
+        instructions=tuple(t.get("instructions", ("You will watch {n_training} example{training_plural} of a "
+                                                   "robot in a small grid world, then answer {n_tests} "
+                                                   "question{tests_plural} about what it would do.",))),
+        attention_question=t.get("attention_question", "What did you watch?"),
+        attention_choices=(("robot", "A robot moving on a grid"), ("car", "A car on a highway")),
+        attention_correct=frozenset({"robot"}),
+        watch=t.get("watch", "Watch what the robot does."),
+        question=t.get("question", "Which of these matches the robot's preferences?"),
+        legend=(LegendEntry("the robot", "robot", "robot-edge"),
+                *(LegendEntry(k.label, f"cell-{k.name}", f"cell-{k.name}") for k in world.kinds.values())),
+        title=t.get("title", world.title))
+
+
+def world_domain(path) -> FileGridDomain:
+    """The domain of the world file at `path` (WorldFileError, one line, for a file with a mistake)."""
+    return FileGridDomain(load_world(Path(path)))
+
+
+__all__ = ["EXIT", "FileGridDomain", "endings", "world_domain"]

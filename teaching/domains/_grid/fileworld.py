@@ -1,0 +1,145 @@
+"""A grid world from a file as a domain: exact optimal trajectories, environments, classes, labels.
+
+An environment is a variant (a set of optional cells switched on) and a start state: id =
+variant * n_starts + start.  A state is (robot cell, where the object is: its cell, HELD, or None).
+Actions, in the tie rule's order: move right, up, down, left (into a cell of the grid that is not
+blocked), pick up (where the object lies), drop (while holding it), exit (where the file allows it).
+
+Exact for every θ at once, as every grid domain (teaching.domains._grid.domain): a feature that can
+grow without end is a cost (the file's θ* and every candidate weigh it negatively), and the features
+that end an episode ("reach", "deliver"; and exit, which adds nothing) happen once.  So for each
+way an episode can end, the optimal trajectory of any θ is one of that ending's *non-dominated*
+cost-count vectors; a label-setting search (Martins' algorithm, layered by actions) finds them all
+with one trajectory each, and each θ takes the highest reward among all endings' fronts through
+``teaching.core.rewards.reward`` (the first of equal rewards: endings in the order reach/deliver
+features, then exit; within one, fronts sorted lexicographically by φ).
+
+Ties between trajectories with the same φ and ending: the first found in action order (labels are
+created in that order and the first of equal ones stays).
+
+A trajectory is stored as (max_moves + 1,) int16 codes ``cell * 2 + holding``, one per action
+taken, start first, padded by repeating the last (the robot stays where the episode ended).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Iterable
+from dataclasses import asdict
+
+import numpy as np
+
+from .worldfile import HELD, World, WorldFileError
+
+MOVES = ((0, 1), (-1, 0), (1, 0), (0, -1))  # (d_row, d_col): right, up, down, left
+EXIT = "exit"
+
+
+def world_fingerprint(world: World) -> str:
+    """16 hex digits over everything in the file that decides a table's bytes (not colours or texts)."""
+    blob = {k: v for k, v in asdict(world).items() if k not in ("kinds", "texts", "source", "title", "presets")}
+    blob["passable"] = {k: v.passable for k, v in world.kinds.items()}
+    blob["fixed"] = sorted((list(c), k) for c, k in world.fixed.items())
+    blob["moves"] = MOVES
+    return hashlib.sha256(json.dumps(blob, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+def endings(world: World) -> tuple:
+    """The ways an episode can end, in the tie order: each terminal feature's index, then EXIT."""
+    return tuple(i for i, f in enumerate(world.features) if f.terminal) + ((EXIT,) if world.exit else ())
+
+
+def successors(world: World, kinds: np.ndarray, blocked: np.ndarray, state) -> Iterable[tuple]:
+    """Every action allowed in `state`, in the tie order: (next state or None, counts added, ending
+    or None).  kinds (H, W) the variant's cell kinds, blocked (H, W) bool."""
+    (r, c), place = state
+    holding = place == HELD
+    feats = world.features
+
+    def counts(action: str, entered) -> tuple[int, ...]:
+        out = []
+        for f in feats:
+            if f.counts == "moves":
+                # a pick-up or drop a feature names in `also` counts whatever the robot holds
+                hit = action in f.also or (action == "move" and (f.holding is None or f.holding == holding))
+            elif f.counts == "enter":
+                hit = action == "move" and kinds[entered] == f.cell
+            else:
+                hit = False
+            out.append(int(hit))
+        return tuple(out)
+
+    h, w = blocked.shape
+    for dr, dc in MOVES:
+        nr, nc = r + dr, c + dc
+        if 0 <= nr < h and 0 <= nc < w and not blocked[nr, nc]:
+            added = counts("move", (nr, nc))
+            nxt = ((nr, nc), place)
+            reached = [i for i, f in enumerate(feats) if f.counts == "reach" and f.at == (nr, nc)]
+            yield nxt, added, (reached[0] if reached else None)
+    if place is not None and place != HELD and place == (r, c):
+        yield ((r, c), HELD), counts("pickup", None), None
+    if holding:
+        delivered = [i for i, f in enumerate(feats) if f.counts == "deliver" and world.destination == (r, c)]
+        yield ((r, c), (r, c)), counts("drop", None), (delivered[0] if delivered else None)
+    if world.exit:
+        yield None, (0,) * len(feats), EXIT
+
+
+def _covers(a: tuple, b: tuple) -> bool:
+    return all(x <= y for x, y in zip(a, b, strict=True))
+
+
+def fronts(world: World, variant: int, start: int) -> tuple[np.ndarray, list[list]]:
+    """Every (ending, non-dominated φ) of environment (variant, start) with one trajectory each:
+    ((P, D) int64 φ, the ending's terminal feature counted once; P lists of states, start first),
+    endings in :func:`endings` order and each ending's φ sorted lexicographically."""
+    kinds, blocked = world.cells(variant), world.blocked(variant)
+    start_state = world.starts[start]
+    if blocked[start_state[0]]:
+        raise WorldFileError(f"{world.source}: starts[{start}].at: the robot starts inside a blocked cell "
+                             f"in variant {variant}")
+    n = len(world.features)
+    phi, parent, state = [(0,) * n], [-1], [start_state]
+    live = {start_state: [0]}  # state -> labels no other label there covers
+    dead: set[int] = set()
+    ends: dict = {e: [] for e in endings(world)}
+    layer = [0]
+    while layer:
+        created = []
+        for i in layer:
+            if i in dead:
+                continue
+            for nxt, added, ending in successors(world, kinds, blocked, state[i]):
+                new = tuple(a + b for a, b in zip(phi[i], added, strict=True))
+                if ending is not None:
+                    if ending != EXIT:
+                        new = new[:ending] + (1,) + new[ending + 1:]
+                    if not any(_covers(phi[j], new) for j in ends[ending]):
+                        phi.append(new)
+                        parent.append(i)
+                        state.append(nxt)  # None for an exit: the trajectory ends at its parent
+                        ends[ending] = [j for j in ends[ending] if not _covers(new, phi[j])] + [len(phi) - 1]
+                    continue
+                others = live.setdefault(nxt, [])
+                if any(_covers(phi[j], new) for j in others):
+                    continue
+                for j in [j for j in others if _covers(new, phi[j])]:
+                    dead.add(j)
+                    others.remove(j)
+                phi.append(new)
+                parent.append(i)
+                state.append(nxt)
+                others.append(len(phi) - 1)
+                created.append(len(phi) - 1)
+        layer = created
+    out_phi, paths = [], []
+    for ending in endings(world):
+        for j in sorted(ends[ending], key=lambda j: (phi[j], j)):
+            path, k = [], j if state[j] is not None else parent[j]
+            while k >= 0:
+                path.append(state[k])
+                k = parent[k]
+            out_phi.append(phi[j])
+            paths.append(path[::-1])
+    return np.array(out_phi, np.int64).reshape(-1, n), paths

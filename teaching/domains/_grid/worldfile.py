@@ -1,0 +1,303 @@
+"""A grid world described by one TOML file, parsed and checked: :func:`load_world` -> :class:`World`.
+
+docs/gridworlds.md documents the file field by field.  Coordinates in the file are (x, y) cells,
+1-based, x to the right and y *up* (as the grid worlds of Lee, Admoni & Simmons 2021 write them);
+inside, a cell is (row, col) with row 0 at the top, as every grid domain stores it.
+
+Every mistake raises :class:`WorldFileError` with one line that names the file and the field.
+"""
+from __future__ import annotations
+
+import re
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+HELD = "held"  # an object's place in a start state when the robot starts holding it
+COUNTS = ("moves", "enter", "reach", "deliver")  # what a feature counts (docs/gridworlds.md)
+TERMINAL_COUNTS = ("reach", "deliver")  # features that end an episode, counted at most once
+ACTIONS = ("pickup", "drop")  # actions besides the moves that a "moves" feature may also count
+_OPS = {"=": np.equal, "==": np.equal, "!=": np.not_equal, ">": np.greater, ">=": np.greater_equal,
+        "<": np.less, "<=": np.less_equal}
+_CONDITION = re.compile(r"^\s*([A-Za-z_][\w-]*)\s*(==|!=|>=|<=|=|>|<)\s*(-?\d+)\s*$")
+
+
+class WorldFileError(ValueError):
+    """A world file that cannot be used (one line: the file, the field, what is wrong)."""
+
+
+@dataclass(frozen=True)
+class CellKind:
+    name: str
+    colour: str
+    label: str
+    passable: bool = True
+
+
+@dataclass(frozen=True)
+class Feature:
+    """One count of φ.  counts: "moves" (every move, or only while holding or not holding the object:
+    ``holding``; pick-ups and drops too, held or not, where ``also`` names them), "enter" (moves into a cell of
+    kind ``cell``), "reach" (arriving at ``at`` ends the episode) or "deliver" (dropping the object
+    at its destination ends the episode)."""
+
+    name: str
+    counts: str
+    cell: str | None = None
+    at: tuple[int, int] | None = None  # (row, col)
+    holding: bool | None = None
+    also: tuple[str, ...] = ()
+
+    @property
+    def terminal(self) -> bool:
+        return self.counts in TERMINAL_COUNTS
+
+
+@dataclass(frozen=True)
+class Strategy:
+    """A strategy: the trajectories whose counts meet every condition (feature index, op, value)."""
+
+    name: str
+    conditions: tuple[tuple[int, str, int], ...]
+
+    def holds(self, phi: np.ndarray) -> np.ndarray:
+        """phi (..., D) counts -> (...) bool."""
+        phi = np.asarray(phi)
+        ok = np.ones(phi.shape[:-1], bool)
+        for f, op, v in self.conditions:
+            ok &= _OPS[op](phi[..., f], v)
+        return ok
+
+
+@dataclass(frozen=True)
+class WorldClass:
+    name: str
+    strategies: tuple[Strategy, ...]
+
+
+@dataclass(frozen=True)
+class World:
+    """A parsed world file (docs/gridworlds.md).  Cells are (row, col), row 0 at the top."""
+
+    name: str
+    title: str
+    width: int
+    height: int
+    max_moves: int
+    kinds: dict[str, CellKind]
+    fixed: dict[tuple[int, int], str]  # cell -> kind ("wall" or a declared kind)
+    optional: tuple[tuple[tuple[int, int], str], ...]  # bit i of a variant switches optional[i] on
+    obj: str | None  # the one object that can be picked up and dropped, if any
+    obj_at: tuple[int, int] | None
+    destination: tuple[int, int] | None  # where dropping the object delivers it
+    starts: tuple[tuple[tuple[int, int], object], ...]  # (robot cell, object cell | HELD | None)
+    exit: bool  # an exit action ends an episode anywhere, adding nothing
+    features: tuple[Feature, ...]
+    theta_star: tuple[float, ...]
+    classes: tuple[WorldClass, ...]
+    other: str  # the uninformative class's one strategy
+    tests: tuple[str, ...]  # strategy names the test set covers
+    presets: dict[str, tuple[int | None, int]]  # suffix -> (environments or None for all, thetas)
+    min_option_distance: float
+    texts: dict = field(default_factory=dict)
+    source: str = ""
+
+    @property
+    def feature_names(self) -> tuple[str, ...]:
+        return tuple(f.name for f in self.features)
+
+    @property
+    def n_variants(self) -> int:
+        return 2 ** len(self.optional)
+
+    def cells(self, variant: int) -> np.ndarray:
+        """(height, width) object array of kind names ("" free, "wall", ...) of variant `variant`."""
+        grid = np.full((self.height, self.width), "", object)
+        for cell, kind in self.fixed.items():
+            grid[cell] = kind
+        for i, (cell, kind) in enumerate(self.optional):
+            if variant >> i & 1:
+                grid[cell] = kind
+        return grid
+
+    def blocked(self, variant: int) -> np.ndarray:
+        """(height, width) bool: cells the robot cannot enter in variant `variant`."""
+        kinds = self.cells(variant)
+        closed = {"wall"} | {k for k, v in self.kinds.items() if not v.passable}
+        return np.isin(kinds, list(closed))
+
+
+class _Reader:
+    """Field access with the one-line errors: every message names the file and the field."""
+
+    def __init__(self, name: str):
+        self.name = name
+
+    def fail(self, where: str, what: str):
+        raise WorldFileError(f"{self.name}: {where}: {what}")
+
+    def get(self, table: dict, key: str, where: str, kind, default=...):
+        if key not in table:
+            if default is ...:
+                self.fail(f"{where}{key}", "missing")
+            return default
+        value = table[key]
+        if kind is float and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+        if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
+            self.fail(f"{where}{key}", f"expected {getattr(kind, '__name__', kind)}, got {value!r}")
+        return value
+
+
+def load_world(path) -> World:
+    """Parse and check the world file at `path`; WorldFileError (one line) on any mistake."""
+    path = Path(path)
+    try:
+        raw = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as e:
+        raise WorldFileError(f"{path.name}: not valid TOML: {e}") from None
+    except OSError as e:
+        raise WorldFileError(f"{path.name}: cannot be read: {e.strerror}") from None
+    return parse_world(raw, path.name)
+
+
+def parse_world(raw: dict, source: str = "world") -> World:
+    """A world from the file's parsed TOML (a dict); `source` names it in error messages."""
+    r = _Reader(source)
+    name = r.get(raw, "name", "", str)
+    if not re.fullmatch(r"[a-z][a-z0-9-]*", name):
+        r.fail("name", f"{name!r} is not a lower-case name (letters, digits, '-')")
+    width, height = r.get(raw, "width", "", int), r.get(raw, "height", "", int)
+    if not (1 <= width and 1 <= height and width * height <= 127):
+        r.fail("width", f"a grid of {width} x {height} cells: it must have 1 to 127 cells")
+    max_moves = r.get(raw, "max_moves", "", int)
+    if not 1 <= max_moves <= 200:
+        r.fail("max_moves", f"{max_moves}: must lie in 1..200")
+
+    def cell(value, where) -> tuple[int, int]:
+        if not (isinstance(value, list) and len(value) == 2 and all(isinstance(v, int) for v in value)):
+            r.fail(where, f"a cell is [x, y], got {value!r}")
+        x, y = value
+        if not (1 <= x <= width and 1 <= y <= height):
+            r.fail(where, f"cell [{x}, {y}] lies outside the {width} x {height} grid")
+        return height - y, x - 1  # (row, col), row 0 at the top
+
+    kinds = {}
+    for kname, spec in r.get(raw, "cells", "", dict, {}).items():
+        where = f"cells.{kname}."
+        if kname in ("wall", ""):
+            r.fail(f"cells.{kname}", "'wall' is built in; name the kind otherwise")
+        kinds[kname] = CellKind(kname, r.get(spec, "colour", where, str), r.get(spec, "label", where, str, kname),
+                                r.get(spec, "passable", where, bool, True))
+
+    def kind_of(value, where):
+        if value != "wall" and value not in kinds:
+            r.fail(where, f"unknown cell kind {value!r} (declared: wall, {', '.join(kinds) or 'none'})")
+        return value
+
+    fixed = {}
+    for i, item in enumerate(r.get(raw, "fixed", "", list, [])):
+        fixed[cell(item.get("at"), f"fixed[{i}].at")] = kind_of(item.get("kind", "wall"), f"fixed[{i}].kind")
+    optional = tuple((cell(item.get("at"), f"optional[{i}].at"),
+                      kind_of(item.get("kind", "wall"), f"optional[{i}].kind"))
+                     for i, item in enumerate(r.get(raw, "optional", "", list, [])))
+    if len(optional) > 12:
+        r.fail("optional", f"{len(optional)} optional cells: at most 12 (4,096 variants)")
+
+    obj = obj_at = destination = None
+    if "object" in raw:
+        spec = r.get(raw, "object", "", dict)
+        obj = r.get(spec, "name", "object.", str)
+        obj_at = cell(spec.get("at"), "object.at")
+        destination = cell(spec["destination"], "object.destination") if "destination" in spec else None
+
+    starts = []
+    for i, item in enumerate(r.get(raw, "starts", "", list)):
+        at = cell(item.get("at"), f"starts[{i}].at")
+        place = None
+        if obj is not None:
+            value = item.get(obj, "at")
+            place = HELD if value == HELD else obj_at if value == "at" else cell(value, f"starts[{i}].{obj}")
+        starts.append((at, place))
+    if not starts:
+        r.fail("starts", "at least one start is needed")
+
+    features = tuple(_feature(r, item, i, cell, kinds, obj, destination)
+                     for i, item in enumerate(r.get(raw, "features", "", list)))
+    names = [f.name for f in features]
+    if len(set(names)) != len(names) or not names:
+        r.fail("features", f"feature names must be present and distinct, got {names}")
+    theta = r.get(raw, "theta_star", "", list)
+    if len(theta) != len(features) or not all(isinstance(v, (int, float)) for v in theta):
+        r.fail("theta_star", f"needs one number per feature ({len(features)}), got {theta!r}")
+    theta = tuple(float(v) for v in theta)
+    for f, w in zip(features, theta, strict=True):
+        if w == 0:
+            r.fail("theta_star", f"the weight of {f.name!r} is 0: every weight needs a sign")
+        if not f.terminal and w > 0:
+            r.fail("theta_star", f"the weight of {f.name!r} is positive: a count that can grow without end "
+                   "would make the reward unbounded (only 'reach' and 'deliver' features may be rewards)")
+    if not any(f.terminal for f in features) and not raw.get("exit", False):
+        r.fail("features", "no feature ends an episode ('reach' or 'deliver') and exit is off: no trajectory ends")
+
+    classes, seen = [], {}
+    for i, item in enumerate(r.get(raw, "classes", "", list)):
+        cname = r.get(item, "name", f"classes[{i}].", str)
+        strategies = []
+        for j, s in enumerate(r.get(item, "strategies", f"classes[{i}].", list)):
+            where = f"classes[{i}].strategies[{j}]"
+            sname = r.get(s, "name", where + ".", str)
+            conds = []
+            for part in r.get(s, "when", where + ".", str).split(" and "):
+                m = _CONDITION.match(part)
+                if not m or m[1] not in names:
+                    r.fail(where + ".when", f"{part.strip()!r} is not 'feature op number' over {', '.join(names)}")
+                conds.append((names.index(m[1]), m[2], int(m[3])))
+            strategies.append(Strategy(sname, tuple(conds)))
+            seen[sname] = True
+        if len(strategies) < 2:
+            r.fail(f"classes[{i}].strategies", "a class needs at least two strategies to contrast")
+        classes.append(WorldClass(cname, tuple(strategies)))
+    tests = tuple(r.get(raw, "tests", "", list, list(seen)))
+    for t in tests:
+        if t not in seen:
+            r.fail("tests", f"{t!r} is not a strategy of a class")
+
+    presets = {}
+    for suffix, spec in r.get(raw, "presets", "", dict, {"tiny": {"environments": 48, "thetas": 24}}).items():
+        envs = spec.get("environments", "all")
+        if not (envs == "all" or (isinstance(envs, int) and envs > 0)):
+            r.fail(f"presets.{suffix}.environments", f"a positive number or \"all\", got {envs!r}")
+        presets[suffix] = (None if envs == "all" else envs, r.get(spec, "thetas", f"presets.{suffix}.", int))
+    return World(name=name, title=r.get(raw, "title", "", str, name), width=width, height=height,
+                 max_moves=max_moves, kinds=kinds, fixed=fixed, optional=optional, obj=obj, obj_at=obj_at,
+                 destination=destination, starts=tuple(starts), exit=r.get(raw, "exit", "", bool, False),
+                 features=features, theta_star=theta, classes=tuple(classes),
+                 other=r.get(raw, "other", "", str, "other"), tests=tests, presets=presets,
+                 min_option_distance=r.get(raw, "min_option_distance", "", float, 0.3),
+                 texts=r.get(raw, "texts", "", dict, {}), source=source)
+
+
+def _feature(r: _Reader, item: dict, i: int, cell, kinds, obj, destination) -> Feature:
+    where = f"features[{i}]."
+    name, counts = r.get(item, "name", where, str), r.get(item, "counts", where, str)
+    if counts not in COUNTS:
+        r.fail(where + "counts", f"{counts!r}: one of {', '.join(COUNTS)}")
+    kind = at = None
+    if counts == "enter":
+        kind = r.get(item, "cell", where, str)
+        if kind not in kinds:
+            r.fail(where + "cell", f"unknown cell kind {kind!r} (declared: {', '.join(kinds) or 'none'})")
+    if counts == "reach":
+        at = cell(item.get("at"), where + "at")
+    if counts == "deliver" and destination is None:
+        r.fail(where + "counts", "'deliver' needs an object with a destination ([object] destination)")
+    holding = r.get(item, "holding", where, bool, None)
+    if holding is not None and obj is None:
+        r.fail(where + "holding", "the world has no object to hold")
+    also = tuple(r.get(item, "also", where, list, []))
+    if any(a not in ACTIONS for a in also) or (also and counts != "moves"):
+        r.fail(where + "also", f"{list(also)}: only a 'moves' feature may also count {', '.join(ACTIONS)}")
+    return Feature(name, counts, kind, at, holding, also)

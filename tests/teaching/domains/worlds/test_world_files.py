@@ -1,0 +1,125 @@
+"""Grid worlds from a file (teaching/domains/worlds/*.toml): each shipped world's planned trajectories
+are the best an independent brute force finds (tests/teaching/domains/worlds/brute.py) on every
+environment of its tiny preset, for θ* and random θ, and replay to the counts the table stores; a new
+world written only as a file goes through the core (build, teach); a file with a mistake gets one line
+naming the field."""
+from __future__ import annotations
+
+import json
+import textwrap
+
+import numpy as np
+import pytest
+
+from teaching.core.build import build_table
+from teaching.core.candidates import sample_thetas
+from teaching.core.domain import register, unregister
+from teaching.domains import WORLDS
+from teaching.domains._grid.filedomain import world_domain
+from teaching.domains._grid.worldfile import WorldFileError, load_world
+from teaching.teach import main as teach_main
+from tests.teaching.domains.worlds import brute
+
+SHIPPED = sorted(WORLDS.glob("*.toml"))
+
+
+@pytest.mark.parametrize("path", SHIPPED, ids=lambda p: p.stem)
+def test_every_planned_trajectory_is_the_brute_force_best(path):
+    domain = world_domain(path)
+    world = domain.world
+    n_envs, _ = world.presets["tiny"]
+    envs = np.arange(domain.n_environments) if n_envs is None or n_envs >= domain.n_environments else \
+        domain.stratified_sample(n_envs)
+    thetas = sample_thetas(8, theta_star=domain.theta_star, seed=5)  # θ* and 7 drawn as a table draws them
+    out = domain.plan_chunk(envs, thetas, np.ones(len(domain.feature_names)))
+    checked = 0
+    for k, env in enumerate(envs):
+        variant, start = domain.split(env)
+        best = brute.best_rewards(world, variant, start, thetas, world.max_moves)
+        for j, theta in enumerate(thetas):
+            rows = domain.path_rows(domain.states(out["controls"][k, j]))
+            counts = brute.replay(world, variant, start, [(r, c, h) for c, r, h in rows])
+            np.testing.assert_array_equal(counts, out["features"][k, j])
+            assert counts @ theta == pytest.approx(best[j], abs=1e-9), (path.stem, int(env), j)
+            checked += 1
+    assert checked == len(envs) * len(thetas)
+
+
+def _write(tmp_path, text: str):
+    path = tmp_path / "world.toml"
+    path.write_text(textwrap.dedent(text))
+    return path
+
+
+# A new world, as a researcher would write it: a robot fetches a key through a 4 x 3 room, around or
+# through puddles.
+NEW_WORLD = """\
+    name = "key-room"
+    width = 4
+    height = 3
+    max_moves = 12
+    exit = true
+    starts = [{ at = [1, 1] }, { at = [1, 3] }]
+    fixed = [{ at = [2, 2] }]
+    optional = [{ at = [3, 1], kind = "puddle" }, { at = [3, 2], kind = "puddle" }, { at = [3, 3], kind = "puddle" },
+                { at = [2, 3], kind = "puddle" }]
+    features = [
+      { name = "key", counts = "reach", at = [4, 2] },
+      { name = "puddles", counts = "enter", cell = "puddle" },
+      { name = "steps", counts = "moves" },
+    ]
+    theta_star = [8, -2.5, -1]
+    classes = [{ name = "puddle", strategies = [{ name = "wade", when = "key = 1 and puddles > 0" },
+                                                { name = "walk around", when = "key = 1 and puddles = 0" }] }]
+    other = "fetch the key"
+    [cells.puddle]
+    colour = "#1d4ed8"
+    [presets]
+    tiny = { environments = "all", thetas = 24 }
+"""
+
+
+def test_a_world_written_only_as_a_file_is_built_and_its_sequences_selected(tmp_path):
+    assert len(textwrap.dedent(NEW_WORLD).splitlines()) < 40
+    domain = world_domain(_write(tmp_path, NEW_WORLD))
+    register(domain.name, lambda: domain)
+    try:
+        table = build_table(domain.presets[0], tmp_path / "table")
+        assert table.n_envs == domain.n_environments == 32
+        # θ* wades where the puddle saves more than 2.5 moves' worth, else walks around
+        assert {"puddle: wade", "puddle: walk around"} <= {domain.cluster_names[s] for s in np.unique(table.strategy)}
+        teach_main(["--table", str(tmp_path / "table"), "--out", str(tmp_path / "teach"), "--no-progress"])
+        taught = json.loads((tmp_path / "teach" / "sequences.json").read_text())
+        assert all(c["env_ids"] for c in taught["conditions"].values())
+        # a choice test needs four different ways through one environment; a room this small has at most
+        # three (wade, walk around, give up), and teach says so in one line
+        tests = json.loads((tmp_path / "teach" / "test_set.json").read_text())
+        assert tests["error"].startswith("no test environment for cluster 'puddle: wade'")
+    finally:
+        unregister(domain.name)
+
+
+@pytest.mark.parametrize("change, message", [
+    (('kind = "puddle" }, { at = [3, 2]', 'kind = "lava" }, { at = [3, 2]'),
+     "world.toml: optional[0].kind: unknown cell kind 'lava' (declared: wall, puddle)"),
+    (('{ name = "steps"', '{ name = "x", counts = "reach", at = [1, 2] },\n  { name = "steps"'),
+     "world.toml: theta_star: needs one number per feature (4), got [8, -2.5, -1]"),
+    (("theta_star = [8, -2.5, -1]", "theta_star = [8, 2.5, -1]"),
+     "world.toml: theta_star: the weight of 'puddles' is positive: a count that can grow without end would "
+     "make the reward unbounded (only 'reach' and 'deliver' features may be rewards)"),
+    (("starts = [{ at = [1, 1] }, { at = [1, 3] }]", "starts = [{ at = [1, 1] }, { at = [5, 3] }]"),
+     "world.toml: starts[1].at: cell [5, 3] lies outside the 4 x 3 grid"),
+    (("fixed = [{ at = [2, 2] }]", "fixed = [{ at = [3, 1] }, { at = [3, 2] }, { at = [3, 3] }]"),
+     "world.toml: features[0].at: cell [4, 2] cannot be reached from any start"),
+])
+def test_a_mistake_in_a_file_gets_one_line_naming_the_field(tmp_path, change, message):
+    old, new = change
+    assert old in NEW_WORLD
+    with pytest.raises(WorldFileError) as err:
+        world_domain(_write(tmp_path, NEW_WORLD.replace(old, new)))
+    assert str(err.value) == message
+
+
+def test_a_file_that_is_not_toml_says_so(tmp_path):
+    with pytest.raises(WorldFileError, match=r"^world.toml: not valid TOML: "):
+        load_world(_write(tmp_path, "name = \n"))
