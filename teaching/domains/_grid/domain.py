@@ -60,12 +60,12 @@ class GridDomain(BaseDomain):
 
     def plan_chunk(self, env_ids, thetas, normalisers) -> dict:
         """The optimal path of every (environment, θ): env_ids (n,), thetas (N, D) (θ* first).
-        Returns controls (n, N, max_moves + 1) int8 cells, features (n, N, D) float64 normalised,
+        Returns controls (n, N, max_moves + 1) trajectory_dtype (cells), features (n, N, D) float64 normalised,
         strategy (n, N) int8, d_euclid (n, N) float32 to θ*'s path."""
         env_ids = np.asarray(env_ids, np.int64)
         thetas = np.asarray(thetas, np.float64)
         n, N, L, D = len(env_ids), len(thetas), self.max_moves + 1, len(self.feature_names)
-        out = {"controls": np.empty((n, N, L), np.int8), "features": np.empty((n, N, D)),
+        out = {"controls": np.empty((n, N, L), self.trajectory_dtype), "features": np.empty((n, N, D)),
                "strategy": np.empty((n, N), np.int8), "d_euclid": np.empty((n, N), np.float32)}
         classes = self.environment_class(env_ids)
         for k, env_id in enumerate(env_ids):

@@ -16,12 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ...core.base import BaseDomain
 from ...core.build import Preset
 from ...core.domain import LegendEntry, ParticipantTexts
 from . import ROOT
-from .cells import padded_distance, shortest_moves
-from .domain import best_of_front
+from .cells import shortest_moves
+from .domain import GridDomain
 from .fileworld import EXIT, MOVES, endings, fronts, world_fingerprint
 from .worldfile import HELD, World, WorldFileError, load_world
 
@@ -29,10 +28,11 @@ PLANNER_VERSION = 1  # bump whenever a change alters the trajectories the planne
 SECONDS_PER_ACTION = 0.4
 
 
-class FileGridDomain(BaseDomain):
-    """The domain of one world file (module docstring)."""
+class FileGridDomain(GridDomain):
+    """The domain of one world file (module docstring): a grid domain whose fronts are the
+    planner's, one per way an episode ends, and whose trajectories carry what the robot holds."""
 
-    extra_code_roots = ()
+    extra_code_roots = ()  # code_root is the building blocks' package itself
     code_root = ROOT
     trajectory_dtype = np.dtype(np.int16)
     # the Euclidean learner compares positions in cells; holding the object is part of a state (a
@@ -48,8 +48,7 @@ class FileGridDomain(BaseDomain):
         self.feature_names = world.feature_names
         self.theta_star = np.array(world.theta_star)
         self.min_option_distance = world.min_option_distance
-        self.max_moves = world.max_moves
-        self.trajectory_shape = (world.max_moves + 1,)
+        self.width, self.max_moves = world.width, world.max_moves
         self.class_names = (*(c.name for c in world.classes), "other")
         strategies = [(i, s) for i, c in enumerate(world.classes) for s in c.strategies]
         self._strategies = strategies
@@ -159,30 +158,6 @@ class FileGridDomain(BaseDomain):
         codes = np.asarray(controls, np.int64)
         cell, holding = codes // 2, codes % 2
         return np.stack([cell % self.world.width, cell // self.world.width, holding], axis=-1).astype(np.float64)
-
-    def euclidean_distance(self, states_a, states_b) -> np.ndarray:
-        return padded_distance(states_a, states_b, self.state_scale)
-
-    def plan_chunk(self, env_ids, thetas, normalisers) -> dict:
-        """As teaching.core.domain.Domain.plan_chunk: each θ takes its best among the environment's fronts."""
-        env_ids = np.asarray(env_ids, np.int64)
-        thetas = np.asarray(thetas, np.float64)
-        n, N, L, D = len(env_ids), len(thetas), self.max_moves + 1, len(self.feature_names)
-        out = {"controls": np.empty((n, N, L), np.int16), "features": np.empty((n, N, D)),
-               "strategy": np.empty((n, N), np.int8), "d_euclid": np.empty((n, N), np.float32)}
-        classes = self.environment_class(env_ids)
-        for k, env_id in enumerate(env_ids):
-            phi, paths = self.front(int(env_id))
-            pick, feats = best_of_front(phi, thetas, normalisers)
-            encoded = np.stack([self.encode(p) for p in paths])
-            labels = self.strategy_labels(phi, np.full(len(phi), classes[k]))
-            pos = self.states(encoded)
-            to_star = self.euclidean_distance(pos, pos[pick[0]][None])
-            out["controls"][k] = encoded[pick]
-            out["features"][k] = feats[pick]
-            out["strategy"][k] = labels[pick]
-            out["d_euclid"][k] = to_star[pick]
-        return out
 
     # --- the page ---------------------------------------------------------------------------
     def scene_payload(self, env_id) -> dict:

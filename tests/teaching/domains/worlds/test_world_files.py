@@ -123,3 +123,13 @@ def test_a_mistake_in_a_file_gets_one_line_naming_the_field(tmp_path, change, me
 def test_a_file_that_is_not_toml_says_so(tmp_path):
     with pytest.raises(WorldFileError, match=r"^world.toml: not valid TOML: "):
         load_world(_write(tmp_path, "name = \n"))
+
+
+@pytest.mark.parametrize("sampler", ["log-uniform", "sphere"])
+def test_candidates_keep_theta_stars_signs_where_a_goal_is_a_reward(sampler):
+    star = world_domain(WORLDS / "taxi.toml").theta_star  # delivered +26, tolls -3, steps -1
+    thetas = sample_thetas(200, sampler, theta_star=star)
+    assert (np.sign(thetas) == np.sign(star)).all()
+    # and an all-cost θ* stays all costs
+    cost = np.array([-1.0, -0.3, -2.5])
+    np.testing.assert_array_equal(sample_thetas(50, sampler, theta_star=cost)[1:] < 0, True)
