@@ -51,66 +51,68 @@ def _write(tmp_path, text: str):
     return path
 
 
-# A new world, as a researcher would write it: a robot fetches a key through a 4 x 3 room, around or
-# through puddles.
+# A new world, as a researcher would write it: a robot fetches a key across a field, wading through
+# puddles and sand or walking around them.
 NEW_WORLD = """\
     name = "key-room"
-    width = 4
-    height = 3
-    max_moves = 12
+    width = 7
+    height = 5
+    max_moves = 20
     exit = true
-    starts = [{ at = [1, 1] }, { at = [1, 3] }]
-    fixed = [{ at = [2, 2] }]
-    optional = [{ at = [3, 1], kind = "puddle" }, { at = [3, 2], kind = "puddle" }, { at = [3, 3], kind = "puddle" },
-                { at = [2, 3], kind = "puddle" }]
+    starts = [{ at = [1, 3] }, { at = [1, 1] }, { at = [1, 5] }]
+    fixed = [{ at = [3, 2], kind = "puddle" }, { at = [3, 3], kind = "puddle" }, { at = [3, 4], kind = "puddle" },
+             { at = [5, 2], kind = "sand" }, { at = [5, 3], kind = "sand" }, { at = [5, 4], kind = "sand" }]
+    optional = [{ at = [3, 1], kind = "puddle" }, { at = [3, 5], kind = "puddle" }, { at = [5, 1], kind = "sand" },
+                { at = [5, 5], kind = "sand" }, { at = [4, 3] }]
     features = [
-      { name = "key", counts = "reach", at = [4, 2] },
+      { name = "key", counts = "reach", at = [7, 3] },
       { name = "puddles", counts = "enter", cell = "puddle" },
+      { name = "sand", counts = "enter", cell = "sand" },
       { name = "steps", counts = "moves" },
     ]
-    theta_star = [8, -2.5, -1]
+    theta_star = [15, -2, -1.5, -1]
     classes = [{ name = "puddle", strategies = [{ name = "wade", when = "key = 1 and puddles > 0" },
                                                 { name = "walk around", when = "key = 1 and puddles = 0" }] }]
     other = "fetch the key"
+    tests = ["wade"]
     [cells.puddle]
     colour = "#1d4ed8"
+    [cells.sand]
+    colour = "#e0c068"
     [presets]
-    tiny = { environments = "all", thetas = 24 }
+    tiny = { environments = "all", thetas = 60 }
 """
 
 
-def test_a_world_written_only_as_a_file_is_built_and_its_sequences_selected(tmp_path):
+def test_a_world_written_only_as_a_file_is_built_and_taught(tmp_path):
     assert len(textwrap.dedent(NEW_WORLD).splitlines()) < 40
     domain = world_domain(_write(tmp_path, NEW_WORLD))
     register(domain.name, lambda: domain)
     try:
         table = build_table(domain.presets[0], tmp_path / "table")
-        assert table.n_envs == domain.n_environments == 32
-        # θ* wades where the puddle saves more than 2.5 moves' worth, else walks around
+        assert table.n_envs == domain.n_environments == 96
+        # θ* wades where the puddle saves more than its cost in moves, else walks around
         assert {"puddle: wade", "puddle: walk around"} <= {domain.cluster_names[s] for s in np.unique(table.strategy)}
-        teach_main(["--table", str(tmp_path / "table"), "--out", str(tmp_path / "teach"), "--no-progress"])
+        assert teach_main(["--table", str(tmp_path / "table"), "--out", str(tmp_path / "teach"), "--no-progress"]) == 0
         taught = json.loads((tmp_path / "teach" / "sequences.json").read_text())
         assert all(c["env_ids"] for c in taught["conditions"].values())
-        # a choice test needs four different ways through one environment; a room this small has at most
-        # three (wade, walk around, give up), and teach says so in one line
         tests = json.loads((tmp_path / "teach" / "test_set.json").read_text())
-        assert tests["error"].startswith("no test environment for cluster 'puddle: wade'")
+        assert [t["cluster_name"] for t in tests] == ["puddle: wade"] and len(tests[0]["options"]) == 4
     finally:
         unregister(domain.name)
 
 
 @pytest.mark.parametrize("change, message", [
-    (('kind = "puddle" }, { at = [3, 2]', 'kind = "lava" }, { at = [3, 2]'),
-     "world.toml: optional[0].kind: unknown cell kind 'lava' (declared: wall, puddle)"),
+    (('{ at = [4, 3] }]', '{ at = [4, 3], kind = "lava" }]'),
+     "world.toml: optional[4].kind: unknown cell kind 'lava' (declared: wall, puddle, sand)"),
     (('{ name = "steps"', '{ name = "x", counts = "reach", at = [1, 2] },\n  { name = "steps"'),
-     "world.toml: theta_star: needs one number per feature (4), got [8, -2.5, -1]"),
-    (("theta_star = [8, -2.5, -1]", "theta_star = [8, 2.5, -1]"),
+     "world.toml: theta_star: needs one number per feature (5), got [15, -2, -1.5, -1]"),
+    (("theta_star = [15, -2, -1.5, -1]", "theta_star = [15, 2, -1.5, -1]"),
      "world.toml: theta_star: the weight of 'puddles' is positive: a count that can grow without end would "
      "make the reward unbounded (only 'reach' and 'deliver' features may be rewards)"),
-    (("starts = [{ at = [1, 1] }, { at = [1, 3] }]", "starts = [{ at = [1, 1] }, { at = [5, 3] }]"),
-     "world.toml: starts[1].at: cell [5, 3] lies outside the 4 x 3 grid"),
-    (("fixed = [{ at = [2, 2] }]", "fixed = [{ at = [3, 1] }, { at = [3, 2] }, { at = [3, 3] }]"),
-     "world.toml: features[0].at: cell [4, 2] cannot be reached from any start"),
+    (("{ at = [1, 5] }]", "{ at = [8, 5] }]"), "world.toml: starts[2].at: cell [8, 5] lies outside the 7 x 5 grid"),
+    (("fixed = [", "fixed = [{ at = [6, 3] }, { at = [7, 2] }, { at = [7, 4] }, "),
+     "world.toml: features[0].at: cell [7, 3] cannot be reached from any start"),
 ])
 def test_a_mistake_in_a_file_gets_one_line_naming_the_field(tmp_path, change, message):
     old, new = change
