@@ -2,7 +2,8 @@
 
 Every page that draws scenes (a participant's training and test steps, the staff stimulus sheet)
 gets :func:`scene_context` of its study's domain: the browser loads the generic player
-(static/studyapp/player.js), which imports ``static/studyapp/scenes/<domain>.js``; the domain's
+(static/studyapp/player.js), which imports ``static/studyapp/scenes/<scene>.js`` (the domain's
+``scene``: its name, or a scene domains share); the domain's
 palette is written once into the page as CSS custom properties (``--scene-<name>``), which the
 canvas, the legend's swatches and (in Python) the contact sheet all use.
 """
@@ -45,9 +46,9 @@ def legend(domain: Domain) -> list[dict]:
 def scene_context(study) -> dict:
     """Template context of a page that draws `study`'s scenes."""
     domain = study_domain(study)
-    return {"domain": domain.name, "palette_css": palette_css(domain), "legend": legend(domain),
-            "scene_module": static(f"studyapp/scenes/{domain.name}.js"), "texts": domain.texts,
-            "scene_view": study.scene_view()}
+    return {"domain": domain.name, "scene_name": domain.scene, "palette_css": palette_css(domain),
+            "legend": legend(domain), "scene_module": static(f"studyapp/scenes/{domain.scene}.js"),
+            "texts": domain.texts, "scene_view": study.scene_view()}
 
 
 def instructions(study, n_training: int, n_tests: int) -> list[str]:

@@ -7,8 +7,8 @@ where it differs from these defaults:
 * θ* is parsed as cost weights (every feature a cost, so every weight negative);
 * features are counted in one unit: every normaliser is 1;
 * the sample of a preset gives every class an equal share, for any number of classes;
-* a page carries exactly the ``page_keys`` of a stored payload, with no caption above a canvas
-  and nothing shared across a study's canvases;
+* a page carries exactly the ``page_keys`` of a stored payload, drawn by the scene of the domain's
+  name, with no caption above a canvas and nothing shared across a study's canvases;
 * the code that decides a table's bytes is the domain's package (``code_root``) plus any shared
   packages it names in ``extra_code_roots`` (``code_roots``, which the code fingerprint reads).
 """
@@ -69,6 +69,10 @@ class BaseDomain:
 
     def stratified_sample(self, n: int, seed: int = 0) -> np.ndarray:
         return stratified_sample(self.all_classes, len(self.class_names), n, seed=seed)
+
+    @property
+    def scene(self) -> str:
+        return self.name  # its own scenes/<name>.js
 
     def page_scene(self, payload: dict) -> dict:
         return {k: payload[k] for k in self.page_keys}

@@ -220,13 +220,13 @@ def check_page_keys(domain, out, env_ids) -> Result:
 def check_palette(domain, static: Path = STATIC) -> Result:
     palette = set(domain.palette)
     at = where(domain, "palette")
-    scene = scene_colours(domain.name, static)
+    scene = scene_colours(domain.scene, static)
     fails = [f"{domain.name}: no scene {path}: write the domain's scene (docs/domains.md, The web side)"
              for path in scene.missing_files]
     fails += [f"{call}: cannot read which colours this call names: pass palette.js's colors() an array literal or a "
               f"const array of names" for call in scene.unreadable]
     if not scene.missing_files and not scene.uses_palette:
-        fails.append(f"static/studyapp/scenes/{domain.name}.js does not import colors from ../palette.js: read the "
+        fails.append(f"static/studyapp/scenes/{domain.scene}.js does not import colors from ../palette.js: read the "
                      f"scene's colours from the domain's palette")
     for name, path in sorted(scene.reads.items()):
         if name not in palette:

@@ -102,6 +102,9 @@ class Domain(Protocol):
     texts: ParticipantTexts
     palette: Mapping[str, str]  # colour name -> CSS colour: the page's --scene-<name>, the canvas, the sheet
     page_keys: tuple[str, ...]  # what a participant's page may carry of a stored scene payload
+    # the scene that draws it: static/studyapp/scenes/<scene>.js and .css (its name, unless domains
+    # share one, as every grid world from a file shares "world")
+    scene: str
 
     def fingerprint(self) -> str:
         """16 hex digits over the world's constants: a table built under others is refused."""
