@@ -39,6 +39,7 @@ class FileGridDomain(GridDomain):
     # pick-up is an action taken) but adds no distance
     state_scale = (1.0, 1.0, np.inf)
     page_keys = ("dt", "world")
+    scene = "world"  # static/studyapp/scenes/world.js draws every world from a file
 
     def __init__(self, world: World):
         self.world = world
@@ -59,7 +60,7 @@ class FileGridDomain(GridDomain):
         words = {world.name, *world.kinds, *(world.obj or "").split()} | {c.name for c in world.classes}
         self.vocabulary = frozenset(w for word in words for w in re.findall(r"[a-z]+", word.lower()) if len(w) > 2)
         self.palette = {"free": "#f4f1e8", "grid": "#c8c2b4", "wall": "#2f3338", "robot": "#f5c518",
-                        "robot-edge": "#111111", "path": "#ff7a1a", "text": "#111111", "object": "#1d4ed8",
+                        "robot-edge": "#111111", "path": "#ff7a1a", "text": "#111111", "object": "#7c3aed",
                         **{f"cell-{k}": v.colour for k, v in world.kinds.items()}}
         self.texts = _texts(world)
         self._check_reachable()
@@ -168,6 +169,7 @@ class FileGridDomain(GridDomain):
         (r, c), place = w.starts[start]
         return {"dt": SECONDS_PER_ACTION, "env_id": int(env_id), "variant": variant,
                 "world": {"cells": w.cells(variant).tolist(), "start": [c, r],
+                          "labels": {k: v.label for k, v in w.kinds.items()},
                           "object": None if place is None else (HELD if place == HELD else [place[1], place[0]]),
                           "destination": None if w.destination is None else [w.destination[1], w.destination[0]],
                           "goals": [[f.at[1], f.at[0]] for f in w.features if f.counts == "reach"],
@@ -197,7 +199,8 @@ def _texts(world: World) -> ParticipantTexts:
         attention_correct=frozenset({"robot"}),
         watch=t.get("watch", "Watch what the robot does."),
         question=t.get("question", "Which of these matches the robot's preferences?"),
-        legend=(LegendEntry("the robot", "robot", "robot-edge"),
+        legend=(LegendEntry("the robot", "robot", "robot-edge"), LegendEntry("wall", "wall", "wall"),
+                *((LegendEntry(world.obj, "object", "object"),) if world.obj else ()),
                 *(LegendEntry(k.label, f"cell-{k.name}", f"cell-{k.name}") for k in world.kinds.values())),
         title=t.get("title", world.title))
 

@@ -187,9 +187,12 @@ def parse_world(raw: dict, source: str = "world") -> World:
     kinds = {}
     for kname, spec in r.get(raw, "cells", "", dict, {}).items():
         where = f"cells.{kname}."
-        if kname in ("wall", ""):
-            r.fail(f"cells.{kname}", "'wall' is built in; name the kind otherwise")
-        kinds[kname] = CellKind(kname, r.get(spec, "colour", where, str), r.get(spec, "label", where, str, kname),
+        if kname == "wall" or not re.fullmatch(r"[a-z]+(-[a-z]+)*", kname):
+            r.fail(f"cells.{kname}", "a kind is named in lower-case words joined by '-', and not 'wall' (built in)")
+        colour = r.get(spec, "colour", where, str)
+        if not re.fullmatch(r"#[0-9a-fA-F]{6}", colour):
+            r.fail(where + "colour", f"{colour!r} is not a colour written #rrggbb")
+        kinds[kname] = CellKind(kname, colour, r.get(spec, "label", where, str, kname),
                                 r.get(spec, "passable", where, bool, True))
 
     def kind_of(value, where):

@@ -6,19 +6,16 @@ naming the field."""
 from __future__ import annotations
 
 import json
-import textwrap
 
 import numpy as np
 import pytest
 
-from teaching.core.build import build_table
 from teaching.core.candidates import sample_thetas
-from teaching.core.domain import register, unregister
+from teaching.core.table import TrajectoryTable
 from teaching.domains import WORLDS
 from teaching.domains._grid.filedomain import world_domain
 from teaching.domains._grid.worldfile import WorldFileError, load_world
-from teaching.teach import main as teach_main
-from tests.teaching.domains.worlds import brute
+from tests.teaching.domains.worlds import brute, key_room
 
 SHIPPED = sorted(WORLDS.glob("*.toml"))
 
@@ -47,59 +44,22 @@ def test_every_planned_trajectory_is_the_brute_force_best(path):
 
 def _write(tmp_path, text: str):
     path = tmp_path / "world.toml"
-    path.write_text(textwrap.dedent(text))
+    path.write_text(text)
     return path
 
 
-# A new world, as a researcher would write it: a robot fetches a key across a field, wading through
-# puddles and sand or walking around them.
-NEW_WORLD = """\
-    name = "key-room"
-    width = 7
-    height = 5
-    max_moves = 20
-    exit = true
-    starts = [{ at = [1, 3] }, { at = [1, 1] }, { at = [1, 5] }]
-    fixed = [{ at = [3, 2], kind = "puddle" }, { at = [3, 3], kind = "puddle" }, { at = [3, 4], kind = "puddle" },
-             { at = [5, 2], kind = "sand" }, { at = [5, 3], kind = "sand" }, { at = [5, 4], kind = "sand" }]
-    optional = [{ at = [3, 1], kind = "puddle" }, { at = [3, 5], kind = "puddle" }, { at = [5, 1], kind = "sand" },
-                { at = [5, 5], kind = "sand" }, { at = [4, 3] }]
-    features = [
-      { name = "key", counts = "reach", at = [7, 3] },
-      { name = "puddles", counts = "enter", cell = "puddle" },
-      { name = "sand", counts = "enter", cell = "sand" },
-      { name = "steps", counts = "moves" },
-    ]
-    theta_star = [15, -2, -1.5, -1]
-    classes = [{ name = "puddle", strategies = [{ name = "wade", when = "key = 1 and puddles > 0" },
-                                                { name = "walk around", when = "key = 1 and puddles = 0" }] }]
-    other = "fetch the key"
-    tests = ["wade"]
-    [cells.puddle]
-    colour = "#1d4ed8"
-    [cells.sand]
-    colour = "#e0c068"
-    [presets]
-    tiny = { environments = "all", thetas = 60 }
-"""
-
-
-def test_a_world_written_only_as_a_file_is_built_and_taught(tmp_path):
-    assert len(textwrap.dedent(NEW_WORLD).splitlines()) < 40
-    domain = world_domain(_write(tmp_path, NEW_WORLD))
-    register(domain.name, lambda: domain)
-    try:
-        table = build_table(domain.presets[0], tmp_path / "table")
+def test_a_world_written_only_as_a_file_is_built_and_taught(tmp_path_factory):
+    assert len(key_room.PATH.read_text().splitlines()) < 40
+    with key_room.registered() as domain:
+        table_dir, teach_dir = key_room.built(tmp_path_factory)
+        table = TrajectoryTable.load(table_dir)
         assert table.n_envs == domain.n_environments == 96
         # θ* wades where the puddle saves more than its cost in moves, else walks around
         assert {"puddle: wade", "puddle: walk around"} <= {domain.cluster_names[s] for s in np.unique(table.strategy)}
-        assert teach_main(["--table", str(tmp_path / "table"), "--out", str(tmp_path / "teach"), "--no-progress"]) == 0
-        taught = json.loads((tmp_path / "teach" / "sequences.json").read_text())
+        taught = json.loads((teach_dir / "sequences.json").read_text())
         assert all(c["env_ids"] for c in taught["conditions"].values())
-        tests = json.loads((tmp_path / "teach" / "test_set.json").read_text())
+        tests = json.loads((teach_dir / "test_set.json").read_text())
         assert [t["cluster_name"] for t in tests] == ["puddle: wade"] and len(tests[0]["options"]) == 4
-    finally:
-        unregister(domain.name)
 
 
 @pytest.mark.parametrize("change, message", [
@@ -116,9 +76,10 @@ def test_a_world_written_only_as_a_file_is_built_and_taught(tmp_path):
 ])
 def test_a_mistake_in_a_file_gets_one_line_naming_the_field(tmp_path, change, message):
     old, new = change
-    assert old in NEW_WORLD
+    text = key_room.PATH.read_text()
+    assert old in text
     with pytest.raises(WorldFileError) as err:
-        world_domain(_write(tmp_path, NEW_WORLD.replace(old, new)))
+        world_domain(_write(tmp_path, text.replace(old, new)))
     assert str(err.value) == message
 
 
