@@ -175,6 +175,11 @@ class FileGridDomain(GridDomain):
                           "goals": [[f.at[1], f.at[0]] for f in w.features if f.counts == "reach"],
                           "exit": bool(w.exit)}}
 
+    def render_sheet(self, **kwargs) -> int:
+        from .filesheet import render_sheet  # noqa: PLC0415  (matplotlib loads only for a sheet)
+
+        return render_sheet(self, **kwargs)
+
     def path_rows(self, states) -> list[list[int]]:
         """(max_moves + 1, 3) states -> [[col, row, holding]] up to the episode's end."""
         rows = np.asarray(states, np.int64)

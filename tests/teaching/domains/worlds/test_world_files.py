@@ -6,11 +6,15 @@ naming the field."""
 from __future__ import annotations
 
 import json
+import shutil
+from pathlib import Path
 
+import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 
 from teaching.core.candidates import sample_thetas
+from teaching.core.sheet import make_sheet
 from teaching.core.table import TrajectoryTable
 from teaching.domains import WORLDS
 from teaching.domains._grid.filedomain import world_domain
@@ -18,6 +22,7 @@ from teaching.domains._grid.worldfile import WorldFileError, load_world
 from tests.teaching.domains.worlds import brute, key_room
 
 SHIPPED = sorted(WORLDS.glob("*.toml"))
+OUT = Path(__file__).resolve().parents[4] / "test-output"  # what a researcher would look at
 
 
 @pytest.mark.parametrize("path", SHIPPED, ids=lambda p: p.stem)
@@ -96,3 +101,17 @@ def test_candidates_keep_theta_stars_signs_where_a_goal_is_a_reward(sampler):
     # and an all-cost θ* stays all costs
     cost = np.array([-1.0, -0.3, -2.5])
     np.testing.assert_array_equal(sample_thetas(50, sampler, theta_star=cost)[1:] < 0, True)
+
+
+def test_a_world_from_a_file_has_a_contact_sheet(tmp_path_factory, tmp_path):
+    with key_room.registered():
+        table_dir, teach_dir = key_room.built(tmp_path_factory)
+        n, no_tests = make_sheet(table_dir=table_dir, teach_dir=teach_dir, out=tmp_path / "sheet.png", dpi=80)
+    taught = json.loads((teach_dir / "sequences.json").read_text())
+    assert no_tests is None
+    # a panel per training example of every condition, and the test's four options
+    assert n == sum(len(c["env_ids"]) for c in taught["conditions"].values()) + 4
+    image = plt.imread(tmp_path / "sheet.png")
+    assert image.shape[0] > 300 and image.shape[1] > 600
+    OUT.mkdir(exist_ok=True)
+    shutil.copy(tmp_path / "sheet.png", OUT / "world_file_sheet.png")
