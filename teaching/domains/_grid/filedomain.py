@@ -21,7 +21,7 @@ from ...core.domain import LegendEntry, ParticipantTexts
 from . import ROOT
 from .cells import shortest_moves
 from .domain import GridDomain
-from .fileworld import EXIT, MOVES, endings, fronts, world_fingerprint
+from .fileworld import EXIT, MOVES, endings, fronts, play, world_fingerprint
 from .worldfile import HELD, World, WorldFileError, load_world
 
 PLANNER_VERSION = 1  # bump whenever a change alters the trajectories the planner returns
@@ -159,6 +159,18 @@ class FileGridDomain(GridDomain):
         codes = np.asarray(controls, np.int64)
         cell, holding = codes // 2, codes % 2
         return np.stack([cell % self.world.width, cell // self.world.width, holding], axis=-1).astype(np.float64)
+
+    def score_shown(self, env_id: int, actions, tolerance: float = 1e-9) -> dict:
+        """A trajectory a participant showed in environment `env_id` (action names, fileworld.ACTIONS)
+        scored under θ*: its counts, reward, the optimum's reward, regret = optimum - reward (≥ 0, in
+        θ*'s units) and optimal (regret ≤ tolerance).  ValueError (one line) for actions the world
+        does not allow (fileworld.play)."""
+        counts, ending, _ = play(self.world, *self.split(env_id), list(actions))
+        phi, _ = self.front(env_id)
+        best = float(np.max(phi @ self.theta_star))
+        got = float(counts @ self.theta_star)
+        return {"counts": counts.tolist(), "ending": ending if ending == EXIT else self.feature_names[ending],
+                "reward": got, "optimum": best, "regret": best - got, "optimal": best - got <= tolerance}
 
     # --- the page ---------------------------------------------------------------------------
     def scene_payload(self, env_id) -> dict:

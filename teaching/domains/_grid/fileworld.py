@@ -33,6 +33,8 @@ from .worldfile import HELD, World, WorldFileError
 
 MOVES = ((0, 1), (-1, 0), (1, 0), (0, -1))  # (d_row, d_col): right, up, down, left
 EXIT = "exit"
+# what a participant may do when showing the way, in the order successors() yields the actions
+ACTIONS = ("right", "up", "down", "left", "pickup", "drop", EXIT)
 
 
 def world_fingerprint(world: World) -> str:
@@ -84,6 +86,52 @@ def successors(world: World, kinds: np.ndarray, blocked: np.ndarray, state) -> I
         yield ((r, c), (r, c)), counts("drop", None), (delivered[0] if delivered else None)
     if world.exit:
         yield None, (0,) * len(feats), EXIT
+
+
+def play(world: World, variant: int, start: int, actions) -> tuple[np.ndarray, object, list]:
+    """Replay `actions` (names of :data:`ACTIONS`) from start `start` of variant `variant`: ((D,) int64
+    counts, the ending reached (a terminal feature's index or EXIT), the states visited, start first).
+    ValueError (one line) for an action not allowed where it is taken, an action after the episode
+    ended, or actions that stop before it ends."""
+    kinds, blocked = world.cells(variant), world.blocked(variant)
+    state, counts, visited = world.starts[start], np.zeros(len(world.features), np.int64), []
+    visited.append(state)
+    for k, name in enumerate(actions):
+        if name not in ACTIONS:
+            raise ValueError(f"action {k + 1}: {name!r} is not one of {', '.join(ACTIONS)}")
+        (r, c), _ = state
+        step = dict(zip(ACTIONS[:4], MOVES, strict=True)).get(name)
+        target = (r + step[0], c + step[1]) if step else None
+        allowed = successors(world, kinds, blocked, state)
+        taken = next((t for t in allowed if _is_action(name, state, t[0], t[2], target)), None)
+        if taken is None:
+            raise ValueError(f"action {k + 1}: {name} is not possible at [{c + 1}, {world.height - r}]")
+        nxt, added, ending = taken
+        counts += added
+        if ending is not None:
+            if ending != EXIT:
+                counts[ending] = 1
+            if k != len(actions) - 1:
+                raise ValueError(f"action {k + 2}: the episode ended at action {k + 1}")
+            if nxt is not None:
+                visited.append(nxt)
+            return counts, ending, visited
+        state = nxt
+        visited.append(state)
+    raise ValueError("the actions stop before the episode ends (reach a goal, deliver, or exit)")
+
+
+def _is_action(name: str, state, nxt, ending, target) -> bool:
+    """Whether the transition successors() yielded (nxt, ending) from `state` is action `name`."""
+    if name == EXIT:
+        return ending == EXIT
+    if nxt is None:
+        return False
+    if target is not None:
+        return nxt[0] == target
+    held_before, held_after = state[1] == HELD, nxt[1] == HELD
+    picked = held_after and not held_before
+    return nxt[0] == state[0] and (picked if name == "pickup" else held_before and not held_after)
 
 
 def _covers(a: tuple, b: tuple) -> bool:

@@ -115,3 +115,50 @@ def test_a_world_from_a_file_has_a_contact_sheet(tmp_path_factory, tmp_path):
     assert image.shape[0] > 300 and image.shape[1] > 600
     OUT.mkdir(exist_ok=True)
     shutil.copy(tmp_path / "sheet.png", OUT / "world_file_sheet.png")
+
+
+def actions_of(rows: list, ended_by_exit: bool) -> list[str]:
+    """[[col, row, holding]] per step -> the action names that make them (the test's own reading)."""
+    names = {(1, 0): "right", (-1, 0): "left", (0, -1): "up", (0, 1): "down"}
+    out = []
+    for (c0, r0, h0), (c1, r1, h1) in zip(rows, rows[1:], strict=False):
+        out.append(names[(c1 - c0, r1 - r0)] if (c0, r0) != (c1, r1) else "pickup" if h1 > h0 else "drop")
+    return out + (["exit"] if ended_by_exit else [])
+
+
+@pytest.mark.parametrize("name", ["taxi", "two-goal"])
+def test_a_shown_trajectory_is_scored_by_its_regret_under_theta_star(name):
+    domain = world_domain(WORLDS / f"{name}.toml")
+    world = domain.world
+    terminal = [i for i, f in enumerate(world.features) if f.terminal]
+    thetas = sample_thetas(8, theta_star=domain.theta_star, seed=3)
+    envs = np.arange(0, domain.n_environments, max(1, domain.n_environments // 12))
+    out = domain.plan_chunk(envs, thetas, np.ones(len(domain.feature_names)))
+    for k, env in enumerate(envs):
+        best = brute.best_rewards(world, *domain.split(env), domain.theta_star[None], world.max_moves)[0]
+        for j in range(len(thetas)):
+            rows = domain.path_rows(domain.states(out["controls"][k, j]))
+            shown = actions_of(rows, ended_by_exit=not out["features"][k, j][terminal].any())
+            score = domain.score_shown(int(env), shown)
+            assert score["counts"] == out["features"][k, j].tolist()
+            assert score["optimum"] == pytest.approx(best, abs=1e-9)
+            assert score["regret"] == pytest.approx(best - out["features"][k, j] @ domain.theta_star, abs=1e-9)
+            assert score["regret"] >= -1e-9 and score["optimal"] == (score["regret"] <= 1e-9)
+            if j == 0:
+                assert score["optimal"], (name, int(env))  # θ*'s own trajectory
+
+
+@pytest.mark.parametrize("actions, message", [
+    (["left", "left", "left", "up"], "action 4: up is not possible at [1, 1]"),  # into the wall at [1, 2]
+    (["right"], "action 1: right is not possible at [4, 1]"),  # off the grid
+    (["drop"], "action 1: drop is not possible at [4, 1]"),  # holds nothing yet
+    (["pickup", "left"], "the actions stop before the episode ends (reach a goal, deliver, or exit)"),
+    (["exit", "left"], "action 2: the episode ended at action 1"),
+    (["jump"], "action 1: 'jump' is not one of right, up, down, left, pickup, drop, exit"),
+])
+def test_a_shown_trajectory_the_world_does_not_allow_is_refused_in_one_line(actions, message):
+    taxi = world_domain(WORLDS / "taxi.toml")  # environment 0: no tolls, the taxi and passenger at [4, 1]
+    with pytest.raises(ValueError) as err:
+        taxi.score_shown(0, actions)
+    assert str(err.value) == message
+    assert taxi.score_shown(0, ["pickup", "left", "left", "left", "drop"])["optimal"]
