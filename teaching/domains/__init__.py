@@ -2,9 +2,15 @@
 
 A domain implements :class:`teaching.core.domain.Domain`; registering it here (with a loader, so
 its modules load only when it is used) is all the core and the web side need.  docs/domains.md.
+
+Grid worlds from a file (docs/gridworlds.md) register from the environment: ``TEACHING_WORLDS``, a
+list of world files and folders of them separated by ``os.pathsep``, read once on import, so the
+command line, the web app and the workers all see the same worlds.
 """
 from __future__ import annotations
 
+import logging
+import os
 from importlib import import_module
 from pathlib import Path
 
@@ -21,3 +27,33 @@ def _loader(module: str):
 # the paper's car is the default: tables and presets from before domains existed name no domain
 register("driving", _loader("driving"), default=True)
 register("gridworld", _loader("gridworld"))
+
+
+# world files named in TEACHING_WORLDS that were not registered: their one-line WorldFileError each
+WORLD_ERRORS: list[str] = []
+
+
+def register_world_files(spec: str) -> list[str]:
+    """Register every world file `spec` names (files and folders of ``*.toml``, separated by
+    os.pathsep) under its ``name``; returns the names.  Each is read and checked now (a small file); one
+    with a mistake is left out, its one line logged and kept in WORLD_ERRORS, so a broken file never
+    stops the other domains, the command line or the site."""
+    from ._grid.filedomain import FileGridDomain  # noqa: PLC0415  (only where world files are named)
+    from ._grid.worldfile import WorldFileError, load_world  # noqa: PLC0415
+
+    names = []
+    for part in filter(None, spec.split(os.pathsep)):
+        root = Path(part)
+        for path in sorted(root.glob("*.toml")) if root.is_dir() else [root]:
+            try:
+                world = load_world(path)
+            except WorldFileError as exc:
+                WORLD_ERRORS.append(str(exc))
+                logging.getLogger(__name__).warning("world file not registered: %s", exc)
+                continue
+            register(world.name, lambda world=world: FileGridDomain(world))
+            names.append(world.name)
+    return names
+
+
+register_world_files(os.environ.get("TEACHING_WORLDS", ""))

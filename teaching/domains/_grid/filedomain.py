@@ -19,9 +19,8 @@ import numpy as np
 from ...core.build import Preset
 from ...core.domain import LegendEntry, ParticipantTexts
 from . import ROOT
-from .cells import shortest_moves
 from .domain import GridDomain
-from .fileworld import EXIT, MOVES, endings, fronts, play, world_fingerprint
+from .fileworld import EXIT, endings, fronts, play, world_fingerprint
 from .worldfile import HELD, World, WorldFileError, load_world
 
 PLANNER_VERSION = 1  # bump whenever a change alters the trajectories the planner returns
@@ -63,19 +62,6 @@ class FileGridDomain(GridDomain):
                         "robot-edge": "#111111", "path": "#ff7a1a", "text": "#111111", "object": "#7c3aed",
                         **{f"cell-{k}": v.colour for k, v in world.kinds.items()}}
         self.texts = _texts(world)
-        self._check_reachable()
-
-    def _check_reachable(self) -> None:
-        """One line for a goal or destination no start can reach even with every optional cell off."""
-        w = self.world
-        open_ = ~w.blocked(0)
-        targets = [(f"features[{i}].at", f.at) for i, f in enumerate(w.features) if f.counts == "reach"]
-        if w.destination is not None:
-            targets += [("object.destination", w.destination), ("object.at", w.obj_at)]
-        for where, cell in targets:
-            if all(shortest_moves(open_, s, cell, MOVES) == np.inf for s, _ in w.starts):
-                x, y = cell[1] + 1, w.height - cell[0]
-                raise WorldFileError(f"{w.source}: {where}: cell [{x}, {y}] cannot be reached from any start")
 
     @cached_property
     def presets(self) -> tuple[Preset, ...]:

@@ -29,9 +29,8 @@ from dataclasses import asdict
 
 import numpy as np
 
-from .worldfile import HELD, World, WorldFileError
+from .worldfile import HELD, MOVES, World, WorldFileError
 
-MOVES = ((0, 1), (-1, 0), (1, 0), (0, -1))  # (d_row, d_col): right, up, down, left
 EXIT = "exit"
 # what a participant may do when showing the way, in the order successors() yields the actions
 ACTIONS = ("right", "up", "down", "left", "pickup", "drop", EXIT)

@@ -15,6 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
+from .cells import shortest_moves
+
+MOVES = ((0, 1), (-1, 0), (1, 0), (0, -1))  # (d_row, d_col): right, up, down, left, the tie order
 HELD = "held"  # an object's place in a start state when the robot starts holding it
 COUNTS = ("moves", "enter", "reach", "deliver")  # what a feature counts (docs/gridworlds.md)
 TERMINAL_COUNTS = ("reach", "deliver")  # features that end an episode, counted at most once
@@ -274,13 +277,26 @@ def parse_world(raw: dict, source: str = "world") -> World:
         if not (envs == "all" or (isinstance(envs, int) and envs > 0)):
             r.fail(f"presets.{suffix}.environments", f"a positive number or \"all\", got {envs!r}")
         presets[suffix] = (None if envs == "all" else envs, r.get(spec, "thetas", f"presets.{suffix}.", int))
-    return World(name=name, title=r.get(raw, "title", "", str, name), width=width, height=height,
-                 max_moves=max_moves, kinds=kinds, fixed=fixed, optional=optional, obj=obj, obj_at=obj_at,
-                 destination=destination, starts=tuple(starts), exit=r.get(raw, "exit", "", bool, False),
-                 features=features, theta_star=theta, classes=tuple(classes),
-                 other=r.get(raw, "other", "", str, "other"), tests=tests, presets=presets,
-                 min_option_distance=r.get(raw, "min_option_distance", "", float, 0.3),
-                 texts=r.get(raw, "texts", "", dict, {}), source=source)
+    world = World(name=name, title=r.get(raw, "title", "", str, name), width=width, height=height,
+                  max_moves=max_moves, kinds=kinds, fixed=fixed, optional=optional, obj=obj, obj_at=obj_at,
+                  destination=destination, starts=tuple(starts), exit=r.get(raw, "exit", "", bool, False),
+                  features=features, theta_star=theta, classes=tuple(classes),
+                  other=r.get(raw, "other", "", str, "other"), tests=tests, presets=presets,
+                  min_option_distance=r.get(raw, "min_option_distance", "", float, 0.3),
+                  texts=r.get(raw, "texts", "", dict, {}), source=source)
+    _check_reachable(world, r)
+    return world
+
+
+def _check_reachable(w: World, r: _Reader) -> None:
+    """One line for a goal, object or destination no start reaches even with every optional cell off."""
+    open_ = ~w.blocked(0)
+    targets = [(f"features[{i}].at", f.at) for i, f in enumerate(w.features) if f.counts == "reach"]
+    if w.obj is not None:
+        targets += [("object.at", w.obj_at)] + ([("object.destination", w.destination)] if w.destination else [])
+    for where, cell in targets:
+        if all(shortest_moves(open_, s, cell, MOVES) == np.inf for s, _ in w.starts):
+            r.fail(where, f"cell [{cell[1] + 1}, {w.height - cell[0]}] cannot be reached from any start")
 
 
 def _feature(r: _Reader, item: dict, i: int, cell, kinds, obj, destination) -> Feature:

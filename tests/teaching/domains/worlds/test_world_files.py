@@ -6,7 +6,10 @@ naming the field."""
 from __future__ import annotations
 
 import json
+import os
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import matplotlib.pyplot as plt
@@ -14,9 +17,10 @@ import numpy as np
 import pytest
 
 from teaching.core.candidates import sample_thetas
+from teaching.core.domain import unregister
 from teaching.core.sheet import make_sheet
 from teaching.core.table import TrajectoryTable
-from teaching.domains import WORLDS
+from teaching.domains import WORLD_ERRORS, WORLDS, register_world_files
 from teaching.domains._grid.filedomain import world_domain
 from teaching.domains._grid.worldfile import WorldFileError, load_world
 from tests.teaching.domains.worlds import brute, key_room
@@ -162,3 +166,32 @@ def test_a_shown_trajectory_the_world_does_not_allow_is_refused_in_one_line(acti
         taxi.score_shown(0, actions)
     assert str(err.value) == message
     assert taxi.score_shown(0, ["pickup", "left", "left", "left", "drop"])["optimal"]
+
+
+def test_a_world_file_named_in_teaching_worlds_is_built_and_checked_from_the_command_line(tmp_path):
+    """No Python: the file's folder in TEACHING_WORLDS, and the command line knows its domain."""
+    env = {**os.environ, "TEACHING_WORLDS": str(key_room.PATH.parent)}
+
+    def run(*args):
+        return subprocess.run([sys.executable, "-m", "teaching", *args], env=env, capture_output=True, text=True,
+                              timeout=600)
+
+    built = run("build", "--preset", "key-room-tiny", "--out", str(tmp_path / "table"))
+    assert built.returncode == 0, built.stderr
+    with key_room.registered():
+        assert TrajectoryTable.load(tmp_path / "table").n_envs == 96
+    checked = run("check-domain", "key-room")
+    assert checked.returncode == 0 and "key-room: all 6 checks pass" in checked.stdout, checked.stdout + checked.stderr
+
+
+def test_a_world_file_with_a_mistake_is_left_out_with_its_one_line(tmp_path):
+    bad = _write(tmp_path, key_room.PATH.read_text().replace('theta_star = [15, -2', 'theta_star = [15, 2'))
+    assert register_world_files(os.pathsep.join([str(bad), str(key_room.PATH)])) == ["key-room"]
+    unregister("key-room")
+    assert WORLD_ERRORS[-1] == ("world.toml: theta_star: the weight of 'puddles' is positive: a count that can grow "
+                                "without end would make the reward unbounded (only 'reach' and 'deliver' features "
+                                "may be rewards)")
+    run = subprocess.run([sys.executable, "-m", "teaching", "check-domain", "key-room"], capture_output=True,
+                         text=True, timeout=600, env={**os.environ, "TEACHING_WORLDS": str(bad)})
+    assert run.returncode != 0 and "Traceback" not in run.stderr
+    assert f"world file not registered: {WORLD_ERRORS[-1]}" in run.stderr
