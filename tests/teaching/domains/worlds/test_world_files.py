@@ -195,3 +195,22 @@ def test_a_world_file_with_a_mistake_is_left_out_with_its_one_line(tmp_path):
                          text=True, timeout=600, env={**os.environ, "TEACHING_WORLDS": str(bad)})
     assert run.returncode != 0 and "Traceback" not in run.stderr
     assert f"world file not registered: {WORLD_ERRORS[-1]}" in run.stderr
+
+
+def _theta_stars_counts(name: str, env: int) -> list[int]:
+    domain = world_domain(WORLDS / f"{name}.toml")
+    phi, _ = domain.front(env)
+    return phi[int(np.argmax(phi @ domain.theta_star))].tolist()
+
+
+def test_the_published_theta_star_behaves_as_lee_et_al_describe():
+    # taxi (counts: delivered, tolls, steps; environment = variant * 3 + start, bit 7 the toll at [3, 1]):
+    # one toll on the way is worth a 2-step detour (7 steps, no toll: the plan their code finds) ...
+    assert _theta_stars_counts("taxi", (1 << 7) * 3) == [1, 0, 7]
+    # ... but with a second toll at [3, 2] the way round is 4 steps longer, and it pays the one toll
+    assert _theta_stars_counts("taxi", ((1 << 4) | (1 << 7)) * 3) == [1, 1, 5]
+    # two-goal with no walls: the goal worth 10.5 five steps away, not the one worth 7.25 six away
+    assert _theta_stars_counts("two-goal", 0) == [0, 1, 5]
+    # skateboard with no walls: fetch the board and ride (a ride costs 0.3 a move, a step 1)
+    goal, board, steps = _theta_stars_counts("skateboard", 0)
+    assert goal == 1 and board > 0 and steps < 10
