@@ -38,11 +38,14 @@ def register_world_files(spec: str) -> list[str]:
     os.pathsep) under its ``name``; returns the names.  Each is read and checked now (a small file); one
     with a mistake is left out, its one line logged and kept in WORLD_ERRORS, so a broken file never
     stops the other domains, the command line or the site."""
-    from ._grid.filedomain import FileGridDomain  # noqa: PLC0415  (only where world files are named)
+    parts = [p for p in spec.split(os.pathsep) if p]
+    if not parts:
+        return []  # the world-file modules load only where world files are named
+    from ._grid.filedomain import FileGridDomain  # noqa: PLC0415
     from ._grid.worldfile import WorldFileError, load_world  # noqa: PLC0415
 
     names = []
-    for part in filter(None, spec.split(os.pathsep)):
+    for part in parts:
         root = Path(part)
         for path in sorted(root.glob("*.toml")) if root.is_dir() else [root]:
             try:
