@@ -6,7 +6,7 @@
 // grid lines, dot and hatch patterns, words on marks, letters with a halo, the path line and the
 // label, and plays a frame or the whole trail.  A domain's scene extends it and draws only its own
 // world (drawWorld), marks over the path (drawMarks), the path if it is not one plain line
-// (drawPath) and the robot (drawRobot).  The player (../player.js) uses only the members of Scene:
+// (drawPath) and what it adds to the robot, a light disc with a dark outline (drawRobot, disc).  The player (../player.js) uses only the members of Scene:
 // duration, mode, t, boxes, lastFrame, resize(), drawFrame(t), drawTrail(), redraw().
 
 import { Layout, tag } from "../labels.js";
@@ -15,7 +15,7 @@ import { colors } from "../palette.js";
 export const STRIP = 16;        // px kept free under the grid for the "move k of n" label
 export const WORDS_FROM = 22;   // cells at least this wide (px) carry words; smaller ones are too small to read
 // the palette colours this base draws with; a scene adds its own (camelCase: robotEdge is --scene-robot-edge)
-const NAMES = ["grid", "path", "text"];
+const NAMES = ["grid", "path", "text", "robot", "robotEdge"];
 
 export class GridScene {
   // cells: the world's (rows, cols) cell codes; names: the palette colours the domain's scene reads.
@@ -164,11 +164,24 @@ export class GridScene {
     this.strokePath(0, to, Math.max(1.5, 0.06 * this.cell));
   }
 
+  // The robot as every grid scene draws it: a light disc with a dark outline, centred at (x, y) CSS px.
+  disc(x, y) {
+    const { ctx, cell: s, c } = this;
+    ctx.fillStyle = c.robot;
+    ctx.strokeStyle = c.robotEdge;
+    ctx.lineWidth = Math.max(1.5, s / 22);
+    ctx.beginPath(); ctx.arc(x, y, 0.32 * s, 0, 2 * Math.PI); ctx.fill(); ctx.stroke();
+  }
+
   // What a domain draws: its world at row index k (under the path), marks over the path, the robot
-  // at k (returning its screen position).
+  // at k (returning its screen position; by default the disc alone).
   drawWorld(k) {}
   drawMarks() {}
-  drawRobot(k) { return this.toScreen(...this.at(k)); }
+  drawRobot(k) {
+    const [x, y] = this.toScreen(...this.at(k));
+    this.disc(x, y);
+    return [x, y];
+  }
 
   draw(k) {
     this.drawWorld(k);

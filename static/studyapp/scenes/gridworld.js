@@ -12,7 +12,7 @@
 import { GridScene, WORDS_FROM } from "./grid.js";
 
 const WALL = 1, MUD = 2, DOG = 3, CART = 4;   // teaching/domains/gridworld/world.py's codes (0: free)
-const NAMES = ["free", "wall", "mud", "mudMark", "near", "nearMark", "dog", "cart", "robot", "robotEdge"];
+const NAMES = ["free", "wall", "mud", "mudMark", "near", "nearMark", "dog", "cart"];
 
 export class Scene extends GridScene {
   constructor(canvas, env, robot) {
@@ -73,10 +73,7 @@ export class Scene extends GridScene {
     const { ctx, cell: s, c } = this;
     const [x, y] = this.toScreen(...this.at(k));
     if (k >= this.fetched) this.cart(x, y, 0.78 * s);
-    ctx.fillStyle = c.robot;
-    ctx.strokeStyle = c.robotEdge;
-    ctx.lineWidth = Math.max(1.5, s / 22);
-    ctx.beginPath(); ctx.arc(x, y, 0.32 * s, 0, 2 * Math.PI); ctx.fill(); ctx.stroke();
+    this.disc(x, y);
     const p = Math.max(3, 0.24 * s);   // the parcel: a small outlined square, cardboard-coloured
     ctx.fillStyle = c.mudMark;         // (the palette's tan; no colour of its own)
     ctx.lineWidth = Math.max(1, s / 36);

@@ -9,7 +9,7 @@
 
 import { GridScene } from "./grid.js";
 
-const NAMES = ["free", "wall", "object", "robot", "robotEdge"];
+const NAMES = ["free", "wall", "object"];
 const camel = (name) => name.replace(/-([a-z])/g, (_, ch) => ch.toUpperCase());
 
 export class Scene extends GridScene {
@@ -41,7 +41,8 @@ export class Scene extends GridScene {
       if (i !== 1) this.dots(x, y, c.free);
       if (i !== 0) this.hatch(x, y, c.free);
     });
-    const place = this.places[Math.min(Math.floor(k), this.places.length - 1)];
+    // rounded as drawRobot rounds, so the object is on the ground or on the robot, never both
+    const place = this.places[Math.min(Math.round(k), this.places.length - 1)];
     if (place && place !== "held") this.object(...this.toScreen(place[0], place[1]), 0.5 * s);
   }
 
@@ -56,15 +57,10 @@ export class Scene extends GridScene {
     this.ctx.fillRect(x - size / 2, y - size / 2, size, size);
   }
 
-  // The robot at row index k: a light disc with a dark outline, the object on it while it holds it.
+  // The robot at row index k (the grid scene's disc), the object on it while it holds it.
   drawRobot(k) {
-    const { ctx, cell: s, c } = this;
-    const [x, y] = this.toScreen(...this.at(k));
-    ctx.fillStyle = c.robot;
-    ctx.strokeStyle = c.robotEdge;
-    ctx.lineWidth = Math.max(1.5, s / 22);
-    ctx.beginPath(); ctx.arc(x, y, 0.32 * s, 0, 2 * Math.PI); ctx.fill(); ctx.stroke();
-    if (this.places[Math.min(Math.round(k), this.places.length - 1)] === "held") this.object(x, y, 0.3 * s);
+    const [x, y] = super.drawRobot(k);
+    if (this.places[Math.min(Math.round(k), this.places.length - 1)] === "held") this.object(x, y, 0.3 * this.cell);
     return [x, y];
   }
 }

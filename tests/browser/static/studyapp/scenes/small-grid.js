@@ -1,12 +1,12 @@
 // The small grid test domain's scene (tests/teaching/small_grid_domain.py), served only by the test
 // that registers the domain: on the grid scene (/static/studyapp/scenes/grid.js) it draws only its
-// field (puddles filled, sand dotted), S and D, and the robot.
+// field (puddles filled, sand dotted) and S and D; the robot is the grid scene's disc.
 
 import { GridScene } from "/static/studyapp/scenes/grid.js";
 
 const PUDDLE = 1, SAND = 2;   // small_grid_domain.py's codes (0: free)
 // the palette colours this scene reads beside the grid scene's own (check-domain reads this list)
-const NAMES = ["free", "puddle", "sand", "sandMark", "robot", "robotEdge"];
+const NAMES = ["free", "puddle", "sand", "sandMark"];
 
 export class Scene extends GridScene {
   constructor(canvas, env, robot) {
@@ -26,15 +26,5 @@ export class Scene extends GridScene {
 
   drawMarks() {
     this.letters([[this.field.start, "S"], [this.field.goal, "D"]], this.c.free);
-  }
-
-  drawRobot(k) {
-    const { ctx, cell: s, c } = this;
-    const [x, y] = this.toScreen(...this.at(k));
-    ctx.fillStyle = c.robot;
-    ctx.strokeStyle = c.robotEdge;
-    ctx.lineWidth = Math.max(1.5, s / 22);
-    ctx.beginPath(); ctx.arc(x, y, 0.32 * s, 0, 2 * Math.PI); ctx.fill(); ctx.stroke();
-    return [x, y];
   }
 }
