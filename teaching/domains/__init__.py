@@ -14,7 +14,7 @@ import os
 from importlib import import_module
 from pathlib import Path
 
-from ..core.domain import register
+from ..core.domain import domain_names, register
 
 # the grid worlds shipped as files (docs/gridworlds.md)
 WORLDS = Path(__file__).resolve().parent / "worlds"
@@ -50,6 +50,8 @@ def register_world_files(spec: str) -> list[str]:
         for path in sorted(root.glob("*.toml")) if root.is_dir() else [root]:
             try:
                 world = load_world(path)
+                if world.name in domain_names():
+                    raise WorldFileError(f"{path.name}: name: {world.name!r} is already a domain's name")
             except WorldFileError as exc:
                 WORLD_ERRORS.append(str(exc))
                 logging.getLogger(__name__).warning("world file not registered: %s", exc)

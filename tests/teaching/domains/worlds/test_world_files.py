@@ -195,6 +195,9 @@ def test_a_world_file_with_a_mistake_is_left_out_with_its_one_line(tmp_path):
                          text=True, timeout=600, env={**os.environ, "TEACHING_WORLDS": str(bad)})
     assert run.returncode != 0 and "Traceback" not in run.stderr
     assert f"world file not registered: {WORLD_ERRORS[-1]}" in run.stderr
+    taken = _write(tmp_path, key_room.PATH.read_text().replace('name = "key-room"', 'name = "gridworld"'))
+    assert register_world_files(str(taken)) == []
+    assert WORLD_ERRORS[-1] == "world.toml: name: 'gridworld' is already a domain's name"
 
 
 def _theta_stars_counts(name: str, env: int) -> list[int]:
