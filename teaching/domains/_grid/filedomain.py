@@ -20,7 +20,7 @@ from ...core.build import Preset
 from ...core.domain import LegendEntry, ParticipantTexts
 from . import ROOT
 from .domain import GridDomain
-from .fileworld import EXIT, endings, fronts, play, world_fingerprint
+from .fileworld import EXIT, fronts, play, world_fingerprint
 from .worldfile import HELD, World, WorldFileError, load_world
 
 PLANNER_VERSION = 1  # bump whenever a change alters the trajectories the planner returns
@@ -151,7 +151,7 @@ class FileGridDomain(GridDomain):
         scored under θ*: its counts, reward, the optimum's reward, regret = optimum - reward (≥ 0, in
         θ*'s units) and optimal (regret ≤ tolerance).  ValueError (one line) for actions the world
         does not allow (fileworld.play)."""
-        counts, ending, _ = play(self.world, *self.split(env_id), list(actions))
+        counts, ending = play(self.world, *self.split(env_id), list(actions))
         phi, _ = self.front(env_id)
         best = float(np.max(phi @ self.theta_star))
         got = float(counts @ self.theta_star)
@@ -213,4 +213,4 @@ def world_domain(path) -> FileGridDomain:
     return FileGridDomain(load_world(Path(path)))
 
 
-__all__ = ["EXIT", "FileGridDomain", "endings", "world_domain"]
+__all__ = ["FileGridDomain", "world_domain"]

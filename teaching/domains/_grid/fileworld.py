@@ -34,6 +34,7 @@ from .worldfile import HELD, MOVES, World, WorldFileError
 EXIT = "exit"
 # what a participant may do when showing the way, in the order successors() yields the actions
 ACTIONS = ("right", "up", "down", "left", "pickup", "drop", EXIT)
+_STEP = dict(zip(ACTIONS[:4], MOVES, strict=True))  # a move's name -> (d_row, d_col)
 
 
 def world_fingerprint(world: World) -> str:
@@ -52,21 +53,22 @@ def endings(world: World) -> tuple:
 
 def successors(world: World, kinds: np.ndarray, blocked: np.ndarray, state) -> Iterable[tuple]:
     """Every action allowed in `state`, in the tie order: (next state or None, counts added, ending
-    or None).  kinds (H, W) the variant's cell kinds, blocked (H, W) bool."""
+    or None); an ending's terminal feature is among the counts added (1, once: the episode ends).
+    kinds (H, W) the variant's cell kinds, blocked (H, W) bool."""
     (r, c), place = state
     holding = place == HELD
     feats = world.features
 
-    def counts(action: str, entered) -> tuple[int, ...]:
+    def counts(action: str, entered, ending=None) -> tuple[int, ...]:
         out = []
-        for f in feats:
-            if f.counts == "moves":
+        for i, f in enumerate(feats):
+            if f.terminal:
+                hit = i == ending
+            elif f.counts == "moves":
                 # a pick-up or drop a feature names in `also` counts whatever the robot holds
                 hit = action in f.also or (action == "move" and (f.holding is None or f.holding == holding))
-            elif f.counts == "enter":
+            else:  # "enter"
                 hit = action == "move" and kinds[entered] == f.cell
-            else:
-                hit = False
             out.append(int(hit))
         return tuple(out)
 
@@ -74,32 +76,30 @@ def successors(world: World, kinds: np.ndarray, blocked: np.ndarray, state) -> I
     for dr, dc in MOVES:
         nr, nc = r + dr, c + dc
         if 0 <= nr < h and 0 <= nc < w and not blocked[nr, nc]:
-            added = counts("move", (nr, nc))
-            nxt = ((nr, nc), place)
-            reached = [i for i, f in enumerate(feats) if f.counts == "reach" and f.at == (nr, nc)]
-            yield nxt, added, (reached[0] if reached else None)
+            reached = next((i for i, f in enumerate(feats) if f.counts == "reach" and f.at == (nr, nc)), None)
+            yield ((nr, nc), place), counts("move", (nr, nc), reached), reached
     if place is not None and place != HELD and place == (r, c):
         yield ((r, c), HELD), counts("pickup", None), None
     if holding:
-        delivered = [i for i, f in enumerate(feats) if f.counts == "deliver" and world.destination == (r, c)]
-        yield ((r, c), (r, c)), counts("drop", None), (delivered[0] if delivered else None)
+        delivered = next((i for i, f in enumerate(feats) if f.counts == "deliver" and world.destination == (r, c)),
+                         None)
+        yield ((r, c), (r, c)), counts("drop", None, delivered), delivered
     if world.exit:
         yield None, (0,) * len(feats), EXIT
 
 
-def play(world: World, variant: int, start: int, actions) -> tuple[np.ndarray, object, list]:
+def play(world: World, variant: int, start: int, actions) -> tuple[np.ndarray, object]:
     """Replay `actions` (names of :data:`ACTIONS`) from start `start` of variant `variant`: ((D,) int64
-    counts, the ending reached (a terminal feature's index or EXIT), the states visited, start first).
+    counts, the ending reached (a terminal feature's index or EXIT)).
     ValueError (one line) for an action not allowed where it is taken, an action after the episode
     ended, or actions that stop before it ends."""
     kinds, blocked = world.cells(variant), world.blocked(variant)
-    state, counts, visited = world.starts[start], np.zeros(len(world.features), np.int64), []
-    visited.append(state)
+    state, counts = world.starts[start], np.zeros(len(world.features), np.int64)
     for k, name in enumerate(actions):
         if name not in ACTIONS:
             raise ValueError(f"action {k + 1}: {name!r} is not one of {', '.join(ACTIONS)}")
         (r, c), _ = state
-        step = dict(zip(ACTIONS[:4], MOVES, strict=True)).get(name)
+        step = _STEP.get(name)
         target = (r + step[0], c + step[1]) if step else None
         allowed = successors(world, kinds, blocked, state)
         taken = next((t for t in allowed if _is_action(name, state, t[0], t[2], target)), None)
@@ -108,15 +108,10 @@ def play(world: World, variant: int, start: int, actions) -> tuple[np.ndarray, o
         nxt, added, ending = taken
         counts += added
         if ending is not None:
-            if ending != EXIT:
-                counts[ending] = 1
             if k != len(actions) - 1:
                 raise ValueError(f"action {k + 2}: the episode ended at action {k + 1}")
-            if nxt is not None:
-                visited.append(nxt)
-            return counts, ending, visited
+            return counts, ending
         state = nxt
-        visited.append(state)
     raise ValueError("the actions stop before the episode ends (reach a goal, deliver, or exit)")
 
 
@@ -160,8 +155,6 @@ def fronts(world: World, variant: int, start: int) -> tuple[np.ndarray, list[lis
             for nxt, added, ending in successors(world, kinds, blocked, state[i]):
                 new = tuple(a + b for a, b in zip(phi[i], added, strict=True))
                 if ending is not None:
-                    if ending != EXIT:
-                        new = new[:ending] + (1,) + new[ending + 1:]
                     if not any(_covers(phi[j], new) for j in ends[ending]):
                         phi.append(new)
                         parent.append(i)
