@@ -58,7 +58,14 @@ class Study(models.Model):
     payment = models.CharField(max_length=300, blank=True, help_text="e.g. '£2.50, paid through Prolific'.")
     contact = models.CharField(max_length=300, blank=True, help_text="Who answers questions: name and email.")
     ethics_reference = models.CharField(max_length=200, blank=True, help_text="The approval's reference.")
-    test_set = models.JSONField(default=list, help_text="Shared test environments with their 4 options each.")
+    CHOOSE, SHOW = "choose", "show"
+    TEST_KINDS = [(CHOOSE, "choose: pick the robot's trajectory among 4 and rate each"),
+                  (SHOW, "show: move the robot the way it would go (grid worlds from a file)")]
+    test_kind = models.CharField(
+        max_length=8, choices=TEST_KINDS, default=CHOOSE, editable=False,
+        help_text="What every test asks: choose among options, or show the way; set when the study is built.")
+    test_set = models.JSONField(
+        default=list, help_text="Shared test environments: with 4 options each (choose), or θ*'s way (show).")
     source = models.JSONField(default=dict, blank=True, help_text="Where the trajectories came from (table, seed).")
     created_at = models.DateTimeField(auto_now_add=True)
 
@@ -227,10 +234,14 @@ class Answer(models.Model):
     kind = models.CharField(max_length=20, choices=StepKind.choices)
     item = models.IntegerField(null=True, blank=True, help_text="Training or test index within its kind.")
     data = models.JSONField(default=dict)
-    # Tests: derived exactly from data + the study's test set, stored for convenience.
+    # Tests: derived exactly from data + the study's test set, stored for convenience.  A show test's
+    # `correct` says whether the way shown is optimal for θ*; it has a regret and no option or score.
     chosen_option = models.IntegerField(null=True, blank=True)
     correct = models.BooleanField(null=True, blank=True)
     confidence_score = models.IntegerField(null=True, blank=True)
+    regret = models.FloatField(
+        null=True, blank=True,
+        help_text="Show tests: θ*'s optimum minus the reward of the way shown, in θ*'s units (0: optimal).")
     created_at = models.DateTimeField(default=timezone.now)
 
     class Meta:
