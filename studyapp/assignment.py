@@ -68,7 +68,7 @@ def option_orders(study: Study) -> list[list[int]]:
     rng = random.Random(secrets.randbits(64))
     orders = []
     for test in study.test_set:
-        order = list(range(len(test["options"])))
+        order = list(range(len(test.get("options", ()))))  # a show test has none
         rng.shuffle(order)
         orders.append(order)
     return orders

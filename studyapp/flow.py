@@ -1,7 +1,8 @@
 """The participant's path through a study and the recording of each answer (validated by studyapp.forms).
 
 Steps, in order: consent, instructions, one per training environment, one
-per test, attention check, demographics, then ``done``.  A participant's
+per test (choosing among options, or showing the way: Study.test_kind), attention check, demographics,
+then ``done``.  A participant's
 ``position`` is the index of the step they are on; an answer is accepted only
 for that step, is validated before anything is written, and is stored
 exactly once (a repeated identical POST is a no-op that succeeds).
@@ -15,8 +16,9 @@ from django.db import IntegrityError, transaction
 from django.utils import timezone
 
 from . import closedloop
-from .forms import STEP_FORMS, TestForm
-from .models import Answer, LoopStep, Participant, StepKind, new_code
+from .forms import STEP_FORMS, ShowForm, TestForm
+from .models import Answer, LoopStep, Participant, StepKind, Study, new_code
+from .trajectories import study_domain
 
 logger = logging.getLogger(__name__)
 
@@ -71,7 +73,9 @@ def clean_answer(participant: Participant, step: Step, post) -> dict:
     form_class = STEP_FORMS.get(step.kind)
     if form_class is None:
         raise AnswerError("This page takes no answer.", status=409)
-    if form_class is TestForm:
+    if step.kind == StepKind.TEST and participant.study.test_kind == Study.SHOW:
+        form = ShowForm(post, participant, step, question_of(participant, step.kind, step.item))
+    elif form_class is TestForm:
         form = TestForm(post, participant, step, shown=option_letters(participant, step.item, step.kind),
                         env_id=question_of(participant, step.kind, step.item)["env_id"])
     else:
@@ -108,6 +112,13 @@ def score_test(participant: Participant, j: int, data: dict, kind: StepKind = St
     return correct, rating if correct else -rating
 
 
+def score_show(participant: Participant, j: int, data: dict) -> tuple[bool, float]:
+    """(optimal, regret) of the way shown in show test j: replayed under θ* (Domain.score_shown)."""
+    score = study_domain(participant.study).score_shown(question_of(participant, StepKind.TEST, j)["env_id"],
+                                                        data["moves"])
+    return bool(score["optimal"]), float(score["regret"])
+
+
 # --- recording ---------------------------------------------------------------
 def record(participant: Participant, step_index: int, post) -> Participant:
     """Validate and store the answer to step `step_index`; returns the updated participant.
@@ -141,7 +152,9 @@ def record(participant: Participant, step_index: int, post) -> Participant:
             raise AnswerError(f"You are on step {locked.position + 1}, not step {step_index + 1}.", status=409,
                               moved=True)
         answer = Answer(participant=locked, step=step_index, kind=step.kind, item=step.item, data=data)
-        if step.kind in (StepKind.TEST, StepKind.CHECK):
+        if step.kind == StepKind.TEST and locked.study.test_kind == Study.SHOW:
+            answer.correct, answer.regret = score_show(locked, step.item, data)
+        elif step.kind in (StepKind.TEST, StepKind.CHECK):
             answer.chosen_option = data["choice"]
             answer.correct, answer.confidence_score = score_test(locked, step.item, data, step.kind)
         try:

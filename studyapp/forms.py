@@ -181,6 +181,36 @@ class TestForm(StepForm):
         }
 
 
+class ShowForm(StepForm):
+    """A "show the way" test step.item: the actions the participant took, space-separated action names
+    (the page's hidden field), replayed and scored on the server (Domain.score_shown) so that a way the
+    world does not allow (off the grid, through a wall, stopping before the end) is refused whatever the
+    page let through."""
+
+    moves = forms.CharField(widget=OneValue, error_messages={
+        "required": "Please show the way: move the robot until it has finished, then continue."})
+
+    def __init__(self, data, participant, step, test: dict):
+        super().__init__(data, participant, step)
+        self.test, self.domain = test, study_domain(participant.study)
+        self.score: dict | None = None
+
+    def clean_moves(self):
+        moves = self.cleaned_data["moves"].split()
+        limit = self.domain.show_rules(self.test["env_id"])["max_actions"]
+        if len(moves) > limit:
+            raise ValidationError(f"This way has {len(moves)} moves; at most {limit} can be submitted. "
+                                  "Please undo some and try a shorter way.")
+        try:
+            self.score = self.domain.score_shown(self.test["env_id"], moves)
+        except ValueError as exc:
+            raise ValidationError(f"This way cannot be submitted ({exc}). Please undo and try again.") from None
+        return moves
+
+    def answer(self) -> dict:
+        return {"env_id": self.test["env_id"], "moves": self.cleaned_data["moves"]}
+
+
 # Every kind that takes an answer; DONE takes none.  TestForm also needs the option letters.
 STEP_FORMS: dict[StepKind, type[StepForm]] = {
     StepKind.CONSENT: ConsentForm,

@@ -179,7 +179,18 @@ def tests(f, v, found, where):
     if not isinstance(v, list):
         found.append(SpecError(f"{f.label} must be a list of tests", where))
         return v
+    show = [isinstance(t, dict) and t.get("kind") == "show" for t in v]
+    if any(show) and not all(show):
+        found.append(SpecError(f"{f.label} mixes 'show' tests with tests that have options; a study's tests are "
+                               "one kind", where))
+        return v
     for j, t in enumerate(v):
+        if show[j]:
+            if not _is_int(t.get("env_id")) or "options" in t:
+                found.append(SpecError(f"test {j} must be an object with an 'env_id' and \"kind\": \"show\", "
+                                       "and no 'options'", where))
+                break
+            continue
         if not (isinstance(t, dict) and _is_int(t.get("env_id")) and isinstance(t.get("options"), list)
                 and all(isinstance(o, dict) and _is_int(o.get("theta_index"))
                         and isinstance(o.get("is_theta_star"), bool) for o in t["options"])):

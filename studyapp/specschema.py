@@ -158,7 +158,9 @@ SPEC_FIELDS: dict[str, Field] = {f.name: f for f in (
     Field("table", rules.string, "The trajectory table the environment ids and θ indices refer to.",
           required=True, missing="a spec needs a 'table': the trajectory table its trajectories come from "
                                  "(build one with `python -m teaching build --preset demo`)"),
-    Field("test_set", rules.tests, "The shared test set, as select_test_set gives it (extra keys are ignored).",
+    Field("test_set", rules.tests, "The shared test set, as select_test_set gives it, or 'show the way' tests as "
+          "select_show_tests gives them ({'env_id': int, 'kind': 'show'}: grid worlds from a file); extra keys are "
+          "ignored.",
           required=True, missing="a spec with a 'table' needs its 'test_set'"),
     Field("theta_star", rules.numbers, "θ*, one weight per feature of the table's domain: a table built for "
           "another θ* is refused."),

@@ -11,6 +11,9 @@ once in studyapp/specschema.py, and documented in docs/study.md)::
       "test_set": [{"env_id": 77, "options": [{"theta_index": 0, "is_theta_star": true}, ...]}, ...]
     }
 
+or, for tests where the participant shows the way (grid worlds from a file), ``"test_set": [{"env_id": 77,
+"kind": "show"}, ...]`` (``teaching.api.select_show_tests``); the study's ``test_kind`` follows its tests.
+
 Every trajectory a participant sees is read from the table: theta*'s optimal
 trajectory in each training environment, and each test option's (the ``test_set``
 as produced by ``teaching.core.testset.select_test_set``).  A spec without a table is
@@ -135,7 +138,11 @@ def _payloads(spec: dict):
     table = _load_table(spec)
     try:
         training = {c["name"]: trajectories.training_from_table(table, c.get("env_ids", [])) for c in conditions}
-        tests = trajectories.test_set_from_table(table, spec["test_set"])
+        if trajectories.test_kind_of(spec["test_set"]) == trajectories.SHOW:
+            _refuse_show_with_loops(conditions)
+            tests = trajectories.show_tests_from_table(table, spec["test_set"])
+        else:
+            tests = trajectories.test_set_from_table(table, spec["test_set"])
         loops = prepare_closed_loops(table, spec["slug"], {c["name"]: c["closed_loop"] for c in conditions
                                                            if "closed_loop" in c}, spec["test_set"])
     except (ValueError, IndexError) as exc:  # ClosedLoopError and TestSetError are ValueErrors
@@ -153,6 +160,13 @@ def _payloads(spec: dict):
     if isinstance(spec.get("pilot"), dict):  # a teach output's ideal-user matrix (spec_from_teach)
         source[PILOT_KEY] = {**spec["pilot"], "prior": 1.0 / table.n_thetas}
     return conditions, training, tests, source
+
+
+def _refuse_show_with_loops(conditions) -> None:
+    loops = [c["name"] for c in conditions if c.get("closed_loop") is not None]
+    if loops:
+        raise SpecError(f"closed-loop conditions ({', '.join(loops)}) decide from check questions among options, "
+                        "so a study whose tests show the way cannot have them")
 
 
 def prepare_closed_loops(table, slug: str, loops: dict[str, dict], tests: list[dict]) -> dict[str, dict]:
@@ -262,11 +276,14 @@ def freeze_test_set(study: Study, tests: list[dict], open_study: bool = True) ->
         raise SpecError(f"test environments {overlap} also appear in a training sequence; "
                         "the test set must be disjoint from every condition's training")
     study.test_set = tests
+    study.test_kind = trajectories.test_kind_of(tests)
+    if study.test_kind == Study.SHOW:
+        _refuse_show_with_loops([{"name": c.name, "closed_loop": c.closed_loop} for c in conditions])
     study.is_open = open_study
     problems = study.opening_problems() if open_study else []
     if problems:
         raise SpecError(problems[0])
-    study.save(update_fields=["test_set", "is_open"])
+    study.save(update_fields=["test_set", "test_kind", "is_open"])
 
 
 def build_study(spec: dict, replace: bool = False) -> Study:

@@ -10,7 +10,9 @@ every domain's payload has::
      **domain.scene_payload(123), "robot": domain.path_rows(states)}
 
 A test adds ``options``: ``[{"theta_index", "is_theta_star", "cluster", "cluster_name", "robot"}] * 4``
-in canonical order (the display order is drawn per participant).
+in canonical order (the display order is drawn per participant).  A "show the way" test has no options:
+it adds ``"kind": "show"`` and ``"optimum"`` (θ*'s reward there); its ``robot`` is θ*'s own way, kept on
+the server to score and review, never sent to the participant's page.
 
 Both read a real ``teaching.core.table.TrajectoryTable`` and draw with the table's own domain:
 :func:`training_from_table` (theta*'s optimal trajectory in each training environment) and
@@ -56,7 +58,8 @@ def study_view(domain: Domain, conditions, test_set, extra=()) -> dict:
     and test options, and `extra` (page scene, robot path) pairs: e.g. one scale that holds every
     canvas's motion."""
     scenes = [(domain.page_scene(env), env["robot"]) for training in conditions for env in training]
-    scenes += [(domain.page_scene(t), o["robot"]) for t in test_set for o in t["options"]]
+    scenes += [(domain.page_scene(t), o["robot"]) for t in test_set for o in t.get("options", ())]
+    scenes += [(domain.page_scene(t), t["robot"]) for t in test_set if is_show(t)]
     return domain.study_view(scenes + list(extra))
 
 
@@ -70,9 +73,31 @@ def option_payload(domain: Domain, theta_index, is_theta_star, cluster, states) 
     }
 
 
+SHOW = "show"  # a test's "kind" when the participant shows the way instead of choosing
+
+
+def is_show(test: dict) -> bool:
+    return test.get("kind") == SHOW
+
+
+def test_kind_of(tests: list[dict]) -> str:
+    """"show" when every test asks to show the way, "choose" when every test has options; ValueError for a
+    mix (a study's tests are one kind: the analysis compares one measure across its conditions)."""
+    kinds = {SHOW if is_show(t) else "choose" for t in tests}
+    if len(kinds) > 1:
+        raise ValueError("a test set mixes 'show' tests with tests that have options; a study's tests are one kind")
+    return kinds.pop() if kinds else "choose"
+
+
 def check_test_set(tests: list[dict]) -> None:
-    """Each test needs >= 2 options and exactly one that is theta*'s."""
+    """Tests of one kind: a choice test needs >= 2 options and exactly one that is theta*'s; a show
+    test has no options."""
+    test_kind_of(tests)
     for j, test in enumerate(tests):
+        if is_show(test):
+            if test.get("options"):
+                raise ValueError(f"test {j} asks to show the way and cannot have options")
+            continue
         if len(test["options"]) < 2:
             raise ValueError(f"test {j} has fewer than 2 options")
         if sum(bool(o["is_theta_star"]) for o in test["options"]) != 1:
@@ -102,6 +127,25 @@ def training_from_table(table, env_ids) -> list[dict]:
 # What a graded test (select_test_set with a difficulty) says of itself, kept with its payload: the
 # analysis reports scores by difficulty.
 GRADED_KEYS = ("difficulty", "bec_size", "bec_tertiles")
+
+
+def show_tests_from_table(table, tests) -> list[dict]:
+    """Payloads of "show the way" tests (``teaching.api.select_show_tests``' dicts, or any with an
+    ``env_id``): the environment's scene, θ*'s way in it and its reward (``optimum``).  ValueError if
+    the table's domain cannot replay and score a way a participant shows (``Domain.score_shown``)."""
+    domain = table.domain
+    if not callable(getattr(domain, "score_shown", None)):
+        raise ValueError(f"the {domain.name} domain has no 'show the way' tests: it cannot replay and score a way a "
+                         "participant shows (grid worlds from a file can)")
+    star = table.theta_star_index
+    theta_star = np.asarray(table.theta_star, np.float64)
+    out = []
+    for test in tests:
+        i, payload = _star_payload(table, int(test["env_id"]))
+        payload.update(kind=SHOW, optimum=float(np.asarray(table.features[i, star], np.float64) @ theta_star))
+        out.append(payload)
+    check_test_set(out)
+    return out
 
 
 def test_set_from_table(table, test_set) -> list[dict]:

@@ -143,7 +143,14 @@ def step(request, slug, token):
     ctx = step_context(participant, current)
     if request.GET.get("moved"):
         ctx["notice"] = flow.MOVED_ON
-    return render(request, f"studyapp/step_{current.kind}.html", ctx)
+    return render(request, f"studyapp/step_{template_kind(participant, current)}.html", ctx)
+
+
+def template_kind(participant: Participant, current: flow.Step) -> str:
+    """The step's template: its kind's, but "show" for a test that asks to show the way."""
+    if current.kind == StepKind.TEST and participant.study.test_kind == Study.SHOW:
+        return "show"
+    return current.kind
 
 
 # Closed-loop conditions (studyapp.closedloop) add to the domain's instructions.
@@ -187,6 +194,12 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
         ctx["number"] = item + 1
         if current.kind == StepKind.TRAINING:
             ctx["seen_before"] = repeated_example(training, item)
+    elif current.kind == StepKind.TEST and participant.study.test_kind == Study.SHOW:
+        test = flow.question_of(participant, current.kind, current.item)
+        ctx["number"] = current.item + 1
+        ctx["caption"] = domain.caption(test)
+        ctx["scene"] = drawn_scene(test, robot=False, domain=domain)  # never θ*'s way
+        ctx["rules"] = domain.show_rules(test["env_id"])
     elif current.kind in (StepKind.TEST, StepKind.CHECK):
         test = flow.question_of(participant, current.kind, current.item)
         shown = flow.option_letters(participant, current.item, current.kind)

@@ -18,7 +18,7 @@ export async function sceneClass() {
 
 // What every canvas of the study shares (the page's "scene-view" block: Domain.study_view's values), added
 // to each scene's data.
-function withView(env) {
+export function withView(env) {
   const block = document.getElementById("scene-view");
   return block ? { ...JSON.parse(block.textContent), ...env } : env;
 }

@@ -1,0 +1,179 @@
+"""Tests where the participant shows the way (Study.test_kind "show"), on a grid world written only as a
+file (tests/teaching/domains/worlds/key-room.toml): the study is built from its table, the page carries
+the world and its rules but never θ*'s way, a shown way is stored as its moves with its regret, and a
+way the world does not allow is refused with nothing written.
+
+Regrets are checked against an independent reference (tests/teaching/domains/worlds/brute.py: its own
+transition rules, the best reward by enumerating every action sequence), not the planner's fronts."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from studyapp import flow
+from studyapp.assignment import assign
+from studyapp.models import Answer, Participant, StepKind, Study
+from studyapp.specschema import SpecError
+from studyapp.studies import build_study, spec_from_teach
+from teaching.api import TrajectoryTable
+from tests.studyapp.helpers import answer_url, record, snapshot, step_url
+from tests.teaching.domains.worlds import brute, key_room
+
+MOVE = {(1, 0): "right", (-1, 0): "left", (0, -1): "up", (0, 1): "down"}
+
+
+@pytest.fixture
+def show_study(db, tmp_path_factory):
+    """A key-room study whose tests ask to show the way, in the environments of its teach output's tests."""
+    with key_room.registered() as domain:
+        _, teach_dir = key_room.built(tmp_path_factory)
+        spec = spec_from_teach(teach_dir)
+        spec.update(slug="key-room-show", name="Key room, shown",
+                    test_set=[{"env_id": t["env_id"], "kind": "show"} for t in spec["test_set"]])
+        study = build_study(spec)
+        yield study, domain
+
+
+def actions_of(rows: list, world) -> list[str]:
+    """The actions that draw `rows` ([col, row, holding] per action, start first), then "exit" unless the
+    last cell is a goal: read off the rows, without the planner."""
+    out = []
+    for (c0, r0, h0), (c1, r1, h1) in zip(rows, rows[1:], strict=False):
+        out.append(MOVE[(c1 - c0, r1 - r0)] if (c0, r0) != (c1, r1) else ("pickup" if h1 > h0 else "drop"))
+    goals = {f.at for f in world.features if f.counts == "reach"}
+    if (rows[-1][1], rows[-1][0]) not in goals:
+        out.append("exit")
+    return out
+
+
+def reference_regret(world, env_id: int, n_starts: int, actions: list[str], horizon: int) -> float:
+    """θ*'s best reward there (brute force) minus the reward of `actions` replayed by brute's own rules."""
+    variant, start = divmod(env_id, n_starts)
+    state, total = world.starts[start], np.zeros(len(world.features))
+    for a in actions:
+        state, add, _ = brute.step(world, variant, state, a)
+        total += add
+    theta = np.asarray(world.theta_star, float)
+    return float(brute.best_rewards(world, variant, start, theta[None], horizon)[0] - total @ theta)
+
+
+def at_first_test(study) -> Participant:
+    p = assign(study, Participant.ANONYMOUS, "")
+    first = next(s.index for s in flow.steps_for(p) if s.kind == StepKind.TEST)
+    Participant.objects.filter(pk=p.pk).update(position=first)
+    p.refresh_from_db()
+    return p
+
+
+def test_a_show_study_stores_theta_stars_way_on_the_server_and_no_options(show_study):
+    study, domain = show_study
+    assert study.test_kind == Study.SHOW and study.test_set
+    for test in study.test_set:
+        assert test["kind"] == "show" and "options" not in test
+        rows = test["robot"]
+        reward = domain.score_shown(test["env_id"], actions_of(rows, domain.world))["reward"]
+        assert test["optimum"] == pytest.approx(reward, abs=1e-9)  # θ*'s way earns the stored optimum
+
+
+def test_the_page_draws_the_world_and_its_rules_but_never_theta_stars_way(show_study, client):
+    study, domain = show_study
+    p = at_first_test(study)
+    page = client.get(step_url(p))
+    assert page.status_code == 200
+    assert [t.name for t in page.templates][0] == "studyapp/step_show.html"
+    test = study.test_set[0]
+    assert page.context["scene"] == domain.page_scene(test) and "robot" not in page.context["scene"]
+    assert page.context["rules"]["blocked"] == domain.world.blocked(test["variant"]).tolist()
+    html = page.content.decode()
+    assert 'data-move="up"' in html and 'name="moves"' in html and 'data-action="undo"' in html
+    assert '"robot"' not in html and "optimum" not in html
+
+
+def test_a_shown_way_is_stored_as_its_moves_with_the_regret_the_reference_finds(show_study):
+    study, domain = show_study
+    test = study.test_set[0]
+    horizon = domain.max_moves + 2
+    best = actions_of(test["robot"], domain.world)
+    # a detour: one step back and forth first, which costs θ* two more steps
+    detour = next(([a, b] for a, b in (("right", "left"), ("left", "right"), ("up", "down"), ("down", "up"))
+                   if not _refused(domain, test["env_id"], [a, b, *best])), None)
+    assert detour, "the start has no free neighbour"
+    for moves, optimal in ((best, True), ([*detour, *best], False)):
+        p = at_first_test(study)
+        step = p.position
+        p = record(p, step, moves=" ".join(moves))
+        answer = Answer.objects.get(participant=p, step=step)
+        assert answer.data == {"env_id": test["env_id"], "moves": moves}
+        assert answer.correct is optimal and answer.chosen_option is None and answer.confidence_score is None
+        want = reference_regret(domain.world, test["env_id"], domain.n_starts, moves, horizon)
+        assert answer.regret == pytest.approx(want, abs=1e-9)
+        assert (want == pytest.approx(0, abs=1e-9)) is optimal
+
+
+def _refused(domain, env_id, moves) -> bool:
+    try:
+        domain.score_shown(env_id, moves)
+    except ValueError:
+        return True
+    return False
+
+
+def _wall_walk(domain, test) -> list[str]:
+    """From the start, straight in some direction until the next cell is off the grid or blocked, then one
+    more step: a way that leaves the grid or walks into a wall."""
+    world = test["world"]
+    col, row = world["start"]
+    blocked = domain.world.blocked(test["variant"])
+    for name, (dc, dr) in (("up", (0, -1)), ("left", (-1, 0)), ("down", (0, 1)), ("right", (1, 0))):
+        moves, c, r = [], col, row
+        goals = {(f.at[1], f.at[0]) for f in domain.world.features if f.counts == "reach"}
+        while 0 <= c + dc < domain.world.width and 0 <= r + dr < domain.world.height and not blocked[r + dr, c + dc]:
+            c, r = c + dc, r + dr
+            moves.append(name)
+            if (c, r) in goals:
+                break
+        else:
+            return [*moves, name]
+    raise AssertionError("every direction reaches a goal")
+
+
+@pytest.mark.parametrize("case", ["off the grid or into a wall", "stops before the end", "not an action",
+                                  "after the end", "too long", "missing"])
+def test_a_way_the_world_does_not_allow_is_refused_with_nothing_written(show_study, client, case):
+    study, domain = show_study
+    test = study.test_set[0]
+    best = actions_of(test["robot"], domain.world)
+    moves = {"off the grid or into a wall": lambda: " ".join(_wall_walk(domain, test)),
+             "stops before the end": lambda: " ".join(best[:-1]),
+             "not an action": lambda: "right jump",
+             "after the end": lambda: " ".join([*best, "right"]),
+             "too long": lambda: " ".join(["right", "left"] * (2 * domain.max_moves + 1)),
+             "missing": lambda: None}[case]()
+    p = at_first_test(study)
+    client.get(step_url(p))
+    before = snapshot()
+    response = client.post(answer_url(p, p.position), {} if moves is None else {"moves": moves},
+                           HTTP_ACCEPT="application/json")
+    assert response.status_code == 400
+    error = response.json()["error"]
+    assert error.startswith("This way") or error.startswith("Please show the way"), error
+    assert "Traceback" not in error and "\n" not in error
+    assert snapshot() == before
+
+
+def test_show_tests_are_refused_where_they_cannot_be_scored_or_mixed(show_study):
+    study, domain = show_study
+    spec = {"slug": "mixed", "table": study.source["table"], "conditions": [{"name": "a", "env_ids": [0]}],
+            "test_set": [{"env_id": 1, "kind": "show"}, {"env_id": 2, "options": []}]}
+    with pytest.raises(SpecError, match="mixes 'show' tests"):
+        build_study(spec)
+    with pytest.raises(SpecError, match="closed-loop conditions"):
+        build_study({**spec, "test_set": [{"env_id": 1, "kind": "show"}],
+                     "conditions": [{"name": "loop", "closed_loop": {}}]})
+
+
+def test_the_car_cannot_show_the_way(db, tiny_table):
+    ids = [int(i) for i in TrajectoryTable.load(tiny_table).env_ids[:2]]
+    with pytest.raises(SpecError, match="has no 'show the way' tests"):
+        build_study({"slug": "car-show", "table": str(tiny_table), "conditions": [{"name": "a", "env_ids": ids[:1]}],
+                     "test_set": [{"env_id": ids[1], "kind": "show"}]})
