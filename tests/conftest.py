@@ -105,6 +105,12 @@ def answer_payload(participant, step):
         return {"ack": ["1"]}
     if step.kind in (StepKind.TRAINING, StepKind.FEEDBACK):
         return {"played": ["1"]}
+    if step.kind == StepKind.TEST and participant.study.test_kind == "show":  # θ*'s way, read off its rows
+        from teaching.api import get_domain  # noqa: PLC0415
+        from tests.teaching.domains.worlds.brute import actions_of  # noqa: PLC0415
+
+        test = question_of(participant, step.kind, step.item)
+        return {"moves": [" ".join(actions_of(get_domain(participant.study.domain).world, test["robot"]))]}
     if step.kind in (StepKind.TEST, StepKind.CHECK):  # options go by the letters the participant sees
         options = question_of(participant, step.kind, step.item)["options"]
         shown = option_letters(participant, step.item, step.kind)

@@ -19,9 +19,6 @@ from teaching.api import TrajectoryTable
 from tests.studyapp.helpers import answer_url, record, snapshot, step_url
 from tests.teaching.domains.worlds import brute, key_room
 
-MOVE = {(1, 0): "right", (-1, 0): "left", (0, -1): "up", (0, 1): "down"}
-
-
 @pytest.fixture
 def show_study(db, tmp_path_factory):
     """A key-room study whose tests ask to show the way, in the environments of its teach output's tests."""
@@ -32,18 +29,6 @@ def show_study(db, tmp_path_factory):
                     test_set=[{"env_id": t["env_id"], "kind": "show"} for t in spec["test_set"]])
         study = build_study(spec)
         yield study, domain
-
-
-def actions_of(rows: list, world) -> list[str]:
-    """The actions that draw `rows` ([col, row, holding] per action, start first), then "exit" unless the
-    last cell is a goal: read off the rows, without the planner."""
-    out = []
-    for (c0, r0, h0), (c1, r1, h1) in zip(rows, rows[1:], strict=False):
-        out.append(MOVE[(c1 - c0, r1 - r0)] if (c0, r0) != (c1, r1) else ("pickup" if h1 > h0 else "drop"))
-    goals = {f.at for f in world.features if f.counts == "reach"}
-    if (rows[-1][1], rows[-1][0]) not in goals:
-        out.append("exit")
-    return out
 
 
 def reference_regret(world, env_id: int, n_starts: int, actions: list[str], horizon: int) -> float:
@@ -71,7 +56,7 @@ def test_a_show_study_stores_theta_stars_way_on_the_server_and_no_options(show_s
     for test in study.test_set:
         assert test["kind"] == "show" and "options" not in test
         rows = test["robot"]
-        reward = domain.score_shown(test["env_id"], actions_of(rows, domain.world))["reward"]
+        reward = domain.score_shown(test["env_id"], brute.actions_of(domain.world, rows))["reward"]
         assert test["optimum"] == pytest.approx(reward, abs=1e-9)  # θ*'s way earns the stored optimum
 
 
@@ -93,7 +78,7 @@ def test_a_shown_way_is_stored_as_its_moves_with_the_regret_the_reference_finds(
     study, domain = show_study
     test = study.test_set[0]
     horizon = domain.max_moves + 2
-    best = actions_of(test["robot"], domain.world)
+    best = brute.actions_of(domain.world, test["robot"])
     # a detour: one step back and forth first, which costs θ* two more steps
     detour = next(([a, b] for a, b in (("right", "left"), ("left", "right"), ("up", "down"), ("down", "up"))
                    if not _refused(domain, test["env_id"], [a, b, *best])), None)
@@ -142,7 +127,7 @@ def _wall_walk(domain, test) -> list[str]:
 def test_a_way_the_world_does_not_allow_is_refused_with_nothing_written(show_study, client, case):
     study, domain = show_study
     test = study.test_set[0]
-    best = actions_of(test["robot"], domain.world)
+    best = brute.actions_of(domain.world, test["robot"])
     moves = {"off the grid or into a wall": lambda: " ".join(_wall_walk(domain, test)),
              "stops before the end": lambda: " ".join(best[:-1]),
              "not an action": lambda: "right jump",
@@ -177,3 +162,12 @@ def test_the_car_cannot_show_the_way(db, tiny_table):
     with pytest.raises(SpecError, match="has no 'show the way' tests"):
         build_study({"slug": "car-show", "table": str(tiny_table), "conditions": [{"name": "a", "env_ids": ids[:1]}],
                      "test_set": [{"env_id": ids[1], "kind": "show"}]})
+
+
+def test_a_participant_of_a_show_study_completes_it(show_study, complete):
+    study, _ = show_study
+    p = complete(assign(study, Participant.ANONYMOUS, ""))
+    assert p.completed_at is not None
+    tests = Answer.objects.filter(participant=p, kind=StepKind.TEST).order_by("item")
+    assert [a.item for a in tests] == list(range(len(study.test_set)))
+    assert all(a.correct and a.regret == pytest.approx(0, abs=1e-9) for a in tests)

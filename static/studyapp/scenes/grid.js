@@ -111,7 +111,9 @@ export class GridScene {
   // Dots of `colour` on a regular grid that keeps clear of the cell's edges and corners.
   dots(x, y, colour) {
     const { ctx, cell: s } = this;
-    const n = Math.max(2, Math.round(s / 7)), step = s / n, r = Math.max(0.8, s / 28);
+    // about 7 px apart at any size; the radius stops growing at 1.6 px so that on a large cell the dots
+    // stay dots on the kind's colour instead of merging into a pale fill
+    const n = Math.max(2, Math.round(s / 7)), step = s / n, r = Math.max(0.8, Math.min(s / 28, 1.6));
     ctx.fillStyle = colour;
     for (let i = 0; i < n; i++) {
       for (let j = 0; j < n; j++) {

@@ -110,3 +110,20 @@ def replay(world: World, variant: int, start: int, cells_holding: list) -> np.nd
             raise AssertionError(f"no action leads from {state} to {(r, c, h)}")
     assert ended or world.exit, "the trajectory neither reached an ending nor may exit"
     return total
+
+
+_MOVE = {(1, 0): "right", (-1, 0): "left", (0, -1): "up", (0, 1): "down"}
+
+
+def actions_of(world: World, rows: list) -> list[str]:
+    """The actions that draw a page's path `rows` ([col, row, holding] per action, start first), then
+    "exit" unless the last cell is a goal or the last action delivered the object: read off the rows."""
+    out = []
+    for (c0, r0, h0), (c1, r1, h1) in zip(rows, rows[1:], strict=False):
+        out.append(_MOVE[(c1 - c0, r1 - r0)] if (c0, r0) != (c1, r1) else ("pickup" if h1 > h0 else "drop"))
+    goals = {f.at for f in world.features if f.counts == "reach"}
+    delivers = any(f.counts == "deliver" for f in world.features)
+    delivered = delivers and out and out[-1] == "drop" and world.destination == (rows[-1][1], rows[-1][0])
+    if (rows[-1][1], rows[-1][0]) not in goals and not delivered:
+        out.append("exit")
+    return out

@@ -1,0 +1,133 @@
+"""In Debian's Chromium, a participant shows the way in a "show" test of a grid world written only as a
+file (tests/teaching/domains/worlds/key-room.toml): by keyboard on a laptop, and by touch on a phone
+(390 x 844).  They move, undo a move, cannot walk into a wall or off the grid, cannot submit before the
+robot has finished, and submit; the stored moves and regret are the way they showed.
+Screenshots: test-output/show_way_<laptop|phone>.png."""
+from __future__ import annotations
+
+import pytest
+from playwright.sync_api import expect, sync_playwright
+
+from studyapp.models import Answer, Participant, StepKind, Study
+from studyapp.studies import build_study, spec_from_teach
+from tests.browser.grid_pages import CHROMIUM, OUT
+from tests.browser.test_participant_flow import ready
+from tests.conftest import complete_flow
+from tests.teaching.domains.worlds import brute, key_room
+
+pytestmark = [pytest.mark.browser, pytest.mark.slow]
+
+KEYS = {"right": "ArrowRight", "left": "ArrowLeft", "up": "ArrowUp", "down": "ArrowDown"}
+STEP = {"right": (1, 0), "left": (-1, 0), "up": (0, -1), "down": (0, 1)}
+BACK = {"right": "left", "left": "right", "up": "down", "down": "up"}
+# the screen position (page px) of the centre of the cell at (col, row) of the page's canvas
+CELL_AT = """([col, row]) => { const c = document.querySelector("[data-show-scene] canvas"), s = c.scene;
+  const b = c.getBoundingClientRect(), k = b.width / s.w;
+  return [b.left + (s.ox + (col + 0.5) * s.cell) * k, b.top + (s.oy + (row + 0.5) * s.cell) * k]; }"""
+
+
+def shown(page) -> list[str]:
+    return page.locator("[data-show-scene]").get_attribute("data-moves").split()
+
+
+def a_wall_or_edge(domain, test) -> str:
+    """A direction the robot cannot go from its start (off the grid or into a blocked cell)."""
+    col, row = test["world"]["start"]
+    blocked = domain.world.blocked(test["variant"])
+    for name, (dc, dr) in STEP.items():
+        c, r = col + dc, row + dr
+        if not (0 <= c < domain.world.width and 0 <= r < domain.world.height) or blocked[r, c]:
+            return name
+    raise AssertionError("the start has no wall or edge beside it")
+
+
+def a_free_step(domain, test, best: list[str]) -> str:
+    """A direction the robot can go from its start and come back from, other than the way's first."""
+    col, row = test["world"]["start"]
+    blocked = domain.world.blocked(test["variant"])
+    goals = {(f.at[1], f.at[0]) for f in domain.world.features if f.counts == "reach"}
+    for name, (dc, dr) in STEP.items():
+        c, r = col + dc, row + dr
+        if name != best[0] and 0 <= c < domain.world.width and 0 <= r < domain.world.height and not blocked[r, c] \
+                and (c, r) not in goals:
+            return name
+    raise AssertionError("the start has no second free neighbour")
+
+
+def test_a_participant_shows_the_way_by_keyboard_and_by_touch(transactional_db, live_server, tmp_path_factory,
+                                                             monkeypatch):
+    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")  # ORM calls beside Playwright's loop
+    errors = []
+    with key_room.registered() as domain:
+        _, teach_dir = key_room.built(tmp_path_factory)
+        spec = spec_from_teach(teach_dir)
+        spec.update(slug="key-room-show", name="Key room, shown", recruitment="prolific", completion_code="KEY2026",
+                    test_set=[{"env_id": t["env_id"], "kind": "show"} for t in spec["test_set"]])
+        study = build_study(spec)
+        Study.objects.filter(pk=study.pk).update(is_open=True)
+        test = study.test_set[0]
+        best = brute.actions_of(domain.world, test["robot"])
+        wall, free = a_wall_or_edge(domain, test), a_free_step(domain, test, best)
+        OUT.mkdir(exist_ok=True)
+        with sync_playwright() as pw:
+            browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
+            try:
+                for device, options in (("laptop", {"viewport": {"width": 1200, "height": 900}}),
+                                        ("phone", {"viewport": {"width": 390, "height": 844}, "has_touch": True,
+                                                   "is_mobile": True, "device_scale_factor": 2})):
+                    page = browser.new_context(**options).new_page()
+                    page.on("pageerror", lambda exc: errors.append(str(exc)))
+                    pid = f"show-{device}-000000000000000000"
+                    page.goto(f"{live_server.url}/s/{study.slug}/?PROLIFIC_PID={pid}&STUDY_ID=S&SESSION_ID=X")
+                    participant = complete_flow(Participant.objects.get(platform_pid=pid), stop_before=StepKind.TEST)
+                    page.goto(f"{live_server.url}{participant.get_absolute_url()}")
+                    ready(page)
+                    submit = page.locator('#show-form button[type="submit"]')
+                    expect(submit).to_be_disabled()
+                    if device == "laptop":
+                        page.keyboard.press(KEYS[wall])  # into a wall or off the grid: nothing happens
+                        assert shown(page) == []
+                        page.keyboard.press(KEYS[free])
+                        assert shown(page) == [free]
+                        page.keyboard.press("Backspace")  # undo
+                        assert shown(page) == []
+                        for move in best:
+                            if move in KEYS:
+                                page.keyboard.press(KEYS[move])
+                            else:
+                                page.click(f'[data-move="{move}"]')
+                        want = best
+                    else:
+                        expect(page.locator(f'[data-move="{wall}"]')).to_be_disabled()
+                        page.tap(f'[data-move="{free}"]')
+                        assert shown(page) == [free]
+                        page.tap('[data-action="undo"]')
+                        assert shown(page) == []
+                        # a detour by tapping the cells: out and back, then θ*'s way
+                        col, row = test["world"]["start"]
+                        want = [free, BACK[free], *best]
+                        for move in want:
+                            if move not in STEP:
+                                page.tap(f'[data-move="{move}"]')
+                                continue
+                            x, y = page.evaluate(CELL_AT, [col + STEP[move][0], row + STEP[move][1]])
+                            page.touchscreen.tap(x, y)
+                            col, row = col + STEP[move][0], row + STEP[move][1]
+                    assert shown(page) == want
+                    expect(submit).to_be_enabled()
+                    for move in STEP:  # finished: no more moves
+                        expect(page.locator(f'[data-move="{move}"]')).to_be_disabled()
+                    page.screenshot(path=str(OUT / f"show_way_{device}.png"), full_page=True)
+                    if device == "laptop":
+                        submit.click()
+                    else:
+                        submit.tap()
+                    page.wait_for_function("() => !document.querySelector('#show-form')")
+                    answer = Answer.objects.get(participant__platform_pid=pid, kind=StepKind.TEST, item=0)
+                    assert answer.data == {"env_id": test["env_id"], "moves": want}
+                    score = domain.score_shown(test["env_id"], want)
+                    assert answer.regret == pytest.approx(score["regret"]) and answer.correct is score["optimal"]
+                    assert (answer.regret == pytest.approx(0)) is (device == "laptop")
+            finally:
+                browser.close()
+    assert not errors, errors
