@@ -19,6 +19,7 @@ from teaching.api import TrajectoryTable
 from tests.studyapp.helpers import answer_url, record, snapshot, step_url
 from tests.teaching.domains.worlds import brute, key_room
 
+
 @pytest.fixture
 def show_study(db, tmp_path_factory):
     """A key-room study whose tests ask to show the way, in the environments of its teach output's tests."""

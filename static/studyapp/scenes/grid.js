@@ -112,7 +112,7 @@ export class GridScene {
   dots(x, y, colour) {
     const { ctx, cell: s } = this;
     // about 7 px apart at any size; the radius stops growing at 1.6 px so that on a large cell the dots
-    // stay dots on the kind's colour instead of merging into a pale fill
+    // stay dots on the kind's colour instead of running together into a pale fill
     const n = Math.max(2, Math.round(s / 7)), step = s / n, r = Math.max(0.8, Math.min(s / 28, 1.6));
     ctx.fillStyle = colour;
     for (let i = 0; i < n; i++) {
