@@ -14,7 +14,7 @@ from django.shortcuts import get_object_or_404, render
 from .access import researcher_required
 from .models import Study
 from .scenes import scene_context
-from .trajectories import drawn_scene, study_domain
+from .trajectories import drawn_scene, is_show, study_domain
 
 LETTERS = "ABCDEFGH"  # canonical option order (a participant sees them in an order drawn for them)
 
@@ -26,10 +26,16 @@ def row_of_example(payload: dict, number: int, domain) -> dict:
 
 
 def row_of_test(test: dict, number: int, domain) -> dict:
-    options = [{"letter": LETTERS[k], "theta_index": o.get("theta_index"),
-                "is_theta_star": bool(o.get("is_theta_star")), "cluster_name": o.get("cluster_name", ""),
-                "robot": o["robot"]}
-               for k, o in enumerate(test["options"])]
+    """A test's row: its options, or for a "show the way" test θ*'s own way (the one that scores 0 regret;
+    the participant never sees it)."""
+    if is_show(test):
+        options = [{"letter": "θ*'s way", "theta_index": None, "is_theta_star": True,
+                    "cluster_name": test.get("cluster_name", ""), "robot": test["robot"]}]
+    else:
+        options = [{"letter": LETTERS[k], "theta_index": o.get("theta_index"),
+                    "is_theta_star": bool(o.get("is_theta_star")), "cluster_name": o.get("cluster_name", ""),
+                    "robot": o["robot"]}
+                   for k, o in enumerate(test["options"])]
     return {"number": number, "env_id": test.get("env_id"), "caption": domain.caption(test),
             "class_name": test.get("class_name", ""), "scene": drawn_scene(test, robot=False, domain=domain),
             "options": options}

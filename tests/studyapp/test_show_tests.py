@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from django.urls import reverse
 
 from studyapp import flow
 from studyapp.assignment import assign
@@ -172,3 +173,14 @@ def test_a_participant_of_a_show_study_completes_it(show_study, complete):
     tests = Answer.objects.filter(participant=p, kind=StepKind.TEST).order_by("item")
     assert [a.item for a in tests] == list(range(len(study.test_set)))
     assert all(a.correct and a.regret == pytest.approx(0, abs=1e-9) for a in tests)
+
+
+def test_the_stimulus_sheet_shows_theta_stars_way_for_each_show_test(show_study, staff_client):
+    study, _ = show_study
+    page = staff_client.get(reverse("dashboard_stimuli", args=[study.slug]))
+    assert page.status_code == 200
+    rows = page.context["tests"]
+    assert len(rows) == len(study.test_set)
+    for row, test in zip(rows, study.test_set, strict=True):
+        assert [(o["letter"], o["is_theta_star"], o["robot"]) for o in row["options"]] == [
+            ("θ*'s way", True, test["robot"])]
