@@ -125,6 +125,11 @@ Learners and selection (DESIGN §5-6)
                              (large BEC = easy = low; docs/teaching.md); TeachOutput.test_difficulty
     MIN_REGRET, MIN_OPTION_DISTANCE  the test set's default thresholds: θ*-reward units (1e-3), and
                              scaled state units between options (0.5)
+    select_show_tests(table, training_env_ids, seed=0, min_regret=MIN_REGRET, min_share=MIN_SHARE)
+                             "show the way" tests (teaching.core.showtests), one per test cluster that has an
+                             eligible environment: dicts {env_id, kind: "show", cluster, share_worse (the
+                             fraction of the N θ clearly worse under θ* there, >= min_share = 0.25)}
+    TEST_KINDS               ("choose", "show"): what a test asks; TeachOutput.test_kind, one per output
 
 Ideal users (the paper's simulated learners; teaching.core.evaluation)
     USER_NAMES               the matrix's columns: the 7 learner models (MODEL_NAMES) and the
@@ -171,6 +176,7 @@ from .core.fitting import TIE_TOLERANCE, Answers, Comparison, FitError, Question
 from .core.learners import MODEL_NAMES, has_hyperparameter, make_model, model_names, parse_hyperparameters
 from .core.selection import ALL_CONDITIONS, APPROX_STAR, CONDITIONS, SelectionSettings
 from .core.selectors import check_params, get_selector, parse_selector, selector_names
+from .core.showtests import MIN_SHARE, select_show_tests
 from .core.simulate import (
     AnswerModel,
     PredictedScores,
@@ -180,7 +186,7 @@ from .core.simulate import (
     predicted_scores,
 )
 from .core.table import TableError, TrajectoryTable
-from .core.teachout import TeachOutput, TeachOutputError, read_teach
+from .core.teachout import TEST_KINDS, TeachOutput, TeachOutputError, read_teach
 from .core.testset import DIFFICULTIES, MIN_REGRET, select_test_set
 from .domains.driving.domain import DOMAIN as _DRIVING
 from .domains.driving.environments import (
@@ -217,4 +223,5 @@ __all__ = [
     "select_checks", "Pack", "load_pack", "write_pack",
     "TeachOutput", "TeachOutputError", "read_teach",
     "check_params", "get_selector", "parse_selector", "selector_names", "DIFFICULTIES",
+    "MIN_SHARE", "TEST_KINDS", "select_show_tests",
 ]

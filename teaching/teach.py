@@ -5,7 +5,9 @@
 writes to --out (the format: teaching/core/teachout.py, which also reads it):
     sequences.json             every condition's environment ids, P(θ*) curve, chosen τ/λ and sweeps
     test_set.json              the 6 test environments and their 4 options (with --test-difficulty,
-                               each test's difficulty, BEC size and the tertiles it was graded by)
+                               each test's difficulty, BEC size and the tertiles it was graded by);
+                               with --tests show, one "show the way" environment per test cluster
+                               (teaching/core/showtests.py) and no options
     matrix.json                ideal-user matrix P_M(θ* | sequence for M'), rows = sequences
     examples_per_cluster.json  2 × 4 cluster grids per sequence
     sim_users.png, examples_shown.png
@@ -15,9 +17,9 @@ conditions under that label (with its selector and parameters), to the extended 
 cluster grids and the pilot's predictions; the test set keeps clear of it too.
 
 Bad input (unknown model, τ/λ <= 0, a table without θ*, no environments,
-an unreadable table, a table with no valid test set, a selector with nothing to choose) prints one
-line to stderr and exits with status 2; an unknown selector or a bad parameter is refused by the
-argument parser (one line, status 2).
+an unreadable table, a table with no valid test set, a selector with nothing to choose,
+--test-difficulty with --tests show) prints one line to stderr and exits with status 2; an unknown
+selector or a bad parameter is refused by the argument parser (one line, status 2).
 """
 from __future__ import annotations
 
@@ -33,9 +35,10 @@ from .core.evaluation import SEQUENCE_NAMES, USER_NAMES, examples_per_cluster, g
 from .core.learners import Distances, model_names, parse_hyperparameters
 from .core.selection import APPROX_STAR, CONDITIONS, COVERAGE_EPSILON, SelectionSettings, theta_star_clusters
 from .core.selectors import parse_selector, selector_names
+from .core.showtests import select_show_tests
 from .core.simulate import pilot_predictions
 from .core.table import TableError, TrajectoryTable
-from .core.teachout import write_json
+from .core.teachout import TEST_KINDS, write_json
 from .core.testset import DIFFICULTIES, MIN_REGRET, TestSetError, select_test_set
 
 EXIT_BAD_INPUT = 2
@@ -64,6 +67,10 @@ def parse_args(argv=None) -> argparse.Namespace:
                    help="draw every test among environments of this difficulty: tertiles of the BEC size of the "
                         "eligible test environments, low = large BEC = easy (docs/teaching.md, 'Test set'); "
                         "each test then records its difficulty and BEC size")
+    p.add_argument("--tests", choices=TEST_KINDS, default="choose",
+                   help="choose: each test asks which of 4 trajectories the robot takes; show: each test asks the "
+                        "participant to move the robot, scored by its regret under θ* (docs/teaching.md, "
+                        "'Show-the-way tests')")
     p.add_argument("--no-progress", action="store_true")
     return p.parse_args(argv)
 
@@ -103,6 +110,8 @@ def run(args) -> dict:
                          f"choose from {', '.join(model_names())}")
     if not args.epsilon > 0:
         raise InputError(f"--epsilon must be > 0, got {args.epsilon}")
+    if args.tests == "show" and args.test_difficulty is not None:
+        raise InputError("--test-difficulty grades choice tests; it cannot be used with --tests show")
     try:
         table = TrajectoryTable.load(args.table)
     except TableError as exc:
@@ -143,9 +152,12 @@ def run(args) -> dict:
         # disjoint from what the study's conditions train on (the paper's nine and every --selector;
         # every learner's sequence but the hierarchical one is a condition's: adding that learner left
         # the test set as it was)
-        tests = select_test_set(table, [ids[envs[c]].tolist() for c in conditions], seed=args.seed,
-                                min_regret=args.min_regret, min_distance=args.min_option_distance,
-                                difficulty=args.test_difficulty)
+        training = [ids[envs[c]].tolist() for c in conditions]
+        if args.tests == "show":
+            tests = select_show_tests(table, training, seed=args.seed, min_regret=args.min_regret)
+        else:
+            tests = select_test_set(table, training, seed=args.seed, min_regret=args.min_regret,
+                                    min_distance=args.min_option_distance, difficulty=args.test_difficulty)
     except TestSetError as exc:
         tests = {"error": str(exc)}
     except BECError as exc:  # grading needs θ*'s sign-constrained space
@@ -158,7 +170,8 @@ def run(args) -> dict:
     pilot = {"sequence_names": list(SEQUENCE_NAMES), "user_names": list(USER_NAMES),
              "matrix": matrix.tolist(), "extended_sequence_names": list(ext_names),
              "extended_matrix": extended.tolist(), "models": {k: str(m) for k, m in result.models.items()}}
-    if "error" not in tests:  # what learners of each model choose in the tests, for a study's pilot
+    # what learners of each model choose among a test's options, for a study's pilot (a show test has none)
+    if "error" not in tests and args.tests == "choose":
         pilot["predicted"] = pilot_predictions(table, {u: result.models[u] for u in USER_NAMES},
                                                {n: envs[n] for n in ext_names}, tests, dist)
     write_json(out / "matrix.json", pilot)

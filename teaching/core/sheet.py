@@ -4,7 +4,8 @@
 
 One row per condition (its examples in the order shown, θ*'s trajectory in each; long sequences
 wrap onto more rows), then one row per test environment (its 4 options in the order
-test_set.json stores them, labelled A-D).  What is shared by every domain is here: reading and
+test_set.json stores them, labelled A-D; a "show the way" test, which has no options, θ*'s trajectory:
+the way a participant must show).  What is shared by every domain is here: reading and
 checking the teach output, the rows and titles, the page layout.  Each domain draws its own
 panels (its ``render_sheet``, e.g. teaching/domains/<name>/sheet.py).
 """
@@ -84,6 +85,12 @@ def sheet_rows(*, table, conditions, tests, columns: int, head=None) -> list[tup
             rows.append((label, panels[lo:lo + columns]))
     for j, t in enumerate(tests or []):
         m = row_of[int(t["env_id"])]
+        if t.get("kind") == "show":
+            shows = cluster_name(domain, int(strat[m, 0]))
+            worse = f" · {t['share_worse']:.0%} of θ worse" if "share_worse" in t else ""
+            label = cluster_name(domain, int(t.get("cluster", strat[m, 0]))).replace(": ", ":\n")
+            rows.append((f"test {j + 1} · show\n{label}", [Panel(m, 0, f"{head(m)}\nθ* (θ0) → {shows}{worse}")]))
+            continue
         panels = []
         for letter, o in zip(OPTION_LETTERS, t["options"], strict=False):
             th = int(o["theta_index"])

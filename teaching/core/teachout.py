@@ -4,7 +4,9 @@
                                with the table it was selected on: {"table": {"path", "content_hash", ...}}
     test_set.json              the tests and their 4 options, or {"error": why there is no test set}; tests
                                graded by difficulty (teach --test-difficulty) also hold difficulty,
-                               bec_size and bec_tertiles (teaching.core.testset)
+                               bec_size and bec_tertiles (teaching.core.testset); "show the way" tests
+                               (teach --tests show) hold "kind": "show" and no options
+                               (teaching.core.showtests); all tests of one output are of one kind
     matrix.json                the ideal-user matrix (a study's simulated pilot reads it)
     examples_per_cluster.json  the cluster grids
 
@@ -21,6 +23,9 @@ import numpy as np
 
 from .testset import DIFFICULTIES
 
+# What a test asks: choose among 4 options (a test without "kind"), or show the way.
+TEST_KINDS = ("choose", "show")
+
 
 class TeachOutputError(ValueError):
     """A teach output that is missing, unreadable or malformed: one line, saying which file and why."""
@@ -35,6 +40,7 @@ class TeachOutput:
     table_path: str  # the table it was selected on, as teach was given it
     table_hash: str | None  # that table's content hash
     test_difficulty: str | None = None  # every test's difficulty (one of DIFFICULTIES), None if ungraded
+    test_kind: str | None = None  # what every test asks (one of TEST_KINDS), None when there are no tests
 
     def matrix(self) -> dict | None:
         """matrix.json, where there is one: read only by who needs it (a study's pilot, not the sheet)."""
@@ -91,7 +97,7 @@ def read_teach(teach_dir) -> TeachOutput:
         raise TeachOutputError(f"{teach_dir / 'test_set.json'} is neither a list of tests nor an error")
     table = sequences.get("table") or {}
     return TeachOutput(teach_dir, conditions, tests, no_tests, str(table.get("path", "")), table.get("content_hash"),
-                       _difficulty(tests, teach_dir / "test_set.json"))
+                       _difficulty(tests, teach_dir / "test_set.json"), _kind(tests, teach_dir / "test_set.json"))
 
 
 def _difficulty(tests: list | None, path: Path) -> str | None:
@@ -101,6 +107,16 @@ def _difficulty(tests: list | None, path: Path) -> str | None:
     if len(found) > 1 or not found <= {None, *DIFFICULTIES}:
         raise TeachOutputError(f"{path}: tests of {sorted(map(str, found))} difficulty; a test set is graded at one "
                                f"of {', '.join(DIFFICULTIES)} or not at all")
+    return found.pop() if found else None
+
+
+def _kind(tests: list | None, path: Path) -> str | None:
+    """What all ``tests`` ask (None: no tests); TeachOutputError if they are of several kinds or an
+    unknown one."""
+    found = {t.get("kind", "choose") if isinstance(t, dict) else None for t in tests or []}
+    if len(found) > 1 or not found <= set(TEST_KINDS):
+        raise TeachOutputError(f"{path}: tests of kind {sorted(map(str, found))}; a test set's tests are all of "
+                               f"one of {', '.join(TEST_KINDS)}")
     return found.pop() if found else None
 
 
@@ -118,11 +134,15 @@ def check_against(output: TeachOutput, table) -> None:
             raise TeachOutputError(f"condition {name!r} shows environments not in the table: {missing[:5]}")
     try:
         for t in output.tests or []:
-            if int(t["env_id"]) not in known or len(t["options"]) != 4:
+            if int(t["env_id"]) not in known:
+                raise ValueError
+            if t.get("kind") == "show":  # the participant moves the robot: no options to check
+                continue
+            if len(t["options"]) != 4:
                 raise ValueError
             if any(not 0 <= int(o["theta_index"]) < table.n_thetas or not np.isfinite(float(o.get("regret", 0)))
                    for o in t["options"]):
                 raise ValueError
     except (TypeError, KeyError, ValueError):
         raise TeachOutputError(f"{output.dir / 'test_set.json'} does not match the table (an environment it tests "
-                               "is not in the table, or its options are not 4 θ indices of it)") from None
+                               "is not in the table, or a choice test's options are not 4 θ indices of it)") from None
