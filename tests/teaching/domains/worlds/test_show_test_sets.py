@@ -4,51 +4,23 @@ taxi each test is checked by replaying every candidate's way through the domain'
 trajectory (an independent path to θ*-regret)."""
 from __future__ import annotations
 
-import contextlib
 import json
 
 import numpy as np
 import pytest
 
-from teaching.core.build import build_table
-from teaching.core.domain import register, unregister
 from teaching.core.sheet import make_sheet
 from teaching.core.showtests import MIN_SHARE, select_show_tests
 from teaching.core.table import TrajectoryTable
 from teaching.core.teachout import TeachOutputError, check_against, read_teach
-from teaching.domains import WORLDS
-from teaching.domains._grid.filedomain import world_domain
-from teaching.teach import main as teach_main
-from tests.conftest import built_once
+from tests.teaching.domains.worlds.shipped import NAMES, shipped, teach_show, tiny_table
 from tests.teaching.domains.worlds.test_world_files import actions_of
-
-NAMES = ["taxi", "two-goal", "skateboard"]
-
-
-@contextlib.contextmanager
-def shipped(name: str):
-    """A shipped world registered for the duration (they are not by default), then forgotten."""
-    domain = world_domain(WORLDS / f"{name}.toml")
-    register(domain.name, lambda: domain)
-    try:
-        yield domain
-    finally:
-        unregister(domain.name)
-
-
-def tiny_table(tmp_path_factory, domain):
-    """Its tiny preset's table, built once per run (call it while registered)."""
-    preset = next(p for p in domain.presets if p.name == f"{domain.name}-tiny")
-    return built_once(tmp_path_factory, f"{preset.name}-table", lambda out: build_table(preset, out))
 
 
 @pytest.mark.parametrize("name", NAMES)
-def test_teach_writes_show_tests_for_each_shipped_world(name, tmp_path_factory, tmp_path, capsys):
+def test_teach_writes_show_tests_for_each_shipped_world(name, tmp_path_factory, tmp_path):
     with shipped(name) as domain:
-        table_dir = tiny_table(tmp_path_factory, domain)
-        out = tmp_path / "teach"
-        assert teach_main(["--table", str(table_dir), "--out", str(out), "--no-progress", "--tests", "show"]) == 0, \
-            capsys.readouterr().err
+        table_dir, out = teach_show(tmp_path_factory, domain)
         table = TrajectoryTable.load(table_dir)
         output = read_teach(out)
         check_against(output, table)

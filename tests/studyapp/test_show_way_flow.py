@@ -19,6 +19,7 @@ from studyapp.studies import build_study, spec_from_teach
 from teaching.api import TrajectoryTable
 from tests.studyapp.helpers import answer_url, record, snapshot, step_url
 from tests.teaching.domains.worlds import brute, key_room
+from tests.teaching.domains.worlds.shipped import NAMES, shipped, teach_show
 
 
 @pytest.fixture
@@ -184,3 +185,16 @@ def test_the_stimulus_sheet_shows_theta_stars_way_for_each_show_test(show_study,
     for row, test in zip(rows, study.test_set, strict=True):
         assert [(o["letter"], o["is_theta_star"], o["robot"]) for o in row["options"]] == [
             ("θ*'s way", True, test["robot"])]
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_a_study_of_each_shipped_world_runs_end_to_end_from_its_teach_output(name, db, tmp_path_factory, complete):
+    with shipped(name) as domain:
+        _, teach_dir = teach_show(tmp_path_factory, domain)
+        study = build_study({**spec_from_teach(teach_dir), "slug": f"{name}-show"})
+        assert study.test_kind == Study.SHOW and study.is_open
+        p = complete(assign(study, Participant.ANONYMOUS, ""))
+        assert p.completed_at is not None
+        tests = list(Answer.objects.filter(participant=p, kind=StepKind.TEST).order_by("item"))
+        assert [a.data["env_id"] for a in tests] == [t["env_id"] for t in study.test_set]
+        assert all(a.correct and a.regret == pytest.approx(0, abs=1e-9) for a in tests)
