@@ -144,6 +144,7 @@ class StudyDesignForm(forms.Form):
                   "best explains them, fitted when this study is built; empty: the settings above.")
     min_regret = schema_field(THRESHOLD_FIELDS["min_regret"], label="Test set: minimum θ*-regret")
     min_distance = schema_field(THRESHOLD_FIELDS["min_distance"], label="Test set: minimum distance (optional)")
+    test_kind = schema_field(JOB_FIELDS["test_kind"], label="Tests ask to", required=False)
     test_difficulty = schema_field(JOB_FIELDS["test_difficulty"], label="Test set: difficulty", required=False)
     # Where a problem the schema finds is said: its path there -> the field here (else the same name).
     SCHEMA_PLACES = {"test_set_thresholds.min_regret": "min_regret", "test_set_thresholds.min_distance": "min_distance",
@@ -275,7 +276,7 @@ class StudyDesignForm(forms.Form):
         ids = data.get("hand_picked_env_ids")
         return {"slug": data.get("slug"), "name": data.get("name") or None, "seed": data.get("seed"),
                 "approx_star": data.get("approx_star"), "conditions": self._selected(data),
-                "test_difficulty": data.get("test_difficulty") or None,
+                "test_difficulty": data.get("test_difficulty") or None, "test_kind": data.get("test_kind") or None,
                 "target_per_condition": data.get("target_per_condition"), "hyperparameters": data["hyperparameters"],
                 "hand_picked": {data.get("hand_picked_name") or "hand-picked": ids} if ids else {},
                 "test_set_thresholds": {k: data[k] for k in THRESHOLD_FIELDS if data.get(k) is not None},

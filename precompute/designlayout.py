@@ -58,9 +58,10 @@ SECTIONS = (
              Group(("approx_star", "seed", _fixed_fields), "Learner models and seed", folded=True)),
             condition_rows=True),
     Section("tests", "Tests",
-            "The test set every participant answers after training: how hard its questions are, and how far apart "
-            "their options must be.",
-            (Group(("test_difficulty", "min_regret", "min_distance")),)),
+            "The test set every participant answers after training: whether they choose the robot's way among four or "
+            "show it themselves (grid worlds from a file), how hard its questions are, and how far apart their options "
+            "must be.",
+            (Group(("test_kind", "test_difficulty", "min_regret", "min_distance")),)),
     Section("participants", "Participants and payment",
             "How many participants each condition needs, where they come from, and what they are told they earn.",
             (Group(("target_per_condition", "recruitment", "completion_code", "estimated_minutes", "payment")),)),

@@ -19,6 +19,7 @@ Version history:
      and every parameter a selected condition runs with (empty in older rows: each condition's name was
      its selector, with approx* as a coverage condition's model), and "test_difficulty", none or a
      difficulty of every test (None in older rows: any environment).
+  5  "version": 5; study: "test_kind", "choose" (among options) or "show" (the way); "choose" in older rows.
 
 Changing the format: add the field here, bump SPEC_VERSION, and add an upgrade from the last
 version that fills it (a test keeps a row of every older version as a literal:
@@ -28,7 +29,7 @@ from __future__ import annotations
 
 from dataclasses import MISSING, asdict, dataclass, field, fields
 
-SPEC_VERSION = 4
+SPEC_VERSION = 5
 
 
 class SpecFormatError(ValueError):
@@ -67,7 +68,15 @@ def _v3_to_v4(kind: str, data: dict) -> dict:
     return data
 
 
-_UPGRADES = {1: _v1_to_v2, 2: _v2_to_v3, 3: _v3_to_v4}  # version -> function(kind, data) giving version + 1
+def _v4_to_v5(kind: str, data: dict) -> dict:
+    data = dict(data)
+    if kind == "study":
+        data.setdefault("test_kind", "choose")
+    return data
+
+
+# version -> function(kind, data) giving version + 1
+_UPGRADES = {1: _v1_to_v2, 2: _v2_to_v3, 3: _v3_to_v4, 4: _v4_to_v5}
 
 
 @dataclass(frozen=True)
@@ -130,6 +139,7 @@ class StudyJobSpec(_Spec):
     # {name: {"selector", "params"}}: a selected condition's selector; absent: its name, with approx*
     selectors: dict = field(default_factory=dict)
     test_difficulty: str | None = None  # None: tests among any environments
+    test_kind: str = "choose"  # "show": every test asks the participant to show the way
     open_when_done: bool = True
     queue: str | None = None
 

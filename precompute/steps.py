@@ -27,8 +27,8 @@ from studyapp.studies import (
     prepare_closed_loops,
     store_pilot,
 )
-from studyapp.trajectories import test_set_from_table, training_from_table
-from teaching.api import TrajectoryTable, select_test_set
+from studyapp.trajectories import show_tests_from_table, test_set_from_table, training_from_table
+from teaching.api import MIN_REGRET, TrajectoryTable, select_show_tests, select_test_set
 
 from . import work
 from .models import Part
@@ -84,7 +84,7 @@ def select_condition(spec: StudyJobSpec, condition: Condition) -> dict:
     return result
 
 
-def study_pilot(table, conditions, spec: StudyJobSpec, job_id, tests: list[dict], loops: dict) -> dict:
+def study_pilot(table, conditions, spec: StudyJobSpec, job_id, tests: list[dict] | None, loops: dict) -> dict:
     """The study's simulated pilot: the ideal-user matrix for exactly its conditions and what learners of
     each model would choose in its `tests`; each closed loop (`loops`: {name: stored data}) by simulated
     participants of every model run through it.  Each user's τ / λ is the one its condition's task chose
@@ -117,6 +117,13 @@ def finish_study(job_id, spec: StudyJobSpec, study: Study, conditions: list[Cond
     simulated pilot, stored with the study, which opens if the job asks.  Returns (tests, loops
     {name: stored data}, {name: what their settings came from})."""
     table = _table(spec)
+    if spec.test_kind == Study.SHOW:  # no options: nothing for the pilot to predict, no closed loop to check
+        tests = select_show_tests(table, [c.env_ids for c in conditions], seed=spec.seed,
+                                  min_regret=spec.test_set_thresholds.get("min_regret", MIN_REGRET))
+        test_set = show_tests_from_table(table, tests)
+        store_pilot(study, study_pilot(table, conditions, spec, job_id, None, {}))
+        freeze_test_set(study, test_set, open_study=spec.open_when_done)
+        return tests, {}, {}
     tests = select_test_set(table, [c.env_ids for c in conditions], seed=spec.seed, difficulty=spec.test_difficulty,
                             **spec.test_set_thresholds)
     test_set = test_set_from_table(table, tests)

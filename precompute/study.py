@@ -36,15 +36,17 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int |
                      target_per_condition: int | None = None, queue=None, start: bool = True,
                      hand_picked: dict | None = None, test_set_thresholds: dict | None = None,
                      closed_loop: dict | None = None, closed_loop_fit: dict | None = None,
-                     test_difficulty: str | None = None, **study_fields) -> Job:
+                     test_difficulty: str | None = None, test_kind: str | None = None, **study_fields) -> Job:
     """A job that selects every condition's sequence and the test set on `table_path`.
 
     Every argument but the table follows a study spec's rules and defaults (studyapp/specschema.py,
     JOB_FIELDS and STUDY_FIELDS), checked before the table is read.  `conditions`: registered selectors,
     each a name, "NAME:KEY=VALUE,..." (teaching's --selector form) or {"selector", "params", "name"}; each
     condition's selector and every parameter it runs with are recorded in the study's source ("selectors")
-    and on its task's Part.  `test_difficulty`: none, or every test of that difficulty.  `hand_picked`: {condition name:
-    environment ids}, conditions shown in the given order (after the selected ones).
+    and on its task's Part.  `test_difficulty`: none, or every test of that difficulty.  `test_kind`: "choose"
+    (the default) or "show" (the way: grid worlds from a file; no difficulty, no closed loop).
+    `hand_picked`: {condition name: environment ids}, conditions shown in the given order (after the
+    selected ones).
     `test_set_thresholds`: min_regret and/or min_distance for ``select_test_set``.  `closed_loop`:
     {condition name: closed-loop settings (teaching's ClosedLoopSpec fields; {} for every default)},
     conditions that decide each participant's examples from their answers, prepared by the last task
@@ -58,7 +60,8 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int |
     given = {"slug": slug, "name": name, "seed": seed, "approx_star": approx_star, "conditions": conditions,
              "hyperparameters": hyperparameters, "target_per_condition": target_per_condition,
              "hand_picked": hand_picked, "test_set_thresholds": test_set_thresholds, "closed_loop": closed_loop,
-             "closed_loop_fit": closed_loop_fit, "test_difficulty": test_difficulty, **study_fields}
+             "closed_loop_fit": closed_loop_fit, "test_difficulty": test_difficulty, "test_kind": test_kind,
+             **study_fields}
     try:
         args = check_job(given)
     except SpecError as exc:
@@ -71,6 +74,10 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int |
         if missing:
             raise StudyJobError(f"hand-picked condition {condition!r}: environments {missing[:10]} are not in the "
                                 "table")
+    if args["test_kind"] == Study.SHOW:
+        show_problem = _show_problem(table, args)
+        if show_problem:
+            raise StudyJobError(show_problem)
     for name, source in args["closed_loop_fit"].items():
         if not Study.objects.filter(slug=source).exists():
             raise StudyJobError(f"closed-loop condition {name!r}: there is no study {source!r} to take a fit from")
@@ -97,11 +104,23 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int |
                             open_when_done=open_when_done, queue=queue, hand_picked=args["hand_picked"],
                             test_set_thresholds=args["test_set_thresholds"], closed_loop=loops,
                             closed_loop_fit=args["closed_loop_fit"], selectors=selectors,
-                            test_difficulty=difficulty)
+                            test_difficulty=difficulty, test_kind=args["test_kind"])
         job = Job.objects.create(kind=Job.STUDY, chunks_total=len(conditions) + 1, params=spec.to_json())
     if start:
         launch(job)
     return job
+
+
+def _show_problem(table, args: dict) -> str:
+    """Why this job cannot ask to show the way ("" if it can)."""
+    if not callable(getattr(table.domain, "score_shown", None)):
+        return (f"tests that show the way: the {table.domain.name} domain cannot replay and score a way a participant "
+                "shows (grid worlds from a file can)")
+    if args["closed_loop"]:
+        return "tests that show the way: closed-loop conditions decide from check questions among options"
+    if args["test_difficulty"] != "none":
+        return "tests that show the way are not graded by difficulty: choose 'none' for the difficulty"
+    return ""
 
 
 _TRUE, _FALSE = {"1", "yes", "true", "on"}, {"0", "no", "false", "off"}

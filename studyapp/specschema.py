@@ -199,6 +199,9 @@ JOB_FIELDS: dict[str, Field] = {f.name: f for f in (
     Field("test_difficulty", rules.choice, "Draw every test among environments of this difficulty (a tertile "
           "of BEC size: low is a large BEC, easy); none: any environment.", default="none",
           choices=(("none", "none: any environment"), *((d, d) for d in DIFFICULTIES))),
+    Field("test_kind", rules.choice, "What every test asks: to choose the robot's trajectory among four, or to "
+          "show the way it would go (grid worlds from a file).", default="choose",
+          choices=tuple(Study.TEST_KINDS)),
     Field("test_set_thresholds", rules.parts, "The test set's thresholds: min_regret and min_distance.",
           default={}, parts=tuple(THRESHOLD_FIELDS.values())),
 )}

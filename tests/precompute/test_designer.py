@@ -117,6 +117,7 @@ def test_design_form_errors(db, tables, staff_client, make_study):
         (dict(FORM, estimated_minutes="ten"), "Enter a whole number"),
         (dict(FORM, target_per_condition="0"), "'target_per_condition' must be a positive whole number up to 100,000"),
         (dict(FORM, table="/nowhere"), "Select a valid choice"),
+        (dict(FORM, test_kind="show"), "the driving domain cannot replay and score a way a participant shows"),
     ]
     for data, message in cases:
         data.setdefault("table", str(tables))

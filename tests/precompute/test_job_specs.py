@@ -101,7 +101,7 @@ STUDY_V2 = {"version": 2, "study_id": 5, "slug": "v2", "table": "/t", "content_h
 def test_a_version_2_study_spec_reads_with_no_closed_loop_condition():
     spec = read_spec("study", STUDY_V2)
     assert spec.closed_loop == {} and spec.conditions == ["exact"] and spec.seed == 1
-    assert spec.to_json()["version"] == SPEC_VERSION == 4
+    assert spec.to_json()["version"] == SPEC_VERSION == 5
 
 
 # A study job as version 3 stored it (before selectors with parameters and graded tests): each condition
@@ -113,6 +113,15 @@ STUDY_V3 = {**STUDY_V2, "version": 3, "conditions": ["exact", "coverage-approx*"
 def test_a_version_3_study_spec_reads_with_each_condition_its_own_selector():
     spec = read_spec("study", STUDY_V3)
     assert spec.selectors == {} and spec.test_difficulty is None and spec.conditions == ["exact", "coverage-approx*"]
+
+
+# A study job as version 4 stored it (before tests that show the way): its tests choose among options.
+STUDY_V4 = {**STUDY_V3, "version": 4, "selectors": {}, "test_difficulty": None}
+
+
+def test_a_version_4_study_spec_reads_with_tests_that_choose():
+    spec = read_spec("study", STUDY_V4)
+    assert spec.test_kind == "choose" and spec.test_difficulty is None and spec.conditions == STUDY_V3["conditions"]
 
 
 def test_task_arguments_travel_by_keyword(tmp_path):

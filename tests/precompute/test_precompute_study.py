@@ -15,9 +15,11 @@ from precompute.tasks import study_condition, study_finish
 from studyapp.models import Study
 from teaching.core.conditions import build_sequences, teach
 from teaching.core.selection import ALL_CONDITIONS, CONDITIONS
+from teaching.core.showtests import select_show_tests
 from teaching.core.table import TableError, TrajectoryTable
 from teaching.core.testset import select_test_set
 from teaching.domains.driving.synthetic import synthetic_table
+from tests.teaching.domains.worlds.shipped import shipped, tiny_table
 
 
 @pytest.fixture(scope="module")
@@ -81,6 +83,29 @@ def test_build_study_subset_closed(inprocess_worker, transactional_db, table_pat
     study = Study.objects.get(slug="two")
     assert not study.is_open and len(study.test_set) == 6
     assert [c.name for c in study.conditions.all()] == ["exact", "random"]
+
+
+@pytest.mark.slow
+def test_a_study_job_of_a_shipped_world_asks_to_show_the_way(inprocess_worker, transactional_db, tmp_path_factory):
+    with shipped("taxi") as domain:
+        table = tiny_table(tmp_path_factory, domain)
+        call_command("build_study", "--table", str(table), "--slug", "taxi-show", "--conditions", "exact,random",
+                     "--test-kind", "show", "--wait", "--no-progress", "--timeout", "180", stdout=io.StringIO())
+        study = Study.objects.get(slug="taxi-show")
+        want = select_show_tests(TrajectoryTable.load(table), [c.env_ids for c in study.conditions.all()], seed=0)
+    assert study.is_open and study.test_kind == Study.SHOW
+    assert [(t["env_id"], t["kind"]) for t in study.test_set] == [(t["env_id"], "show") for t in want]
+    assert all("options" not in t for t in study.test_set)
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--test-kind", "show"], "cannot replay and score a way"),
+    (["--test-kind", "guess"], "'guess'"),
+])
+def test_a_study_job_refuses_show_tests_where_they_cannot_be(db, table_path, argv, message):
+    with pytest.raises(CommandError, match=message):
+        call_command("build_study", "--table", str(table_path), "--slug", "nope", "--conditions", "exact", *argv,
+                     stdout=io.StringIO())
 
 
 def test_the_hierarchical_condition_is_the_hierarchical_learners_greedy_sequence(table_path):

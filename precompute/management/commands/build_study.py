@@ -62,6 +62,7 @@ class Command(BaseCommand):
                                  "e.g. exact,scot,bec-scaffold:k=2,highlights:k=5 (teaching's --selector form; "
                                  f"default: the paper's {len(CONDITIONS)})")
         parser.add_argument("--test-difficulty", help=_help(JOB_FIELDS["test_difficulty"]))
+        parser.add_argument("--test-kind", help=_help(JOB_FIELDS["test_kind"]))
         parser.add_argument("--closed-loop", action="append", default=[], metavar="NAME[:SETTING=VALUE,...]",
                             help="a closed-loop condition NAME (repeatable): each participant's next example "
                                  "chosen from their answers; settings model, value, lapse, example_lapse, "
@@ -86,7 +87,8 @@ class Command(BaseCommand):
             job = create_study_job(table, opts["slug"], opts["name"], opts["seed"], opts["approx_star"], hyper,
                                    conditions, open_when_done=not opts["closed"], replace=opts["replace"],
                                    target_per_condition=opts["target_per_condition"], queue=opts["queue"],
-                                   closed_loop=loops, test_difficulty=opts["test_difficulty"])
+                                   closed_loop=loops, test_difficulty=opts["test_difficulty"],
+                                   test_kind=opts["test_kind"])
         except TableError as exc:
             hint = " (build it first: manage.py precompute_table --preset NAME --wait)" if opts["preset"] else ""
             raise CommandError(f"{exc}{hint}") from None
