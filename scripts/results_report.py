@@ -218,6 +218,14 @@ def section_tests(domain, data, h) -> list[str]:
     head = [f"{h} Test set", ""]
     if isinstance(tests, dict):
         return head + [f"No test set on this table: {tests.get('error')}", ""]
+    if tests and tests[0].get("kind") == "show":
+        rows = [(t["env_id"], domain.cluster_names[t["cluster"]], f"{t['share_worse']:.3f}") for t in tests]
+        return head + [
+            "Show-the-way tests (`teach --tests show`, `teaching/core/showtests.py`): one environment per test "
+            "cluster, in no training sequence, where θ* shows that cluster and at least the share below of the "
+            "table's θ have a trajectory clearly worse for θ* (regret ≥ min_regret): the participant moves the "
+            "robot there, and the way is scored by its regret under θ*.", "",
+            *md_table(("env id", "cluster under test", "share of θ worse for θ*"), rows)]
     rows = [(*((t["env_id"], t["cluster_name"], t["rule"], f"{t['min_option_distance']:.3f}") if k == 0 else [""] * 4),
              "ABCD"[k], o["theta_index"], "**yes**" if o["is_theta_star"] else "no", domain.cluster_names[o["cluster"]],
              f"{o['regret']:.3g}") for t in tests for k, o in enumerate(t["options"])]
@@ -345,6 +353,8 @@ def commands_of(table_dir, teach_dir) -> list[str]:
     tests = json.loads((Path(teach_dir) / "test_set.json").read_text())
     if isinstance(tests, list) and tests and tests[0].get("difficulty"):
         argv += ["--test-difficulty", tests[0]["difficulty"]]
+    if isinstance(tests, list) and tests and tests[0].get("kind") == "show":
+        argv += ["--tests", "show"]
     argv += [a for label, c in seq["conditions"].items() if "selector" in c for a in ("--selector", label)]
     return [f".venv/bin/python -m teaching build --preset {preset} --out {table_dir}",
             ".venv/bin/python -m teaching.teach " + shlex.join(argv)]
@@ -370,12 +380,13 @@ def build_report(args) -> str:
                      + section_gridworld(args, out.parent, figures))
 
 
-BENCH_SECTION = re.compile(r"<!-- (bench/[\w.]+): begin -->.*?<!-- \1: end -->", re.S)
+BENCH_SECTION = re.compile(r"<!-- ((?:bench|scripts)/[\w.]+): begin -->.*?<!-- \1: end -->", re.S)
 
 
 def bench_sections(old_report: Path) -> list[str]:
-    """The sections a bench wrote into the report (bench/closedloop.py: between its markers), carried over
-    as they are: the report's own inputs cannot recompute them, and the bench rewrites them in place."""
+    """The sections another program wrote into the report between its markers (bench/closedloop.py,
+    scripts/world_results.py), carried over as they are: the report's own inputs cannot recompute them, and
+    that program rewrites them in place."""
     if not old_report.exists():
         return []
     return [m.group(0) for m in BENCH_SECTION.finditer(old_report.read_text())]

@@ -11,6 +11,7 @@ import pytest
 from teaching.core.selection import CONDITIONS
 from teaching.domains.driving.synthetic import synthetic_table
 from teaching.teach import main as teach_main
+from tests.teaching.domains.worlds.shipped import shipped, teach_show
 
 SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "results_report.py"
 _spec = importlib.util.spec_from_file_location("results_report", SCRIPT)
@@ -124,3 +125,30 @@ def test_a_bench_section_is_carried_over_when_the_report_is_regenerated(inputs, 
     text = out.read_text()
     assert "stale text" not in text and text.startswith("# Results")
     assert text.count(section) == 1 and text.endswith(section)
+
+
+def test_the_grid_worlds_section_is_written_from_their_outputs_and_carried_over(inputs, tmp_path_factory, tmp_path):
+    """scripts/world_results.py writes each shipped world's part from its table and `teach --tests show`
+    output between its markers; rewriting it replaces only that section, and the report keeps it."""
+    sys.path.insert(0, str(SCRIPT.parent))
+    try:
+        import world_results  # noqa: PLC0415  (a script beside results_report.py)
+    finally:
+        sys.path.remove(str(SCRIPT.parent))
+    doc = tmp_path / "results.md"
+    doc.write_text("# a report\n\nkept text\n")
+    with shipped("taxi") as domain:
+        table, teach = teach_show(tmp_path_factory, domain)
+        tests = json.loads((teach / "test_set.json").read_text())
+        for _ in range(2):  # the second run replaces the first's section
+            assert world_results.main(["--world", str(table), str(teach), "--doc", str(doc)]) == 0
+    text = doc.read_text()
+    assert text.startswith("# a report\n\nkept text\n") and text.count(world_results.BEGIN) == 1
+    assert "### Augmented taxi" in text and "--tests show" in text and "#### Ideal-user matrix" in text
+    for t in tests:
+        assert re.search(rf"\| {t['env_id']} \| {re.escape(domain.cluster_names[t['cluster']])} \| "
+                         rf"{t['share_worse']:.3f} \|", text)
+    section = text[text.index(world_results.BEGIN):]
+    assert report.main(["--table", str(inputs / "table"), "--teach", str(inputs / "teach"), "--out", str(doc)]) == 0
+    regenerated = doc.read_text()
+    assert regenerated.startswith("# Results") and regenerated.count(section.strip()) == 1

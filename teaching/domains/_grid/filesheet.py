@@ -54,6 +54,12 @@ def draw_world(ax, domain, env_id: int, controls: np.ndarray) -> None:
     ax.set_yticks([])
 
 
+def _tests_line(tests) -> str:
+    if tests and all(t.get("kind") == "show" for t in tests):
+        return "the participant shows the way; drawn: θ*'s, the way with no regret."
+    return "options A-D in test_set.json's order."
+
+
 def render_sheet(domain, *, table, conditions, tests, out, no_tests=None, columns: int = 5,
                  panel_width: float = 3.0, dpi: int = 140, caption: str = "") -> int:
     """Draw the sheet to the PNG `out`; returns the number of panels drawn."""
@@ -66,7 +72,7 @@ def render_sheet(domain, *, table, conditions, tests, out, no_tests=None, column
         draw_world(ax, domain, int(ids[panel.env_index]), controls)
 
     header = [caption, f"{world.title} from above ({world.width} x {world.height} cells), one action per step. "
-                       f"Training: θ*'s trajectory. Tests: options A-D in test_set.json's order."]
+                       f"Training: θ*'s trajectory. Tests: {_tests_line(tests)}"]
     legend = [Patch(facecolor=domain.palette["wall"], label="wall"),
               *(Patch(facecolor=domain.palette[f"cell-{k}"], hatch=PATTERNS[i % 3], label=v.label)
                 for i, (k, v) in enumerate(world.kinds.items())),
