@@ -10,6 +10,10 @@ answers one query per page, and the study's test set and conditions are decoded 
 Before, ``select_related("study", "condition")`` decoded the study's test set (about 30 KB of JSON)
 and the condition's training once per participant: 20 s and 3.6 GB for 10,000 participants.
 
+A show study (``Study.test_kind == "show"``: each test asks the participant to move the robot) has its own
+test cells (:mod:`studyapp.exports_show`: the moves, their regret under theta* and whether they are optimal)
+instead of a choice's; a choice study's files are exactly as they were.
+
 A study with closed-loop conditions has check answers too.  The long file's CHECK rows carry the same
 cells as a test's, theta*'s option read from the participant's LoopStep (one query more per page, for the
 page's check steps); the wide file gets per-check columns (``n_checks_*``, ``check<k>_*``).  A study
@@ -23,6 +27,7 @@ import json
 
 from . import closedloop
 from .csvsafe import FORMULA_STARTS, neutralise  # noqa: F401  (the guard; exports.neutralise stays importable)
+from .exports_show import show_long_columns, show_test_columns, show_test_fields, show_wide_columns, show_wide_fields
 from .models import Answer, LoopStep, Participant, StepKind, Study
 from .status import COMPLETE, EXCLUDED, MEANINGS, participant_status
 from .trajectories import study_domain
@@ -107,7 +112,8 @@ def check_columns(k) -> list[tuple[str, str]]:
 # Only the columns the files need: never the training / test-set JSON, decoded once per export instead.
 _PARTICIPANT_VALUES = ("pk", "condition_id", "platform", "platform_pid", "platform_study_id", "platform_session_id",
                        "platform_session_ids", "started_at", "completed_at", "excluded", "position")
-_ANSWER_VALUES = ("participant_id", "step", "kind", "item", "data", "correct", "confidence_score", "created_at")
+_ANSWER_VALUES = ("participant_id", "step", "kind", "item", "data", "correct", "confidence_score", "regret",
+                  "created_at")
 PAGE = 500  # participants per query (their answers: one query more per page)
 
 
@@ -123,7 +129,9 @@ class _Context:
 
     def __init__(self, study: Study):
         self.slug = study.slug
-        self.stars = [_star(t) for t in study.test_set]
+        self.show = study.test_kind == Study.SHOW
+        # a show test has no options, so no theta* option: its answer is a way, scored by its regret
+        self.stars = [None if self.show else _star(t) for t in study.test_set]
         self.difficulties = [neutralise(str(t.get("difficulty") or "")) for t in study.test_set]  # a spec's text
         self.conditions, self.check_stars, self.n_checks = {}, {}, 0
         for pk, name, training, loop in study.conditions.values_list("pk", "name", "training", "closed_loop"):
@@ -186,9 +194,6 @@ def _test_fields(answer: dict, star: int, difficulty: str = "") -> dict:
     return fields
 
 
-_LONG_NAMES = [c for c, _ in LONG_COLUMNS]
-_TEST_CELLS = _LONG_NAMES[_LONG_NAMES.index("env_id") + 1:_LONG_NAMES.index("answer_json")]  # a test's own
-_NO_TEST = [""] * len(_TEST_CELLS)
 TEST = StepKind.TEST.value  # a plain str compares faster than the enum member, once per answer
 CHECK = StepKind.CHECK.value
 
@@ -197,10 +202,18 @@ def _safe(values) -> list:
     return [neutralise(v) if v.__class__ is str else v for v in values]
 
 
-def long_rows(study: Study):
-    """Lists in LONG_COLUMNS order, text already neutralised: the long file has ~12 rows per
+def long_columns(ctx: _Context) -> list[tuple[str, str]]:
+    """LONG_COLUMNS; a show study's (exports_show.show_long_columns) for a show study."""
+    return show_long_columns(LONG_COLUMNS, choices=bool(ctx.check_stars)) if ctx.show else LONG_COLUMNS
+
+
+def long_rows(study: Study, ctx: _Context | None = None):
+    """Lists in long_columns() order, text already neutralised: the long file has ~12 rows per
     participant, so their identity is made safe once, not once per row (half the file's time)."""
-    ctx = _Context(study)
+    ctx = ctx or _Context(study)
+    names = [c for c, _ in long_columns(ctx)]
+    cells = names[names.index("env_id") + 1:names.index("answer_json")]  # a test's own
+    no_test = [""] * len(cells)
     for page, answers in _pages(study):
         questions = _check_questions(page) if ctx.check_stars else {}
         for p in page:
@@ -209,17 +222,20 @@ def long_rows(study: Study):
             for a in answers[p["pk"]]:
                 data = a["data"]
                 kind = a["kind"]
-                if kind == TEST:
+                if kind == TEST and ctx.show:
+                    test = show_test_fields(a, ctx.difficulties[a["item"]])
+                    test = [test.get(c, "") for c in cells]
+                elif kind == TEST:
                     test = _test_fields(a, ctx.stars[a["item"]], ctx.difficulties[a["item"]])
-                    test = [test[c] for c in _TEST_CELLS]
+                    test = [test.get(c, "") for c in cells]
                 elif kind == CHECK:
                     test = _test_fields(a, ctx.check_stars[p["condition_id"]][questions[p["pk"], a["item"]]])
-                    test = [test[c] for c in _TEST_CELLS]
+                    test = [test.get(c, "") for c in cells]
                 else:
-                    test = _NO_TEST
+                    test = no_test
                 # The answer's own cells need no neutralise(): numbers, the step's kind, digits
                 # (display_order, answered_at) and answer_json, which starts with "{" whatever the
-                # participant typed inside it.
+                # participant typed inside it; a show test's moves are neutralised where they are joined.
                 yield base + [a["step"], a["kind"], "" if a["item"] is None else a["item"],
                               data.get("env_id", ""), *test, json.dumps(data, sort_keys=True),
                               a["created_at"].isoformat()]
@@ -249,7 +265,6 @@ def wide_rows(study: Study, ctx: _Context | None = None):
             attention = by_kind.get((StepKind.ATTENTION, None), {}).get("data")
             demo = by_kind.get((StepKind.DEMOGRAPHICS, None), {}).get("data")
             tests = sorted((a for a in by_kind.values() if a["kind"] == StepKind.TEST), key=lambda a: a["item"])
-            scores = [a["confidence_score"] for a in tests]
             # A mean over some of the tests is not the paper's measure: given only when all were answered.
             every_test = len(tests) == n_tests and row["status"] in (COMPLETE, EXCLUDED)
             row.update(
@@ -257,9 +272,15 @@ def wide_rows(study: Study, ctx: _Context | None = None):
                 attention_goals="" if attention is None else " ".join(attention["goals"]),
                 age="" if demo is None else demo["age"], gender="" if demo is None else demo["gender"],
                 gender_text="" if demo is None else demo.get("gender_text", ""),
-                n_training=ctx.conditions[p["condition_id"]][1], n_tests_answered=len(tests),
-                mean_confidence_score=round(sum(scores) / len(scores), 6) if scores and every_test else "",
-                n_correct=sum(int(a["correct"]) for a in tests))
+                n_training=ctx.conditions[p["condition_id"]][1], n_tests_answered=len(tests))
+            if ctx.show:
+                row.update(show_wide_fields(tests, every_test))
+                row.update(_check_fields(ctx, p["condition_id"], answers[p["pk"]]))
+                yield row
+                continue
+            scores = [a["confidence_score"] for a in tests]
+            row.update(mean_confidence_score=round(sum(scores) / len(scores), 6) if scores and every_test else "",
+                       n_correct=sum(int(a["correct"]) for a in tests))
             for a in tests:
                 j = a["item"]
                 row.update({f"test{j}_env_id": a["data"]["env_id"], f"test{j}_correct": int(a["correct"]),
@@ -310,18 +331,23 @@ def _pieces(names, cells, batch: int = 200):
 def wide_columns(study: Study, ctx: _Context | None = None) -> list:
     """WIDE_COLUMNS, the tests beyond N_TESTS_WIDE, and for a study with closed-loop conditions the check
     columns (CHECK_SUMMARY_COLUMNS, then check_columns(k) for k = 1 .. the most checks a condition asks)."""
-    columns = list(WIDE_COLUMNS)
-    extra = len(study.test_set) - N_TESTS_WIDE
-    for j in range(N_TESTS_WIDE, N_TESTS_WIDE + max(extra, 0)):
-        columns += [(f"test{j}_env_id", ""), (f"test{j}_correct", ""), (f"test{j}_confidence_score", "")]
     ctx = ctx or _Context(study)
+    if ctx.show:  # one group of columns per test the study has
+        columns = show_wide_columns(WIDE_COLUMNS)
+        columns += [c for j in range(len(study.test_set)) for c in show_test_columns(j)]
+    else:
+        columns = list(WIDE_COLUMNS)
+        extra = len(study.test_set) - N_TESTS_WIDE
+        for j in range(N_TESTS_WIDE, N_TESTS_WIDE + max(extra, 0)):
+            columns += [(f"test{j}_env_id", ""), (f"test{j}_correct", ""), (f"test{j}_confidence_score", "")]
     if ctx.check_stars:
         columns += CHECK_SUMMARY_COLUMNS + [c for k in range(1, ctx.n_checks + 1) for c in check_columns(k)]
     return columns
 
 
 def long_stream(study: Study):
-    return _pieces(_LONG_NAMES, long_rows(study))
+    ctx = _Context(study)
+    return _pieces([c for c, _ in long_columns(ctx)], long_rows(study, ctx))
 
 
 def wide_stream(study: Study):
@@ -359,9 +385,14 @@ def domain_descriptions(domain) -> dict[str, str]:
 def dictionary_csv(study: Study | None = None) -> str:
     """The data dictionary; of `study`, its domain's descriptions where they depend on the robot."""
     own = domain_descriptions(study_domain(study)) if study is not None else {}
-    rows = [{"file": "long", "column": c, "description": own.get(c, d)} for c, d in LONG_COLUMNS]
-    rows += [{"file": "wide", "column": c, "description": own.get(c, d)}
-             for c, d in WIDE_COLUMNS + CHECK_SUMMARY_COLUMNS + check_columns("<k>")]
+    if study is not None and study.test_kind == Study.SHOW:  # its own columns: a show test's, not a choice's
+        ctx = _Context(study)
+        long, wide = long_columns(ctx), show_wide_columns(WIDE_COLUMNS) + show_test_columns("<j>")
+        wide += CHECK_SUMMARY_COLUMNS + check_columns("<k>") if ctx.check_stars else []
+    else:
+        long, wide = LONG_COLUMNS, WIDE_COLUMNS + CHECK_SUMMARY_COLUMNS + check_columns("<k>")
+    rows = [{"file": "long", "column": c, "description": own.get(c, d)} for c, d in long]
+    rows += [{"file": "wide", "column": c, "description": own.get(c, d)} for c, d in wide]
     return to_csv([("file", ""), ("column", ""), ("description", "")], rows)
 
 

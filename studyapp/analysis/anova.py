@@ -99,6 +99,44 @@ def factorial_anova(data: pd.DataFrame, factors: tuple[str, str], dv: str = "mea
     return res
 
 
+def _within_spread(d: pd.DataFrame, group: str, dv: str) -> float:
+    """The root mean square of `dv` about its group means: zero when every group is constant."""
+    within = d[dv] - d.groupby(group)[dv].transform("mean")
+    return float(np.sqrt(np.mean(within**2))) if len(d) else 0.0
+
+
+def oneway_anova(table: pd.DataFrame, dv: str, conditions, name: str = "",
+                 min_per_group: int = MIN_PER_GROUP) -> AnovaResult:
+    """One-way ANOVA of ``dv`` across the `conditions` (the study's, canonical), over the included
+    participants: its F and p are scipy.stats.f_oneway's (type II SS from statsmodels, as the factorial
+    ones; with one factor every SS type is the same, so ``type3`` is None).  A condition with fewer than
+    `min_per_group` participants yields ``ok=False`` naming it, as a factorial ANOVA's short cell."""
+    import statsmodels.formula.api as smf  # noqa: PLC0415  (heavy: loaded when an analysis runs)
+    from statsmodels.stats.anova import anova_lm  # noqa: PLC0415
+
+    inc = included(table)
+    d = inc.loc[inc["condition"].isin(list(conditions)), ["condition", dv]].dropna()
+    cells = (d.groupby("condition")[dv].agg(n="size", mean="mean", sd="std")
+             .reindex(list(conditions)).reset_index())
+    cells["n"] = cells["n"].fillna(0).astype(int)
+    res = AnovaResult(name=name, factors=("condition",), ok=False, cells=cells, n=len(d), interaction=False)
+    short = [f"{c}: {n}" for c, n in zip(cells["condition"], cells["n"], strict=True) if n < min_per_group]
+    if len(cells) < 2:
+        res.message = (f"{name or 'ANOVA'} not computed: it compares two or more conditions, and the study has "
+                       f"{len(cells)}.")
+    elif short:
+        res.message = (f"{name or 'ANOVA'} not computed: too few participants after exclusions in "
+                       f"condition(s) {'; '.join(short)} (need at least {min_per_group} in every condition).")
+    elif negligible_spread(_within_spread(d, "condition", dv), d[dv]):
+        res.message = (f"{name or 'ANOVA'} not computed: no variance within conditions (every participant in a "
+                       "condition has the same value), so F is undefined; compare the means directly.")
+    else:
+        fit = smf.ols(f"{dv} ~ C(condition)", data=d).fit()
+        res.type2 = _anova_table(anova_lm(fit, typ=2), {"C(condition)": "condition"})
+        res.ok = True
+    return res
+
+
 def distance_determinism_anovas(table: pd.DataFrame) -> list[AnovaResult]:
     """The approximate-inference experiment (paper Sec. "Analysis"), honest about the missing cell."""
     inc = included(table)

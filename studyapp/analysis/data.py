@@ -12,6 +12,9 @@
   (``test_set[j]["cluster"]``, theta*'s trajectory there); the training clusters come from each
   condition's frozen ``training[i]["cluster"]``.  ``test_difficulty`` is the test's difficulty
   (``test_set[j]["difficulty"]``: low / medium / high) where the study's tests were graded, else None.
+* A show study's tests (``Study.test_kind == "show"``) ask for a way, not a choice: its answers table has
+  ``optimal`` and ``regret`` instead of a choice's ``correct``, ``confidence`` and ``score``
+  (SHOW_ANSWER_COLUMNS), and :func:`analyze_study` analyses it by :mod:`studyapp.analysis.shown`.
 """
 from __future__ import annotations
 
@@ -22,11 +25,13 @@ from ..models import Answer, Condition, LoopStep, Participant, StepKind, Study
 from ..status import participant_status
 from ..trajectories import study_domain
 from . import learning as L
+from . import shown as SH
 from . import stats as S
 
 PARTICIPANT_COLUMNS = ["participant_id", "condition", "attention_ok", "excluded", "exclusion_reason", "age",
                        "gender", "platform", "completed", "status"]
 ANSWER_COLUMNS = ["participant_id", "test_index", "test_cluster", "test_difficulty", "correct", "confidence", "score"]
+SHOW_ANSWER_COLUMNS = ["participant_id", "test_index", "test_cluster", "test_difficulty", "optimal", "regret"]
 TRAINING_COLUMNS = ["condition", "position", "environment_id", "cluster"]
 
 
@@ -48,12 +53,14 @@ def training_frame(study: Study) -> pd.DataFrame:
 
 
 def frames(study: Study, include_incomplete: bool = False) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
-    """(participants, answers, training) DataFrames for :func:`stats.analyze`."""
+    """(participants, answers, training) DataFrames for :func:`stats.analyze` (a show study's answers:
+    SHOW_ANSWER_COLUMNS, for :func:`shown.analyze_show`)."""
+    show = study.test_kind == Study.SHOW
     people = list(_participants(study, include_incomplete))
     ids = [p["pk"] for p in people]
     kinds = [StepKind.TEST, StepKind.ATTENTION, StepKind.DEMOGRAPHICS]
     answers = (Answer.objects.filter(participant_id__in=ids, kind__in=kinds)
-               .values("participant_id", "kind", "item", "data", "correct", "confidence_score"))
+               .values("participant_id", "kind", "item", "data", "correct", "confidence_score", "regret"))
     tests = study.test_set or []
     attention, demo, arows = {}, {}, []
     for a in answers:
@@ -62,6 +69,12 @@ def frames(study: Study, include_incomplete: bool = False) -> tuple[pd.DataFrame
             attention[pid] = bool((a["data"] or {}).get("passed"))
         elif a["kind"] == StepKind.DEMOGRAPHICS:
             demo[pid] = a["data"] or {}
+        elif show and a["regret"] is not None and a["item"] is not None:
+            j = int(a["item"])
+            test = tests[j] if j < len(tests) else {}
+            arows.append({"participant_id": str(pid), "test_index": j, "test_cluster": test.get("cluster"),
+                          "test_difficulty": test.get("difficulty"), "optimal": bool(a["correct"]),
+                          "regret": float(a["regret"])})
         elif a["confidence_score"] is not None and a["item"] is not None:
             j = int(a["item"])
             test = tests[j] if j < len(tests) else {}
@@ -80,8 +93,8 @@ def frames(study: Study, include_incomplete: bool = False) -> tuple[pd.DataFrame
                       "platform": p["platform"], "completed": p["completed_at"] is not None,
                       "status": participant_status(position=p["position"], excluded=excluded,
                                                    completed=p["completed_at"] is not None)})
-    return (pd.DataFrame(prows, columns=PARTICIPANT_COLUMNS), pd.DataFrame(arows, columns=ANSWER_COLUMNS),
-            training_frame(study))
+    return (pd.DataFrame(prows, columns=PARTICIPANT_COLUMNS),
+            pd.DataFrame(arows, columns=SHOW_ANSWER_COLUMNS if show else ANSWER_COLUMNS), training_frame(study))
 
 
 def checks_frame(study: Study, include_incomplete: bool = False) -> pd.DataFrame:
@@ -129,12 +142,16 @@ def planned_comparisons(study: Study) -> list[tuple[str, str]]:
 
 
 def analyze_study(study: Study, include_incomplete: bool = False, extra_comparisons=(),
-                  approx_star: str = S.APPROX_STAR_DEFAULT) -> S.Analysis:
-    """The analysis of `study`; a ConditionError (a ValueError, with a message for the researcher)
-    for aliased condition names, an approx* that is no approximate model, or named comparisons
-    that are not new pairs of the study's conditions."""
-    star = study_approx_star(condition_names(study), approx_star)
+                  approx_star: str = S.APPROX_STAR_DEFAULT) -> S.Analysis | SH.ShowAnalysis:
+    """The analysis of `study` (a show study's: a ShowAnalysis); a ConditionError (a ValueError, with a
+    message for the researcher) for aliased condition names, an approx* that is no approximate model, or
+    named comparisons that are not new pairs of the study's conditions."""
+    names = condition_names(study)
+    star = study_approx_star(names, approx_star)
     participants, answers, training = frames(study, include_incomplete)
+    if study.test_kind == Study.SHOW:
+        return SH.analyze_show(participants, answers, training, extra_comparisons=extra_comparisons,
+                               approx_star=star, conditions=names)
     return S.analyze(participants, answers, training, extra_comparisons=extra_comparisons, approx_star=star,
                      checks=checks_frame(study, include_incomplete), clusters=S.Clusters.of(study_domain(study)))
 

@@ -66,7 +66,13 @@ def study_table(study: Study) -> TrajectoryTable:
         raise ModelFitError(f"the study's trajectory table cannot be read: {exc}") from None
 
 
+SHOW_NOT_FITTED = ("this study's tests ask participants to show the way, not to choose among options: the "
+                   "learner models are fitted to choices, so there is nothing to fit")
+
+
 def study_design(study: Study, table: TrajectoryTable | None = None) -> StudyDesign:
+    if study.test_kind == Study.SHOW:  # before the table: a show study's own reason, not a table's
+        raise ModelFitError(SHOW_NOT_FITTED)
     table = table or study_table(study)
     row = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
     conditions = list(Condition.objects.filter(study=study).order_by("position", "pk"))

@@ -5,51 +5,30 @@ dashboard can embed it; :func:`write_report` wraps it in a standalone page for
 ``manage.py analyze``.  Figures are embedded as PNG data URIs (the fragment is
 self-contained) and also written as files by :func:`write_report`.
 
+A show study's analysis (shown.ShowAnalysis) has its own report, :mod:`studyapp.analysis.report_show`,
+which the functions here hand it to.
+
 Uses Django's template engine (settings must be configured) but no models.
 """
 from __future__ import annotations
 
-import math
 import re
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 from django.template.loader import render_to_string
 
 from .. import status as ST
 from . import figures as FIG
+from . import report_show as RS
 from . import stats as S
-
-
-def _num(v, digits=2):
-    if v is None or (isinstance(v, (float, np.floating)) and math.isnan(v)):
-        return ""
-    if isinstance(v, (int, np.integer)):
-        return str(int(v))
-    if isinstance(v, (float, np.floating)) and float(v).is_integer() and abs(v) < 1e6:
-        return str(int(v))
-    return f"{v:.{digits}f}"
-
-
-def _p(v):
-    return S.fmt_p(float(v)) if v is not None and not pd.isna(v) else ""
-
-
-def _anova_rows(table: pd.DataFrame) -> list[dict]:
-    rows = []
-    resid_df = table.loc["Residual", "df"]
-    for eff, r in table.iterrows():
-        rows.append({"effect": eff, "ss": _num(r["SS"], 3), "df": _num(r["df"]),
-                     "f": _num(r["F"], 2), "p": _p(r["p"]), "eta": _num(r["partial_eta2"], 3),
-                     "apa": "" if eff == "Residual" else
-                     f"F({_num(r['df'])}, {_num(resid_df)}) = {r['F']:.2f}, p {_p_apa(r['p'])}",
-                     "sig": (not pd.isna(r["p"])) and r["p"] < 0.05})
-    return rows
-
-
-def _p_apa(p):
-    return "< .001" if p < 0.001 else f"= {S.fmt_p(p)}"
+from .formatting import anova_rows as _anova_rows
+from .formatting import cell as _cell
+from .formatting import num as _num
+from .formatting import participant_groups, welch_rows
+from .formatting import pval as _p
+from .formatting import pval_apa as _p_apa
+from .shown import ShowAnalysis
 
 
 def context(analysis: S.Analysis, title: str = "Study analysis", figures: dict | None = None) -> dict:
@@ -76,16 +55,7 @@ def context(analysis: S.Analysis, title: str = "Study analysis", figures: dict |
                                            for r in rows if r["apa"]))
                            for typ, rows in (("type II", item["type2"]), ("type III", item["type3"]))]
         anovas.append(item)
-    welch = []
-    for _, w in analysis.welch.iterrows():
-        tested = not pd.isna(w["t"])
-        welch.append({"comparison": w["comparison"], "n": f"{int(w['n_a'])} / {int(w['n_b'])}",
-                      "means": f"{_num(w['mean_a'])} / {_num(w['mean_b'])}" if tested else "",
-                      "diff": _num(w["diff"]), "t": _num(w["t"]), "df": _num(w["df"], 1), "p": _p(w["p"]),
-                      "p_holm": _p(w["p_holm"]), "d": _num(w["cohen_d"]),
-                      "ci": f"[{_num(w['ci_low'])}, {_num(w['ci_high'])}]" if tested else "",
-                      "tested": tested, "note": w["note"],
-                      "sig": tested and w["p_holm"] < 0.05, "stars": FIG.stars(w["p_holm"]) if tested else ""})
+    welch = welch_rows(analysis.welch)
     cors = [{"name": c.name, "level": c.level, "n": c.n, "r": _num(c.r), "p": _p(c.p),
              "ci": f"[{_num(c.ci_low)}, {_num(c.ci_high)}]" if c.ok else "", "ok": c.ok, "message": c.message}
             for c in analysis.correlations]
@@ -121,41 +91,10 @@ def learning_rows(analysis: S.Analysis) -> list[dict]:
             for _, r in analysis.learning.iterrows()]
 
 
-def _cell(v):
-    if isinstance(v, (bool, np.bool_)):
-        return "yes" if v else "no"
-    if v is None or (not isinstance(v, str) and pd.isna(v)):
-        return ""
-    if isinstance(v, (float, np.floating)):
-        return _num(v)
-    return str(v)
-
-
-def participant_groups(table: pd.DataFrame) -> list[tuple[str, int]]:
-    """(label, count) of every kind of participant in the analysis's table; the counts add up to its rows.
-
-    By status (studyapp.status, the exports' column); a table made by hand without one counts its
-    rows as complete unless ``excluded`` or ``completed == False`` says otherwise."""
-    excluded = table["excluded"].astype(bool)
-    if "status" in table:
-        status = table["status"]
-    else:
-        done = table["completed"].astype(bool) if "completed" in table else pd.Series(True, index=table.index)
-        status = pd.Series(np.where(excluded, ST.EXCLUDED, np.where(done, ST.COMPLETE, ST.INCOMPLETE)),
-                           index=table.index)
-    answered = table["n_answered"] > 0 if "n_answered" in table else pd.Series(False, index=table.index)
-    attention = table["exclusion_reason"] == "failed attention check" if "exclusion_reason" in table else excluded
-    incomplete, out = status == ST.INCOMPLETE, status == ST.EXCLUDED
-    return [(ST.COMPLETE, int((status == ST.COMPLETE).sum())),
-            ("incomplete (some tests answered)", int((incomplete & answered).sum())),
-            ("incomplete (no test answered)", int((incomplete & ~answered).sum())),
-            ("excluded (attention)", int((out & attention).sum())),
-            ("excluded (by the researcher)", int((out & ~attention).sum())),
-            ("declined (no consent)", int((status == ST.DECLINED).sum()))]
-
-
-def headline(analysis: S.Analysis) -> list[str]:
+def headline(analysis: S.Analysis | ShowAnalysis) -> list[str]:
     """A few lines of plain-text summary (printed by ``manage.py analyze``)."""
+    if isinstance(analysis, ShowAnalysis):
+        return RS.headline(analysis)
     groups = ", ".join(f"{n} {label}" for label, n in participant_groups(analysis.participants)
                        if n or label == ST.COMPLETE)
     lines = [f"{len(analysis.participants)} participants: {groups}; {analysis.n_included} analysed; "
@@ -187,17 +126,24 @@ def headline(analysis: S.Analysis) -> list[str]:
     return lines
 
 
-def render_fragment(analysis: S.Analysis, title: str = "Study analysis", figures: dict | None = None) -> str:
+def render_fragment(analysis: S.Analysis | ShowAnalysis, title: str = "Study analysis",
+                    figures: dict | None = None) -> str:
+    if isinstance(analysis, ShowAnalysis):
+        return RS.render_fragment(analysis, title)
     return render_to_string("studyapp/analysis/report.html", context(analysis, title, figures))
 
 
-def render_page(analysis: S.Analysis, title: str = "Study analysis", figures: dict | None = None) -> str:
+def render_page(analysis: S.Analysis | ShowAnalysis, title: str = "Study analysis", figures: dict | None = None) -> str:
+    if isinstance(analysis, ShowAnalysis):
+        return RS.render_page(analysis, title)
     ctx = context(analysis, title, figures)
     ctx["fragment"] = render_to_string("studyapp/analysis/report.html", ctx)
     return render_to_string("studyapp/analysis/report_page.html", ctx)
 
 
-def write_csvs(analysis: S.Analysis, out: Path) -> list[Path]:
+def write_csvs(analysis: S.Analysis | ShowAnalysis, out: Path) -> list[Path]:
+    if isinstance(analysis, ShowAnalysis):
+        return RS.write_csvs(analysis, out)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     written = []
@@ -236,8 +182,11 @@ def write_csvs(analysis: S.Analysis, out: Path) -> list[Path]:
     return written
 
 
-def write_report(analysis: S.Analysis, out, title: str = "Study analysis") -> dict:
-    """Write index.html (self-contained), figure PNG/SVG files and the CSVs to ``out``."""
+def write_report(analysis: S.Analysis | ShowAnalysis, out, title: str = "Study analysis") -> dict:
+    """Write index.html (self-contained), figure PNG/SVG files and the CSVs to ``out`` (a show study's:
+    report_show.write_report)."""
+    if isinstance(analysis, ShowAnalysis):
+        return RS.write_report(analysis, out, title)
     out = Path(out)
     (out / "figures").mkdir(parents=True, exist_ok=True)
     uris, files = {}, []

@@ -91,7 +91,11 @@ def _bot_answer(options, rng, p_star: float) -> tuple[int, list[int]]:
 def run_participant(study, rng, attentive: bool = True, effect: dict | None = None, base: float = BASE,
                     learner: StudyLearner | None = None):
     """One simulated participant from arrival to completion; returns it.  With `learner`, its tests are
-    answered by the learner model, else by a fixed-probability bot (the module's docstring)."""
+    answered by the learner model, else by a fixed-probability bot (the module's docstring).  A show study's
+    tests ask for a way, not a choice among options, which these participants cannot give: a ValueError."""
+    if study.test_kind == study.SHOW:
+        raise ValueError(f"study {study.slug!r} is a show study: simulated participants choose among options, "
+                         "and its tests ask for a way")
     p = assignment.assign(study)
     p_star = (EFFECT if effect is None else effect).get(p.condition.name, base)
     if not attentive:

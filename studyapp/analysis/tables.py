@@ -54,14 +54,17 @@ def participant_table(participants: pd.DataFrame, answers: pd.DataFrame, trainin
 
 
 def included(table: pd.DataFrame) -> pd.DataFrame:
-    """Participants that enter the analysis: not excluded and with at least one answered test."""
-    return table[~table["excluded"] & table["mean_score"].notna()]
+    """Participants that enter the analysis: not excluded and with at least one answered test (a show
+    study's table, analysis/shown.py, has no confidence score: its n_answered says)."""
+    answered = table["mean_score"].notna() if "mean_score" in table else table["n_answered"] > 0
+    return table[~table["excluded"] & answered]
 
 
-def condition_summary(table: pd.DataFrame, order=None) -> pd.DataFrame:
-    """n, mean, SD and SE of the mean confidence score per condition (after exclusions)."""
+def condition_summary(table: pd.DataFrame, order=None, dv: str = "mean_score") -> pd.DataFrame:
+    """n, mean, SD and SE of the measure `dv` (by default the mean confidence score) per condition (after
+    exclusions)."""
     inc = included(table)
-    g = inc.groupby("condition")["mean_score"]
+    g = inc[inc[dv].notna()].groupby("condition")[dv]
     out = pd.DataFrame({"n": g.size(), "mean": g.mean(), "sd": g.std(ddof=1)})
     out["se"] = out["sd"] / np.sqrt(out["n"])
     n_all = table.groupby("condition").size()

@@ -1,0 +1,134 @@
+"""HTML report, printed summary and CSVs of a show study's analysis (:class:`~studyapp.analysis.shown.ShowAnalysis`).
+
+The same files as a choice study's report (report.py, which hands a ShowAnalysis here), with each table
+carrying its measure: ``participants.csv`` (regret_<i>, optimal_<i>, mean_regret, share_optimal),
+``answers.csv``, ``conditions.csv``, ``anova.csv`` and ``welch.csv`` (a ``measure`` column), and
+``index.html`` (``templates/studyapp/analysis/show_report.html``).  No figures: the choice report's figures
+are of confidence scores.
+"""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pandas as pd
+from django.template.loader import render_to_string
+
+from .. import status as ST
+from . import stats as S
+from .formatting import anova_rows, cell, num, participant_groups, pval_apa, welch_rows
+from .shown import ShowAnalysis
+
+# a share is a fraction of tests: more digits than a regret's mean would need to tell conditions apart
+DIGITS = {"mean_regret": 2, "share_optimal": 3}
+
+
+def _per_test(columns, prefix: str) -> list[str]:
+    return sorted([c for c in columns if re.fullmatch(prefix + r"_\d+", c)], key=lambda c: int(c.rpartition("_")[2]))
+
+
+def participant_columns(table: pd.DataFrame) -> list[str]:
+    return ["participant_id", "condition", "model", "distance", "determinism", "coverage", "n_examples",
+            *_per_test(table.columns, "regret"), *_per_test(table.columns, "optimal"), "n_answered",
+            "mean_regret", "share_optimal", "attention_ok", "excluded"]
+
+
+def measure_context(m, approx_star: str) -> dict:
+    digits = DIGITS.get(m.column, 2)
+    a = m.anova
+    item = {"column": m.column, "name": m.name,
+            "summary": [{"condition": S.label(c, approx_star), "recruited": int(r["n_recruited"]),
+                         "excluded": int(r["n_excluded"]), "n": int(r["n"]), "mean": num(r["mean"], digits),
+                         "sd": num(r["sd"], digits), "se": num(r["se"], digits)} for c, r in m.summary.iterrows()],
+            "anova": {"name": a.name, "ok": a.ok, "message": a.message,
+                      "cells": [{"condition": S.label(r["condition"], approx_star), "n": int(r["n"]),
+                                 "mean": num(r["mean"], digits), "sd": num(r["sd"], digits)}
+                                for _, r in a.cells.iterrows()]},
+            "welch": welch_rows(m.welch, digits)}
+    if a.ok:
+        rows = anova_rows(a.type2)
+        item["anova"]["rows"] = rows
+        item["anova"]["apa"] = "; ".join(r["apa"] + f", partial η² = {r['eta']}" for r in rows if r["apa"])
+    return item
+
+
+def context(analysis: ShowAnalysis, title: str = "Study analysis") -> dict:
+    p = analysis.participants
+    cols = participant_columns(p)
+    return {"title": title, "approx_star": analysis.approx_star, "n_participants": len(p),
+            "n_included": analysis.n_included, "n_excluded": analysis.n_excluded, "messages": analysis.messages,
+            "measures": [measure_context(m, analysis.approx_star) for m in analysis.measures],
+            "skipped": list(analysis.skipped), "participant_columns": cols,
+            "participant_rows": [[cell(r[c]) for c in cols] + [bool(r["excluded"])] for _, r in p[cols].iterrows()],
+            "headline": headline(analysis)}
+
+
+def render_fragment(analysis: ShowAnalysis, title: str = "Study analysis") -> str:
+    return render_to_string("studyapp/analysis/show_report.html", context(analysis, title))
+
+
+def render_page(analysis: ShowAnalysis, title: str = "Study analysis") -> str:
+    ctx = context(analysis, title)
+    ctx["fragment"] = render_to_string("studyapp/analysis/show_report.html", ctx)
+    return render_to_string("studyapp/analysis/report_page.html", ctx)
+
+
+def headline(analysis: ShowAnalysis) -> list[str]:
+    """A few lines of plain-text summary (printed by ``manage.py analyze``)."""
+    groups = ", ".join(f"{n} {label}" for label, n in participant_groups(analysis.participants)
+                       if n or label == ST.COMPLETE)
+    lines = [f"{len(analysis.participants)} participants: {groups}; {analysis.n_included} analysed; "
+             f"show study (measures: {', '.join(m.name for m in analysis.measures)})"]
+    for m in analysis.measures:
+        a = m.anova
+        if a.ok:
+            r, resid = a.type2.loc["condition"], a.type2.loc["Residual", "df"]
+            lines.append(f"ANOVA of the {m.name} across conditions: F({r['df']:.0f}, {resid:.0f}) = {r['F']:.2f}, "
+                         f"p {pval_apa(r['p'])}")
+        else:
+            lines.append(a.message)
+        for _, w in m.welch.iterrows():
+            if pd.isna(w["t"]):
+                lines.append(f"Welch {w['comparison']} ({m.name}): {w['note']}")
+            else:
+                lines.append(f"Welch {w['comparison']} ({m.name}): diff = {w['diff']:.3f} "
+                             f"[{w['ci_low']:.3f}, {w['ci_high']:.3f}], t({w['df']:.1f}) = {w['t']:.2f}, "
+                             f"p {pval_apa(w['p'])}, Holm p {pval_apa(w['p_holm'])}, d = {w['cohen_d']:.2f}")
+    return lines
+
+
+def _with_measure(df: pd.DataFrame, m) -> pd.DataFrame:
+    out = df.copy()
+    out.insert(0, "measure", m.name)
+    return out
+
+
+def write_csvs(analysis: ShowAnalysis, out: Path) -> list[Path]:
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    anova = []
+    for m in analysis.measures:
+        a = m.anova
+        if a.ok:
+            anova.append(_with_measure(a.type2.reset_index(), m))
+        else:
+            anova.append(pd.DataFrame([{"measure": m.name, "effect": "", "note": a.message}]))
+        anova.append(_with_measure(a.cells, m).assign(type="cell counts"))
+    tables = {"participants.csv": analysis.participants, "answers.csv": analysis.answers,
+              "conditions.csv": pd.concat([_with_measure(m.summary.reset_index(), m) for m in analysis.measures],
+                                          ignore_index=True),
+              "welch.csv": pd.concat([_with_measure(m.welch, m) for m in analysis.measures], ignore_index=True),
+              "anova.csv": pd.concat(anova, ignore_index=True)}
+    written = []
+    for name, df in tables.items():
+        df.to_csv(out / name, index=False)
+        written.append(out / name)
+    return written
+
+
+def write_report(analysis: ShowAnalysis, out, title: str = "Study analysis") -> dict:
+    """Write index.html (self-contained) and the CSVs to ``out``; no figures (the module's docstring)."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "index.html").write_text(render_page(analysis, title), encoding="utf-8")
+    return {"html": out / "index.html", "figures": [], "csv": write_csvs(analysis, out)}

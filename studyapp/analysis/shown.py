@@ -1,0 +1,125 @@
+"""The analysis of a show study: each test asks the participant to move the robot the way they think it
+would go, and the way shown is scored under θ* (its regret: θ*'s optimal reward minus the way's reward, in
+θ*'s units; optimal when that is 0).
+
+Each participant has two measures over the tests they answered: their mean regret and their share of
+optimal ways.  Each is analysed as a choice study's confidence score is compared between conditions: per
+condition n, mean, SD and SE (tables.condition_summary), a one-way ANOVA across the study's conditions
+(anova.oneway_anova) and Welch's t-tests of the planned and named pairs, Holm-adjusted within the measure
+(comparisons.welch_tests).  What only makes sense for choices among options (confidence scores, the option
+chosen, fits of learner models to choices, the pilot's predicted choices) is not computed; the report says so
+in one line each (SKIPPED).
+
+Pure functions over pandas DataFrames, as :mod:`studyapp.analysis.stats`; the input tables are its
+``participants`` and ``training`` and, for the answers, one row per (participant, test) with
+``participant_id, test_index, optimal, regret`` (:data:`studyapp.analysis.data.SHOW_ANSWER_COLUMNS`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from .anova import AnovaResult, oneway_anova
+from .comparisons import check_approx_star, comparison_family, default_comparisons, welch_tests
+from .conditions import APPROX_STAR_DEFAULT, PAPER_CONDITIONS, canonicalize
+from .tables import condition_summary, included, participant_table
+
+# (column of the participants table, its name in words): the dependent measures, in the report's order.
+MEASURES = (("mean_regret", "mean regret (θ*'s units, 0 = optimal)"),
+            ("share_optimal", "share of optimal ways"))
+# One line each on the report: what a choice study's analysis has and a show study's cannot.
+SKIPPED = (
+    "Confidence scores, their factorial ANOVAs and correlations: not computed, as a show test has no options "
+    "to rate; the measures above take their place.",
+    "The option chosen and accuracy by test difficulty: not computed, as a show test asks for a way, not a "
+    "choice among options.",
+    "Learner models fitted to the answers: not fitted, as the models predict choices among options and a show "
+    "test has none.",
+    "The simulated pilot's predicted scores: not shown, as they predict choices among options.",
+)
+
+
+@dataclass
+class Measure:
+    """One dependent measure's results: per-condition summary, one-way ANOVA, Welch's t-tests."""
+
+    column: str
+    name: str
+    summary: pd.DataFrame
+    anova: AnovaResult
+    welch: pd.DataFrame
+
+
+@dataclass
+class ShowAnalysis:
+    participants: pd.DataFrame
+    answers: pd.DataFrame
+    measures: list[Measure]
+    messages: list[str]
+    approx_star: str = APPROX_STAR_DEFAULT
+    skipped: tuple[str, ...] = field(default=SKIPPED)
+
+    @property
+    def n_included(self) -> int:
+        return int(len(included(self.participants)))
+
+    @property
+    def n_excluded(self) -> int:
+        return int(self.participants["excluded"].sum())
+
+
+def show_table(participants: pd.DataFrame, answers: pd.DataFrame, training: pd.DataFrame,
+               approx_star: str = APPROX_STAR_DEFAULT) -> pd.DataFrame:
+    """The per-participant table (tables.participant_table's factors, examples and exclusions) with
+    ``regret_<i>`` and ``optimal_<i>`` per test i, ``n_answered``, ``mean_regret`` and ``share_optimal``
+    (over the tests answered; NaN without an answer)."""
+    a = answers.copy()
+    a["participant_id"] = a["participant_id"].astype(str)
+    # participant_table spreads a per-test "score": here the regret, renamed below
+    scored = pd.DataFrame({"participant_id": a["participant_id"], "test_index": a["test_index"].astype(int),
+                           "score": a["regret"].astype(float)})
+    p = participant_table(participants, scored, training, approx_star)
+    p = p.rename(columns={c: "regret_" + c[len("score_"):] for c in p.columns if c.startswith("score_")})
+    p = p.rename(columns={"mean_score": "mean_regret"})
+    optimal = (a.assign(optimal=a["optimal"].astype(float))
+               .pivot_table(index="participant_id", columns="test_index", values="optimal", aggfunc="first"))
+    optimal.columns = [f"optimal_{int(i)}" for i in optimal.columns]
+    p = p.merge(optimal, left_on="participant_id", right_index=True, how="left")
+    optimal_cols = list(optimal.columns)
+    p["share_optimal"] = p[optimal_cols].mean(axis=1) if optimal_cols else np.nan
+    return p
+
+
+def _conditions(names) -> list[str]:
+    """The study's conditions (with or without participants), the paper's first, in its order."""
+    names = set(names)
+    return [c for c in PAPER_CONDITIONS if c in names] + sorted(names - set(PAPER_CONDITIONS))
+
+
+def analyze_show(participants: pd.DataFrame, answers: pd.DataFrame, training: pd.DataFrame,
+                 comparisons=None, extra_comparisons=(), approx_star: str = APPROX_STAR_DEFAULT,
+                 conditions=()) -> ShowAnalysis:
+    """The analysis of a show study's answers, as stats.analyze's arguments: ``extra_comparisons`` join the
+    planned pairs (those the study has both conditions of) in each measure's Holm family; ``conditions``: the
+    study's (canonical), which the one-way ANOVA expects even before they have participants or examples.  A
+    ConditionError for an approx* that is no approximate model or comparisons that are not distinct pairs of
+    its conditions."""
+    participants, training = canonicalize(participants), canonicalize(training)
+    approx_star = check_approx_star(approx_star)
+    known = set(conditions) | set(participants.get("condition", [])) | set(training.get("condition", []))
+    planned = list(comparisons) if comparisons is not None else [
+        pair for pair in default_comparisons(approx_star) if set(pair) <= known]
+    comps = comparison_family(planned, extra_comparisons, known)  # ConditionError before any work
+    table = show_table(participants, answers, training, approx_star)
+    conditions = _conditions(known)
+    measures, messages = [], []
+    for column, name in MEASURES:
+        anova = oneway_anova(table, column, conditions, name=f"one-way ANOVA of the {name} across conditions")
+        welch, notes = welch_tests(table, comps, approx_star, dv=column)
+        measures.append(Measure(column=column, name=name, anova=anova, welch=welch,
+                                summary=condition_summary(table, order=PAPER_CONDITIONS, dv=column)))
+        messages += ([anova.message] if not anova.ok else []) + [f"{name}: {note}" for note in notes]
+    return ShowAnalysis(participants=table, answers=answers, measures=measures, messages=messages,
+                        approx_star=approx_star)
