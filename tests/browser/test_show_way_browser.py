@@ -1,13 +1,17 @@
 """In Debian's Chromium, a participant shows the way in a "show" test of a grid world written only as a
 file (tests/teaching/domains/worlds/key-room.toml): by keyboard on a laptop, and by touch on a phone
 (390 x 844).  They move, undo a move, cannot walk into a wall or off the grid, cannot submit before the
-robot has finished, and submit; the stored moves and regret are the way they showed.
+robot has finished, and submit; the stored moves and regret, and the export's, are the way they showed.
 Screenshots: test-output/show_way_<laptop|phone>.png."""
 from __future__ import annotations
+
+import csv
+import io
 
 import pytest
 from playwright.sync_api import expect, sync_playwright
 
+from studyapp.exports import long_csv
 from studyapp.models import Answer, Participant, StepKind, Study
 from studyapp.studies import build_study, spec_from_teach
 from tests.browser.grid_pages import CHROMIUM, OUT
@@ -128,6 +132,11 @@ def test_a_participant_shows_the_way_by_keyboard_and_by_touch(transactional_db, 
                     score = domain.score_shown(test["env_id"], want)
                     assert answer.regret == pytest.approx(score["regret"]) and answer.correct is score["optimal"]
                     assert (answer.regret == pytest.approx(0)) is (device == "laptop")
+                    row = next(r for r in csv.DictReader(io.StringIO(long_csv(study)))
+                               if r["kind"] == "test" and r["item"] == "0"
+                               and r["participant_id"] == str(answer.participant_id))
+                    assert row["moves"] == " ".join(want) and float(row["regret"]) == pytest.approx(answer.regret)
+                    assert row["optimal"] == str(int(answer.correct))
             finally:
                 browser.close()
     assert not errors, errors
