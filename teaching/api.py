@@ -61,8 +61,10 @@ Closed-loop teaching (teaching.core.closedloop; docs/study.md)
     ClosedLoopSpec(model, value, lapse, max_examples, check_every, feedback, stop_at)  how a
                              closed-loop condition teaches; ClosedLoopError (one line) if bad
     select_checks(table, final_tests, seed=1)  check questions, dicts as select_test_set's, on
-                             environments apart from the final tests; check_questions(table, checks)
-                             their Questions
+                             environments apart from the final tests; select_show_checks(table, final_tests,
+                             seed=1) the same where the participant shows the way (each with its ``ways``:
+                             distinct_ways(table, row), the distinct trajectories it is a choice among);
+                             check_questions(table, checks) their Questions
     ClosedLoop.build(table, spec, checks, exclude=final test rows)  .decide(events) -> Decision: the
                              next step (example / check / feedback / done, a table row) with what it
                              was based on; .replay(events, decisions) -> a line per disagreement
@@ -164,8 +166,10 @@ from .core.closedloop import (
     Decision,
     Event,
     check_questions,
+    distinct_ways,
     run_learner,
     select_checks,
+    select_show_checks,
 )
 from .core.closedloop_pack import Pack, load_pack, write_pack
 from .core.closedloop_pilot import loop_pilot
@@ -218,8 +222,8 @@ __all__ = [
     "AnswerModel", "Answers", "Comparison", "FitError", "Question", "SimulatedLearner", "TIE_TOLERANCE",
     "compare_models", "model_names",
     "PredictedScores", "draw_answers", "pilot_predictions", "predicted_scores", "questions_of",
-    "ClosedLoop", "ClosedLoopError", "ClosedLoopSpec", "Decision", "Event", "check_questions", "run_learner",
-    "loop_pilot", "MAX_EXAMPLES_LIMIT",
+    "ClosedLoop", "ClosedLoopError", "ClosedLoopSpec", "Decision", "Event", "check_questions", "distinct_ways",
+    "select_show_checks", "run_learner", "loop_pilot", "MAX_EXAMPLES_LIMIT",
     "select_checks", "Pack", "load_pack", "write_pack",
     "TeachOutput", "TeachOutputError", "read_teach",
     "check_params", "get_selector", "parse_selector", "selector_names", "DIFFICULTIES",

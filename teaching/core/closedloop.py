@@ -20,7 +20,10 @@ have: their hypothesis.  It starts uniform over the table's thetas and is update
       b(θ) ← b(θ) · P(k | θ, E),   P(k | θ, E) = (1 − ε) · L_k(θ) / Σ_j L_j(θ) + ε / K
 
   where L_k(θ) = P_M(ξ_k | θ, E), and a guess (1 / K) when no option fits θ.  The lapse rate ε must be
-  above 0: a careless answer may not rule a θ out for good.
+  above 0: a careless answer may not rule a θ out for good.  A check where the participant shows the
+  way (``Question.shown``) is a choice among every distinct trajectory the table's θ take in E (a finite
+  stand-in for every way, as SCOT's alternatives are); a way none of them takes (answer K) leaves b as
+  it is: it says nothing about which of the table's θ the participant holds.
 
 The next example is the environment E that maximises the participant's P(θ*) once they have seen it,
 in expectation under b:  b'(θ*) = b(θ*) L'(E, θ*) / Σ_θ b(θ) L'(E, θ), L' = (1 − η) L + η  —
@@ -43,7 +46,8 @@ from .choice import OptionDistances, option_choice
 from .fitting import Question, questions_of
 from .learners import Distances, LearnerModel, check_value, make_model, posterior
 from .selection import APPROX_STAR, IMPROVEMENT_RTOL, _candidate_p, showable
-from .testset import select_test_set
+from .showtests import select_show_tests
+from .testset import TestSetError, select_test_set
 
 EXAMPLE, CHECK, FEEDBACK, DONE = "example", "check", "feedback", "done"
 EVENT_KINDS = (EXAMPLE, CHECK, FEEDBACK)
@@ -166,6 +170,22 @@ def answer_likelihood(option_likelihood: np.ndarray, lapse: float) -> np.ndarray
     return np.where(total > 0, p, 1.0 / k)
 
 
+def answer_rows(p: np.ndarray, question) -> np.ndarray:
+    """The (K, N) P(k | θ, E) of `question`'s options, and for a shown check a last row of ones: a way no
+    θ of the table takes leaves the belief as it is."""
+    if not getattr(question, "shown", False):
+        return p
+    return np.vstack([p, np.ones((1, p.shape[1]), p.dtype)])
+
+
+def distinct_ways(table, env_index: int) -> tuple[int, ...]:
+    """The lowest θ index of each distinct trajectory the table's θ take in table row `env_index`, in θ
+    order (θ* first): a shown check's options."""
+    controls = np.asarray(table.controls[env_index]).reshape(table.n_thetas, -1)
+    _, first = np.unique(controls, axis=0, return_index=True)
+    return tuple(int(t) for t in np.sort(first))
+
+
 class ClosedLoop:
     """One closed-loop condition on one table.
 
@@ -191,8 +211,8 @@ class ClosedLoop:
         if lik is None:
             lik = model.likelihood(dist or Distances(table))
         checks = tuple(checks)
-        check_lik = [answer_likelihood(model.likelihood(OptionDistances(table, q.env_index, q.options)), spec.lapse)
-                     for q in checks]
+        check_lik = [answer_rows(answer_likelihood(model.likelihood(OptionDistances(table, q.env_index, q.options)),
+                                                   spec.lapse), q) for q in checks]
         eligible = showable(table).copy()
         eligible[[q.env_index for q in checks]] = False
         eligible[np.asarray(list(exclude), np.int64)] = False
@@ -222,7 +242,7 @@ class ClosedLoop:
             if e.kind == CHECK:
                 if e.question is None or not 0 <= e.question < len(self.checks):
                     raise ClosedLoopError(f"event {i}: no check question {e.question!r}")
-                if e.answer is None or not 0 <= e.answer < len(self.checks[e.question].options):
+                if e.answer is None or not 0 <= e.answer < len(self.check_lik[e.question]):
                     raise ClosedLoopError(f"event {i}: answer {e.answer!r} is not an option of check {e.question}")
 
     # --- the decision -----------------------------------------------------------------------------
@@ -304,8 +324,23 @@ def select_checks(table, final_tests: list[dict], seed: int = 1) -> list[dict]:
     return checks
 
 
+def select_show_checks(table, final_tests: list[dict], seed: int = 1) -> list[dict]:
+    """Check questions where the participant shows the way (showtests.select_show_tests' dicts, each with
+    ``ways``: its options, distinct_ways), on environments apart from the final tests."""
+    try:
+        checks = select_show_tests(table, [[int(t["env_id"]) for t in final_tests]], seed=seed)
+    except TestSetError:
+        raise ClosedLoopError("no environment left over from the final tests can be a check question") from None
+    row = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
+    return [{**c, "ways": list(distinct_ways(table, row[int(c["env_id"])]))} for c in checks]
+
+
 def check_questions(table, test_set) -> tuple[Question, ...]:
-    """The Questions of check questions stored as a test set is (dicts with env_id and options)."""
+    """The Questions of check questions stored as a test set is (dicts with env_id and options), or as
+    select_show_checks gives them (kind "show", with ways)."""
+    if test_set and all(t.get("kind") == "show" for t in test_set):
+        row = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
+        return tuple(Question(row[int(t["env_id"])], tuple(int(w) for w in t["ways"]), shown=True) for t in test_set)
     return questions_of(table, test_set)[0]
 
 

@@ -6,7 +6,8 @@ workers there are, and no web worker opens the 5 GB trajectory table::
 
     meta.json          the spec, the check questions, the table's content hash and domain, the shapes
     lik.npy            (M, N) float32 L_M(E, θ) of the spec's learner model, every table row
-    check_lik.npy      (C, K, N) float32 P(k | θ, E) of each check question (closedloop.answer_likelihood)
+    check_lik.npy      (C, K, N) float32 P(k | θ, E) of each check question (closedloop.answer_likelihood,
+                       answer_rows), padded with zero rows to the most answers of any check
     eligible.npy       (M,) bool, the rows examples may come from
     env_ids.npy        (M,) int64 environment ids; env_class.npy (M,) int8; star_cluster.npy (M,) int8
     star_states.npy    (M, T+1, S) float64 θ*'s trajectory in every environment: a training example's path
@@ -55,11 +56,12 @@ def write_pack(path, table, loop: ClosedLoop) -> str:
     except OSError as exc:
         raise ClosedLoopError(f"cannot write a closed-loop condition to {path}: {exc.strerror}") from None
     m, n = loop.lik.shape
-    k = max((len(q.options) for q in loop.checks), default=0)
+    k = max((len(c) for c in loop.check_lik), default=0)  # a shown check's options vary: padded to the most
     star = table.theta_star_index
     arrays = {
         "lik": np.asarray(loop.lik, np.float32),
-        "check_lik": (np.stack(loop.check_lik).astype(np.float32) if loop.checks else np.zeros((0, k, n), np.float32)),
+        "check_lik": (np.stack([np.pad(c, ((0, k - len(c)), (0, 0))) for c in loop.check_lik]).astype(np.float32)
+                      if loop.checks else np.zeros((0, k, n), np.float32)),
         "eligible": loop.eligible,
         "env_ids": np.asarray(table.env_ids, np.int64),
         "env_class": np.asarray(table.env_class, np.int8),
@@ -72,7 +74,8 @@ def write_pack(path, table, loop: ClosedLoop) -> str:
         os.replace(tmp, path / f"{name}.npy")
     meta = {"version": PACK_VERSION, "spec": loop.spec.as_dict(), "table_hash": table.meta.get("content_hash"),
             "domain": table.domain.name, "n_envs": m, "n_thetas": n,
-            "checks": [{"env_index": q.env_index, "options": list(q.options)} for q in loop.checks]}
+            "checks": [{"env_index": q.env_index, "options": list(q.options), **({"shown": True} if q.shown else {})}
+                       for q in loop.checks]}
     tmp = path / ".meta.json.tmp"
     tmp.write_text(json.dumps(meta, indent=1))
     os.replace(tmp, path / "meta.json")
@@ -99,7 +102,9 @@ def load_pack(path, expected_hash: str | None = None) -> Pack:
         raise ClosedLoopError(f"the closed-loop condition at {path} is incomplete or corrupt: {exc}") from None
     if a["lik"].shape != (meta["n_envs"], meta["n_thetas"]):
         raise ClosedLoopError(f"the closed-loop condition at {path} is corrupt: lik has shape {a['lik'].shape}")
-    checks = tuple(Question(int(q["env_index"]), tuple(int(o) for o in q["options"])) for q in meta["checks"])
-    loop = ClosedLoop(ClosedLoopSpec.from_dict(meta["spec"]), a["lik"], checks, list(a["check_lik"]),
-                      a["eligible"])
+    checks = tuple(Question(int(q["env_index"]), tuple(int(o) for o in q["options"]), bool(q.get("shown")))
+                   for q in meta["checks"])
+    # each check's own answers: its options, and for a shown check the way none of them takes
+    check_lik = [c[:len(q.options) + q.shown] for c, q in zip(a["check_lik"], checks, strict=True)]
+    loop = ClosedLoop(ClosedLoopSpec.from_dict(meta["spec"]), a["lik"], checks, check_lik, a["eligible"])
     return Pack(loop, a["env_ids"], a["env_class"], a["star_cluster"], a["star_states"], meta)

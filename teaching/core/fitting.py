@@ -62,10 +62,13 @@ class FitError(ValueError):
 @dataclass(frozen=True)
 class Question:
     """One test: its environment (a table row) and the θ indices whose optimal trajectories are its
-    options, in the order choices are stored."""
+    options, in the order choices are stored.  `shown`: the participant shows the way instead of
+    choosing; the options are then every distinct trajectory the table's θ take there, and answer
+    len(options) is a way none of them takes."""
 
     env_index: int
     options: tuple[int, ...]
+    shown: bool = False
 
 
 def questions_of(table, test_set) -> tuple[tuple[Question, ...], np.ndarray]:
