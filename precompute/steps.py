@@ -117,19 +117,19 @@ def finish_study(job_id, spec: StudyJobSpec, study: Study, conditions: list[Cond
     simulated pilot, stored with the study, which opens if the job asks.  Returns (tests, loops
     {name: stored data}, {name: what their settings came from})."""
     table = _table(spec)
-    if spec.test_kind == Study.SHOW:  # no options: nothing for the pilot to predict, no closed loop to check
-        tests = select_show_tests(table, [c.env_ids for c in conditions], seed=spec.seed,
+    training = [c.env_ids for c in conditions]
+    if spec.test_kind == Study.SHOW:  # the way, not options: nothing for the pilot to predict in the tests
+        tests = select_show_tests(table, training, seed=spec.seed,
                                   min_regret=spec.test_set_thresholds.get("min_regret", MIN_REGRET))
         test_set = show_tests_from_table(table, tests)
-        store_pilot(study, study_pilot(table, conditions, spec, job_id, None, {}))
-        freeze_test_set(study, test_set, open_study=spec.open_when_done)
-        return tests, {}, {}
-    tests = select_test_set(table, [c.env_ids for c in conditions], seed=spec.seed, difficulty=spec.test_difficulty,
-                            **spec.test_set_thresholds)
-    test_set = test_set_from_table(table, tests)
+    else:
+        tests = select_test_set(table, training, seed=spec.seed, difficulty=spec.test_difficulty,
+                                **spec.test_set_thresholds)
+        test_set = test_set_from_table(table, tests)
     settings, from_fit = closed_loop_settings(spec)
     loops = prepare_closed_loops(table, study.slug, settings, tests)  # their checks apart from the tests
-    store_pilot(study, study_pilot(table, conditions, spec, job_id, tests, loops))
+    predicted = None if spec.test_kind == Study.SHOW else tests
+    store_pilot(study, study_pilot(table, conditions, spec, job_id, predicted, loops))
     if loops:
         for c in study.conditions.filter(name__in=list(loops)):
             freeze_closed_loop(c, loops[c.name])

@@ -44,7 +44,7 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int |
     each a name, "NAME:KEY=VALUE,..." (teaching's --selector form) or {"selector", "params", "name"}; each
     condition's selector and every parameter it runs with are recorded in the study's source ("selectors")
     and on its task's Part.  `test_difficulty`: none, or every test of that difficulty.  `test_kind`: "choose"
-    (the default) or "show" (the way: grid worlds from a file; no difficulty, no closed loop).
+    (the default) or "show" (the way: grid worlds from a file; not graded by difficulty).
     `hand_picked`: {condition name: environment ids}, conditions shown in the given order (after the
     selected ones).
     `test_set_thresholds`: min_regret and/or min_distance for ``select_test_set``.  `closed_loop`:
@@ -116,8 +116,6 @@ def _show_problem(table, args: dict) -> str:
     if not callable(getattr(table.domain, "score_shown", None)):
         return (f"tests that show the way: the {table.domain.name} domain cannot replay and score a way a participant "
                 "shows (grid worlds from a file can)")
-    if args["closed_loop"]:
-        return "tests that show the way: closed-loop conditions decide from check questions among options"
     if args["test_difficulty"] != "none":
         return "tests that show the way are not graded by difficulty: choose 'none' for the difficulty"
     return ""

@@ -5,7 +5,9 @@ A closed-loop condition has no fixed training sequence.  A spec names one as
 (teaching's ClosedLoopSpec; every setting has a default).  When the study is built:
 
 * its check questions are drawn as the final tests are, on environments the final tests leave over
-  (teaching's select_checks), and stored with their options' paths, as the test set is;
+  (teaching's select_checks), and stored with their options' paths, as the test set is; in a study whose
+  tests show the way, its checks ask to show the way too (select_show_checks), stored with every
+  distinct way the table's θ take there, which the participant's way is matched against;
 * what its decisions need is written once, as a pack under ``VAR_DIR/closedloop/`` (teaching's
   write_pack): the learner model's likelihood matrix, the checks' answer likelihoods and θ*'s
   trajectory in every environment.  Every web worker maps the same files read-only.
@@ -37,6 +39,7 @@ from teaching.api import (
     check_questions,
     load_pack,
     select_checks,
+    select_show_checks,
     write_pack,
 )
 
@@ -73,15 +76,35 @@ def prepare(table, slug: str, name: str, loop_settings: dict, tests: list[dict])
     if not isinstance(loop_settings, dict):
         raise ClosedLoopError(f"condition {name!r}: 'closed_loop' must be an object of settings")
     spec = ClosedLoopSpec.from_dict(loop_settings)
-    checks = select_checks(table, tests)
+    shown = trajectories.test_kind_of(tests) == trajectories.SHOW  # its checks ask what its tests ask
+    checks = select_show_checks(table, tests) if shown else select_checks(table, tests)
     row = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
     loop = ClosedLoop.build(table, spec, check_questions(table, checks), exclude=[row[int(t["env_id"])] for t in tests])
     table_hash = table.meta["content_hash"]
     path = pack_dir(slug, name, table_hash)
     write_pack(path, table, loop)
     return {"settings": spec.as_dict(), "pack": str(path), "table_hash": table_hash,
-            "checks": trajectories.test_set_from_table(table, checks),
+            "checks": show_checks(table, checks) if shown else trajectories.test_set_from_table(table, checks),
             "eligible": int(np.count_nonzero(loop.eligible))}
+
+
+def show_checks(table, checks: list[dict]) -> list[dict]:
+    """Payloads of checks that ask to show the way: a show test's, and the ``ways`` the answer is matched
+    against (each distinct trajectory of the table there, in the check Question's order; never sent to
+    the page)."""
+    out = trajectories.show_tests_from_table(table, checks)
+    row = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
+    for payload, check in zip(out, checks, strict=True):
+        i = row[int(check["env_id"])]
+        payload["ways"] = [{"theta_index": int(t), "robot": table.domain.path_rows(table.states(i, int(t)))}
+                           for t in check["ways"]]
+    return out
+
+
+def way_index(check: dict, rows: list) -> int:
+    """Which of a show check's ways the participant's way is (its rows, as the domain's score_shown gives
+    them); len(ways) when it is none of them: the closed loop's answer."""
+    return next((k for k, w in enumerate(check["ways"]) if w["robot"] == rows), len(check["ways"]))
 
 
 def example_scenes(table, data: dict) -> list[tuple[dict, list]]:
@@ -139,14 +162,14 @@ def events_of(participant: Participant, steps: list[LoopStep]) -> list[Event]:
     first check they have not answered yet."""
     pack = pack_of_data(participant.condition.closed_loop)
     answers = dict(Answer.objects.filter(participant=participant, kind=StepKind.CHECK)
-                   .values_list("item", "data"))
+                   .values_list("item", "chosen_option"))
     events = []
     for s in steps:
         if s.kind == LoopStep.DONE or (s.kind == LoopStep.CHECK and s.index not in answers):
             break
         row = pack.row_of(s.env_id)
         if s.kind == LoopStep.CHECK:
-            events.append(Event(s.kind, row, s.question, int(answers[s.index]["choice"])))
+            events.append(Event(s.kind, row, s.question, int(answers[s.index])))
         else:
             events.append(Event(s.kind, row))
     return events
@@ -180,7 +203,7 @@ def _decide(participant: Participant, steps: list[LoopStep]) -> LoopStep:
         step.payload = example_payload(domain, pack, decision.env_index)
     if decision.kind == LoopStep.CHECK:
         step.question = decision.question
-        order = list(range(len(data["checks"][decision.question]["options"])))
+        order = list(range(len(data["checks"][decision.question].get("options", ()))))  # a shown check: none
         random.Random(secrets.randbits(64)).shuffle(order)
         step.option_order = order
     try:

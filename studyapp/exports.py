@@ -137,7 +137,8 @@ class _Context:
         for pk, name, training, loop in study.conditions.values_list("pk", "name", "training", "closed_loop"):
             self.conditions[pk] = (name, len(training))
             if loop:
-                self.check_stars[pk] = [_star(q) for q in loop["checks"]]
+                # a show study's checks ask to show the way too: no options, no theta* option
+                self.check_stars[pk] = [None if self.show else _star(q) for q in loop["checks"]]
                 self.n_checks = max(self.n_checks, closedloop.max_checks(loop))
 
 
@@ -204,7 +205,7 @@ def _safe(values) -> list:
 
 def long_columns(ctx: _Context) -> list[tuple[str, str]]:
     """LONG_COLUMNS; a show study's (exports_show.show_long_columns) for a show study."""
-    return show_long_columns(LONG_COLUMNS, choices=bool(ctx.check_stars)) if ctx.show else LONG_COLUMNS
+    return show_long_columns(LONG_COLUMNS) if ctx.show else LONG_COLUMNS
 
 
 def long_rows(study: Study, ctx: _Context | None = None):
@@ -227,6 +228,9 @@ def long_rows(study: Study, ctx: _Context | None = None):
                     test = [test.get(c, "") for c in cells]
                 elif kind == TEST:
                     test = _test_fields(a, ctx.stars[a["item"]], ctx.difficulties[a["item"]])
+                    test = [test.get(c, "") for c in cells]
+                elif kind == CHECK and ctx.show:
+                    test = show_test_fields(a)
                     test = [test.get(c, "") for c in cells]
                 elif kind == CHECK:
                     test = _test_fields(a, ctx.check_stars[p["condition_id"]][questions[p["pk"], a["item"]]])

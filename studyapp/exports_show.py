@@ -17,11 +17,11 @@ _REGRET = ("theta*'s optimal reward in the test's environment minus the reward (
 SHOW_LONG_COLUMNS = [
     ("moves", "Show test: the moves the participant made, in order from the start, space separated "
               "(e.g. 'right up pickup')."),
-    ("regret", f"Show test: {_REGRET}."),
-    ("optimal", "Show test: 1 if the way shown is optimal for theta* (the most reward under theta*), else 0."),
+    ("regret", f"Show test or check: {_REGRET}."),
+    ("optimal", "Show test or check: 1 if the way shown is optimal for theta* (the most reward under theta*), "
+                "else 0."),
 ]
-# The long file's choice cells: a show study's test rows have none, so its file leaves them out (unless the
-# study has closed-loop conditions, whose check questions are still choices among options).
+# The long file's choice cells: a show study's test and check rows have none, so its file leaves them out.
 CHOICE_CELLS = ("chosen_option", "chosen_display_position", "chosen_is_theta_star", "chosen_rating",
                 "confidence_score", "rating_0", "rating_1", "rating_2", "rating_3", "theta_star_option",
                 "display_order")
@@ -35,11 +35,10 @@ SHOW_SUMMARY_COLUMNS = [
 ]
 
 
-def show_long_columns(long_columns: list, choices: bool) -> list[tuple[str, str]]:
-    """A show study's long columns: `long_columns` (exports.LONG_COLUMNS) without the choice cells, unless
-    `choices` (closed-loop conditions ask check questions, which are choices), and with SHOW_LONG_COLUMNS
-    before answer_json."""
-    columns = [c for c in long_columns if choices or c[0] not in CHOICE_CELLS]
+def show_long_columns(long_columns: list) -> list[tuple[str, str]]:
+    """A show study's long columns: `long_columns` (exports.LONG_COLUMNS) without the choice cells (its
+    tests and its closed loops' checks all show the way), and with SHOW_LONG_COLUMNS before answer_json."""
+    columns = [c for c in long_columns if c[0] not in CHOICE_CELLS]
     at = [c for c, _ in columns].index("answer_json")
     return columns[:at] + SHOW_LONG_COLUMNS + columns[at:]
 

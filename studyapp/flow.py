@@ -73,7 +73,7 @@ def clean_answer(participant: Participant, step: Step, post) -> dict:
     form_class = STEP_FORMS.get(step.kind)
     if form_class is None:
         raise AnswerError("This page takes no answer.", status=409)
-    if step.kind == StepKind.TEST and participant.study.test_kind == Study.SHOW:
+    if step.kind in (StepKind.TEST, StepKind.CHECK) and participant.study.test_kind == Study.SHOW:
         form = ShowForm(post, participant, step, question_of(participant, step.kind, step.item))
     elif form_class is TestForm:
         form = TestForm(post, participant, step, shown=option_letters(participant, step.item, step.kind),
@@ -112,11 +112,14 @@ def score_test(participant: Participant, j: int, data: dict, kind: StepKind = St
     return correct, rating if correct else -rating
 
 
-def score_show(participant: Participant, j: int, data: dict) -> tuple[bool, float]:
-    """(optimal, regret) of the way shown in show test j: replayed under θ* (Domain.score_shown)."""
-    score = study_domain(participant.study).score_shown(question_of(participant, StepKind.TEST, j)["env_id"],
-                                                        data["moves"])
-    return bool(score["optimal"]), float(score["regret"])
+def score_show(participant: Participant, j: int, data: dict,
+               kind: StepKind = StepKind.TEST) -> tuple[bool, float, int | None]:
+    """(optimal, regret, way) of the way shown in show test j (or loop step j's check): replayed under θ*
+    (Domain.score_shown); `way` is, for a check, which of its ways it is (closedloop.way_index), else None."""
+    question = question_of(participant, kind, j)
+    score = study_domain(participant.study).score_shown(question["env_id"], data["moves"])
+    way = closedloop.way_index(question, score["rows"]) if kind == StepKind.CHECK else None
+    return bool(score["optimal"]), float(score["regret"]), way
 
 
 # --- recording ---------------------------------------------------------------
@@ -152,8 +155,8 @@ def record(participant: Participant, step_index: int, post) -> Participant:
             raise AnswerError(f"You are on step {locked.position + 1}, not step {step_index + 1}.", status=409,
                               moved=True)
         answer = Answer(participant=locked, step=step_index, kind=step.kind, item=step.item, data=data)
-        if step.kind == StepKind.TEST and locked.study.test_kind == Study.SHOW:
-            answer.correct, answer.regret = score_show(locked, step.item, data)
+        if step.kind in (StepKind.TEST, StepKind.CHECK) and locked.study.test_kind == Study.SHOW:
+            answer.correct, answer.regret, answer.chosen_option = score_show(locked, step.item, data, step.kind)
         elif step.kind in (StepKind.TEST, StepKind.CHECK):
             answer.chosen_option = data["choice"]
             answer.correct, answer.confidence_score = score_test(locked, step.item, data, step.kind)

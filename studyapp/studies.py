@@ -139,7 +139,6 @@ def _payloads(spec: dict):
     try:
         training = {c["name"]: trajectories.training_from_table(table, c.get("env_ids", [])) for c in conditions}
         if trajectories.test_kind_of(spec["test_set"]) == trajectories.SHOW:
-            _refuse_show_with_loops(conditions)
             tests = trajectories.show_tests_from_table(table, spec["test_set"])
         else:
             tests = trajectories.test_set_from_table(table, spec["test_set"])
@@ -160,13 +159,6 @@ def _payloads(spec: dict):
     if isinstance(spec.get("pilot"), dict):  # a teach output's ideal-user matrix (spec_from_teach)
         source[PILOT_KEY] = {**spec["pilot"], "prior": 1.0 / table.n_thetas}
     return conditions, training, tests, source
-
-
-def _refuse_show_with_loops(conditions) -> None:
-    loops = [c["name"] for c in conditions if c.get("closed_loop") is not None]
-    if loops:
-        raise SpecError(f"closed-loop conditions ({', '.join(loops)}) decide from check questions among options, "
-                        "so a study whose tests show the way cannot have them")
 
 
 def prepare_closed_loops(table, slug: str, loops: dict[str, dict], tests: list[dict]) -> dict[str, dict]:
@@ -277,8 +269,6 @@ def freeze_test_set(study: Study, tests: list[dict], open_study: bool = True) ->
                         "the test set must be disjoint from every condition's training")
     study.test_set = tests
     study.test_kind = trajectories.test_kind_of(tests)
-    if study.test_kind == Study.SHOW:
-        _refuse_show_with_loops([{"name": c.name, "closed_loop": c.closed_loop} for c in conditions])
     study.is_open = open_study
     problems = study.opening_problems() if open_study else []
     if problems:

@@ -147,8 +147,8 @@ def step(request, slug, token):
 
 
 def template_kind(participant: Participant, current: flow.Step) -> str:
-    """The step's template: its kind's, but "show" for a test that asks to show the way."""
-    if current.kind == StepKind.TEST and participant.study.test_kind == Study.SHOW:
+    """The step's template: its kind's, but "show" for a test or check that asks to show the way."""
+    if current.kind in (StepKind.TEST, StepKind.CHECK) and participant.study.test_kind == Study.SHOW:
         return "show"
     return current.kind
 
@@ -194,9 +194,10 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
         ctx["number"] = item + 1
         if current.kind == StepKind.TRAINING:
             ctx["seen_before"] = repeated_example(training, item)
-    elif current.kind == StepKind.TEST and participant.study.test_kind == Study.SHOW:
+    elif current.kind in (StepKind.TEST, StepKind.CHECK) and participant.study.test_kind == Study.SHOW:
         test = flow.question_of(participant, current.kind, current.item)
-        ctx["number"] = current.item + 1
+        ctx["number"] = (participant.loop_steps.filter(index__lte=current.item, kind=LoopStep.CHECK).count()
+                         if current.kind == StepKind.CHECK else current.item + 1)
         ctx["caption"] = domain.caption(test)
         ctx["scene"] = drawn_scene(test, robot=False, domain=domain)  # never θ*'s way
         ctx["rules"] = domain.show_rules(test["env_id"])

@@ -105,7 +105,7 @@ def answer_payload(participant, step):
         return {"ack": ["1"]}
     if step.kind in (StepKind.TRAINING, StepKind.FEEDBACK):
         return {"played": ["1"]}
-    if step.kind == StepKind.TEST and participant.study.test_kind == "show":  # θ*'s way, read off its rows
+    if step.kind in (StepKind.TEST, StepKind.CHECK) and participant.study.test_kind == "show":  # θ*'s way
         from teaching.api import get_domain  # noqa: PLC0415
         from tests.teaching.domains.worlds.brute import actions_of  # noqa: PLC0415
 

@@ -90,12 +90,16 @@ def test_a_study_job_of_a_shipped_world_asks_to_show_the_way(inprocess_worker, t
     with shipped("taxi") as domain:
         table = tiny_table(tmp_path_factory, domain)
         call_command("build_study", "--table", str(table), "--slug", "taxi-show", "--conditions", "exact,random",
-                     "--test-kind", "show", "--wait", "--no-progress", "--timeout", "180", stdout=io.StringIO())
+                     "--test-kind", "show", "--closed-loop", "loop:check_every=1,max_examples=3", "--wait",
+                     "--no-progress", "--timeout", "180", stdout=io.StringIO())
         study = Study.objects.get(slug="taxi-show")
         want = select_show_tests(TrajectoryTable.load(table), [c.env_ids for c in study.conditions.all()], seed=0)
     assert study.is_open and study.test_kind == Study.SHOW
     assert [(t["env_id"], t["kind"]) for t in study.test_set] == [(t["env_id"], "show") for t in want]
     assert all("options" not in t for t in study.test_set)
+    checks = study.conditions.get(name="loop").closed_loop["checks"]  # the closed loop's checks show the way too
+    assert checks and all(c["kind"] == "show" and c["ways"] for c in checks)
+    assert "predicted" not in study.source["pilot"] and "loop" in study.source["pilot"]["conditions"]
 
 
 @pytest.mark.parametrize("argv, message", [

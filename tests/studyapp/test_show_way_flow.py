@@ -7,16 +7,23 @@ Regrets are checked against an independent reference (tests/teaching/domains/wor
 transition rules, the best reward by enumerating every action sequence), not the planner's fronts."""
 from __future__ import annotations
 
+import csv
+import io
+import json
+
 import numpy as np
 import pytest
+from django.http import QueryDict
 from django.urls import reverse
 
-from studyapp import flow
+from studyapp import closedloop, flow
 from studyapp.assignment import assign
+from studyapp.exports import long_csv
 from studyapp.models import Answer, Participant, StepKind, Study
 from studyapp.specschema import SpecError
 from studyapp.studies import build_study, spec_from_teach
 from teaching.api import TrajectoryTable
+from tests.conftest import answer_payload
 from tests.studyapp.helpers import answer_url, record, snapshot, step_url
 from tests.teaching.domains.worlds import brute, key_room
 from tests.teaching.domains.worlds.shipped import NAMES, shipped, teach_show
@@ -149,15 +156,12 @@ def test_a_way_the_world_does_not_allow_is_refused_with_nothing_written(show_stu
     assert snapshot() == before
 
 
-def test_show_tests_are_refused_where_they_cannot_be_scored_or_mixed(show_study):
+def test_show_tests_are_refused_mixed_with_choice_tests(show_study):
     study, domain = show_study
     spec = {"slug": "mixed", "table": study.source["table"], "conditions": [{"name": "a", "env_ids": [0]}],
             "test_set": [{"env_id": 1, "kind": "show"}, {"env_id": 2, "options": []}]}
     with pytest.raises(SpecError, match="mixes 'show' tests"):
         build_study(spec)
-    with pytest.raises(SpecError, match="closed-loop conditions"):
-        build_study({**spec, "test_set": [{"env_id": 1, "kind": "show"}],
-                     "conditions": [{"name": "loop", "closed_loop": {}}]})
 
 
 def test_the_car_cannot_show_the_way(db, tiny_table):
@@ -198,3 +202,65 @@ def test_a_study_of_each_shipped_world_runs_end_to_end_from_its_teach_output(nam
         tests = list(Answer.objects.filter(participant=p, kind=StepKind.TEST).order_by("item"))
         assert [a.data["env_id"] for a in tests] == [t["env_id"] for t in study.test_set]
         assert all(a.correct and a.regret == pytest.approx(0, abs=1e-9) for a in tests)
+
+
+LOOP = {"model": "prob-euclidean", "value": 1.0, "lapse": 0.2, "max_examples": 3, "check_every": 1}
+
+
+@pytest.fixture
+def loop_study(db, tmp_path_factory, settings, tmp_path):
+    """A key-room study whose tests show the way, with a closed-loop condition: its checks show the way too."""
+    settings.VAR_DIR = tmp_path
+    with key_room.registered() as domain:
+        _, teach_dir = key_room.built(tmp_path_factory)
+        spec = spec_from_teach(teach_dir)
+        spec.update(slug="key-room-loop", test_set=[{"env_id": t["env_id"], "kind": "show"} for t in spec["test_set"]],
+                    conditions=[spec["conditions"][0], {"name": "loop", "closed_loop": LOOP}])
+        yield build_study(spec), domain
+
+
+def loop_participant(study, n: int) -> Participant:
+    arrivals = [assign(study, Participant.PROLIFIC, f"loop-{n}-{i}") for i in range(2)]
+    return next(p for p in arrivals if p.condition.name == "loop")
+
+
+def advance(p: Participant, until: StepKind) -> Participant:
+    """Answer p's steps as conftest's answer_payload does (θ*'s way in a show step) until p stands on `until`;
+    a closed loop's steps are decided as p reaches them, so they are read one at a time."""
+    while (step := flow.current_step(p)).kind != until:
+        q = QueryDict(mutable=True)
+        for k, v in answer_payload(p, step).items():
+            q.setlist(k, v)
+        p = flow.record(p, step.index, q)
+    return p
+
+
+def test_a_closed_loop_checks_by_a_shown_way_and_replays(loop_study, client):
+    study, domain = loop_study
+    checks = study.conditions.get(name="loop").closed_loop["checks"]
+    assert checks and all(c["kind"] == "show" and "options" not in c and c["ways"] for c in checks)
+    assert not {c["env_id"] for c in checks} & {t["env_id"] for t in study.test_set}
+    for c in checks:  # θ*'s way is the first of the ways, and every way is a different trajectory
+        assert c["ways"][0]["robot"] == c["robot"] and c["ways"][0]["theta_index"] == 0
+        assert len({json.dumps(w["robot"]) for w in c["ways"]}) == len(c["ways"])
+    # each participant answers the first check with a way of the table's (each in turn) or none of them
+    check = checks[0]
+    answers = [(k, brute.actions_of(domain.world, w["robot"])) for k, w in enumerate(check["ways"])]
+    detour = brute.actions_of(domain.world, check["robot"])
+    answers.append((len(check["ways"]), ["right", "left", *detour] if not _refused(
+        domain, check["env_id"], ["right", "left", *detour]) else ["up", "down", *detour]))
+    for n, (want, moves) in enumerate(answers):
+        p = loop_participant(study, n)
+        p = advance(p, StepKind.CHECK)
+        page = client.get(step_url(p))
+        assert [t.name for t in page.templates][0] == "studyapp/step_show.html"
+        assert page.context["scene"]["world"] == check["world"] and "ways" not in page.content.decode()
+        p = record(p, p.position, moves=" ".join(moves))
+        answer = Answer.objects.get(participant=p, kind=StepKind.CHECK)
+        assert answer.chosen_option == want and answer.data["moves"] == moves
+        score = domain.score_shown(check["env_id"], moves)
+        assert answer.regret == pytest.approx(score["regret"]) and answer.correct is score["optimal"]
+        p = advance(p, StepKind.DONE)
+        assert p.completed_at is not None and closedloop.replay(p) == []
+    rows = [r for r in csv.DictReader(io.StringIO(long_csv(study))) if r["kind"] == "check"]
+    assert len(rows) == len(answers) and all(r["moves"] and r["regret"] != "" for r in rows)

@@ -149,14 +149,17 @@ class FileGridDomain(GridDomain):
     def score_shown(self, env_id: int, actions, tolerance: float = 1e-9) -> dict:
         """A trajectory a participant showed in environment `env_id` (action names, fileworld.ACTIONS)
         scored under θ*: its counts, reward, the optimum's reward, regret = optimum - reward (≥ 0, in
-        θ*'s units) and optimal (regret ≤ tolerance).  ValueError (one line) for actions the world
+        θ*'s units), optimal (regret ≤ tolerance) and its rows as path_rows gives a table's trajectory
+        (to find it among the table's).  ValueError (one line) for actions the world
         does not allow (fileworld.play)."""
-        counts, ending = play(self.world, *self.split(env_id), list(actions))
+        path = []
+        counts, ending = play(self.world, *self.split(env_id), list(actions), states=path)
         phi, _ = self.front(env_id)
         best = float(np.max(phi @ self.theta_star))
         got = float(counts @ self.theta_star)
         return {"counts": counts.tolist(), "ending": ending if ending == EXIT else self.feature_names[ending],
-                "reward": got, "optimum": best, "regret": best - got, "optimal": best - got <= tolerance}
+                "reward": got, "optimum": best, "regret": best - got, "optimal": best - got <= tolerance,
+                "rows": [[c, r, int(place == HELD)] for (r, c), place in path]}
 
     def show_rules(self, env_id: int) -> dict:
         """What a "show the way" page needs to offer exactly the actions fileworld.successors allows:

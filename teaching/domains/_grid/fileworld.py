@@ -88,13 +88,16 @@ def successors(world: World, kinds: np.ndarray, blocked: np.ndarray, state) -> I
         yield None, (0,) * len(feats), EXIT
 
 
-def play(world: World, variant: int, start: int, actions) -> tuple[np.ndarray, object]:
+def play(world: World, variant: int, start: int, actions, states: list | None = None) -> tuple[np.ndarray, object]:
     """Replay `actions` (names of :data:`ACTIONS`) from start `start` of variant `variant`: ((D,) int64
-    counts, the ending reached (a terminal feature's index or EXIT)).
+    counts, the ending reached (a terminal feature's index or EXIT)); every state the robot is in, start
+    first, is appended to `states` if given (the trajectory, as the planner's paths list it).
     ValueError (one line) for an action not allowed where it is taken, an action after the episode
     ended, or actions that stop before it ends."""
     kinds, blocked = world.cells(variant), world.blocked(variant)
     state, counts = world.starts[start], np.zeros(len(world.features), np.int64)
+    states = [] if states is None else states
+    states.append(state)
     for k, name in enumerate(actions):
         if name not in ACTIONS:
             raise ValueError(f"action {k + 1}: {name!r} is not one of {', '.join(ACTIONS)}")
@@ -107,6 +110,8 @@ def play(world: World, variant: int, start: int, actions) -> tuple[np.ndarray, o
             raise ValueError(f"action {k + 1}: {name} is not possible at [{c + 1}, {world.height - r}]")
         nxt, added, ending = taken
         counts += added
+        if nxt is not None:
+            states.append(nxt)
         if ending is not None:
             if k != len(actions) - 1:
                 raise ValueError(f"action {k + 2}: the episode ended at action {k + 1}")
