@@ -162,17 +162,28 @@ def events_of(participant: Participant, steps: list[LoopStep]) -> list[Event]:
     first check they have not answered yet."""
     pack = pack_of_data(participant.condition.closed_loop)
     answers = dict(Answer.objects.filter(participant=participant, kind=StepKind.CHECK)
-                   .values_list("item", "chosen_option"))
+                   .values_list("item", "data"))
+    checks = participant.condition.closed_loop["checks"]
     events = []
     for s in steps:
         if s.kind == LoopStep.DONE or (s.kind == LoopStep.CHECK and s.index not in answers):
             break
         row = pack.row_of(s.env_id)
         if s.kind == LoopStep.CHECK:
-            events.append(Event(s.kind, row, s.question, int(answers[s.index])))
+            answer = check_answer(participant, checks[s.question], answers[s.index])
+            events.append(Event(s.kind, row, s.question, answer))
         else:
             events.append(Event(s.kind, row))
     return events
+
+
+def check_answer(participant: Participant, check: dict, data: dict) -> int:
+    """The closed loop's answer to a check from what the participant sent (Answer.data): the option chosen,
+    or for a shown way which of the check's ways it is, replayed again (nothing derived is trusted)."""
+    if "moves" in data:
+        rows = trajectories.study_domain(participant.study).score_shown(check["env_id"], data["moves"])["rows"]
+        return way_index(check, rows)
+    return int(data["choice"])
 
 
 def loop_steps(participant: Participant, first_step: int) -> list[LoopStep]:

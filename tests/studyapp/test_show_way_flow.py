@@ -262,5 +262,9 @@ def test_a_closed_loop_checks_by_a_shown_way_and_replays(loop_study, client):
         assert answer.regret == pytest.approx(score["regret"]) and answer.correct is score["optimal"]
         p = advance(p, StepKind.DONE)
         assert p.completed_at is not None and closedloop.replay(p) == []
+    # a changed way no longer replays: the decisions depend on the way shown, replayed again
+    answer = Answer.objects.get(participant=p, kind=StepKind.CHECK)
+    Answer.objects.filter(pk=answer.pk).update(data={**answer.data, "moves": answers[0][1]})
+    assert closedloop.replay(p)
     rows = [r for r in csv.DictReader(io.StringIO(long_csv(study))) if r["kind"] == "check"]
     assert len(rows) == len(answers) and all(r["moves"] and r["regret"] != "" for r in rows)
