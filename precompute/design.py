@@ -144,8 +144,8 @@ class StudyDesignForm(forms.Form):
                   "best explains them, fitted when this study is built; empty: the settings above.")
     min_regret = schema_field(THRESHOLD_FIELDS["min_regret"], label="Test set: minimum θ*-regret")
     min_distance = schema_field(THRESHOLD_FIELDS["min_distance"], label="Test set: minimum distance (optional)")
-    test_kind = schema_field(JOB_FIELDS["test_kind"], label="Tests ask to", required=False)
     test_difficulty = schema_field(JOB_FIELDS["test_difficulty"], label="Test set: difficulty", required=False)
+    test_kind = schema_field(JOB_FIELDS["test_kind"], label="Tests ask to", required=False)
     # Where a problem the schema finds is said: its path there -> the field here (else the same name).
     SCHEMA_PLACES = {"test_set_thresholds.min_regret": "min_regret", "test_set_thresholds.min_distance": "min_distance",
                      "hand_picked.name": "hand_picked_name", "hand_picked.env_ids": "hand_picked_env_ids",
