@@ -59,8 +59,8 @@ class Study(models.Model):
     contact = models.CharField(max_length=300, blank=True, help_text="Who answers questions: name and email.")
     ethics_reference = models.CharField(max_length=200, blank=True, help_text="The approval's reference.")
     CHOOSE, SHOW = "choose", "show"
-    TEST_KINDS = [(CHOOSE, "choose: pick the robot's trajectory among 4 and rate each"),
-                  (SHOW, "show: move the robot the way it would go (grid worlds from a file)")]
+    TEST_KINDS = [(CHOOSE, "choose the robot's way among four"),
+                  (SHOW, "show the robot's way (grid worlds from a file)")]
     test_kind = models.CharField(
         max_length=8, choices=TEST_KINDS, default=CHOOSE, editable=False,
         help_text="What every test asks: choose among options, or show the way; set when the study is built.")

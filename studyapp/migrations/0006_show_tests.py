@@ -18,7 +18,7 @@ class Migration(migrations.Migration):
         migrations.AddField(
             model_name='study',
             name='test_kind',
-            field=models.CharField(choices=[('choose', "choose: pick the robot's trajectory among 4 and rate each"), ('show', 'show: move the robot the way it would go (grid worlds from a file)')], default='choose', editable=False, help_text='What every test asks: choose among options, or show the way; set when the study is built.', max_length=8),
+            field=models.CharField(choices=[('choose', "choose the robot's way among four"), ('show', "show the robot's way (grid worlds from a file)")], default='choose', editable=False, help_text='What every test asks: choose among options, or show the way; set when the study is built.', max_length=8),
         ),
         migrations.AlterField(
             model_name='study',
