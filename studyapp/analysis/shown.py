@@ -24,7 +24,7 @@ import pandas as pd
 from .anova import AnovaResult, oneway_anova
 from .comparisons import check_approx_star, comparison_family, default_comparisons, welch_tests
 from .conditions import APPROX_STAR_DEFAULT, PAPER_CONDITIONS, canonicalize
-from .tables import condition_summary, included, participant_table
+from .tables import ParticipantCounts, condition_summary, participant_table
 
 # (column of the participants table, its name in words): the dependent measures, in the report's order.
 MEASURES = (("mean_regret", "mean regret (θ*'s units, 0 = optimal)"),
@@ -53,21 +53,13 @@ class Measure:
 
 
 @dataclass
-class ShowAnalysis:
+class ShowAnalysis(ParticipantCounts):
     participants: pd.DataFrame
     answers: pd.DataFrame
     measures: list[Measure]
     messages: list[str]
     approx_star: str = APPROX_STAR_DEFAULT
     skipped: tuple[str, ...] = field(default=SKIPPED)
-
-    @property
-    def n_included(self) -> int:
-        return int(len(included(self.participants)))
-
-    @property
-    def n_excluded(self) -> int:
-        return int(self.participants["excluded"].sum())
 
 
 def show_table(participants: pd.DataFrame, answers: pd.DataFrame, training: pd.DataFrame,

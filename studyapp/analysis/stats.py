@@ -123,7 +123,7 @@ from .correlations import (
     per_test_frame,
 )
 from .learning import empty_curves, learning_curves
-from .tables import condition_summary, difficulty_summary, included, participant_table
+from .tables import ParticipantCounts, condition_summary, difficulty_summary, included, participant_table
 
 __all__ = [
     # conditions
@@ -149,7 +149,7 @@ __all__ = [
 
 
 @dataclass
-class Analysis:
+class Analysis(ParticipantCounts):
     participants: pd.DataFrame
     summary: pd.DataFrame
     anovas: list[AnovaResult]
@@ -165,14 +165,6 @@ class Analysis:
     learning: pd.DataFrame = field(default_factory=empty_curves)
     # scores by test difficulty per condition (tables.DIFFICULTY_COLUMNS); no rows when the tests are not graded
     by_difficulty: pd.DataFrame = field(default_factory=lambda: difficulty_summary(pd.DataFrame()))
-
-    @property
-    def n_included(self) -> int:
-        return int(len(included(self.participants)))
-
-    @property
-    def n_excluded(self) -> int:
-        return int(self.participants["excluded"].sum())
 
     def correlation_table(self) -> pd.DataFrame:
         return pd.DataFrame([c.as_row() for c in self.correlations])

@@ -60,6 +60,20 @@ def included(table: pd.DataFrame) -> pd.DataFrame:
     return table[~table["excluded"] & answered]
 
 
+class ParticipantCounts:
+    """How many of an analysis' participants (its ``participants`` table) are analysed and excluded."""
+
+    participants: pd.DataFrame
+
+    @property
+    def n_included(self) -> int:
+        return int(len(included(self.participants)))
+
+    @property
+    def n_excluded(self) -> int:
+        return int(self.participants["excluded"].sum())
+
+
 def condition_summary(table: pd.DataFrame, order=None, dv: str = "mean_score") -> pd.DataFrame:
     """n, mean, SD and SE of the measure `dv` (by default the mean confidence score) per condition (after
     exclusions)."""
