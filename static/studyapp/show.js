@@ -68,7 +68,8 @@ function replayChecked(list) {
   }
 }
 
-const ENDINGS = { goal: "the robot reached a goal", delivered: "the robot delivered", exit: "you stopped here" };
+const ENDINGS = { goal: "the robot reached a goal", delivered: `the robot delivered the ${rules.object || "object"}`,
+  exit: "you stopped here" };
 
 function render() {
   const state = replay(moves);

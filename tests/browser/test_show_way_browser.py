@@ -11,13 +11,16 @@ import io
 import pytest
 from playwright.sync_api import expect, sync_playwright
 
+from studyapp import flow
 from studyapp.exports import long_csv
 from studyapp.models import Answer, Participant, StepKind, Study
 from studyapp.studies import build_study, spec_from_teach
 from tests.browser.grid_pages import CHROMIUM, OUT
 from tests.browser.test_participant_flow import ready
 from tests.conftest import complete_flow
+from tests.studyapp.helpers import record
 from tests.teaching.domains.worlds import brute, key_room
+from tests.teaching.domains.worlds.shipped import shipped, teach_show
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
@@ -140,3 +143,67 @@ def test_a_participant_shows_the_way_by_keyboard_and_by_touch(transactional_db, 
             finally:
                 browser.close()
     assert not errors, errors
+
+
+def test_the_taxi_picks_up_and_delivers_its_passenger_by_the_buttons_and_by_a_tap(transactional_db, live_server,
+                                                                                tmp_path_factory, monkeypatch):
+    """The augmented taxi's show test (teach --tests show): θ*'s way, whose pick-up and drop are the page's
+    buttons (laptop) or a tap on the robot's own cell (phone); the drop on the destination ends the
+    episode as a delivery, and the way is stored with regret 0."""
+    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")
+    errors = []
+    with shipped("taxi") as domain:
+        _, teach_dir = teach_show(tmp_path_factory, domain)
+        spec = {**spec_from_teach(teach_dir), "slug": "taxi-show", "recruitment": "prolific",
+                "completion_code": "TAXI2026"}
+        study = build_study(spec)
+        j, test = next((j, t) for j, t in enumerate(study.test_set)
+                       if {"pickup", "drop"} <= set(brute.actions_of(domain.world, t["robot"])))
+        best = brute.actions_of(domain.world, test["robot"])
+        with sync_playwright() as pw:
+            browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
+            try:
+                for device, options in (("laptop", {"viewport": {"width": 1200, "height": 900}}),
+                                        ("phone", {"viewport": {"width": 390, "height": 844}, "has_touch": True,
+                                                   "is_mobile": True})):
+                    page = browser.new_context(**options).new_page()
+                    page.on("pageerror", lambda exc: errors.append(str(exc)))
+                    pid = f"taxi-{device}-0000000000000000000"
+                    page.goto(f"{live_server.url}/s/{study.slug}/?PROLIFIC_PID={pid}&STUDY_ID=S&SESSION_ID=X")
+                    participant = complete_flow(Participant.objects.get(platform_pid=pid), stop_before=StepKind.TEST)
+                    for _ in range(j):  # the earlier show tests, answered with θ*'s way
+                        participant = _answer_show(participant, domain)
+                    page.goto(f"{live_server.url}{participant.get_absolute_url()}")
+                    ready(page)
+                    col, row = test["world"]["start"]
+                    for move in best:
+                        if move in STEP and device == "laptop":
+                            page.keyboard.press(KEYS[move])
+                        elif move in STEP:
+                            page.tap(f'[data-move="{move}"]')
+                        elif device == "phone" and move in ("pickup", "drop"):
+                            x, y = page.evaluate(CELL_AT, [col, row])  # a tap on the robot's own cell
+                            page.touchscreen.tap(x, y)
+                        else:
+                            page.click(f'[data-move="{move}"]')
+                        if move in STEP:
+                            col, row = col + STEP[move][0], row + STEP[move][1]
+                    assert shown(page) == best
+                    assert page.locator("[data-show-scene]").get_attribute("data-ended") == "delivered"
+                    expect(page.locator("[data-status]")).to_contain_text("the robot delivered the passenger")
+                    page.screenshot(path=str(OUT / f"show_way_taxi_{device}.png"), full_page=True)
+                    heading = page.locator("h1").text_content()
+                    page.locator('#show-form button[type="submit"]').click()
+                    page.wait_for_function("h => document.querySelector('h1').textContent !== h", arg=heading)
+                    answer = Answer.objects.get(participant__platform_pid=pid, kind=StepKind.TEST, item=j)
+                    assert answer.data["moves"] == best and answer.correct and answer.regret == pytest.approx(0)
+            finally:
+                browser.close()
+    assert not errors, errors
+
+
+def _answer_show(participant, domain):
+    """Store θ*'s way for the show test the participant stands on (as the flow would from its page)."""
+    step = flow.current_step(participant)
+    test = flow.question_of(participant, step.kind, step.item)
+    return record(participant, step.index, moves=" ".join(brute.actions_of(domain.world, test["robot"])))
