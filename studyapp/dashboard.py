@@ -1,5 +1,5 @@
 """Researcher views: study list, per-study dashboard with live progress, its simulated pilot (studyapp/pilot.py),
-open/close, preview, exports."""
+open/close, preview, exports, erasing a participant's data."""
 from __future__ import annotations
 
 from django.contrib import messages
@@ -9,7 +9,7 @@ from django.shortcuts import get_object_or_404, redirect, render
 from django.utils import timezone
 from django.views.decorators.http import require_POST
 
-from . import exports
+from . import exports, privacy
 from .access import researcher_required
 from .assignment import counted_filter, preview_participant
 from .models import Answer, Condition, Participant, Study
@@ -105,10 +105,32 @@ def export(request, slug, kind):
     researcher page)."""
     study = get_object_or_404(Study, slug=slug)
     if kind in exports.STREAMS:
-        response = StreamingHttpResponse(exports.STREAMS[kind](study), content_type="text/csv; charset=utf-8")
-        name = f"{slug}-{kind}.csv"
+        pseudonymise = request.GET.get("pseudonymise") == "1"  # for sharing: no platform id
+        response = StreamingHttpResponse(exports.STREAMS[kind](study, pseudonymise),
+                                         content_type="text/csv; charset=utf-8")
+        name = f"{slug}-{kind}{'-pseudonymised' if pseudonymise else ''}.csv"
     else:
         response = HttpResponse(exports.dictionary_csv(study), content_type="text/csv; charset=utf-8")
         name = f"{slug}-data-dictionary.csv"
     response["Content-Disposition"] = f'attachment; filename="{name}"'
     return response
+
+
+@researcher_required
+@require_POST
+def erase(request, slug):
+    """A participant's data erased at their request (studyapp.privacy): a post with "find" shows what would
+    go, the confirmation's post with "erase" erases it and returns to the dashboard saying what went.  Both
+    are posts, so the platform id never appears in a URL (nor in an access log)."""
+    study = get_object_or_404(Study, slug=slug)
+    platform_id = request.POST.get("platform_id", "")
+    try:
+        if request.POST.get("action") == "erase":
+            gone = privacy.erase(platform_id, study)
+            messages.success(request, f"Erased {gone.summary()}.")
+            return redirect("dashboard_study", slug=slug)
+        found = privacy.find(platform_id, study)
+    except privacy.ErasureError as exc:
+        return render(request, "studyapp/dashboard/erase.html", {"study": study, "error": str(exc)}, status=404)
+    return render(request, "studyapp/dashboard/erase.html", {"study": study, "found": found,
+                                                             "platform_id": platform_id.strip()})

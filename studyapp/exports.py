@@ -29,6 +29,7 @@ from . import closedloop
 from .csvsafe import FORMULA_STARTS, neutralise  # noqa: F401  (the guard; exports.neutralise stays importable)
 from .exports_show import show_long_columns, show_test_columns, show_test_fields, show_wide_columns, show_wide_fields
 from .models import Answer, LoopStep, Participant, StepKind, Study
+from .privacy import pseudonym
 from .status import COMPLETE, EXCLUDED, MEANINGS, participant_status
 from .trajectories import study_domain
 
@@ -38,7 +39,8 @@ PARTICIPANT_COLUMNS = [
     ("study", "Study slug."),
     ("condition", "Condition name (the training sequence shown)."),
     ("platform", "prolific, mturk or anonymous."),
-    ("platform_pid", "PROLIFIC_PID (Prolific) or workerId (MTurk); empty when anonymous."),
+    ("platform_pid", "PROLIFIC_PID (Prolific) or workerId (MTurk); empty when anonymous. In a pseudonymised "
+                     "export (for sharing) this and the session ids are stable pseudonyms, p-<16 hex digits>."),
     ("platform_study_id", "STUDY_ID (Prolific) or hitId (MTurk)."),
     ("platform_session_id", "SESSION_ID (Prolific) or assignmentId (MTurk) of the first arrival."),
     ("platform_session_ids", "Every SESSION_ID / assignmentId the participant arrived with, ';'-separated."),
@@ -127,8 +129,9 @@ class _Context:
     each condition's name and number of training environments, and for closed-loop conditions their
     check questions' theta* options ({condition pk: [option per question]}) and the most checks any asks."""
 
-    def __init__(self, study: Study):
+    def __init__(self, study: Study, pseudonymise: bool = False):
         self.slug = study.slug
+        self.pseudonymise = pseudonymise  # platform ids replaced by privacy.pseudonym, for sharing
         self.show = study.test_kind == Study.SHOW
         # a show test has no options, so no theta* option: its answer is a way, scored by its regret
         self.stars = [None if self.show else _star(t) for t in study.test_set]
@@ -143,10 +146,14 @@ class _Context:
 
 
 def _participant_fields(p: dict, ctx: _Context) -> dict:
+    def ids(value: str) -> str:
+        return pseudonym(ctx.slug, value) if ctx.pseudonymise else value
+
     return {
         "participant_id": p["pk"], "study": ctx.slug, "condition": ctx.conditions[p["condition_id"]][0],
-        "platform": p["platform"], "platform_pid": p["platform_pid"], "platform_study_id": p["platform_study_id"],
-        "platform_session_id": p["platform_session_id"], "platform_session_ids": ";".join(p["platform_session_ids"]),
+        "platform": p["platform"], "platform_pid": ids(p["platform_pid"]), "platform_study_id": p["platform_study_id"],
+        "platform_session_id": ids(p["platform_session_id"]),
+        "platform_session_ids": ";".join(ids(v) for v in p["platform_session_ids"]),
         "started_at": p["started_at"].isoformat(),
         "completed_at": p["completed_at"].isoformat() if p["completed_at"] else "", "excluded": int(p["excluded"]),
         "status": participant_status(position=p["position"], excluded=p["excluded"],
@@ -349,22 +356,22 @@ def wide_columns(study: Study, ctx: _Context | None = None) -> list:
     return columns
 
 
-def long_stream(study: Study):
-    ctx = _Context(study)
+def long_stream(study: Study, pseudonymise: bool = False):
+    ctx = _Context(study, pseudonymise)
     return _pieces([c for c, _ in long_columns(ctx)], long_rows(study, ctx))
 
 
-def wide_stream(study: Study):
-    ctx = _Context(study)
+def wide_stream(study: Study, pseudonymise: bool = False):
+    ctx = _Context(study, pseudonymise)
     return csv_stream(wide_columns(study, ctx), wide_rows(study, ctx))
 
 
-def long_csv(study: Study) -> str:
-    return "".join(long_stream(study))
+def long_csv(study: Study, pseudonymise: bool = False) -> str:
+    return "".join(long_stream(study, pseudonymise))
 
 
-def wide_csv(study: Study) -> str:
-    return "".join(wide_stream(study))
+def wide_csv(study: Study, pseudonymise: bool = False) -> str:
+    return "".join(wide_stream(study, pseudonymise))
 
 
 def domain_descriptions(domain) -> dict[str, str]:

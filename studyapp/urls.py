@@ -17,6 +17,7 @@ urlpatterns = [
     path("dashboard/<slug:slug>/analysis/models/", analysis_views.models, name="dashboard_models"),
     path("dashboard/<slug:slug>/analysis/models.csv", analysis_views.models_csv, name="dashboard_models_csv"),
     path("dashboard/<slug:slug>/stimuli/", stimuli.stimuli, name="dashboard_stimuli"),
+    path("dashboard/<slug:slug>/erase/", dashboard.erase, name="dashboard_erase"),
     re_path(r"^dashboard/(?P<slug>[-\w]+)/export/(?P<kind>long|wide|dictionary)\.csv$", dashboard.export,
             name="dashboard_export"),
 ]

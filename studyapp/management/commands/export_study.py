@@ -1,4 +1,4 @@
-"""``python manage.py export_study STUDY {wide,long,dictionary} [--out FILE]``: a study's CSV export
+"""``python manage.py export_study STUDY {wide,long,dictionary} [--out FILE] [--pseudonymise]``: a study's CSV export
 without the web server, written piece by piece as the dashboard streams it (studyapp.exports)."""
 from __future__ import annotations
 
@@ -15,13 +15,16 @@ class Command(BaseCommand):
         parser.add_argument("study", help="study slug")
         parser.add_argument("kind", choices=["wide", "long", "dictionary"])
         parser.add_argument("--out", help="file to write (default: standard output)")
+        parser.add_argument("--pseudonymise", action="store_true",
+                            help="platform and session ids replaced by stable pseudonyms (for sharing)")
 
-    def handle(self, *args, study, kind, out, **opts):
+    def handle(self, *args, study, kind, out, pseudonymise, **opts):
         obj = Study.objects.filter(slug=study).first()
         if obj is None:
             known = ", ".join(Study.objects.values_list("slug", flat=True)) or "none"
             raise CommandError(f"no study {study!r} (known: {known})")
-        pieces = exports.STREAMS[kind](obj) if kind in exports.STREAMS else [exports.dictionary_csv(obj)]
+        pieces = (exports.STREAMS[kind](obj, pseudonymise) if kind in exports.STREAMS
+                  else [exports.dictionary_csv(obj)])
         if not out:
             for piece in pieces:
                 self.stdout.write(piece, ending="")
