@@ -15,7 +15,13 @@ from django.core.exceptions import NON_FIELD_ERRORS
 from studyapp import specrules, specschema
 from studyapp.analysis.conditions import aliased_pairs
 from studyapp.models import Study
-from studyapp.specschema import CONDITION_FIELDS, JOB_FIELDS, STUDY_FIELDS, TEXT_FIELDS, THRESHOLD_FIELDS
+from studyapp.specschema import (
+    CONDITION_FIELDS,
+    JOB_FIELDS,
+    STUDY_FIELDS,
+    TEXT_FIELDS,
+    THRESHOLD_FIELDS,
+)
 from teaching.api import (
     APPROX_STAR,
     CONDITIONS,
@@ -93,6 +99,20 @@ def preset_choices() -> list:
         items = [(n, f"{n}: {p.n_envs:,} environments × {p.n_thetas:,} θ") for n, p in PRESETS.items()
                  if p.domain == domain]
         out.append((f"{domain}: θ* has {len(d.feature_names)} weights ({', '.join(d.feature_names)})", items))
+    return out
+
+
+# The designer's one choice of devices -> the study's allow_phones, allow_tablets ("" is the default: any).
+DEVICE_CHOICES = [("", "any device"), ("no-phones", "computers and tablets, no phones"),
+                  ("computers", "computers only")]
+
+
+def device_arguments(data: dict) -> dict:
+    """The study's device fields from the designer's cleaned data (studyapp/devices.py)."""
+    devices = data.get("devices") or ""
+    out = {"allow_phones": devices == "", "allow_tablets": devices != "computers"}
+    if data.get("min_screen_width") is not None:
+        out["min_screen_width"] = data["min_screen_width"]
     return out
 
 
@@ -176,6 +196,15 @@ class StudyDesignForm(forms.Form):
         # The consent page's texts (the Study model's columns, through the schema).
         self.fields.update({k: schema_field(STUDY_FIELDS[k], widget=forms.Textarea if k == "consent_text" else None)
                             for k in TEXT_FIELDS})
+        # Who may take part: the device rules the consent page checks (studyapp/devices.py).
+        # Who may take part: the device rules the consent page checks (studyapp/devices.py).  One choice, not
+        # two tick boxes: an unticked box is never sent, so a post without them would turn phones away.
+        self.fields["min_screen_width"] = schema_field(STUDY_FIELDS["min_screen_width"], required=False,
+                                                       label="Smallest screen width (px)")
+        self.fields["devices"] = forms.ChoiceField(
+            choices=DEVICE_CHOICES, required=False, label="Devices that may take part",
+            help_text="Phones and tablets are told on the consent page that they cannot take part, and keep no "
+                      "place; the dashboard counts them.")
 
     def _fixed_values(self) -> dict:
         """{model: τ or λ} the researcher fixed, each read as a number where it is one (the schema judges
@@ -282,7 +311,8 @@ class StudyDesignForm(forms.Form):
                 "test_set_thresholds": {k: data[k] for k in THRESHOLD_FIELDS if data.get(k) is not None},
                 "closed_loop": data["closed_loop"], "closed_loop_fit": data["closed_loop_fit"],
                 "completion_code": (data.get("completion_code") or "").strip(), "recruitment": data.get("recruitment"),
-                **{k: data.get(k) for k in TEXT_FIELDS}}
+                **{k: data.get(k) for k in TEXT_FIELDS},
+                **device_arguments(data)}
 
     def _check_job(self, data: dict) -> None:
         """The job's arguments through the study spec's checks (studyapp/specschema.py), each problem under

@@ -63,8 +63,10 @@ SECTIONS = (
             "must be.",
             (Group(("test_kind", "test_difficulty", "min_regret", "min_distance")),)),
     Section("participants", "Participants and payment",
-            "How many participants each condition needs, where they come from, and what they are told they earn.",
-            (Group(("target_per_condition", "recruitment", "completion_code", "estimated_minutes", "payment")),)),
+            "How many participants each condition needs, where they come from, what they are told they earn, and "
+            "which devices may take part.",
+            (Group(("target_per_condition", "recruitment", "completion_code", "estimated_minutes", "payment")),
+             Group(("devices", "min_screen_width"), "Devices that may take part"))),
     Section("texts", "Texts", "What the consent page says besides the payment and time above.",
             (Group(tuple(f for f in TEXT_FIELDS if f not in ("estimated_minutes", "payment")), "The consent page",
                    folded=True, opened_by=("consent_text", "contact", "ethics_reference")),)),

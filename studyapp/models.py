@@ -64,6 +64,13 @@ class Study(models.Model):
     test_kind = models.CharField(
         max_length=8, choices=TEST_KINDS, default=CHOOSE, editable=False,
         help_text="What every test asks: choose among options, or show the way; set when the study is built.")
+    # Which devices may take part (studyapp/devices.py): checked on the consent page, before a place is kept.
+    min_screen_width = models.PositiveIntegerField(
+        default=0, help_text="Smallest screen width (CSS pixels) a participant may take part on; 0: any.")
+    allow_phones = models.BooleanField(default=True, help_text="Phones may take part.")
+    allow_tablets = models.BooleanField(default=True, help_text="Tablets may take part.")
+    device_refusals = models.PositiveIntegerField(
+        default=0, editable=False, help_text="Arrivals turned away for their device (no place was kept for them).")
     test_set = models.JSONField(
         default=list, help_text="Shared test environments: with 4 options each (choose), or θ*'s way (show).")
     source = models.JSONField(default=dict, blank=True, help_text="Where the trajectories came from (table, seed).")
@@ -129,6 +136,10 @@ class Study(models.Model):
             from .trajectories import study_domain, study_view  # noqa: PLC0415  (numpy and teaching)
             _VIEWS[key] = study_view(study_domain(self), [c.training for c in self.conditions.all()], self.test_set)
         return _VIEWS[key]
+
+    @property
+    def has_device_rules(self) -> bool:
+        return bool(self.min_screen_width) or not (self.allow_phones and self.allow_tablets)
 
     def default_consent(self) -> str:
         from .trajectories import study_domain  # noqa: PLC0415  (teaching loads only for a page)

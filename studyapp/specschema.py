@@ -28,11 +28,13 @@ from .analysis.conditions import aliased_pairs
 from .models import Condition, Study
 from .specrules import Field, SpecError
 
-__all__ = ["CONDITION_FIELDS", "JOB_FIELDS", "SPEC_FIELDS", "STUDY_FIELDS", "TEXT_FIELDS", "THRESHOLD_FIELDS",
-           "Field", "SpecError", "check_condition_names", "check_job", "check_spec", "check_study", "job_problems"]
+__all__ = ["CONDITION_FIELDS", "DEVICE_FIELDS", "JOB_FIELDS", "SPEC_FIELDS", "STUDY_FIELDS", "TEXT_FIELDS",
+           "THRESHOLD_FIELDS", "Field", "SpecError", "check_condition_names", "check_job", "check_spec", "check_study",
+           "job_problems"]
 
 # The per-study texts of the consent page (models.Study holds their defaults, lengths and help).
 TEXT_FIELDS = ("consent_text", "estimated_minutes", "payment", "contact", "ethics_reference")
+DEVICE_FIELDS = ("min_screen_width", "allow_phones", "allow_tablets")  # who may take part (studyapp/devices.py)
 MAX_TARGET = 100_000  # participants per condition: more is a typing slip, not a study
 
 
@@ -132,6 +134,10 @@ STUDY_FIELDS: dict[str, Field] = {f.name: f for f in (
     _column("completion_code", default="", help="Prolific's completion code (required for Prolific)."),
     _column("consent_text"),
     _column("estimated_minutes", rules.whole, minimum=1),
+    _column("min_screen_width", rules.whole, minimum=0, maximum=10000,
+            help="Smallest screen width (CSS pixels) a participant may take part on; 0: any (a laptop: 1024)."),
+    _column("allow_phones", rules.boolean, help="Phones may take part."),
+    _column("allow_tablets", rules.boolean, help="Tablets may take part."),
     _column("payment"),
     _column("contact"),
     _column("ethics_reference"),

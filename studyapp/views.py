@@ -12,7 +12,7 @@ from django.views.decorators.clickjacking import xframe_options_exempt
 from django.views.decorators.csrf import csrf_exempt
 from django.views.decorators.http import require_GET, require_POST
 
-from . import closedloop, flow, forms, security
+from . import closedloop, devices, flow, forms, security
 from .assignment import StudyClosed, assign
 from .models import LoopStep, Participant, StepKind, Study
 from .scenes import instructions, scene_context
@@ -174,6 +174,8 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
     loop = participant.condition.closed_loop
     if loop:  # closed loop: examples are chosen as the participant goes, up to a most
         ctx["total_training"] = f"up to {loop['settings']['max_examples']}"
+    if current.kind == StepKind.CONSENT and participant.study.has_device_rules:
+        ctx["device_rules"] = devices.rules(participant.study)
     if current.kind in (StepKind.INSTRUCTIONS, StepKind.TRAINING, StepKind.FEEDBACK, StepKind.TEST, StepKind.CHECK):
         ctx.update(scene_context(participant.study))  # the domain's scene module, palette, legend, texts
     if current.kind == StepKind.INSTRUCTIONS:
@@ -275,6 +277,10 @@ def answer(request, slug, token, step_index):
         if declined is not None:
             return declined
     participant = _participant(slug, token)
+    if "consent" in request.POST:
+        refused = _refuse_device(request, participant, step_index)
+        if refused is not None:
+            return refused
     try:
         participant = flow.record(participant, step_index, request.POST)
     except flow.AnswerError as exc:
@@ -291,6 +297,20 @@ def answer(request, slug, token, step_index):
     if security.wants_json(request):
         return JsonResponse({"ok": True, "position": participant.position, "next": participant.get_absolute_url()})
     return redirect(participant.get_absolute_url(), permanent=False)
+
+
+def _refuse_device(request, participant: Participant, step_index: int):
+    """The refusal page if the participant's device may not take part (studyapp.devices); None otherwise.
+    They are deleted as one who declines is (flow.decline), so no place is kept, and the refusal is counted."""
+    message = devices.problem(participant.study, request.POST, request.META.get("HTTP_USER_AGENT", ""))
+    if message is None or not flow.decline(participant, step_index):
+        return None
+    devices.count_refusal(participant.study)
+    request.session.pop(_session_key(participant.study), None)
+    if security.wants_json(request):
+        return JsonResponse({"ok": False, "error": message}, status=403)
+    return render(request, "studyapp/device_refused.html", {"study": participant.study, "message": message},
+                  status=403)
 
 
 def _decline(request, slug, token, step_index):

@@ -1,0 +1,31 @@
+// The consent page of a study with device rules (studyapp/devices.py): what this screen is, sent with the
+// answer so the server can check it, and, when it may not take part, why, before the participant agrees.
+// The server checks again what is sent here and keeps no place for a device it refuses.
+import { readJSON } from "./player.js";
+
+const rules = readJSON("device-rules");
+const form = document.querySelector("form[data-save]");
+const width = Math.round(window.screen.width || window.innerWidth);
+// a touch screen without a fine pointer is a phone or a tablet; the shorter side tells them apart
+const touch = matchMedia("(pointer: coarse)").matches && !matchMedia("(any-pointer: fine)").matches;
+const phone = navigator.userAgentData?.mobile === true
+  || (touch && Math.min(window.screen.width, window.screen.height) < 600);
+const device = phone ? "phone" : touch ? "tablet" : "computer";
+form.querySelector('input[name="screen_width"]').value = String(width);
+form.querySelector('input[name="device"]').value = device;
+
+const elsewhere = `please take part on a computer${rules.tablets ? " or a tablet" : ""} instead (on Prolific, please return the study).`;
+let problem = "";
+if (device === "phone" && !rules.phones) problem = `This study cannot be done on a phone: ${elsewhere}`;
+else if (device === "tablet" && !rules.tablets) problem = `This study cannot be done on a tablet: ${elsewhere}`;
+else if (width < rules.min_width) {
+  problem = `This study needs a screen at least ${rules.min_width} pixels wide, and yours is ${width}: ${elsewhere}`;
+}
+if (problem) {
+  const note = document.querySelector("[data-device-problem]");
+  note.textContent = problem;
+  note.hidden = false;
+  for (const b of form.querySelectorAll('button[name="consent"]')) b.hidden = b.value !== "device";
+  form.querySelector("[data-device-leave]").hidden = false;
+}
+document.body.dataset.ready = "1";

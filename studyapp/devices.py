@@ -1,0 +1,59 @@
+"""Which devices may take part in a study (Study.min_screen_width, allow_phones, allow_tablets).
+
+A study whose animations need a desktop screen says so.  The consent page reads the screen in the browser
+(static/studyapp/device.js: its width in CSS pixels and whether it is a phone, a tablet or a computer) and
+tells a participant who cannot take part why, before they agree.  The server checks what the browser
+reported when consent is posted, and also reads the browser's own User-Agent, which says "Mobile" on
+phones: a participant it refuses is deleted as one who declines is, so no place is kept for them, and
+the study counts the refusal (Study.device_refusals, on the dashboard).
+"""
+from __future__ import annotations
+
+import re
+
+from django.db.models import F
+
+from .models import Study
+
+DEVICES = ("computer", "tablet", "phone")
+# phones' browsers say "Mobile" (Android, iOS) or "Mobi"; tablets' do not (an iPad says "iPad" or passes as a Mac)
+_PHONE_AGENT = re.compile(r"Mobi|iPhone|iPod|Windows Phone", re.I)
+NEEDS_SCRIPT = ("This study checks that your screen can show its animations, which needs JavaScript: please turn "
+                "it on and reload the page.")
+
+
+def rules(study: Study) -> dict:
+    """What the consent page's script checks (its data block)."""
+    return {"min_width": study.min_screen_width, "phones": study.allow_phones, "tablets": study.allow_tablets}
+
+
+def problem(study: Study, reported, user_agent: str = "") -> str | None:
+    """Why this participant's device cannot take part in `study` (a message in their words), or None.
+
+    reported: the consent form's fields, ``screen_width`` (whole CSS pixels) and ``device`` (DEVICES), as
+    the page's script filled them; a User-Agent that names a phone makes the device a phone whatever the
+    page reported."""
+    if not study.has_device_rules:
+        return None
+    width, device = str(reported.get("screen_width", "")).strip(), str(reported.get("device", "")).strip()
+    if not width.isdigit() or device not in DEVICES:
+        return NEEDS_SCRIPT
+    if _PHONE_AGENT.search(user_agent or ""):
+        device = "phone"
+    if device == "phone" and not study.allow_phones:
+        return f"This study cannot be done on a phone: {_elsewhere(study)}"
+    if device == "tablet" and not study.allow_tablets:
+        return f"This study cannot be done on a tablet: {_elsewhere(study)}"
+    if int(width) < study.min_screen_width:
+        return (f"This study needs a screen at least {study.min_screen_width} pixels wide, and yours is "
+                f"{int(width)}: {_elsewhere(study)}")
+    return None
+
+
+def _elsewhere(study: Study) -> str:
+    on = "a computer" + (" or a tablet" if study.allow_tablets else "")
+    return f"please take part on {on} instead (on Prolific, please return the study)."
+
+
+def count_refusal(study: Study) -> None:
+    Study.objects.filter(pk=study.pk).update(device_refusals=F("device_refusals") + 1)
