@@ -42,8 +42,6 @@ def schema_field(f: specschema.Field, **kwargs) -> forms.Field:
         field = forms.IntegerField(min_value=f.minimum, max_value=f.maximum, **kwargs)
     elif f.kind is specrules.number:
         field = forms.FloatField(min_value=f.minimum, max_value=f.maximum, **kwargs)
-    elif f.kind is specrules.boolean:  # a tick box: unticked is False, never "missing"
-        field = forms.BooleanField(**{**kwargs, "required": False})
     elif f.choices:
         kind = _SchemaMultipleChoice if f.kind is specrules.selected else _SchemaChoice
         field = kind(choices=f.choices, **kwargs)
