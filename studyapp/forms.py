@@ -75,8 +75,19 @@ class ConsentForm(StepForm):
         "required": "Please say whether you agree to take part.",
         "invalid_choice": "You can only continue if you agree to take part."})
 
+    # The version of the text the page showed (Study.consent_version); a page without it is read as the
+    # text now, and a page of another version is sent back to be read again.
+    consent_version = forms.CharField(required=False, widget=OneValue)
+
+    def clean_consent_version(self):
+        shown, now = self.cleaned_data["consent_version"], self.participant.study.consent_version()
+        if shown and shown != now:
+            raise ValidationError("The study's information changed after this page was opened; please reload "
+                                  "the page and read it again before you agree.")
+        return now
+
     def answer(self) -> dict:
-        return {"consent": True}
+        return {"consent": True, "consent_version": self.cleaned_data["consent_version"]}
 
 
 class InstructionsForm(StepForm):

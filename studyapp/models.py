@@ -7,6 +7,7 @@ trajectory table.
 """
 from __future__ import annotations
 
+import hashlib
 import secrets
 from datetime import timedelta
 
@@ -145,6 +146,13 @@ class Study(models.Model):
         from .trajectories import study_domain  # noqa: PLC0415  (teaching loads only for a page)
 
         return study_domain(self).texts.consent
+
+    def consent_version(self) -> str:
+        """12 hex digits naming what the consent page says (its paragraphs and facts): stored with each
+        participant's consent, so a text changed during a study tells who agreed to which."""
+        shown = [*self.consent_paragraphs(), str(self.estimated_minutes), self.payment, self.contact,
+                 self.ethics_reference]
+        return hashlib.sha256("\x1f".join(shown).encode()).hexdigest()[:12]
 
     def consent_paragraphs(self) -> list[str]:
         text = self.consent_text.strip() or self.default_consent()

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import socket
 import sqlite3
@@ -269,7 +270,8 @@ def test_answers_survive_a_server_outage(server, tmp_path):
     steps = [step for step, *_ in answers]
     assert steps == list(range(2 + n_train + 6 + 2)), steps  # every step, each exactly once
     by_kind = {(kind, item): data for _, kind, item, data in answers}
-    assert by_kind[("consent", None)] == {"consent": True}
+    consent = by_kind[("consent", None)]  # the version of the text the page showed (Study.consent_version)
+    assert consent["consent"] is True and re.fullmatch(r"[0-9a-f]{12}", consent["consent_version"])
     assert ("training", 0) in by_kind
     for j in range(6):
         data = by_kind[("test", j)]

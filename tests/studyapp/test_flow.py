@@ -343,3 +343,21 @@ def test_cookieless_answers_need_this_sites_origin(participant):
     r = strict.post(url(participant, 0), {"consent": "yes"}, HTTP_ORIGIN="http://testserver")
     assert r.status_code == 302
     assert Answer.objects.filter(participant=participant, step=0).exists()
+
+
+def test_the_consent_stores_the_version_of_the_text_the_page_showed(study, client):
+    p = assignment.assign(study, Participant.ANONYMOUS, "")
+    page = client.get(reverse("step", args=[study.slug, p.token])).content.decode()
+    version = study.consent_version()
+    assert f'name="consent_version" value="{version}"' in page and len(version) == 12
+    url = reverse("answer", args=[study.slug, p.token, 0])
+    # the researcher changes the text while the participant reads it: their agreement is to another text
+    study.consent_text = "A new approved text."
+    study.save(update_fields=["consent_text"])
+    r = client.post(url, {"consent": "yes", "consent_version": version}, HTTP_ACCEPT="application/json")
+    assert r.status_code == 400 and "changed after this page was opened" in r.json()["error"]
+    assert not Answer.objects.filter(participant=p).exists()
+    r = client.post(url, {"consent": "yes", "consent_version": study.consent_version()})
+    assert r.status_code == 302
+    assert Answer.objects.get(participant=p).data == {"consent": True, "consent_version": study.consent_version()}
+    assert study.consent_version() != version

@@ -21,7 +21,8 @@ from teaching.api import domain_names, get_domain
 
 ROOT = Path(__file__).resolve().parents[2]
 SHOWN = [("A", 2), ("B", 0), ("C", 3), ("D", 1)]  # letter -> option index, as flow.option_letters gives
-DRIVING_PARTICIPANT = SimpleNamespace(study=SimpleNamespace(domain="driving"))  # what AttentionForm reads
+# what AttentionForm and ConsentForm read
+DRIVING_PARTICIPANT = SimpleNamespace(study=SimpleNamespace(domain="driving", consent_version=lambda: "0123456789ab"))
 
 
 def post(**fields) -> QueryDict:
@@ -83,7 +84,10 @@ def test_each_bad_answer_gives_its_message(form_class, fields, message):
 
 
 def test_good_answers_give_the_stored_data():
-    assert ConsentForm(post(consent=" yes "), None, None).is_valid()
+    consent = ConsentForm(post(consent=" yes "), DRIVING_PARTICIPANT, None)
+    assert consent.is_valid() and consent.answer() == {"consent": True, "consent_version": "0123456789ab"}
+    stale = ConsentForm(post(consent="yes", consent_version="ffffffffffff"), DRIVING_PARTICIPANT, None)
+    assert error(stale).startswith("The study's information changed after this page was opened")
     assert InstructionsForm(post(ack="1"), None, None).is_valid()
     attention = AttentionForm(post(goals=["forward", "merge", "merge"]), DRIVING_PARTICIPANT, None)
     assert attention.is_valid() and attention.answer() == {"goals": ["forward", "merge"], "passed": True}
