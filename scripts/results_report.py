@@ -33,6 +33,7 @@ from teaching.core.evaluation import grid_cells  # noqa: E402
 from teaching.core.learners import EXACT_TOLERANCE, MODEL_NAMES, Distances, make_model, p_theta_star  # noqa: E402
 from teaching.core.selection import APPROX_STAR, COVERAGE_EPSILON, MIN_RISE, greedy, showable  # noqa: E402
 from teaching.core.selectors import get_selector  # noqa: E402
+from teaching.core.showtests import is_show  # noqa: E402
 from teaching.core.table import TableError, TrajectoryTable  # noqa: E402
 
 TOLERANCES = (0.0, 1e-7, 1e-6, 1e-5)
@@ -218,7 +219,7 @@ def section_tests(domain, data, h) -> list[str]:
     head = [f"{h} Test set", ""]
     if isinstance(tests, dict):
         return head + [f"No test set on this table: {tests.get('error')}", ""]
-    if tests and tests[0].get("kind") == "show":
+    if tests and is_show(tests[0]):
         rows = [(t["env_id"], domain.cluster_names[t["cluster"]], f"{t['share_worse']:.3f}") for t in tests]
         return head + [
             "Show-the-way tests (`teach --tests show`, `teaching/core/showtests.py`): one environment per test "
@@ -353,7 +354,7 @@ def commands_of(table_dir, teach_dir) -> list[str]:
     tests = json.loads((Path(teach_dir) / "test_set.json").read_text())
     if isinstance(tests, list) and tests and tests[0].get("difficulty"):
         argv += ["--test-difficulty", tests[0]["difficulty"]]
-    if isinstance(tests, list) and tests and tests[0].get("kind") == "show":
+    if isinstance(tests, list) and tests and is_show(tests[0]):
         argv += ["--tests", "show"]
     argv += [a for label, c in seq["conditions"].items() if "selector" in c for a in ("--selector", label)]
     return [f".venv/bin/python -m teaching build --preset {preset} --out {table_dir}",

@@ -20,6 +20,7 @@ from teaching.api import (
     ClosedLoopError,
     ClosedLoopSpec,
     check_params,
+    is_show,
     make_model,
     parse_selector,
     selector_names,
@@ -179,7 +180,7 @@ def tests(f, v, found, where):
     if not isinstance(v, list):
         found.append(SpecError(f"{f.label} must be a list of tests", where))
         return v
-    show = [isinstance(t, dict) and t.get("kind") == "show" for t in v]
+    show = [isinstance(t, dict) and is_show(t) for t in v]
     if any(show) and not all(show):
         found.append(SpecError(f"{f.label} mixes 'show' tests with tests that have options; a study's tests are "
                                "one kind", where))

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from teaching.api import Domain, get_domain
+from teaching.api import SHOW, Domain, get_domain, is_show
 
 
 def study_domain(study) -> Domain:
@@ -71,13 +71,6 @@ def option_payload(domain: Domain, theta_index, is_theta_star, cluster, states) 
         "cluster_name": domain.cluster_names[int(cluster)],
         "robot": domain.path_rows(states),
     }
-
-
-SHOW = "show"  # a test's "kind" when the participant shows the way instead of choosing
-
-
-def is_show(test: dict) -> bool:
-    return test.get("kind") == SHOW
 
 
 def test_kind_of(tests: list[dict]) -> str:

@@ -131,7 +131,8 @@ Learners and selection (DESIGN §5-6)
                              "show the way" tests (teaching.core.showtests), one per test cluster that has an
                              eligible environment: dicts {env_id, kind: "show", cluster, share_worse (the
                              fraction of the N θ clearly worse under θ* there, >= min_share = 0.25)}
-    TEST_KINDS               ("choose", "show"): what a test asks; TeachOutput.test_kind, one per output
+    TEST_KINDS               ("choose", "show"): what a test asks; TeachOutput.test_kind, one per output;
+                             is_show(test) whether a test's dict asks to show the way (its "kind" is SHOW)
 
 Ideal users (the paper's simulated learners; teaching.core.evaluation)
     USER_NAMES               the matrix's columns: the 7 learner models (MODEL_NAMES) and the
@@ -180,7 +181,7 @@ from .core.fitting import TIE_TOLERANCE, Answers, Comparison, FitError, Question
 from .core.learners import MODEL_NAMES, has_hyperparameter, make_model, model_names, parse_hyperparameters
 from .core.selection import ALL_CONDITIONS, APPROX_STAR, CONDITIONS, SelectionSettings
 from .core.selectors import check_params, get_selector, parse_selector, selector_names
-from .core.showtests import MIN_SHARE, select_show_tests
+from .core.showtests import MIN_SHARE, SHOW, is_show, select_show_tests
 from .core.simulate import (
     AnswerModel,
     PredictedScores,
@@ -227,5 +228,5 @@ __all__ = [
     "select_checks", "Pack", "load_pack", "write_pack",
     "TeachOutput", "TeachOutputError", "read_teach",
     "check_params", "get_selector", "parse_selector", "selector_names", "DIFFICULTIES",
-    "MIN_SHARE", "TEST_KINDS", "select_show_tests",
+    "MIN_SHARE", "SHOW", "TEST_KINDS", "is_show", "select_show_tests",
 ]

@@ -35,7 +35,7 @@ from .core.evaluation import SEQUENCE_NAMES, USER_NAMES, examples_per_cluster, g
 from .core.learners import Distances, model_names, parse_hyperparameters
 from .core.selection import APPROX_STAR, CONDITIONS, COVERAGE_EPSILON, SelectionSettings, theta_star_clusters
 from .core.selectors import parse_selector, selector_names
-from .core.showtests import select_show_tests
+from .core.showtests import SHOW, select_show_tests
 from .core.simulate import pilot_predictions
 from .core.table import TableError, TrajectoryTable
 from .core.teachout import TEST_KINDS, write_json
@@ -110,7 +110,7 @@ def run(args) -> dict:
                          f"choose from {', '.join(model_names())}")
     if not args.epsilon > 0:
         raise InputError(f"--epsilon must be > 0, got {args.epsilon}")
-    if args.tests == "show" and args.test_difficulty is not None:
+    if args.tests == SHOW and args.test_difficulty is not None:
         raise InputError("--test-difficulty grades choice tests; it cannot be used with --tests show")
     try:
         table = TrajectoryTable.load(args.table)
@@ -153,7 +153,7 @@ def run(args) -> dict:
         # every learner's sequence but the hierarchical one is a condition's: adding that learner left
         # the test set as it was)
         training = [ids[envs[c]].tolist() for c in conditions]
-        if args.tests == "show":
+        if args.tests == SHOW:
             tests = select_show_tests(table, training, seed=args.seed, min_regret=args.min_regret)
         else:
             tests = select_test_set(table, training, seed=args.seed, min_regret=args.min_regret,

@@ -46,7 +46,7 @@ from .choice import OptionDistances, option_choice
 from .fitting import Question, questions_of
 from .learners import Distances, LearnerModel, check_value, make_model, posterior
 from .selection import APPROX_STAR, IMPROVEMENT_RTOL, _candidate_p, showable
-from .showtests import select_show_tests
+from .showtests import is_show, select_show_tests
 from .testset import TestSetError, select_test_set
 
 EXAMPLE, CHECK, FEEDBACK, DONE = "example", "check", "feedback", "done"
@@ -338,7 +338,7 @@ def select_show_checks(table, final_tests: list[dict], seed: int = 1) -> list[di
 def check_questions(table, test_set) -> tuple[Question, ...]:
     """The Questions of check questions stored as a test set is (dicts with env_id and options), or as
     select_show_checks gives them (kind "show", with ways)."""
-    if test_set and all(t.get("kind") == "show" for t in test_set):
+    if test_set and all(is_show(t) for t in test_set):
         row = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
         return tuple(Question(row[int(t["env_id"])], tuple(int(w) for w in t["ways"]), shown=True) for t in test_set)
     return questions_of(table, test_set)[0]

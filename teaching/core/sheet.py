@@ -22,6 +22,7 @@ matplotlib.use("Agg")  # figures are written to files; no display on servers
 import matplotlib.pyplot as plt
 import numpy as np
 
+from .showtests import is_show
 from .table import TrajectoryTable
 from .teachout import TeachOutputError, check_against, read_teach
 
@@ -85,7 +86,7 @@ def sheet_rows(*, table, conditions, tests, columns: int, head=None) -> list[tup
             rows.append((label, panels[lo:lo + columns]))
     for j, t in enumerate(tests or []):
         m = row_of[int(t["env_id"])]
-        if t.get("kind") == "show":
+        if is_show(t):
             shows = cluster_name(domain, int(strat[m, 0]))
             worse = f" · {t['share_worse']:.0%} of θ worse" if "share_worse" in t else ""
             label = cluster_name(domain, int(t.get("cluster", strat[m, 0]))).replace(": ", ":\n")

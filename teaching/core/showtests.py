@@ -26,6 +26,14 @@ import numpy as np
 
 from .testset import MIN_REGRET, TestSetError, theta_star_regret
 
+SHOW = "show"  # a test's "kind" when the participant shows the way (a test without one chooses among options)
+
+
+def is_show(test: dict) -> bool:
+    """Whether `test` (a test set's dict, stored or from teach) asks the participant to show the way."""
+    return test.get("kind") == SHOW
+
+
 # a quarter of the candidates going wrong keeps a test informative while letting small worlds,
 # whose environments offer only a few distinct trajectories, have one (their tiny tables: 0.42-0.75)
 MIN_SHARE = 0.25
@@ -66,7 +74,7 @@ def select_show_tests(table, training_env_ids: list[list[int]], seed: int = 0, m
         if not rows:
             continue
         m, share = rows[int(rng.integers(len(rows)))]
-        out.append({"env_id": int(env_ids[m]), "kind": "show", "cluster": int(c), "share_worse": share})
+        out.append({"env_id": int(env_ids[m]), "kind": SHOW, "cluster": int(c), "share_worse": share})
     if not out:
         names = ", ".join(f"'{table.domain.cluster_names[c]}'" for c in table.domain.test_clusters)
         raise TestSetError(f"no show test environment for any of {names}: no environment in no training sequence "

@@ -21,10 +21,11 @@ from pathlib import Path
 
 import numpy as np
 
+from .showtests import SHOW, is_show
 from .testset import DIFFICULTIES
 
 # What a test asks: choose among 4 options (a test without "kind"), or show the way.
-TEST_KINDS = ("choose", "show")
+TEST_KINDS = ("choose", SHOW)
 
 
 class TeachOutputError(ValueError):
@@ -136,7 +137,7 @@ def check_against(output: TeachOutput, table) -> None:
         for t in output.tests or []:
             if int(t["env_id"]) not in known:
                 raise ValueError
-            if t.get("kind") == "show":  # the participant moves the robot: no options to check
+            if is_show(t):  # the participant moves the robot: no options to check
                 continue
             if len(t["options"]) != 4:
                 raise ValueError

@@ -16,6 +16,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch, Rectangle
 
 from ...core.sheet import render_rows, sheet_rows
+from ...core.showtests import is_show
 
 PATTERNS = ("....", "////", "..//")  # the scene's dots, hatch, both
 
@@ -55,7 +56,7 @@ def draw_world(ax, domain, env_id: int, controls: np.ndarray) -> None:
 
 
 def _tests_line(tests) -> str:
-    if tests and all(t.get("kind") == "show" for t in tests):
+    if tests and all(is_show(t) for t in tests):
         return "the participant shows the way; drawn: θ*'s, the way with no regret."
     return "options A-D in test_set.json's order."
 
