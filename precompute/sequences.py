@@ -59,7 +59,7 @@ def pilot_matrix(table, conditions: dict[str, list[int]], hyperparameters: dict 
     closed_loops: {name: teaching's ClosedLoop}, rows after the others, each the average over simulated
     participants of every user run through the loop (teaching's loop_pilot); "closed_loop" then says how
     many per user and their lapse rate."""
-    index = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
+    index = table.row_of
     missing = sorted({int(e) for ids in conditions.values() for e in ids} - set(index))
     if missing:
         raise ValueError(f"environments {missing[:10]} are not in the table")

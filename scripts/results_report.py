@@ -299,7 +299,7 @@ def section_tolerance(rows, conditions, exact_envs, precision, h) -> list[str]:
 
 def table_sections(table_dir, teach_dir, out_dir, figures, prefix, h, precision) -> list[str]:
     table, data = load_inputs(table_dir, teach_dir)
-    index_of = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
+    index_of = table.row_of
     figures.mkdir(parents=True, exist_ok=True)
     for name in FIGURES:
         shutil.copyfile(Path(teach_dir) / name, figures / (prefix + name))

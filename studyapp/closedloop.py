@@ -78,8 +78,8 @@ def prepare(table, slug: str, name: str, loop_settings: dict, tests: list[dict])
     spec = ClosedLoopSpec.from_dict(loop_settings)
     shown = trajectories.test_kind_of(tests) == trajectories.SHOW  # its checks ask what its tests ask
     checks = select_show_checks(table, tests) if shown else select_checks(table, tests)
-    row = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
-    loop = ClosedLoop.build(table, spec, check_questions(table, checks), exclude=[row[int(t["env_id"])] for t in tests])
+    loop = ClosedLoop.build(table, spec, check_questions(table, checks),
+                            exclude=[table.row_of[int(t["env_id"])] for t in tests])
     table_hash = table.meta["content_hash"]
     path = pack_dir(slug, name, table_hash)
     write_pack(path, table, loop)
@@ -93,9 +93,8 @@ def show_checks(table, checks: list[dict]) -> list[dict]:
     against (each distinct trajectory of the table there, in the check Question's order; never sent to
     the page)."""
     out = trajectories.show_tests_from_table(table, checks)
-    row = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
     for payload, check in zip(out, checks, strict=True):
-        i = row[int(check["env_id"])]
+        i = table.row_of[int(check["env_id"])]
         payload["ways"] = [{"theta_index": int(t), "robot": table.domain.path_rows(table.states(i, int(t)))}
                            for t in check["ways"]]
     return out

@@ -74,7 +74,7 @@ def study_design(study: Study, table: TrajectoryTable | None = None) -> StudyDes
     if study.test_kind == Study.SHOW:  # before the table: a show study's own reason, not a table's
         raise ModelFitError(SHOW_NOT_FITTED)
     table = table or study_table(study)
-    row = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
+    row = table.row_of
     conditions = list(Condition.objects.filter(study=study).order_by("position", "pk"))
     try:
         sequences = {c.name: tuple(row[int(e)] for e in c.env_ids) for c in conditions if not c.closed_loop}
@@ -89,7 +89,7 @@ def loop_paths(design: StudyDesign, people: list[tuple[int, str]]) -> dict[int, 
     """{participant id: the table rows their closed loop showed them (examples and feedback, in order)} for
     those of `people` ((id, condition)) in a closed-loop condition: one query."""
     ids = [pk for pk, c in people if c in design.loops]
-    row = {int(e): i for i, e in enumerate(np.asarray(design.table.env_ids))}
+    row = design.table.row_of
     paths = {pk: [] for pk in ids}
     steps = (LoopStep.objects.filter(participant_id__in=ids, kind__in=[LoopStep.EXAMPLE, LoopStep.FEEDBACK])
              .order_by("participant_id", "index").values_list("participant_id", "env_id"))

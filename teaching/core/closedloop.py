@@ -331,16 +331,15 @@ def select_show_checks(table, final_tests: list[dict], seed: int = 1) -> list[di
         checks = select_show_tests(table, [[int(t["env_id"]) for t in final_tests]], seed=seed)
     except TestSetError:
         raise ClosedLoopError("no environment left over from the final tests can be a check question") from None
-    row = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
-    return [{**c, "ways": list(distinct_ways(table, row[int(c["env_id"])]))} for c in checks]
+    return [{**c, "ways": list(distinct_ways(table, table.row_of[int(c["env_id"])]))} for c in checks]
 
 
 def check_questions(table, test_set) -> tuple[Question, ...]:
     """The Questions of check questions stored as a test set is (dicts with env_id and options), or as
     select_show_checks gives them (kind "show", with ways)."""
     if test_set and all(is_show(t) for t in test_set):
-        row = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
-        return tuple(Question(row[int(t["env_id"])], tuple(int(w) for w in t["ways"]), shown=True) for t in test_set)
+        return tuple(Question(table.row_of[int(t["env_id"])], tuple(int(w) for w in t["ways"]), shown=True)
+                     for t in test_set)
     return questions_of(table, test_set)[0]
 
 

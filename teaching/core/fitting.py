@@ -75,8 +75,7 @@ def questions_of(table, test_set) -> tuple[tuple[Question, ...], np.ndarray]:
     """A study's tests as the fit reads them: (Questions, (T,) int64 the position of θ*'s option in each).
     test_set: dicts as ``select_test_set`` gives them or a study stores them (env_id; options with
     theta_index and is_theta_star).  KeyError names an env_id that is not in `table`."""
-    row = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
-    questions = tuple(Question(row[int(t["env_id"])], tuple(int(o["theta_index"]) for o in t["options"]))
+    questions = tuple(Question(table.row_of[int(t["env_id"])], tuple(int(o["theta_index"]) for o in t["options"]))
                       for t in test_set)
     star = np.array([next(k for k, o in enumerate(t["options"]) if o["is_theta_star"]) for t in test_set], np.int64)
     return questions, star

@@ -66,7 +66,7 @@ def load_teach(*, teach_dir, table) -> tuple[dict[str, list[int]], list[dict] | 
 def sheet_rows(*, table, conditions, tests, columns: int, head=None) -> list[tuple[str, list[Panel]]]:
     """(row label, panels) for every condition (wrapped at `columns` panels) and every test.
     head(m): the first line of table row m's panel titles (default: its id and class)."""
-    row_of = {int(e): i for i, e in enumerate(np.asarray(table.env_ids))}
+    row_of = table.row_of
     cls = np.asarray(table.env_class)
     strat = np.asarray(table.strategy)
     domain = table.domain

@@ -22,6 +22,7 @@ import hashlib
 import json
 import os
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -67,6 +68,11 @@ class TrajectoryTable:
         """The domain the table was built in (meta.json's "domain"; tables from before domains
         name none and are the default domain's)."""
         return get_domain(self.meta.get("domain"))
+
+    @cached_property
+    def row_of(self) -> dict[int, int]:
+        """{environment id: its table row}, built once per table (a KeyError names an id not in it)."""
+        return {int(e): i for i, e in enumerate(np.asarray(self.env_ids))}
 
     @property
     def env_class(self) -> np.ndarray:
