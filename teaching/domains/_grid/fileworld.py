@@ -29,6 +29,7 @@ from dataclasses import asdict
 
 import numpy as np
 
+from .front import covers
 from .worldfile import HELD, MOVES, World, WorldFileError
 
 EXIT = "exit"
@@ -133,10 +134,6 @@ def _is_action(name: str, state, nxt, ending, target) -> bool:
     return nxt[0] == state[0] and (picked if name == "pickup" else held_before and not held_after)
 
 
-def _covers(a: tuple, b: tuple) -> bool:
-    return all(x <= y for x, y in zip(a, b, strict=True))
-
-
 def fronts(world: World, variant: int, start: int) -> tuple[np.ndarray, list[list]]:
     """Every (ending, non-dominated φ) of environment (variant, start) with one trajectory each:
     ((P, D) int64 φ, the ending's terminal feature counted once; P lists of states, start first),
@@ -160,16 +157,16 @@ def fronts(world: World, variant: int, start: int) -> tuple[np.ndarray, list[lis
             for nxt, added, ending in successors(world, kinds, blocked, state[i]):
                 new = tuple(a + b for a, b in zip(phi[i], added, strict=True))
                 if ending is not None:
-                    if not any(_covers(phi[j], new) for j in ends[ending]):
+                    if not any(covers(phi[j], new) for j in ends[ending]):
                         phi.append(new)
                         parent.append(i)
                         state.append(nxt)  # None for an exit: the trajectory ends at its parent
-                        ends[ending] = [j for j in ends[ending] if not _covers(new, phi[j])] + [len(phi) - 1]
+                        ends[ending] = [j for j in ends[ending] if not covers(new, phi[j])] + [len(phi) - 1]
                     continue
                 others = live.setdefault(nxt, [])
-                if any(_covers(phi[j], new) for j in others):
+                if any(covers(phi[j], new) for j in others):
                     continue
-                for j in [j for j in others if _covers(new, phi[j])]:
+                for j in [j for j in others if covers(new, phi[j])]:
                     dead.add(j)
                     others.remove(j)
                 phi.append(new)
