@@ -45,6 +45,13 @@ def _anova_table(raw: pd.DataFrame, names: dict) -> pd.DataFrame:
     return pd.DataFrame(rows).set_index("effect")
 
 
+def _within_spread(d: pd.DataFrame, group, dv: str) -> float:
+    """The root mean square of `dv` about the means of its groups (`group`: a column, or a list of them
+    for cells): zero when every group is constant."""
+    within = d[dv] - d.groupby(group)[dv].transform("mean")
+    return float(np.sqrt(np.mean(within**2))) if len(d) else 0.0
+
+
 def factorial_anova(data: pd.DataFrame, factors: tuple[str, str], dv: str = "mean_score",
                     interaction: bool = True, name: str = "", min_per_cell: int = MIN_PER_GROUP,
                     expect_cells=None) -> AnovaResult:
@@ -83,8 +90,7 @@ def factorial_anova(data: pd.DataFrame, factors: tuple[str, str], dv: str = "mea
     names3 = {f"C({a}, Sum)": a, f"C({b}, Sum)": b, f"C({a}, Sum):C({b}, Sum)": f"{a} x {b}"}
     # Within-cell spread, not the model's residual: an additive model's residual also holds the
     # cells' departure from additivity, which would make constant cells look like data.
-    within = d[dv] - d.groupby([a, b])[dv].transform("mean")
-    if negligible_spread(float(np.sqrt(np.mean(within**2))), d[dv]):
+    if negligible_spread(_within_spread(d, [a, b], dv), d[dv]):
         same = negligible_spread(float(d[dv].std(ddof=0)), d[dv])
         res.message = (f"{name or 'ANOVA'} not computed: " + (
             "every included participant has the same score, so there is nothing to explain."
@@ -97,12 +103,6 @@ def factorial_anova(data: pd.DataFrame, factors: tuple[str, str], dv: str = "mea
     res.type3 = _anova_table(anova_lm(m3, typ=3), names3)
     res.ok = True
     return res
-
-
-def _within_spread(d: pd.DataFrame, group: str, dv: str) -> float:
-    """The root mean square of `dv` about its group means: zero when every group is constant."""
-    within = d[dv] - d.groupby(group)[dv].transform("mean")
-    return float(np.sqrt(np.mean(within**2))) if len(d) else 0.0
 
 
 def oneway_anova(table: pd.DataFrame, dv: str, conditions, name: str = "",
