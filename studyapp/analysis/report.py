@@ -22,12 +22,7 @@ from .. import status as ST
 from . import figures as FIG
 from . import report_show as RS
 from . import stats as S
-from .formatting import anova_rows as _anova_rows
-from .formatting import cell as _cell
-from .formatting import num as _num
-from .formatting import participant_groups, welch_rows
-from .formatting import pval as _p
-from .formatting import pval_apa as _p_apa
+from .formatting import anova_rows, cell, num, participant_groups, pval, pval_apa, welch_rows
 from .shown import ShowAnalysis
 
 
@@ -37,34 +32,34 @@ def context(analysis: S.Analysis, title: str = "Study analysis", figures: dict |
         figures = {k: FIG.data_uri(FIG.to_bytes(f)) for k, f in FIG.all_figures(analysis).items()}
     summ = analysis.summary
     summary_rows = [{"condition": S.label(c, analysis.approx_star), "recruited": int(r["n_recruited"]),
-                     "excluded": int(r["n_excluded"]), "n": int(r["n"]), "mean": _num(r["mean"]),
-                     "sd": _num(r["sd"]), "se": _num(r["se"]),
+                     "excluded": int(r["n_excluded"]), "n": int(r["n"]), "mean": num(r["mean"]),
+                     "sd": num(r["sd"]), "se": num(r["se"]),
                      "n_examples": int(analysis.examples_per_cluster.loc[c].sum())
                      if c in analysis.examples_per_cluster.index else ""}
                     for c, r in summ.iterrows()]
     anovas = []
     for a in analysis.anovas:
         item = {"name": a.name, "ok": a.ok, "message": a.message, "note": a.note, "n": a.n,
-                "cells": [{"a": r[a.factors[0]], "b": r[a.factors[1]], "n": int(r["n"]), "mean": _num(r["mean"]),
-                           "sd": _num(r["sd"])} for _, r in a.cells.iterrows()] if a.cells is not None else [],
+                "cells": [{"a": r[a.factors[0]], "b": r[a.factors[1]], "n": int(r["n"]), "mean": num(r["mean"]),
+                           "sd": num(r["sd"])} for _, r in a.cells.iterrows()] if a.cells is not None else [],
                 "factors": a.factors}
         if a.ok:
-            item["type2"] = _anova_rows(a.type2)
-            item["type3"] = _anova_rows(a.type3)
+            item["type2"] = anova_rows(a.type2)
+            item["type3"] = anova_rows(a.type3)
             item["apa"] = [(typ, "; ".join(f"{r['effect']}: {r['apa']}, partial η² = {r['eta']}"
                                            for r in rows if r["apa"]))
                            for typ, rows in (("type II", item["type2"]), ("type III", item["type3"]))]
         anovas.append(item)
     welch = welch_rows(analysis.welch)
-    cors = [{"name": c.name, "level": c.level, "n": c.n, "r": _num(c.r), "p": _p(c.p),
-             "ci": f"[{_num(c.ci_low)}, {_num(c.ci_high)}]" if c.ok else "", "ok": c.ok, "message": c.message}
+    cors = [{"name": c.name, "level": c.level, "n": c.n, "r": num(c.r), "p": pval(c.p),
+             "ci": f"[{num(c.ci_low)}, {num(c.ci_high)}]" if c.ok else "", "ok": c.ok, "message": c.message}
             for c in analysis.correlations]
     epc = analysis.examples_per_cluster
     p = analysis.participants
     score_cols = sorted([c for c in p.columns if re.fullmatch(r"score_\d+", c)], key=lambda c: int(c[6:]))
     cols = ["participant_id", "condition", "model", "distance", "determinism", "coverage", "n_examples",
             *score_cols, "mean_score", "attention_ok", "excluded"]
-    part_rows = [[_cell(r[c]) for c in cols] + [bool(r["excluded"])] for _, r in p[cols].iterrows()]
+    part_rows = [[cell(r[c]) for c in cols] + [bool(r["excluded"])] for _, r in p[cols].iterrows()]
     return {
         "title": title, "approx_star": analysis.approx_star,
         "n_participants": len(p), "n_included": analysis.n_included, "n_excluded": analysis.n_excluded,
@@ -76,8 +71,8 @@ def context(analysis: S.Analysis, title: str = "Study analysis", figures: dict |
         "participant_columns": cols, "participant_rows": part_rows,
         "headline": headline(analysis), "learning": learning_rows(analysis),
         "by_difficulty": [{"condition": S.label(r["condition"], analysis.approx_star), "difficulty": r["difficulty"],
-                           "n": int(r["n"]), "answers": int(r["n_answers"]), "mean": _num(r["mean"]),
-                           "sd": _num(r["sd"]), "se": _num(r["se"]), "accuracy": _num(r["accuracy"])}
+                           "n": int(r["n"]), "answers": int(r["n_answers"]), "mean": num(r["mean"]),
+                           "sd": num(r["sd"]), "se": num(r["se"]), "accuracy": num(r["accuracy"])}
                           for _, r in analysis.by_difficulty.iterrows()],
     }
 
@@ -85,9 +80,9 @@ def context(analysis: S.Analysis, title: str = "Study analysis", figures: dict |
 def learning_rows(analysis: S.Analysis) -> list[dict]:
     """The learning-curve table's rows, formatted (none without closed-loop check answers)."""
     return [{"condition": S.label(r["condition"], analysis.approx_star), "check": int(r["check_number"]),
-             "n": int(r["n"]), "n_correct": int(r["n_correct"]), "p": _num(r["p_correct"]),
-             "ci": f"[{_num(r['ci_low'])}, {_num(r['ci_high'])}]", "mean": _num(r["mean_score"]),
-             "se": _num(r["se_score"]), "examples": _num(r["mean_examples"], 1)}
+             "n": int(r["n"]), "n_correct": int(r["n_correct"]), "p": num(r["p_correct"]),
+             "ci": f"[{num(r['ci_low'])}, {num(r['ci_high'])}]", "mean": num(r["mean_score"]),
+             "se": num(r["se_score"]), "examples": num(r["mean_examples"], 1)}
             for _, r in analysis.learning.iterrows()]
 
 
@@ -103,7 +98,7 @@ def headline(analysis: S.Analysis | ShowAnalysis) -> list[str]:
         if not a.ok:
             lines.append(a.message)
             continue
-        parts = [f"{eff}: F({r['df']:.0f}, {a.type3.loc['Residual', 'df']:.0f}) = {r['F']:.2f}, p {_p_apa(r['p'])}"
+        parts = [f"{eff}: F({r['df']:.0f}, {a.type3.loc['Residual', 'df']:.0f}) = {r['F']:.2f}, p {pval_apa(r['p'])}"
                  for eff, r in a.type3.iterrows() if eff != "Residual"]
         lines.append(f"ANOVA {a.name} [type III]: " + "; ".join(parts))
     for _, w in analysis.welch.iterrows():
@@ -111,12 +106,12 @@ def headline(analysis: S.Analysis | ShowAnalysis) -> list[str]:
             lines.append(f"Welch {w['comparison']}: {w['note']}")
         else:
             lines.append(f"Welch {w['comparison']}: diff = {w['diff']:.2f} [{w['ci_low']:.2f}, {w['ci_high']:.2f}], "
-                         f"t({w['df']:.1f}) = {w['t']:.2f}, p {_p_apa(w['p'])}, Holm p {_p_apa(w['p_holm'])}, "
+                         f"t({w['df']:.1f}) = {w['t']:.2f}, p {pval_apa(w['p'])}, Holm p {pval_apa(w['p_holm'])}, "
                          f"d = {w['cohen_d']:.2f}")
     for c in analysis.correlations:
         if c.ok:
             lines.append(f"Pearson {c.name} ({c.level}): r = {c.r:.2f} [{c.ci_low:.2f}, {c.ci_high:.2f}], "
-                         f"p {_p_apa(c.p)}, n = {c.n}")
+                         f"p {pval_apa(c.p)}, n = {c.n}")
         else:
             lines.append(f"Pearson {c.name} ({c.level}): {c.message}")
     for cond, curve in analysis.learning.groupby("condition", sort=False):
