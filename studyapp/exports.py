@@ -230,18 +230,15 @@ def long_rows(study: Study, ctx: _Context | None = None):
             for a in answers[p["pk"]]:
                 data = a["data"]
                 kind = a["kind"]
-                if kind == TEST and ctx.show:
-                    test = show_test_fields(a, ctx.difficulties[a["item"]])
+                if ctx.show and (kind == TEST or kind == CHECK):  # a way shown: its own cells, the rest empty
+                    test = show_test_fields(a, ctx.difficulties[a["item"]] if kind == TEST else "")
                     test = [test.get(c, "") for c in cells]
                 elif kind == TEST:
                     test = _test_fields(a, ctx.stars[a["item"]], ctx.difficulties[a["item"]])
-                    test = [test.get(c, "") for c in cells]
-                elif kind == CHECK and ctx.show:
-                    test = show_test_fields(a)
-                    test = [test.get(c, "") for c in cells]
+                    test = [test[c] for c in cells]
                 elif kind == CHECK:
                     test = _test_fields(a, ctx.check_stars[p["condition_id"]][questions[p["pk"], a["item"]]])
-                    test = [test.get(c, "") for c in cells]
+                    test = [test[c] for c in cells]
                 else:
                     test = no_test
                 # The answer's own cells need no neutralise(): numbers, the step's kind, digits
