@@ -25,12 +25,14 @@ const same = (a, b) => Array.isArray(a) && Array.isArray(b) && a[0] === b[0] && 
 const isGoal = (cell) => world.goals.some((g) => same(g, cell));
 
 // The state after `moves` from the start: where the robot is, where the object is ("held", a cell or
-// null), the rows drawn ([col, row, holding] per action) and how the episode ended (null: it goes on).
+// null), the rows drawn ([col, row, holding] per action) and how the episode ended (null: it goes on);
+// null if a move is not allowed where it is taken or comes after the end.
 function replay(moves) {
   let at = world.start, place = world.object, ended = null;
   const rows = [[...at, place === "held" ? 1 : 0]];
   for (const move of moves) {
-    const next = after(at, place, move);
+    const next = ended ? null : after(at, place, move);
+    if (!next) return null;
     [at, place, ended] = next;
     if (move !== "exit") rows.push([...at, place === "held" ? 1 : 0]);
   }
@@ -54,19 +56,9 @@ function after(at, place, move) {
   return null;
 }
 
-let moves = (memory.load().moves || []).filter((m) => rules.actions.includes(m));
-// a remembered way the page would not allow (another version of the page) is dropped, not half-kept
-try { replayChecked(moves); } catch (err) { moves = []; }
-
-function replayChecked(list) {
-  let at = world.start, place = world.object, ended = null;
-  for (const move of list) {
-    if (ended) throw new Error("after the end");
-    const next = after(at, place, move);
-    if (!next) throw new Error(`not allowed: ${move}`);
-    [at, place, ended] = next;
-  }
-}
+// a remembered way the page would not allow (another version of the page) is dropped whole, not half-kept
+const saved = memory.load().moves;
+let moves = Array.isArray(saved) && replay(saved) ? saved : [];
 
 const ENDINGS = { goal: "the robot reached a goal", delivered: `the robot delivered the ${rules.object || "object"}`,
   exit: "you stopped here" };

@@ -1,7 +1,7 @@
 """In Debian's Chromium, a participant shows the way in a "show" test of a grid world written only as a
 file (tests/teaching/domains/worlds/key-room.toml): by keyboard on a laptop, and by touch on a phone
-(390 x 844).  They move, undo a move, cannot walk into a wall or off the grid, cannot submit before the
-robot has finished, and submit; the stored moves and regret, and the export's, are the way they showed.
+(390 x 844).  They move, keep their way across a reload, undo a move, cannot walk into a wall or off the
+grid, cannot submit before the robot has finished, and submit; the stored moves and regret, and the export's, are the way they showed.
 Screenshots: test-output/show_way_<laptop|phone>.png."""
 from __future__ import annotations
 
@@ -95,6 +95,9 @@ def test_a_participant_shows_the_way_by_keyboard_and_by_touch(transactional_db, 
                         page.keyboard.press(KEYS[wall])  # into a wall or off the grid: nothing happens
                         assert shown(page) == []
                         page.keyboard.press(KEYS[free])
+                        assert shown(page) == [free]
+                        page.reload()  # the way so far is kept across a reload
+                        ready(page)
                         assert shown(page) == [free]
                         page.keyboard.press("Backspace")  # undo
                         assert shown(page) == []

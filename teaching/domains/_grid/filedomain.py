@@ -20,7 +20,7 @@ from ...core.build import Preset
 from ...core.domain import LegendEntry, ParticipantTexts
 from . import ROOT
 from .domain import GridDomain
-from .fileworld import ACTIONS, EXIT, fronts, play, world_fingerprint
+from .fileworld import EXIT, fronts, play, world_fingerprint
 from .worldfile import HELD, World, WorldFileError, load_world
 
 PLANNER_VERSION = 1  # bump whenever a change alters the trajectories the planner returns
@@ -164,12 +164,12 @@ class FileGridDomain(GridDomain):
     def show_rules(self, env_id: int) -> dict:
         """What a "show the way" page needs to offer exactly the actions fileworld.successors allows:
         blocked (H, W) cells the robot cannot enter, whether dropping the object on its destination ends
-        the episode (deliver), whether exit is allowed anywhere, the action names, at most how many
-        actions a shown way may have (four times the table's longest) and the object's name."""
+        the episode (deliver), whether exit is allowed anywhere, at most how many actions a shown way may
+        have (four times the table's longest) and the object's name."""
         variant, _ = self.split(env_id)
         return {"blocked": self.world.blocked(variant).tolist(),
                 "deliver": any(f.counts == "deliver" for f in self.world.features),
-                "exit": bool(self.world.exit), "actions": list(ACTIONS), "max_actions": 4 * self.max_moves,
+                "exit": bool(self.world.exit), "max_actions": 4 * self.max_moves,
                 "object": self.world.obj or ""}
 
     # --- the page ---------------------------------------------------------------------------
