@@ -1,8 +1,8 @@
 """In Debian's Chromium, a participant shows the way in a "show" test of a grid world written only as a
 file (tests/teaching/domains/worlds/key-room.toml): by keyboard on a laptop, and by touch on a phone
 (390 x 844).  They move, keep their way across a reload, undo a move, cannot walk into a wall or off the
-grid, cannot submit before the robot has finished, and submit; the stored moves and regret, and the export's, are the way they showed.
-Screenshots: test-output/show_way_<laptop|phone>.png."""
+grid, cannot submit before the robot has finished, and submit; the stored moves and regret, and the
+export's, are the way they showed.  Screenshots: test-output/show_way_<laptop|phone>.png."""
 from __future__ import annotations
 
 import csv
