@@ -23,8 +23,11 @@ NEEDS_SCRIPT = ("This study checks that your screen can show its animations, whi
 
 
 def rules(study: Study) -> dict:
-    """What the consent page's script checks (its data block)."""
-    return {"min_width": study.min_screen_width, "phones": study.allow_phones, "tablets": study.allow_tablets}
+    """What the consent page's script checks (its data block), with the messages it shows, in the same
+    words as the server's (``{width}`` stands for the width it measured)."""
+    return {"min_width": study.min_screen_width, "phones": study.allow_phones, "tablets": study.allow_tablets,
+            "messages": {"phone": _refused(study, "phone"), "tablet": _refused(study, "tablet"),
+                         "width": _too_narrow(study, "{width}")}}
 
 
 def problem(study: Study, reported, user_agent: str = "") -> str | None:
@@ -41,13 +44,21 @@ def problem(study: Study, reported, user_agent: str = "") -> str | None:
     if _PHONE_AGENT.search(user_agent or ""):
         device = "phone"
     if device == "phone" and not study.allow_phones:
-        return f"This study cannot be done on a phone: {_elsewhere(study)}"
+        return _refused(study, "phone")
     if device == "tablet" and not study.allow_tablets:
-        return f"This study cannot be done on a tablet: {_elsewhere(study)}"
+        return _refused(study, "tablet")
     if int(width) < study.min_screen_width:
-        return (f"This study needs a screen at least {study.min_screen_width} pixels wide, and yours is "
-                f"{int(width)}: {_elsewhere(study)}")
+        return _too_narrow(study, int(width))
     return None
+
+
+def _refused(study: Study, device: str) -> str:
+    return f"This study cannot be done on a {device}: {_elsewhere(study)}"
+
+
+def _too_narrow(study: Study, width) -> str:
+    return (f"This study needs a screen at least {study.min_screen_width} pixels wide, and yours is {width}: "
+            f"{_elsewhere(study)}")
 
 
 def _elsewhere(study: Study) -> str:

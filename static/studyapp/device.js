@@ -14,13 +14,11 @@ const device = phone ? "phone" : touch ? "tablet" : "computer";
 form.querySelector('input[name="screen_width"]').value = String(width);
 form.querySelector('input[name="device"]').value = device;
 
-const elsewhere = `please take part on a computer${rules.tablets ? " or a tablet" : ""} instead (on Prolific, please return the study).`;
+// the server's own messages (studyapp/devices.py rules), so the page and a refusal say the same
 let problem = "";
-if (device === "phone" && !rules.phones) problem = `This study cannot be done on a phone: ${elsewhere}`;
-else if (device === "tablet" && !rules.tablets) problem = `This study cannot be done on a tablet: ${elsewhere}`;
-else if (width < rules.min_width) {
-  problem = `This study needs a screen at least ${rules.min_width} pixels wide, and yours is ${width}: ${elsewhere}`;
-}
+if (device === "phone" && !rules.phones) problem = rules.messages.phone;
+else if (device === "tablet" && !rules.tablets) problem = rules.messages.tablet;
+else if (width < rules.min_width) problem = rules.messages.width.replace("{width}", String(width));
 if (problem) {
   const note = document.querySelector("[data-device-problem]");
   note.textContent = problem;

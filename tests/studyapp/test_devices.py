@@ -96,3 +96,11 @@ def test_the_designer_sets_the_device_rules(db, tiny_table, devices, min_width, 
     assert {k: job[k] for k in want} == want and ("min_screen_width" in job) == bool(min_width)
     bad = StudyDesignForm({**data, "min_screen_width": "-3"}, tables=tables)
     assert not bad.is_valid() and "min_screen_width" in bad.errors
+
+
+def test_the_page_shows_the_servers_own_words(desktop_only):
+    messages = devices.rules(desktop_only)["messages"]
+    assert messages["phone"] == devices.problem(desktop_only, {"screen_width": "390", "device": "phone"})
+    assert messages["tablet"] == devices.problem(desktop_only, {"screen_width": "1180", "device": "tablet"})
+    assert messages["width"].replace("{width}", "800") == devices.problem(
+        desktop_only, {"screen_width": "800", "device": "computer"})
