@@ -196,7 +196,6 @@ class StudyDesignForm(forms.Form):
         # The consent page's texts (the Study model's columns, through the schema).
         self.fields.update({k: schema_field(STUDY_FIELDS[k], widget=forms.Textarea if k == "consent_text" else None)
                             for k in TEXT_FIELDS})
-        # Who may take part: the device rules the consent page checks (studyapp/devices.py).
         # Who may take part: the device rules the consent page checks (studyapp/devices.py).  One choice, not
         # two tick boxes: an unticked box is never sent, so a post without them would turn phones away.
         self.fields["min_screen_width"] = schema_field(STUDY_FIELDS["min_screen_width"], required=False,

@@ -19,6 +19,7 @@ from django.db import transaction
 from studyapp.models import Study
 from studyapp.specschema import STUDY_FIELDS, check_job
 from studyapp.studies import SpecError, new_study
+from studyapp.trajectories import cannot_show
 from teaching.api import ClosedLoopSpec, TrajectoryTable, condition_params
 
 from .jobs import launch
@@ -113,9 +114,9 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int |
 
 def _show_problem(table, args: dict) -> str:
     """Why this job cannot ask to show the way ("" if it can)."""
-    if not callable(getattr(table.domain, "score_shown", None)):
-        return (f"tests that show the way: the {table.domain.name} domain cannot replay and score a way a participant "
-                "shows (grid worlds from a file can)")
+    problem = cannot_show(table.domain)
+    if problem:
+        return f"tests that show the way: {problem}"
     if args["test_difficulty"] != "none":
         return "tests that show the way are not graded by difficulty: choose 'none' for the difficulty"
     return ""

@@ -122,14 +122,22 @@ def training_from_table(table, env_ids) -> list[dict]:
 GRADED_KEYS = ("difficulty", "bec_size", "bec_tertiles")
 
 
+def cannot_show(domain: Domain) -> str | None:
+    """Why `domain` can have no "show the way" tests (one line), or None: it must replay and score a way
+    a participant shows (``Domain.score_shown``)."""
+    if callable(getattr(domain, "score_shown", None)):
+        return None
+    return (f"the {domain.name} domain cannot replay and score a way a participant shows, so it has no 'show the "
+            "way' tests (grid worlds from a file have them)")
+
+
 def show_tests_from_table(table, tests) -> list[dict]:
     """Payloads of "show the way" tests (``teaching.api.select_show_tests``' dicts, or any with an
     ``env_id``): the environment's scene, θ*'s way in it and its reward (``optimum``).  ValueError if
-    the table's domain cannot replay and score a way a participant shows (``Domain.score_shown``)."""
-    domain = table.domain
-    if not callable(getattr(domain, "score_shown", None)):
-        raise ValueError(f"the {domain.name} domain has no 'show the way' tests: it cannot replay and score a way a "
-                         "participant shows (grid worlds from a file can)")
+    the table's domain cannot have them (:func:`cannot_show`)."""
+    problem = cannot_show(table.domain)
+    if problem:
+        raise ValueError(problem)
     star = table.theta_star_index
     theta_star = np.asarray(table.theta_star, np.float64)
     out = []
