@@ -75,6 +75,20 @@ def participant_groups(table: pd.DataFrame) -> list[tuple[str, int]]:
             ("declined (no consent)", int((status == ST.DECLINED).sum()))]
 
 
+def welch_lines(welch: pd.DataFrame, digits: int = 2, tag: str = "") -> list[str]:
+    """The Welch table's rows (comparisons.welch_tests) as the printed summary's lines, `tag` after each
+    comparison's name (a show study's measure), `digits` for differences and intervals."""
+    lines = []
+    for _, w in welch.iterrows():
+        if pd.isna(w["t"]):
+            lines.append(f"Welch {w['comparison']}{tag}: {w['note']}")
+        else:
+            lines.append(f"Welch {w['comparison']}{tag}: diff = {w['diff']:.{digits}f} "
+                         f"[{w['ci_low']:.{digits}f}, {w['ci_high']:.{digits}f}], t({w['df']:.1f}) = {w['t']:.2f}, "
+                         f"p {pval_apa(w['p'])}, Holm p {pval_apa(w['p_holm'])}, d = {w['cohen_d']:.2f}")
+    return lines
+
+
 def welch_rows(welch: pd.DataFrame, digits: int = 2) -> list[dict]:
     """The Welch table's rows (comparisons.welch_tests), formatted; `digits` for means and differences."""
     rows = []

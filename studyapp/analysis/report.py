@@ -22,7 +22,7 @@ from .. import status as ST
 from . import figures as FIG
 from . import report_show as RS
 from . import stats as S
-from .formatting import anova_rows, cell, num, participant_groups, pval, pval_apa, welch_rows
+from .formatting import anova_rows, cell, num, participant_groups, pval, pval_apa, welch_lines, welch_rows
 from .shown import ShowAnalysis
 
 
@@ -101,13 +101,7 @@ def headline(analysis: S.Analysis | ShowAnalysis) -> list[str]:
         parts = [f"{eff}: F({r['df']:.0f}, {a.type3.loc['Residual', 'df']:.0f}) = {r['F']:.2f}, p {pval_apa(r['p'])}"
                  for eff, r in a.type3.iterrows() if eff != "Residual"]
         lines.append(f"ANOVA {a.name} [type III]: " + "; ".join(parts))
-    for _, w in analysis.welch.iterrows():
-        if pd.isna(w["t"]):
-            lines.append(f"Welch {w['comparison']}: {w['note']}")
-        else:
-            lines.append(f"Welch {w['comparison']}: diff = {w['diff']:.2f} [{w['ci_low']:.2f}, {w['ci_high']:.2f}], "
-                         f"t({w['df']:.1f}) = {w['t']:.2f}, p {pval_apa(w['p'])}, Holm p {pval_apa(w['p_holm'])}, "
-                         f"d = {w['cohen_d']:.2f}")
+    lines += welch_lines(analysis.welch)
     for c in analysis.correlations:
         if c.ok:
             lines.append(f"Pearson {c.name} ({c.level}): r = {c.r:.2f} [{c.ci_low:.2f}, {c.ci_high:.2f}], "

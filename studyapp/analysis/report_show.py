@@ -16,7 +16,7 @@ from django.template.loader import render_to_string
 
 from .. import status as ST
 from . import stats as S
-from .formatting import anova_rows, cell, num, participant_groups, pval_apa, welch_rows
+from .formatting import anova_rows, cell, num, participant_groups, pval_apa, welch_lines, welch_rows
 from .shown import ShowAnalysis
 
 # a share is a fraction of tests: more digits than a regret's mean would need to tell conditions apart
@@ -87,13 +87,7 @@ def headline(analysis: ShowAnalysis) -> list[str]:
                          f"p {pval_apa(r['p'])}")
         else:
             lines.append(a.message)
-        for _, w in m.welch.iterrows():
-            if pd.isna(w["t"]):
-                lines.append(f"Welch {w['comparison']} ({m.name}): {w['note']}")
-            else:
-                lines.append(f"Welch {w['comparison']} ({m.name}): diff = {w['diff']:.3f} "
-                             f"[{w['ci_low']:.3f}, {w['ci_high']:.3f}], t({w['df']:.1f}) = {w['t']:.2f}, "
-                             f"p {pval_apa(w['p'])}, Holm p {pval_apa(w['p_holm'])}, d = {w['cohen_d']:.2f}")
+        lines += welch_lines(m.welch, digits=3, tag=f" ({m.name})")
     return lines
 
 
