@@ -4,8 +4,9 @@ Inside one transaction, with the study's row locked (``SELECT ... FOR
 UPDATE`` on PostgreSQL; on SQLite the settings open every transaction with
 ``BEGIN IMMEDIATE``, which takes the database's single write lock), count per
 condition the completed, non-excluded participants plus the unfinished ones
-seen within the study's timeout, and put the newcomer in the least-filled
-condition (relative to its target), ties broken at random.  A returning
+seen within the study's timeout (none that returned, timed out or was screened
+out), and put the newcomer in the least-filled condition (relative to its
+target), ties broken at random.  A returning
 platform id gets its own participant back and never a second condition.
 """
 from __future__ import annotations
@@ -31,12 +32,16 @@ class StudyClosed(Exception):
 
 
 def counted_filter(study: Study, now=None) -> Q:
-    """Participants that hold a place in their condition."""
+    """Participants that hold a place in their condition: finished and kept, or unfinished, seen within the
+    study's timeout and (with a time limit) still within it.  One who returned the study, timed out or was
+    screened out (Participant.outcome) holds none."""
     now = now or timezone.now()
     prefix = "participants__"
     done = Q(**{prefix + "completed_at__isnull": False, prefix + "excluded": False})
     active = Q(**{prefix + "completed_at__isnull": True, prefix + "last_seen_at__gte": now - study.active_timeout})
-    return (done | active) & ~Q(**{prefix + "platform": Participant.PREVIEW})
+    if study.time_limit is not None:
+        active &= Q(**{prefix + "started_at__gte": now - study.time_limit})
+    return (done | active) & Q(**{prefix + "outcome": ""}) & ~Q(**{prefix + "platform": Participant.PREVIEW})
 
 
 def counted_conditions(study: Study):

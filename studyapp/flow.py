@@ -15,9 +15,9 @@ from dataclasses import dataclass
 from django.db import IntegrityError, transaction
 from django.utils import timezone
 
-from . import closedloop
+from . import closedloop, outcomes, status
 from .forms import STEP_FORMS, ShowForm, TestForm
-from .models import Answer, LoopStep, Participant, StepKind, Study, new_code
+from .models import Answer, LoopStep, Participant, StepKind, Study
 from .trajectories import study_domain
 
 logger = logging.getLogger(__name__)
@@ -42,6 +42,8 @@ class AnswerError(Exception):
         super().__init__(message)
         self.message, self.status, self.moved = message, status, moved
 
+
+ENDED = "This study has ended for you, so this answer was not saved."
 
 MOVED_ON = ("That page was out of date (perhaps answered in another tab or window), "
             "so your answer there was not saved again. You are now on your current step.")
@@ -134,6 +136,9 @@ def record(participant: Participant, step_index: int, post) -> Participant:
     if not 0 <= step_index < len(steps):
         raise AnswerError("This study has no such step; please use the link you were given.", status=404)
     step = steps[step_index]
+    # Timed out before the lock: the outcome's own conditional update must not roll back with a refusal.
+    if outcomes.check_time(participant):
+        raise AnswerError(ENDED, status=409, moved=True)
     data = clean_answer(participant, step, post)
     with transaction.atomic():
         # Lock only the participant's row: a FOR UPDATE joined with the study locks the study row too,
@@ -142,6 +147,8 @@ def record(participant: Participant, step_index: int, post) -> Participant:
         # reused: reading them again decoded the study's JSON (test set, pilot) once more per answer.
         locked = Participant.objects.select_for_update(of=("self",)).get(pk=participant.pk)
         locked.study, locked.condition = participant.study, participant.condition
+        if locked.outcome:  # returned, timed out or screened out since the page was drawn
+            raise AnswerError(ENDED, status=409, moved=True)
         # Only a step before the participant's position can hold an answer (the position moves on with each
         # answer stored, under this lock), so an answer to the current step needs no lookup.
         stored = (Answer.objects.filter(participant=locked, step=step_index).first()
@@ -174,7 +181,7 @@ def record(participant: Participant, step_index: int, post) -> Participant:
         finished = locked.position < len(steps) and steps[locked.position].kind == StepKind.DONE
         if finished:
             locked.completed_at = now
-            locked.completion_code = locked.study.completion_code or locked.completion_code or _code()
+            locked.completion_code = outcomes.code_for(locked, status.EXCLUDED if locked.excluded else status.COMPLETE)
         locked.save()
         if finished:
             logger.info("participant %s completed study %r (condition %r%s)", locked.pk, locked.study.slug,
@@ -200,6 +207,3 @@ def decline(participant: Participant, step_index: int) -> bool:
     logger.info("a participant of study %r declined consent; their row was deleted", participant.study.slug)
     return True
 
-
-def _code() -> str:
-    return new_code()

@@ -16,6 +16,8 @@ from django.db import models
 from django.urls import reverse
 from django.utils import timezone
 
+from . import status
+
 PROLIFIC_COMPLETION_URL = "https://app.prolific.com/submissions/complete?cc={code}"
 MTURK_SUBMIT_URL = "https://www.mturk.com/mturk/externalSubmit"
 
@@ -44,6 +46,18 @@ class Study(models.Model):
     completion_code = models.CharField(
         max_length=64, blank=True,
         help_text="Prolific's study completion code; blank gives each participant their own code.")
+    # One code per way a participant's study can end (studyapp.outcomes): Prolific takes several, each with
+    # its own action (approve, review, pay a screen-out fee).  Blank: see outcomes.code_for.
+    excluded_code = models.CharField(
+        max_length=64, blank=True,
+        help_text="The code of a participant who finished but failed the attention check; blank: the completion code.")
+    screened_out_code = models.CharField(
+        max_length=64, blank=True, help_text="The code of a participant screened out (the comprehension check).")
+    timed_out_code = models.CharField(
+        max_length=64, blank=True, help_text="The code of a participant who ran out of time.")
+    time_limit_minutes = models.PositiveIntegerField(
+        default=0, help_text="A participant not finished this many minutes after arriving is timed out and their "
+                             "place freed; 0: no limit.")
     prolific_completion_url = models.CharField(
         max_length=300, default=PROLIFIC_COMPLETION_URL, help_text="{code} is replaced by the completion code.")
     mturk_submit_url = models.CharField(max_length=300, default=MTURK_SUBMIT_URL)
@@ -90,6 +104,10 @@ class Study(models.Model):
     @property
     def active_timeout(self) -> timedelta:
         return timedelta(minutes=self.active_timeout_minutes)
+
+    @property
+    def time_limit(self) -> timedelta | None:
+        return timedelta(minutes=self.time_limit_minutes) if self.time_limit_minutes else None
 
     def opening_problems(self) -> list[str]:
         """Why this study may not accept participants yet (empty: it may)."""
@@ -152,6 +170,8 @@ class Study(models.Model):
         participant's consent, so a text changed during a study tells who agreed to which."""
         shown = [*self.consent_paragraphs(), str(self.estimated_minutes), self.payment, self.contact,
                  self.ethics_reference]
+        if self.time_limit_minutes:  # appended only when set: a study without one keeps its version
+            shown.append(f"limit {self.time_limit_minutes}")
         return hashlib.sha256("\x1f".join(shown).encode()).hexdigest()[:12]
 
     def consent_paragraphs(self) -> list[str]:
@@ -208,6 +228,13 @@ class Participant(models.Model):
     completed_at = models.DateTimeField(null=True, blank=True)
     excluded = models.BooleanField(default=False, help_text="Failed the attention check: kept, not analysed.")
     completion_code = models.CharField(max_length=64, blank=True)
+    # How a participant's study ended before its last step (studyapp.status): kept, never analysed, holds no place.
+    RETURNED, TIMED_OUT, SCREENED_OUT = status.RETURNED, status.TIMED_OUT, status.SCREENED_OUT
+    OUTCOMES = [(RETURNED, "returned (the platform says they left)"), (TIMED_OUT, "timed out"),
+                (SCREENED_OUT, "screened out")]
+    outcome = models.CharField(max_length=16, choices=OUTCOMES, blank=True,
+                               help_text="Returned, timed out or screened out; blank for everyone else.")
+    ended_at = models.DateTimeField(null=True, blank=True, help_text="When the outcome was set.")
 
     class Meta:
         ordering = ["-started_at"]

@@ -12,7 +12,7 @@ from django.views.decorators.clickjacking import xframe_options_exempt
 from django.views.decorators.csrf import csrf_exempt
 from django.views.decorators.http import require_GET, require_POST
 
-from . import closedloop, devices, flow, forms, security
+from . import closedloop, devices, flow, forms, outcomes, security, status
 from .assignment import StudyClosed, assign
 from .models import LoopStep, Participant, StepKind, Study
 from .scenes import instructions, scene_context
@@ -139,6 +139,8 @@ def _participant(slug: str, token: str) -> Participant:
 def step(request, slug, token):
     participant = _participant(slug, token)
     Participant.objects.filter(pk=participant.pk).update(last_seen_at=timezone.now())
+    if outcomes.check_time(participant):  # returned, timed out or screened out: the page of that outcome
+        return render(request, "studyapp/ended.html", ended_context(participant))
     current = flow.current_step(participant)
     ctx = step_context(participant, current)
     if request.GET.get("moved"):
@@ -244,10 +246,32 @@ def repeated_example(training: list[dict], item: int) -> int | None:
     return earlier[-1] + 1 if earlier else None
 
 
+ENDED_PAGES = {  # outcome: (title, what happened), as the participant reads them
+    status.RETURNED: ("You returned this study", "Your recruiting platform told us that you returned this study, "
+                      "so it has ended for you. Nothing more is needed; you may close this page."),
+    status.TIMED_OUT: ("Your time for this study is up", "This study had to be finished within {minutes} minutes "
+                       "of starting it, and that time has passed, so your place has been given to someone else. "
+                       "The answers you gave are kept."),
+    status.SCREENED_OUT: ("Thank you for your time", "Your answers to the questions about the instructions did not "
+                          "match them, so the study ends here for you. The answers you gave are kept."),
+}
+
+
+def ended_context(participant: Participant) -> dict:
+    title, text = ENDED_PAGES[participant.outcome]
+    ctx = {"study": participant.study, "participant": participant, "title": title,
+           "text": text.format(minutes=participant.study.time_limit_minutes),
+           "code": "" if participant.outcome == status.RETURNED else participant.completion_code}
+    if ctx["code"]:
+        ctx.update(completion_target(participant))
+    return ctx
+
+
 def completion_target(participant: Participant) -> dict:
-    """Where a finished participant is sent back to (only once every answer is stored)."""
+    """Where a finished or ended participant is sent back to, with their code (only once every answer is
+    stored, or their outcome set): Prolific's completion address with the code, or MTurk's submit form."""
     study, code = participant.study, participant.completion_code
-    if participant.completed_at is None:
+    if participant.completed_at is None and not participant.outcome or not code:
         return {}
     if participant.platform == Participant.PROLIFIC:
         return {"redirect_url": study.prolific_completion_url.format(code=code)}
