@@ -18,6 +18,7 @@ from studyapp.models import Study
 from studyapp.specschema import (
     CONDITION_FIELDS,
     JOB_FIELDS,
+    OUTCOME_FIELDS,
     STUDY_FIELDS,
     TEXT_FIELDS,
     THRESHOLD_FIELDS,
@@ -183,7 +184,8 @@ class StudyDesignForm(forms.Form):
         self.fields["table"].choices = table_choices(tables)
         self.fields["min_distance"].help_text += " (" + "; ".join(  # each domain's, in its own units
             f"{name}: {get_domain(name).min_option_distance}" for name in domain_names()) + ")"
-        fitted = (Study.objects.filter(participants__completed_at__isnull=False, participants__excluded=False)
+        fitted = (Study.objects.filter(participants__completed_at__isnull=False, participants__excluded=False,
+                                       participants__outcome="")
                   .distinct().order_by("slug").values_list("slug", "name"))
         self.fields["loop_fit_from"].choices = [("", "none: the settings above")] + [
             (slug, f"{name} ({slug})") for slug, name in fitted]
@@ -200,6 +202,9 @@ class StudyDesignForm(forms.Form):
         # two tick boxes: an unticked box is never sent, so a post without them would turn phones away.
         self.fields["min_screen_width"] = schema_field(STUDY_FIELDS["min_screen_width"], required=False,
                                                        label="Smallest screen width (px)")
+        # How a participant's study may end early, and each outcome's code (studyapp/outcomes.py).
+        self.fields.update({k: schema_field(STUDY_FIELDS[k], required=False) for k in OUTCOME_FIELDS})
+        self.fields["time_limit_minutes"].label = "Time limit (minutes)"
         self.fields["devices"] = forms.ChoiceField(
             choices=DEVICE_CHOICES, required=False, label="Devices that may take part",
             help_text="Phones and tablets are told on the consent page that they cannot take part, and keep no "
@@ -311,6 +316,7 @@ class StudyDesignForm(forms.Form):
                 "closed_loop": data["closed_loop"], "closed_loop_fit": data["closed_loop_fit"],
                 "completion_code": (data.get("completion_code") or "").strip(), "recruitment": data.get("recruitment"),
                 **{k: data.get(k) for k in TEXT_FIELDS},
+                **{k: data[k] for k in OUTCOME_FIELDS if data.get(k) not in (None, "")},
                 **device_arguments(data)}
 
     def _check_job(self, data: dict) -> None:

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from studyapp.specschema import TEXT_FIELDS
+from studyapp.specschema import OUTCOME_FIELDS, TEXT_FIELDS
 from teaching.api import get_selector
 
 
@@ -66,7 +66,9 @@ SECTIONS = (
             "How many participants each condition needs, where they come from, what they are told they earn, and "
             "which devices may take part.",
             (Group(("target_per_condition", "recruitment", "completion_code", "estimated_minutes", "payment")),
-             Group(("devices", "min_screen_width"), "Devices that may take part"))),
+             Group(("devices", "min_screen_width"), "Devices that may take part"),
+             Group(OUTCOME_FIELDS, "Time limit and a code for each way of ending", folded=True,
+                   opened_by=OUTCOME_FIELDS))),
     Section("texts", "Texts", "What the consent page says besides the payment and time above.",
             (Group(tuple(f for f in TEXT_FIELDS if f not in ("estimated_minutes", "payment")), "The consent page",
                    folded=True, opened_by=("consent_text", "contact", "ethics_reference")),)),

@@ -1,5 +1,5 @@
 """Researcher views: study list, per-study dashboard with live progress, its simulated pilot (studyapp/pilot.py),
-open/close, preview, exports, erasing a participant's data."""
+open/close, preview, exports, marking who returned the study, erasing a participant's data."""
 from __future__ import annotations
 
 from django.contrib import messages
@@ -9,7 +9,7 @@ from django.shortcuts import get_object_or_404, redirect, render
 from django.utils import timezone
 from django.views.decorators.http import require_POST
 
-from . import exports, privacy
+from . import exports, outcomes, privacy, status
 from .access import researcher_required
 from .assignment import counted_filter, preview_participant
 from .models import Answer, Condition, Participant, Study
@@ -18,25 +18,32 @@ from .pilot import pilot_context
 REFRESH_SECONDS = 5
 
 
+ENDED_COLUMNS = (status.RETURNED, status.TIMED_OUT, status.SCREENED_OUT)
+
+
 def condition_stats(study: Study) -> list[dict]:
     now = timezone.now()
+    outcomes.expire(study, now)  # who ran out of time is counted as timed out, not as in progress
     cutoff = now - study.active_timeout
     real = ~Q(participants__platform=Participant.PREVIEW)
     done = Q(participants__completed_at__isnull=False)
+    going = real & ~done & Q(participants__outcome="")
     rows = study.conditions.annotate(  # each row's .study is `study`: target_count reads no other copy
         started=Count("participants", filter=real),
         completed=Count("participants", filter=real & done),
         excluded=Count("participants", filter=real & Q(participants__excluded=True)),
-        active=Count("participants", filter=real & ~done & Q(participants__last_seen_at__gte=cutoff)),
-        abandoned=Count("participants", filter=real & ~done & Q(participants__last_seen_at__lt=cutoff)),
+        active=Count("participants", filter=going & Q(participants__last_seen_at__gte=cutoff)),
+        abandoned=Count("participants", filter=going & Q(participants__last_seen_at__lt=cutoff)),
+        **{ended: Count("participants", filter=real & Q(participants__outcome=ended)) for ended in ENDED_COLUMNS},
         counted=Count("participants", filter=counted_filter(study, now)),
         # Valid = finished and kept: a participant who failed the attention check is excluded
         # whether or not they finished, so "completed - excluded" would undercount.
-        valid=Count("participants", filter=real & done & Q(participants__excluded=False)),
+        valid=Count("participants", filter=real & done & Q(participants__excluded=False, participants__outcome="")),
     )
     return [{"condition": c, "target": c.target_count, "started": c.started, "completed": c.completed,
              "excluded": c.excluded, "active": c.active, "abandoned": c.abandoned, "counted": c.counted,
-             "valid": c.valid, "percent": min(100, round(100 * c.valid / max(c.target_count, 1)))}
+             "valid": c.valid, "percent": min(100, round(100 * c.valid / max(c.target_count, 1))),
+             **{ended: getattr(c, ended) for ended in ENDED_COLUMNS}}
             for c in rows]
 
 
@@ -52,7 +59,7 @@ def _progress_context(request, study):
               .select_related("participant", "participant__condition").order_by("-created_at")[:15])
     stats = condition_stats(study)
     totals = {k: sum(r[k] for r in stats) for k in ("target", "started", "completed", "excluded", "active",
-                                                    "abandoned")}
+                                                    "abandoned", *ENDED_COLUMNS)}
     return {"study": study, "stats": stats, "totals": totals, "recent": recent, "now": timezone.now(),
             "refresh_seconds": REFRESH_SECONDS}
 
@@ -134,3 +141,27 @@ def erase(request, slug):
         return render(request, "studyapp/dashboard/erase.html", {"study": study, "error": str(exc)}, status=404)
     return render(request, "studyapp/dashboard/erase.html", {"study": study, "found": found,
                                                              "platform_id": platform_id.strip()})
+
+
+@researcher_required
+@require_POST
+def mark_returned(request, slug):
+    """Participants the recruiting platform says returned the study (their ids pasted from its list of
+    returned submissions): marked returned, their places freed (studyapp.outcomes)."""
+    study = get_object_or_404(Study, slug=slug)
+    try:
+        ids = outcomes.parse_ids(request.POST.get("platform_ids", ""))
+    except ValueError as exc:
+        messages.error(request, _sentence(str(exc)))
+        return redirect("dashboard_study", slug=slug)
+    if not ids:
+        messages.error(request, "Paste the platform ids of the participants who returned the study.")
+        return redirect("dashboard_study", slug=slug)
+    report = outcomes.mark_returned(study, ids)
+    (messages.success if report.marked else messages.error)(request, _sentence(report.summary()))
+    return redirect("dashboard_study", slug=slug)
+
+
+def _sentence(text: str) -> str:
+    """A message as a sentence; the ids in it keep their case (str.capitalize would lower them)."""
+    return text[:1].upper() + text[1:] + "."

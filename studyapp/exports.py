@@ -25,12 +25,12 @@ import csv
 import io
 import json
 
-from . import closedloop
+from . import closedloop, outcomes
 from .csvsafe import FORMULA_STARTS, neutralise  # noqa: F401  (the guard; exports.neutralise stays importable)
 from .exports_show import show_long_columns, show_test_columns, show_test_fields, show_wide_columns, show_wide_fields
 from .models import Answer, LoopStep, Participant, StepKind, Study
 from .privacy import pseudonym
-from .status import COMPLETE, EXCLUDED, MEANINGS, participant_status
+from .status import COMPLETE, EXCLUDED, MEANINGS, STATUSES, participant_status
 from .trajectories import study_domain
 
 # (column, description) — the data dictionary; the same text is in docs/study.md.
@@ -48,8 +48,11 @@ PARTICIPANT_COLUMNS = [
     ("completed_at", "UTC time the last answer was stored; empty if unfinished."),
     ("excluded", "1 if the attention check was failed (status 'excluded'). Not the filter for an analysis: "
                  "use status."),
-    ("status", "complete, incomplete, excluded or declined. Analyse only status == complete: exactly the "
-               "participants the app analyses. " + "; ".join(f"{k}: {v}" for k, v in MEANINGS.items()) + "."),
+    ("status", ", ".join(STATUSES) + ". Analyse only status == complete: exactly the participants the app "
+               "analyses. " + "; ".join(f"{k}: {v}" for k, v in MEANINGS.items()) + "."),
+    ("ended_at", "UTC time the participant returned, timed out or was screened out; empty otherwise."),
+    ("completion_code", "The code the participant was given (each outcome may have its own: the study's codes); "
+                        "empty if none, and in a pseudonymised export."),
 ]
 LONG_COLUMNS = PARTICIPANT_COLUMNS + [
     ("step", "Index of the step in the participant's flow (0 = consent)."),
@@ -113,7 +116,8 @@ def check_columns(k) -> list[tuple[str, str]]:
 
 # Only the columns the files need: never the training / test-set JSON, decoded once per export instead.
 _PARTICIPANT_VALUES = ("pk", "condition_id", "platform", "platform_pid", "platform_study_id", "platform_session_id",
-                       "platform_session_ids", "started_at", "completed_at", "excluded", "position")
+                       "platform_session_ids", "started_at", "completed_at", "excluded", "position", "outcome",
+                       "ended_at", "completion_code")
 _ANSWER_VALUES = ("participant_id", "step", "kind", "item", "data", "correct", "confidence_score", "regret",
                   "created_at")
 PAGE = 500  # participants per query (their answers: one query more per page)
@@ -157,13 +161,17 @@ def _participant_fields(p: dict, ctx: _Context) -> dict:
         "started_at": p["started_at"].isoformat(),
         "completed_at": p["completed_at"].isoformat() if p["completed_at"] else "", "excluded": int(p["excluded"]),
         "status": participant_status(position=p["position"], excluded=p["excluded"],
-                                     completed=p["completed_at"] is not None),
+                                     completed=p["completed_at"] is not None, outcome=p["outcome"]),
+        "ended_at": p["ended_at"].isoformat() if p["ended_at"] else "",
+        "completion_code": "" if ctx.pseudonymise else p["completion_code"],
     }
 
 
 def _pages(study: Study, kinds=None):
     """(participant rows, {participant id: answers in step order}) a page at a time, by keyset on pk,
-    so memory holds one page whatever the study's size."""
+    so memory holds one page whatever the study's size.  Participants whose time ran out are marked
+    timed out first (outcomes.expire), so the file says so even of those who never came back."""
+    outcomes.expire(study)
     people = (Participant.objects.filter(study=study).exclude(platform=Participant.PREVIEW)
               .order_by("pk").values(*_PARTICIPANT_VALUES))
     last = 0

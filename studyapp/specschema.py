@@ -28,13 +28,16 @@ from .analysis.conditions import aliased_pairs
 from .models import Condition, Study
 from .specrules import Field, SpecError
 
-__all__ = ["CONDITION_FIELDS", "DEVICE_FIELDS", "JOB_FIELDS", "SPEC_FIELDS", "STUDY_FIELDS", "TEXT_FIELDS",
-           "THRESHOLD_FIELDS", "Field", "SpecError", "check_condition_names", "check_job", "check_spec", "check_study",
-           "job_problems"]
+__all__ = ["CONDITION_FIELDS", "DEVICE_FIELDS", "JOB_FIELDS", "OUTCOME_FIELDS", "SPEC_FIELDS", "STUDY_FIELDS",
+           "TEXT_FIELDS", "THRESHOLD_FIELDS", "Field", "SpecError", "check_condition_names", "check_job", "check_spec",
+           "check_study", "job_problems"]
 
 # The per-study texts of the consent page (models.Study holds their defaults, lengths and help).
 TEXT_FIELDS = ("consent_text", "estimated_minutes", "payment", "contact", "ethics_reference")
 DEVICE_FIELDS = ("min_screen_width", "allow_phones", "allow_tablets")  # who may take part (studyapp/devices.py)
+# How a participant's study may end early, and the code each way of ending gives (studyapp/outcomes.py).
+OUTCOME_FIELDS = ("time_limit_minutes", "excluded_code", "screened_out_code", "timed_out_code")
+MAX_TIME_LIMIT = 24 * 60  # minutes: a longer limit is a typing slip (Prolific's own maximum is shorter)
 MAX_TARGET = 100_000  # participants per condition: more is a typing slip, not a study
 
 
@@ -138,6 +141,10 @@ STUDY_FIELDS: dict[str, Field] = {f.name: f for f in (
             help="Smallest screen width (CSS pixels) a participant may take part on; 0: any (a laptop: 1024)."),
     _column("allow_phones", rules.boolean, help="Phones may take part."),
     _column("allow_tablets", rules.boolean, help="Tablets may take part."),
+    _column("time_limit_minutes", rules.whole, minimum=0, maximum=MAX_TIME_LIMIT),
+    _column("excluded_code"),
+    _column("screened_out_code"),
+    _column("timed_out_code"),
     _column("payment"),
     _column("contact"),
     _column("ethics_reference"),
@@ -261,9 +268,18 @@ def check_condition_names(named: list[tuple[object, str]], found: list[SpecError
                                dict(named)[pairs[0][1]]))
 
 
+def _study_rules(values: dict, found: list[SpecError]) -> None:
+    """The rules across a study's own fields, once each field is right by itself."""
+    limit, minutes = values.get("time_limit_minutes") or 0, values.get("estimated_minutes")
+    if not found and limit and minutes and limit < minutes:
+        found.append(SpecError(f"a time limit of {limit} minutes is shorter than the {minutes} minutes the study "
+                               "takes: participants would time out before they could finish", "time_limit_minutes"))
+
+
 def check_study(fields: dict, conditions: list[str]) -> None:
     """What studies.new_study stores: the study's fields given (and its slug), its conditions' names."""
-    _, found = _problems(fields, {k: f for k, f in STUDY_FIELDS.items() if k in fields or f.required})
+    out, found = _problems(fields, {k: f for k, f in STUDY_FIELDS.items() if k in fields or f.required})
+    _study_rules({"estimated_minutes": STUDY_FIELDS["estimated_minutes"].default, **out}, found)
     _raise_first(found)
     check_condition_names([(c, "conditions") for c in conditions], found)
     _raise_first(found)
@@ -276,6 +292,7 @@ def check_spec(spec) -> dict:
         raise SpecError(f"a study spec is a JSON object, not a {type(spec).__name__} "
                         "(for the output of `python -m teaching.teach`, give its directory)")
     out, found = _problems(spec, {**STUDY_FIELDS, **SPEC_FIELDS})
+    _study_rules(out, found)
     _raise_first(found)
     return {**{k: v for k, v in spec.items() if v is not None}, **out}
 
@@ -285,6 +302,7 @@ def job_problems(args: dict) -> tuple[dict, list[SpecError]]:
     own, then, if there are none, the first of the rules across fields (the conditions' names; a fit is
     for a closed-loop condition)."""
     out, found = _problems(args, {**STUDY_FIELDS, **JOB_FIELDS})
+    _study_rules(out, found)
     if found:
         return out, found
     if not out.get("conditions"):  # by default the paper's, unless the study has conditions of its own

@@ -34,6 +34,12 @@ function tickedConditions() {
   return out;
 }
 
+function outcomeCodes() {
+  const named = [["excluded_code", "failed attention check"], ["screened_out_code", "screened out"],
+    ["timed_out_code", "timed out"]].filter(([name]) => value(name)).map(([name, what]) => `${what} ${value(name)}`);
+  return named.length ? named.join("; ") : "none of their own";
+}
+
 function entries() {
   const conditions = tickedConditions();
   const target = parseInt(value("target_per_condition"), 10);
@@ -50,7 +56,9 @@ function entries() {
     ["Tests", tests.join("; ")],
     ["Participants", people],
     ["Recruitment", `${chosenText("recruitment")}${code ? `, completion code ${code}` : ""}`],
-    ["Payment and time", `${value("payment") || "no payment given"}, about ${value("estimated_minutes") || "?"} minutes`],
+    ["Payment and time", `${value("payment") || "no payment given"}, about ${value("estimated_minutes") || "?"} minutes`
+      + (parseInt(value("time_limit_minutes"), 10) > 0 ? `, at most ${value("time_limit_minutes")} (then timed out)` : "")],
+    ["Codes when ending early", outcomeCodes()],
   ];
 }
 

@@ -3,9 +3,11 @@
 * Staff previews are never analysed (not in any table).
 * By default only participants who finished (``completed_at`` set) are analysed; with
   ``include_incomplete=True`` unfinished ones enter too (with the tests they answered).
-* ``status`` is studyapp.status's (complete / incomplete / excluded / declined), the exports' column.
+* ``status`` is studyapp.status's (complete / incomplete / excluded / declined / returned / timed_out /
+  screened_out), the exports' column.
 * ``attention_ok`` comes from the stored attention answer (``data["passed"]``); ``excluded``
-  is the participant's flag (set by the flow when the attention check fails).
+  is the participant's flag (set by the flow when the attention check fails), and true for everyone
+  who returned, timed out or was screened out (their ``exclusion_reason`` says which).
 * ``checks_frame`` holds the check answers of closed-loop conditions (their learning curves,
   :mod:`studyapp.analysis.learning`), for the same participants as ``frames``.
 * ``test_cluster`` of a test is the strategy cluster stored with the study's test set
@@ -21,13 +23,15 @@ from __future__ import annotations
 import pandas as pd
 from django.db.models import Count, Max, Q
 
+from .. import outcomes
 from ..models import Answer, Condition, LoopStep, Participant, StepKind, Study
-from ..status import participant_status
+from ..status import RETURNED, SCREENED_OUT, TIMED_OUT, participant_status
 from ..trajectories import study_domain
 from . import learning as L
 from . import shown as SH
 from . import stats as S
 
+ENDED_REASONS = {RETURNED: "returned the study", TIMED_OUT: "timed out", SCREENED_OUT: "screened out"}
 PARTICIPANT_COLUMNS = ["participant_id", "condition", "attention_ok", "excluded", "exclusion_reason", "age",
                        "gender", "platform", "completed", "status"]
 ANSWER_COLUMNS = ["participant_id", "test_index", "test_cluster", "test_difficulty", "correct", "confidence", "score"]
@@ -36,11 +40,13 @@ TRAINING_COLUMNS = ["condition", "position", "environment_id", "cluster"]
 
 
 def _participants(study: Study, include_incomplete: bool):
+    outcomes.expire(study)  # a participant whose time ran out reads as timed out, here as in the exports
     qs = Participant.objects.filter(study=study).exclude(platform=Participant.PREVIEW)
     if not include_incomplete:
         qs = qs.filter(completed_at__isnull=False)
     # values(): never decode the large training / test-set JSON once per participant
-    return qs.order_by("pk").values("pk", "condition__name", "excluded", "completed_at", "platform", "position")
+    return qs.order_by("pk").values("pk", "condition__name", "excluded", "completed_at", "platform", "position",
+                                    "outcome")
 
 
 def training_frame(study: Study) -> pd.DataFrame:
@@ -87,12 +93,14 @@ def frames(study: Study, include_incomplete: bool = False) -> tuple[pd.DataFrame
         pk, excluded = p["pk"], bool(p["excluded"])
         ok = attention.get(pk, not excluded)
         reason = ("failed attention check" if not ok else "excluded by the researcher") if excluded else ""
+        if p["outcome"]:  # returned, timed out or screened out: never analysed, whatever they answered
+            excluded, reason = True, ENDED_REASONS[p["outcome"]]
         prows.append({"participant_id": str(pk), "condition": p["condition__name"], "attention_ok": ok,
                       "excluded": excluded, "exclusion_reason": reason,
                       "age": demo.get(pk, {}).get("age"), "gender": demo.get(pk, {}).get("gender"),
                       "platform": p["platform"], "completed": p["completed_at"] is not None,
-                      "status": participant_status(position=p["position"], excluded=excluded,
-                                                   completed=p["completed_at"] is not None)})
+                      "status": participant_status(position=p["position"], excluded=bool(p["excluded"]),
+                                                   completed=p["completed_at"] is not None, outcome=p["outcome"])})
     return (pd.DataFrame(prows, columns=PARTICIPANT_COLUMNS),
             pd.DataFrame(arows, columns=SHOW_ANSWER_COLUMNS if show else ANSWER_COLUMNS), training_frame(study))
 
@@ -158,10 +166,13 @@ def analyze_study(study: Study, include_incomplete: bool = False, extra_comparis
 
 def fingerprint(study: Study, include_incomplete: bool = False) -> str:
     """Changes whenever a response arrives (answers are write-once; exclusion and completion are
-    set together with an answer), so a cached report keyed on it is recomputed exactly then."""
+    set together with an answer; an outcome is counted), so a cached report keyed on it is recomputed
+    exactly then."""
+    outcomes.expire(study)
     agg = Answer.objects.filter(participant__study=study).aggregate(n=Count("pk"), last=Max("pk"))
     np_ = Participant.objects.filter(study=study).aggregate(
-        n=Count("pk"), ex=Count("pk", filter=Q(excluded=True)), done=Count("pk", filter=Q(completed_at__isnull=False)))
+        n=Count("pk"), ex=Count("pk", filter=Q(excluded=True)), done=Count("pk", filter=Q(completed_at__isnull=False)),
+        ended=Count("pk", filter=~Q(outcome="")))
     conds = Condition.objects.filter(study=study).aggregate(n=Count("pk"), last=Max("pk"))
-    return (f"{study.pk}-{agg['n']}-{agg['last']}-{np_['n']}-{np_['ex']}-{np_['done']}-{conds['n']}-{conds['last']}-"
-            f"{int(include_incomplete)}")
+    return (f"{study.pk}-{agg['n']}-{agg['last']}-{np_['n']}-{np_['ex']}-{np_['done']}-{np_['ended']}-"
+            f"{conds['n']}-{conds['last']}-{int(include_incomplete)}")

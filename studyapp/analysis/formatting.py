@@ -52,6 +52,11 @@ def cell(v):
     return str(v)
 
 
+# Listed only when a study has such participants, so a study without them reads as it always did.
+ENDED_GROUPS = ((ST.RETURNED, "returned (the platform says)"), (ST.TIMED_OUT, "timed out"),
+                (ST.SCREENED_OUT, "screened out (comprehension)"))
+
+
 def participant_groups(table: pd.DataFrame) -> list[tuple[str, int]]:
     """(label, count) of every kind of participant in the analysis's table; the counts add up to its rows.
 
@@ -72,7 +77,8 @@ def participant_groups(table: pd.DataFrame) -> list[tuple[str, int]]:
             ("incomplete (no test answered)", int((incomplete & ~answered).sum())),
             ("excluded (attention)", int((out & attention).sum())),
             ("excluded (by the researcher)", int((out & ~attention).sum())),
-            ("declined (no consent)", int((status == ST.DECLINED).sum()))]
+            ("declined (no consent)", int((status == ST.DECLINED).sum()))] + [
+        (label, int((status == ended).sum())) for ended, label in ENDED_GROUPS if (status == ended).any()]
 
 
 def welch_lines(welch: pd.DataFrame, digits: int = 2, tag: str = "") -> list[str]:

@@ -8,9 +8,10 @@ import json
 from studyapp.exports import LONG_COLUMNS, N_TESTS_WIDE, WIDE_COLUMNS
 from studyapp.models import Answer, Participant, StepKind, Study
 
-# The columns the old files had: every one but the new `status`.
-LONG_COLUMNS = [c for c in LONG_COLUMNS if c[0] != "status"]
-WIDE_COLUMNS = [c for c in WIDE_COLUMNS if c[0] != "status"]
+# The columns the old files had: every one but those added since (how each participant's study ended).
+NEW = ("status", "ended_at", "completion_code")
+LONG_COLUMNS = [c for c in LONG_COLUMNS if c[0] not in NEW]
+WIDE_COLUMNS = [c for c in WIDE_COLUMNS if c[0] not in NEW]
 
 
 def _participant_fields(p: Participant) -> dict:
