@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from studyapp.specschema import OUTCOME_FIELDS, TEXT_FIELDS
+from studyapp.specschema import BONUS_FIELDS, OUTCOME_FIELDS, TEXT_FIELDS
 from teaching.api import get_selector
 
 
@@ -67,6 +67,7 @@ SECTIONS = (
             "which devices may take part.",
             (Group(("target_per_condition", "recruitment", "completion_code", "estimated_minutes", "payment")),
              Group(("devices", "min_screen_width"), "Devices that may take part"),
+             Group(BONUS_FIELDS, "A performance bonus", folded=True, opened_by=BONUS_FIELDS[:3]),
              Group(OUTCOME_FIELDS, "Time limit and a code for each way of ending", folded=True,
                    opened_by=OUTCOME_FIELDS))),
     Section("texts", "Texts", "What the consent page says besides the payment and time above.",

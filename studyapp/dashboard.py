@@ -9,7 +9,7 @@ from django.shortcuts import get_object_or_404, redirect, render
 from django.utils import timezone
 from django.views.decorators.http import require_POST
 
-from . import exports, outcomes, privacy, status
+from . import bonuses, exports, outcomes, privacy, status
 from .access import researcher_required
 from .assignment import counted_filter, preview_participant
 from .models import Answer, Condition, Participant, Study
@@ -61,7 +61,8 @@ def _progress_context(request, study):
     totals = {k: sum(r[k] for r in stats) for k in ("target", "started", "completed", "excluded", "active",
                                                     "abandoned", *ENDED_COLUMNS)}
     return {"study": study, "stats": stats, "totals": totals, "recent": recent, "now": timezone.now(),
-            "refresh_seconds": REFRESH_SECONDS}
+            "refresh_seconds": REFRESH_SECONDS,
+            "bonuses": bonuses.totals(study) if bonuses.offers_bonus(study) else None}
 
 
 @researcher_required
@@ -116,6 +117,12 @@ def export(request, slug, kind):
         response = StreamingHttpResponse(exports.STREAMS[kind](study, pseudonymise),
                                          content_type="text/csv; charset=utf-8")
         name = f"{slug}-{kind}{'-pseudonymised' if pseudonymise else ''}.csv"
+    elif kind == "bonuses-prolific":  # pasted into Prolific's bulk bonus box: "id,amount" lines, no header
+        response = HttpResponse(bonuses.prolific_lines(study), content_type="text/csv; charset=utf-8")
+        name = f"{slug}-bonuses-prolific.csv"
+    elif kind == "bonuses-mturk":
+        response = HttpResponse(bonuses.mturk_csv(study), content_type="text/csv; charset=utf-8")
+        name = f"{slug}-bonuses-mturk.csv"
     else:
         response = HttpResponse(exports.dictionary_csv(study), content_type="text/csv; charset=utf-8")
         name = f"{slug}-data-dictionary.csv"

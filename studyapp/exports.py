@@ -53,6 +53,8 @@ PARTICIPANT_COLUMNS = [
     ("ended_at", "UTC time the participant returned, timed out or was screened out; empty otherwise."),
     ("completion_code", "The code the participant was given (each outcome may have its own: the study's codes); "
                         "empty if none, and in a pseudonymised export."),
+    ("bonus", "The performance bonus earned (the study's currency), computed once on finishing; empty if "
+              "unfinished. Paid only to status == complete (the bulk-bonus files)."),
 ]
 LONG_COLUMNS = PARTICIPANT_COLUMNS + [
     ("step", "Index of the step in the participant's flow (0 = consent)."),
@@ -117,7 +119,7 @@ def check_columns(k) -> list[tuple[str, str]]:
 # Only the columns the files need: never the training / test-set JSON, decoded once per export instead.
 _PARTICIPANT_VALUES = ("pk", "condition_id", "platform", "platform_pid", "platform_study_id", "platform_session_id",
                        "platform_session_ids", "started_at", "completed_at", "excluded", "position", "outcome",
-                       "ended_at", "completion_code")
+                       "ended_at", "completion_code", "bonus")
 _ANSWER_VALUES = ("participant_id", "step", "kind", "item", "data", "correct", "confidence_score", "regret",
                   "created_at")
 PAGE = 500  # participants per query (their answers: one query more per page)
@@ -164,6 +166,7 @@ def _participant_fields(p: dict, ctx: _Context) -> dict:
                                      completed=p["completed_at"] is not None, outcome=p["outcome"]),
         "ended_at": p["ended_at"].isoformat() if p["ended_at"] else "",
         "completion_code": "" if ctx.pseudonymise else p["completion_code"],
+        "bonus": "" if p["bonus"] is None else f"{p['bonus']:.2f}",
     }
 
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from django.db import IntegrityError, transaction
 from django.utils import timezone
 
-from . import closedloop, outcomes, status
+from . import bonuses, closedloop, outcomes, status
 from .forms import STEP_FORMS, ShowForm, TestForm
 from .models import Answer, LoopStep, Participant, StepKind, Study
 from .trajectories import study_domain
@@ -182,6 +182,7 @@ def record(participant: Participant, step_index: int, post) -> Participant:
         if finished:
             locked.completed_at = now
             locked.completion_code = outcomes.code_for(locked, status.EXCLUDED if locked.excluded else status.COMPLETE)
+            locked.bonus = bonuses.compute(locked)  # once, from the answers stored under this lock
         locked.save()
         if finished:
             logger.info("participant %s completed study %r (condition %r%s)", locked.pk, locked.study.slug,

@@ -55,6 +55,19 @@ class Study(models.Model):
         max_length=64, blank=True, help_text="The code of a participant screened out (the comprehension check).")
     timed_out_code = models.CharField(
         max_length=64, blank=True, help_text="The code of a participant who ran out of time.")
+    # A performance bonus (studyapp.bonuses): per correct test and per point of total confidence score, capped.
+    bonus_per_correct = models.DecimalField(
+        max_digits=7, decimal_places=3, default=0,
+        help_text="Bonus per test answered correctly (the study's currency); 0: none.")
+    bonus_per_point = models.DecimalField(
+        max_digits=7, decimal_places=3, default=0,
+        help_text="Bonus per point of the total confidence score (tests that ask to choose; a total below 0 earns "
+                  "nothing); 0: none.")
+    bonus_cap = models.DecimalField(
+        max_digits=7, decimal_places=2, default=0, help_text="The most bonus one participant can earn; 0: no cap.")
+    CURRENCIES = [("GBP", "£ (GBP)"), ("USD", "$ (USD)"), ("EUR", "€ (EUR)")]
+    bonus_currency = models.CharField(max_length=3, choices=CURRENCIES, default="GBP",
+                                      help_text="The currency of the bonus (the recruiting platform's).")
     time_limit_minutes = models.PositiveIntegerField(
         default=0, help_text="A participant not finished this many minutes after arriving is timed out and their "
                              "place freed; 0: no limit.")
@@ -235,6 +248,8 @@ class Participant(models.Model):
     outcome = models.CharField(max_length=16, choices=OUTCOMES, blank=True,
                                help_text="Returned, timed out or screened out; blank for everyone else.")
     ended_at = models.DateTimeField(null=True, blank=True, help_text="When the outcome was set.")
+    bonus = models.DecimalField(max_digits=7, decimal_places=2, null=True, blank=True,
+                                help_text="The performance bonus earned (studyapp.bonuses), set once on finishing.")
 
     class Meta:
         ordering = ["-started_at"]

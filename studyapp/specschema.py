@@ -28,15 +28,18 @@ from .analysis.conditions import aliased_pairs
 from .models import Condition, Study
 from .specrules import Field, SpecError
 
-__all__ = ["CONDITION_FIELDS", "DEVICE_FIELDS", "JOB_FIELDS", "OUTCOME_FIELDS", "SPEC_FIELDS", "STUDY_FIELDS",
-           "TEXT_FIELDS", "THRESHOLD_FIELDS", "Field", "SpecError", "check_condition_names", "check_job", "check_spec",
-           "check_study", "job_problems"]
+__all__ = ["BONUS_FIELDS", "CONDITION_FIELDS", "DEVICE_FIELDS", "JOB_FIELDS", "OUTCOME_FIELDS", "SPEC_FIELDS",
+           "STUDY_FIELDS", "TEXT_FIELDS", "THRESHOLD_FIELDS", "Field", "SpecError", "check_condition_names",
+           "check_job", "check_spec", "check_study", "job_problems"]
 
 # The per-study texts of the consent page (models.Study holds their defaults, lengths and help).
 TEXT_FIELDS = ("consent_text", "estimated_minutes", "payment", "contact", "ethics_reference")
 DEVICE_FIELDS = ("min_screen_width", "allow_phones", "allow_tablets")  # who may take part (studyapp/devices.py)
 # How a participant's study may end early, and the code each way of ending gives (studyapp/outcomes.py).
 OUTCOME_FIELDS = ("time_limit_minutes", "excluded_code", "screened_out_code", "timed_out_code")
+# A performance bonus (studyapp/bonuses.py): its rates, cap and currency.
+BONUS_FIELDS = ("bonus_per_correct", "bonus_per_point", "bonus_cap", "bonus_currency")
+MAX_BONUS = 100  # in the study's currency, per participant: more is a typing slip
 MAX_TIME_LIMIT = 24 * 60  # minutes: a longer limit is a typing slip (Prolific's own maximum is shorter)
 MAX_TARGET = 100_000  # participants per condition: more is a typing slip, not a study
 
@@ -143,6 +146,10 @@ STUDY_FIELDS: dict[str, Field] = {f.name: f for f in (
     _column("allow_tablets", rules.boolean, help="Tablets may take part."),
     _column("time_limit_minutes", rules.whole, minimum=0, maximum=MAX_TIME_LIMIT),
     _column("excluded_code"),
+    _column("bonus_per_correct", rules.number, minimum=0, maximum=MAX_BONUS),
+    _column("bonus_per_point", rules.number, minimum=0, maximum=MAX_BONUS),
+    _column("bonus_cap", rules.number, minimum=0, maximum=MAX_BONUS),
+    _column("bonus_currency", rules.choice, choices=tuple(Study.CURRENCIES)),
     _column("screened_out_code"),
     _column("timed_out_code"),
     _column("payment"),
@@ -270,10 +277,19 @@ def check_condition_names(named: list[tuple[object, str]], found: list[SpecError
 
 def _study_rules(values: dict, found: list[SpecError]) -> None:
     """The rules across a study's own fields, once each field is right by itself."""
+    if found:
+        return
     limit, minutes = values.get("time_limit_minutes") or 0, values.get("estimated_minutes")
-    if not found and limit and minutes and limit < minutes:
+    if limit and minutes and limit < minutes:
         found.append(SpecError(f"a time limit of {limit} minutes is shorter than the {minutes} minutes the study "
                                "takes: participants would time out before they could finish", "time_limit_minutes"))
+    if (values.get("bonus_cap") or 0) > 0 and not ((values.get("bonus_per_correct") or 0) > 0
+                                                   or (values.get("bonus_per_point") or 0) > 0):
+        found.append(SpecError("a bonus cap needs a bonus to cap: set an amount per correct test or per "
+                               "confidence point", "bonus_cap"))
+    if values.get("test_kind") == Study.SHOW and (values.get("bonus_per_point") or 0) > 0:
+        found.append(SpecError("tests that show the way have no confidence score: pay a bonus per correct test "
+                               "instead", "bonus_per_point"))
 
 
 def check_study(fields: dict, conditions: list[str]) -> None:

@@ -19,6 +19,6 @@ urlpatterns = [
     path("dashboard/<slug:slug>/stimuli/", stimuli.stimuli, name="dashboard_stimuli"),
     path("dashboard/<slug:slug>/erase/", dashboard.erase, name="dashboard_erase"),
     path("dashboard/<slug:slug>/returned/", dashboard.mark_returned, name="dashboard_returned"),
-    re_path(r"^dashboard/(?P<slug>[-\w]+)/export/(?P<kind>long|wide|dictionary)\.csv$", dashboard.export,
-            name="dashboard_export"),
+    re_path(r"^dashboard/(?P<slug>[-\w]+)/export/(?P<kind>long|wide|dictionary|bonuses-prolific|bonuses-mturk)\.csv$",
+            dashboard.export, name="dashboard_export"),
 ]

@@ -12,7 +12,7 @@ from django.views.decorators.clickjacking import xframe_options_exempt
 from django.views.decorators.csrf import csrf_exempt
 from django.views.decorators.http import require_GET, require_POST
 
-from . import closedloop, devices, flow, forms, outcomes, security, status
+from . import bonuses, closedloop, devices, flow, forms, outcomes, security, status
 from .assignment import StudyClosed, assign
 from .models import LoopStep, Participant, StepKind, Study
 from .scenes import instructions, scene_context
@@ -223,6 +223,8 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
         ctx["age_min"], ctx["age_max"] = forms.AGE_MIN, forms.AGE_MAX
     elif current.kind == StepKind.DONE:
         ctx.update(completion_target(participant))
+        if participant.bonus is not None and bonuses.offers_bonus(participant.study) and not participant.excluded:
+            ctx["bonus"] = bonuses.label(participant.study, participant.bonus)
     return ctx
 
 

@@ -40,6 +40,15 @@ function outcomeCodes() {
   return named.length ? named.join("; ") : "none of their own";
 }
 
+function bonusText() {
+  const parts = [];
+  if (parseFloat(value("bonus_per_correct")) > 0) parts.push(`${value("bonus_per_correct")} per correct test`);
+  if (parseFloat(value("bonus_per_point")) > 0) parts.push(`${value("bonus_per_point")} per confidence point`);
+  if (!parts.length) return "none";
+  const cap = parseFloat(value("bonus_cap")) > 0 ? `, at most ${value("bonus_cap")}` : ", no cap";
+  return `${parts.join(" + ")}${cap} (${value("bonus_currency") || "GBP"})`;
+}
+
 function entries() {
   const conditions = tickedConditions();
   const target = parseInt(value("target_per_condition"), 10);
@@ -59,6 +68,7 @@ function entries() {
     ["Payment and time", `${value("payment") || "no payment given"}, about ${value("estimated_minutes") || "?"} minutes`
       + (parseInt(value("time_limit_minutes"), 10) > 0 ? `, at most ${value("time_limit_minutes")} (then timed out)` : "")],
     ["Codes when ending early", outcomeCodes()],
+    ["Bonus", bonusText()],
   ];
 }
 

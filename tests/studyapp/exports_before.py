@@ -9,7 +9,7 @@ from studyapp.exports import LONG_COLUMNS, N_TESTS_WIDE, WIDE_COLUMNS
 from studyapp.models import Answer, Participant, StepKind, Study
 
 # The columns the old files had: every one but those added since (how each participant's study ended).
-NEW = ("status", "ended_at", "completion_code")
+NEW = ("status", "ended_at", "completion_code", "bonus")
 LONG_COLUMNS = [c for c in LONG_COLUMNS if c[0] not in NEW]
 WIDE_COLUMNS = [c for c in WIDE_COLUMNS if c[0] not in NEW]
 
