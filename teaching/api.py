@@ -34,7 +34,7 @@ Domains (teaching.core.domain)
                              planning, and the study's pages: scene payloads, palette, texts);
                              get_domain(name=None) the registered one (None: default),
                              domain_names() every registered name, default_domain_name()
-    ParticipantTexts, LegendEntry, ComprehensionQuestion  what a domain's pages tell participants
+    ParticipantTexts, LegendEntry  what a domain's pages tell participants
 
 Choice model (teaching.core.choice; docs/analysis.md)
     option_choice(model, belief, table, env_index, options, lapse)  (K,) P(a learner of `model`
@@ -175,7 +175,7 @@ from .core.closedloop import (
 from .core.closedloop_pack import Pack, load_pack, write_pack
 from .core.closedloop_pilot import loop_pilot
 from .core.conditions import build_sequences, condition_params, condition_sequence
-from .core.domain import ComprehensionQuestion, Domain, LegendEntry, ParticipantTexts, default_domain_name, domain_names, get_domain
+from .core.domain import Domain, LegendEntry, ParticipantTexts, default_domain_name, domain_names, get_domain
 from .core.evaluation import USER_NAMES, study_matrix
 from .core.fitting import TIE_TOLERANCE, Answers, Comparison, FitError, Question, compare_models, questions_of
 from .core.learners import MODEL_NAMES, has_hyperparameter, make_model, model_names, parse_hyperparameters
@@ -211,7 +211,7 @@ MIN_OPTION_DISTANCE = _DRIVING.min_option_distance  # the car's; a table's own: 
 __all__ = [
     "ALL_CONDITIONS", "APPROX_STAR", "CLASS_NAMES", "CLUSTER_NAMES", "CONDITIONS", "GOAL_NAMES", "MIN_OPTION_DISTANCE",
     "MIN_REGRET",
-    "ComprehensionQuestion", "Domain", "LegendEntry", "ParticipantTexts", "default_domain_name", "domain_names", "get_domain",
+    "Domain", "LegendEntry", "ParticipantTexts", "default_domain_name", "domain_names", "get_domain",
     "MODEL_NAMES", "N_CLUSTERS", "USER_NAMES",
     "N_ENVIRONMENTS", "PRESETS", "SAMPLERS", "WORLD", "Preset", "SelectionSettings", "TableError",
     "TrajectoryTable", "assemble", "build_chunk", "build_sequences", "check_writable", "chunk_key", "chunk_path",
