@@ -23,18 +23,21 @@ from dataclasses import replace
 
 from teaching.api import APPROX_STAR, CONDITIONS, DIFFICULTIES, MIN_REGRET, model_names, selector_names
 
+from . import comprehension
 from . import specrules as rules
 from .analysis.conditions import aliased_pairs
 from .models import Condition, Study
 from .specrules import Field, SpecError
 
-__all__ = ["CONDITION_FIELDS", "DEVICE_FIELDS", "JOB_FIELDS", "SPEC_FIELDS", "STUDY_FIELDS", "TEXT_FIELDS",
-           "THRESHOLD_FIELDS", "Field", "SpecError", "check_condition_names", "check_job", "check_spec", "check_study",
-           "job_problems"]
+__all__ = ["COMPREHENSION_FIELDS", "CONDITION_FIELDS", "DEVICE_FIELDS", "JOB_FIELDS", "SPEC_FIELDS", "STUDY_FIELDS",
+           "TEXT_FIELDS", "THRESHOLD_FIELDS", "Field", "SpecError", "check_condition_names", "check_job", "check_spec",
+           "check_study", "job_problems"]
 
 # The per-study texts of the consent page (models.Study holds their defaults, lengths and help).
 TEXT_FIELDS = ("consent_text", "estimated_minutes", "payment", "contact", "ethics_reference")
 DEVICE_FIELDS = ("min_screen_width", "allow_phones", "allow_tablets")  # who may take part (studyapp/devices.py)
+# The comprehension check after the instructions (studyapp/comprehension.py).
+COMPREHENSION_FIELDS = ("comprehension_check", "comprehension_questions", "comprehension_attempts")
 MAX_TARGET = 100_000  # participants per condition: more is a typing slip, not a study
 
 
@@ -141,6 +144,16 @@ STUDY_FIELDS: dict[str, Field] = {f.name: f for f in (
     _column("payment"),
     _column("contact"),
     _column("ethics_reference"),
+    _column("comprehension_check", rules.boolean, says="the comprehension check",
+            help="Ask multiple-choice questions about the instructions before the examples; whoever fails them "
+                 "too often is screened out (the study's screened-out code)."),
+    _column("comprehension_questions", rules.questions, default=[], says="the comprehension questions",
+            help="One question per block, blocks separated by a blank line: the question on its first line, then "
+                 "one line per choice, '* ' before a right one and '- ' before a wrong one; empty: the robot's "
+                 "own questions."),
+    _column("comprehension_attempts", rules.whole, minimum=1, maximum=comprehension.MAX_ATTEMPTS,
+            says="the comprehension check's attempts",
+            help="Failed attempts after which a participant is screened out."),
 )}
 
 # One condition of a JSON spec.
