@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from studyapp.specschema import TEXT_FIELDS
+from studyapp.specschema import COMPREHENSION_FIELDS, TEXT_FIELDS
 from teaching.api import get_selector
 
 
@@ -67,9 +67,12 @@ SECTIONS = (
             "which devices may take part.",
             (Group(("target_per_condition", "recruitment", "completion_code", "estimated_minutes", "payment")),
              Group(("devices", "min_screen_width"), "Devices that may take part"))),
-    Section("texts", "Texts", "What the consent page says besides the payment and time above.",
+    Section("texts", "Texts", "What the consent page says besides the payment and time above, and the questions "
+                              "that may check the instructions were understood.",
             (Group(tuple(f for f in TEXT_FIELDS if f not in ("estimated_minutes", "payment")), "The consent page",
-                   folded=True, opened_by=("consent_text", "contact", "ethics_reference")),)),
+                   folded=True, opened_by=("consent_text", "contact", "ethics_reference")),
+             Group(COMPREHENSION_FIELDS, "A comprehension check", folded=True, wide=True,
+                   opened_by=("comprehension_check",)))),
 )
 
 

@@ -13,7 +13,7 @@ from django.urls import reverse
 
 from studyapp import assignment, comprehension, exports, flow, privacy, status
 from studyapp.models import Answer, ComprehensionAttempt, Participant, StepKind
-from studyapp.specschema import SpecError, check_spec
+from studyapp.specschema import SpecError, check_job, check_spec
 from teaching.api import domain_names, get_domain
 
 pytestmark = pytest.mark.django_db
@@ -195,3 +195,54 @@ def test_a_spec_refuses_bad_settings_in_one_line(tiny_table, change, message):
     with pytest.raises(SpecError, match=re.escape(message)) as raised:
         check_spec(spec)
     assert "\n" not in str(raised.value)
+
+
+DESIGN = {"slug": "designed", "name": "Designed", "conditions": ["exact"], "target_per_condition": "20",
+          "recruitment": "link", "approx_star": "det-euclidean", "seed": "0", "min_regret": "0.001",
+          "estimated_minutes": "15", "comprehension_check": "on", "comprehension_attempts": "3"}
+
+
+@pytest.fixture
+def design(tiny_table):
+    """A bound designer form on the tiny table (its robot's questions prefilled, as the page sends them)."""
+    from precompute.design import StudyDesignForm, built_tables  # noqa: PLC0415
+
+    tables = [t for t in built_tables(tiny_table.parent) if t["path"] == str(tiny_table)]
+    text = StudyDesignForm(tables=tables).fields["comprehension_questions"].initial
+
+    def bound(**change):
+        return StudyDesignForm({**DESIGN, "table": str(tiny_table), "comprehension_questions": text, **change},
+                               tables=tables)
+
+    return bound
+
+
+@pytest.mark.parametrize("change, field, message", [
+    ({"comprehension_questions": "Q?\n- a\n- b"}, "comprehension_questions",
+     "the comprehension questions: question 1 has no right answer: mark one with '* '"),
+    ({"comprehension_questions": "Q?\n* a\n- b\n\nR?\n* only"}, "comprehension_questions",
+     "the comprehension questions: question 2 needs at least 2 choices (got 1)"),
+    ({"comprehension_attempts": "0"}, "comprehension_attempts",
+     "the comprehension check's attempts must be a positive whole number up to 10, not 0"),
+    ({"comprehension_attempts": "11"}, "comprehension_attempts",
+     "the comprehension check's attempts must be a positive whole number up to 10, not 11"),
+])
+def test_the_designer_says_bad_comprehension_settings_in_one_line(design, change, field, message):
+    form = design(**change)
+    assert not form.is_valid()
+    assert form.errors[field] == [message]
+
+
+def test_the_designer_stores_the_robots_own_questions_empty_and_the_researchers_parsed(design, tiny_table):
+    form = design()
+    assert form.is_valid(), form.errors
+    job = form.cleaned_data["job"]
+    assert (job["comprehension_check"], job["comprehension_questions"], job["comprehension_attempts"]) == (True, "", 3)
+    own = design(comprehension_questions="Which?\n- no\n* yes", comprehension_attempts="2")
+    assert own.is_valid(), own.errors
+    job = {k: v for k, v in own.cleaned_data["job"].items() if k != "table_path"}
+    stored = check_job(job)  # what the study job stores
+    assert stored["comprehension_questions"] == [{"question": "Which?", "choices": ["no", "yes"], "right": [1]}]
+    assert stored["comprehension_attempts"] == 2
+    off = design(comprehension_check="", comprehension_questions="not a question at all\nb")
+    assert off.is_valid(), off.errors  # questions of a check that is off are not asked, nor judged
