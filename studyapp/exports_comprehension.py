@@ -7,9 +7,10 @@ and queries it had: these appear only in the files of a study that asks it.
 """
 from __future__ import annotations
 
-from .models import ComprehensionAttempt
+from .models import ComprehensionAttempt, StepKind
 
-COMPREHENSION = "comprehension"  # the long file's kind of an attempt's row (StepKind.COMPREHENSION's value)
+# plain strs, as the answer rows carry them: an attempt's row is of the check's kind
+COMPREHENSION, INSTRUCTIONS = StepKind.COMPREHENSION.value, StepKind.INSTRUCTIONS.value
 
 # Long file: after answered_at; empty on the rows of other steps.
 COMPREHENSION_LONG_COLUMNS = [
@@ -46,7 +47,7 @@ def with_attempts(answers: list[dict], attempts: list[dict]) -> list[dict]:
     """A participant's long-file rows: their answers, the check's own answer replaced by every attempt, at
     the check's step (its answer's, else the step after the instructions: a participant screened out has none)."""
     step = next((a["step"] for a in answers if a["kind"] == COMPREHENSION),
-                next((a["step"] + 1 for a in answers if a["kind"] == "instructions"), 2))
+                next((a["step"] + 1 for a in answers if a["kind"] == INSTRUCTIONS), 2))
     rows = [a for a in answers if a["kind"] != COMPREHENSION] + [{**a, "step": step} for a in attempts]
     return sorted(rows, key=lambda a: a["step"])  # stable: the attempts stay in their order
 
