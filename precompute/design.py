@@ -42,6 +42,7 @@ from teaching.api import (
     make_model,
 )
 
+from . import designquiz
 from .jobs import table_preset, tables_dir
 from .schemafields import param_field_name, schema_field, selector_param_fields
 
@@ -199,6 +200,7 @@ class StudyDesignForm(forms.Form):
         # The consent page's texts (the Study model's columns, through the schema).
         self.fields.update({k: schema_field(STUDY_FIELDS[k], widget=forms.Textarea if k == "consent_text" else None)
                             for k in TEXT_FIELDS})
+        self.fields.update(designquiz.fields(tables))  # the comprehension check after the instructions
         # Who may take part: the device rules the consent page checks (studyapp/devices.py).  One choice, not
         # two tick boxes: an unticked box is never sent, so a post without them would turn phones away.
         self.fields["min_screen_width"] = schema_field(STUDY_FIELDS["min_screen_width"], required=False,
@@ -318,7 +320,7 @@ class StudyDesignForm(forms.Form):
                 "completion_code": (data.get("completion_code") or "").strip(), "recruitment": data.get("recruitment"),
                 **{k: data.get(k) for k in TEXT_FIELDS},
                 **{k: data[k] for k in OUTCOME_FIELDS + BONUS_FIELDS if data.get(k) not in (None, "")},
-                **device_arguments(data)}
+                **device_arguments(data), **designquiz.arguments(data)}
 
     def _check_job(self, data: dict) -> None:
         """The job's arguments through the study spec's checks (studyapp/specschema.py), each problem under

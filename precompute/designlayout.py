@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from studyapp.specschema import BONUS_FIELDS, OUTCOME_FIELDS, TEXT_FIELDS
+from studyapp.specschema import BONUS_FIELDS, COMPREHENSION_FIELDS, OUTCOME_FIELDS, TEXT_FIELDS
 from teaching.api import get_selector
 
 
@@ -70,9 +70,12 @@ SECTIONS = (
              Group(BONUS_FIELDS, "A performance bonus", folded=True, opened_by=BONUS_FIELDS[:3]),
              Group(OUTCOME_FIELDS, "Time limit and a code for each way of ending", folded=True,
                    opened_by=OUTCOME_FIELDS))),
-    Section("texts", "Texts", "What the consent page says besides the payment and time above.",
+    Section("texts", "Texts", "What the consent page says besides the payment and time above, and the questions "
+                              "that may check the instructions were understood.",
             (Group(tuple(f for f in TEXT_FIELDS if f not in ("estimated_minutes", "payment")), "The consent page",
-                   folded=True, opened_by=("consent_text", "contact", "ethics_reference")),)),
+                   folded=True, opened_by=("consent_text", "contact", "ethics_reference")),
+             Group(COMPREHENSION_FIELDS, "A comprehension check", folded=True, wide=True,
+                   opened_by=("comprehension_check",)))),
 )
 
 

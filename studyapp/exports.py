@@ -26,6 +26,7 @@ import io
 import json
 
 from . import closedloop, outcomes
+from . import exports_comprehension as quiz
 from .csvsafe import FORMULA_STARTS, neutralise  # noqa: F401  (the guard; exports.neutralise stays importable)
 from .exports_show import show_long_columns, show_test_columns, show_test_fields, show_wide_columns, show_wide_fields
 from .models import Answer, LoopStep, Participant, StepKind, Study
@@ -59,9 +60,10 @@ PARTICIPANT_COLUMNS = [
 LONG_COLUMNS = PARTICIPANT_COLUMNS + [
     ("step", "Index of the step in the participant's flow (0 = consent)."),
     ("kind", "consent, instructions, training, test, attention or demographics; in a closed-loop condition also "
-             "check and feedback."),
+             "check and feedback; in a study with a comprehension check also comprehension (a row per attempt)."),
     ("item", "Index of the training environment or test (0-based) within its kind; in a closed-loop condition a "
-             "training, check or feedback step's index within the loop; empty otherwise."),
+             "training, check or feedback step's index within the loop; a comprehension attempt's number (from 1); "
+             "empty otherwise."),
     ("env_id", "Environment id (the study's domain's enumeration; a study's dictionary names it) for training and "
                "test rows; in a closed-loop condition also for check and feedback rows."),
     ("chosen_option", "Test or check: canonical index (0-3) of the option chosen as matching the robot."),
@@ -139,6 +141,7 @@ class _Context:
         self.slug = study.slug
         self.pseudonymise = pseudonymise  # platform ids replaced by privacy.pseudonym, for sharing
         self.show = study.test_kind == Study.SHOW
+        self.comprehension = study.comprehension_check  # its attempts' rows and columns (exports_comprehension)
         # a show test has no options, so no theta* option: its answer is a way, scored by its regret
         self.stars = [None if self.show else _star(t) for t in study.test_set]
         self.difficulties = [neutralise(str(t.get("difficulty") or "")) for t in study.test_set]  # a spec's text
@@ -222,8 +225,10 @@ def _safe(values) -> list:
 
 
 def long_columns(ctx: _Context) -> list[tuple[str, str]]:
-    """LONG_COLUMNS; a show study's (exports_show.show_long_columns) for a show study."""
-    return show_long_columns(LONG_COLUMNS) if ctx.show else LONG_COLUMNS
+    """LONG_COLUMNS; a show study's (exports_show.show_long_columns) for a show study; the comprehension
+    check's column last in a study that asks it."""
+    columns = show_long_columns(LONG_COLUMNS) if ctx.show else LONG_COLUMNS
+    return columns + quiz.COMPREHENSION_LONG_COLUMNS if ctx.comprehension else columns
 
 
 def long_rows(study: Study, ctx: _Context | None = None):
@@ -235,10 +240,12 @@ def long_rows(study: Study, ctx: _Context | None = None):
     no_test = [""] * len(cells)
     for page, answers in _pages(study):
         questions = _check_questions(page) if ctx.check_stars else {}
+        tries = quiz.attempts_of(page) if ctx.comprehension else None
         for p in page:
             fields = _participant_fields(p, ctx)
             base = _safe(fields[c] for c, _ in PARTICIPANT_COLUMNS)
-            for a in answers[p["pk"]]:
+            mine = answers[p["pk"]] if tries is None else quiz.with_attempts(answers[p["pk"]], tries.get(p["pk"], []))
+            for a in mine:
                 data = a["data"]
                 kind = a["kind"]
                 if ctx.show and (kind == TEST or kind == CHECK):  # a way shown: its own cells, the rest empty
@@ -255,9 +262,10 @@ def long_rows(study: Study, ctx: _Context | None = None):
                 # The answer's own cells need no neutralise(): numbers, the step's kind, digits
                 # (display_order, answered_at) and answer_json, which starts with "{" whatever the
                 # participant typed inside it; a show test's moves are neutralised where they are joined.
-                yield base + [a["step"], a["kind"], "" if a["item"] is None else a["item"],
+                row = base + [a["step"], a["kind"], "" if a["item"] is None else a["item"],
                               data.get("env_id", ""), *test, json.dumps(data, sort_keys=True),
                               a["created_at"].isoformat()]
+                yield row if tries is None else row + [a.get("passed", "")]
 
 
 def _check_fields(ctx: _Context, condition_id: int, answers: list[dict]) -> dict:
@@ -278,8 +286,11 @@ def wide_rows(study: Study, ctx: _Context | None = None):
     n_tests = len(ctx.stars)
     kinds = [StepKind.TEST, StepKind.ATTENTION, StepKind.DEMOGRAPHICS] + ([StepKind.CHECK] if ctx.check_stars else [])
     for page, answers in _pages(study, kinds=kinds):
+        tries = quiz.attempts_of(page) if ctx.comprehension else None
         for p in page:
             row = _participant_fields(p, ctx)
+            if tries is not None:
+                row.update(quiz.wide_fields(tries.get(p["pk"], [])))
             by_kind = {(a["kind"], a["item"]): a for a in answers[p["pk"]]}
             attention = by_kind.get((StepKind.ATTENTION, None), {}).get("data")
             demo = by_kind.get((StepKind.DEMOGRAPHICS, None), {}).get("data")
@@ -361,7 +372,7 @@ def wide_columns(study: Study, ctx: _Context | None = None) -> list:
             columns += [(f"test{j}_env_id", ""), (f"test{j}_correct", ""), (f"test{j}_confidence_score", "")]
     if ctx.check_stars:
         columns += CHECK_SUMMARY_COLUMNS + [c for k in range(1, ctx.n_checks + 1) for c in check_columns(k)]
-    return columns
+    return columns + quiz.COMPREHENSION_WIDE_COLUMNS if ctx.comprehension else columns
 
 
 def long_stream(study: Study, pseudonymise: bool = False):
@@ -410,6 +421,7 @@ def dictionary_csv(study: Study | None = None) -> str:
         wide += CHECK_SUMMARY_COLUMNS + check_columns("<k>") if ctx.check_stars else []
     else:
         long, wide = LONG_COLUMNS, WIDE_COLUMNS + CHECK_SUMMARY_COLUMNS + check_columns("<k>")
+    long, wide = long + quiz.COMPREHENSION_LONG_COLUMNS, wide + quiz.COMPREHENSION_WIDE_COLUMNS
     rows = [{"file": "long", "column": c, "description": own.get(c, d)} for c, d in long]
     rows += [{"file": "wide", "column": c, "description": own.get(c, d)} for c, d in wide]
     return to_csv([("file", ""), ("column", ""), ("description", "")], rows)

@@ -1,8 +1,8 @@
 """The participant's path through a study and the recording of each answer (validated by studyapp.forms).
 
-Steps, in order: consent, instructions, one per training environment, one
-per test (choosing among options, or showing the way: Study.test_kind), attention check, demographics,
-then ``done``.  A participant's
+Steps, in order: consent, instructions, the comprehension check (if the study asks it), one per
+training environment, one per test (choosing among options, or showing the way: Study.test_kind),
+attention check, demographics, then ``done``.  A participant's
 ``position`` is the index of the step they are on; an answer is accepted only
 for that step, is validated before anything is written, and is stored
 exactly once (a repeated identical POST is a no-op that succeeds).
@@ -15,9 +15,9 @@ from dataclasses import dataclass
 from django.db import IntegrityError, transaction
 from django.utils import timezone
 
-from . import bonuses, closedloop, outcomes, status
+from . import bonuses, closedloop, comprehension, outcomes, status
 from .forms import STEP_FORMS, ShowForm, TestForm
-from .models import Answer, LoopStep, Participant, StepKind, Study
+from .models import Answer, ComprehensionAttempt, LoopStep, Participant, StepKind, Study
 from .trajectories import study_domain
 
 logger = logging.getLogger(__name__)
@@ -53,6 +53,8 @@ def steps_for(participant: Participant) -> list[Step]:
     """The participant's steps.  A closed-loop condition's teaching steps are decided one at a time
     (studyapp.closedloop): its list ends at the step the participant stands on until the loop is done."""
     kinds = [(StepKind.CONSENT, None), (StepKind.INSTRUCTIONS, None)]
+    if participant.study.comprehension_check:
+        kinds.append((StepKind.COMPREHENSION, None))
     if closedloop.is_closed_loop(participant.condition):
         loop = closedloop.loop_steps(participant, first_step=len(kinds))
         kinds += [(closedloop.STEP_KINDS[s.kind], s.index) for s in loop if s.kind != LoopStep.DONE]
@@ -149,6 +151,8 @@ def record(participant: Participant, step_index: int, post) -> Participant:
         locked.study, locked.condition = participant.study, participant.condition
         if locked.outcome:  # returned, timed out or screened out since the page was drawn
             raise AnswerError(ENDED, status=409, moved=True)
+        if step.kind == StepKind.COMPREHENSION:
+            return record_attempt(locked, step_index, data)
         # Only a step before the participant's position can hold an answer (the position moves on with each
         # answer stored, under this lock), so an answer to the current step needs no lookup.
         stored = (Answer.objects.filter(participant=locked, step=step_index).first()
@@ -188,6 +192,43 @@ def record(participant: Participant, step_index: int, post) -> Participant:
             logger.info("participant %s completed study %r (condition %r%s)", locked.pk, locked.study.slug,
                         locked.condition.name, ", excluded by the attention check" if locked.excluded else "")
         return locked
+
+
+def record_attempt(locked: Participant, step_index: int, data: dict) -> Participant:
+    """Store one attempt at the comprehension check (the caller holds the participant's row lock): passed,
+    the step's Answer is written and the participant moves on; failed too often, they are screened out.
+
+    ``data["attempt"]`` is the number the page was drawn for: an attempt stored under it already is a
+    replay (a double click, a retried post), a no-op when its answers are the same, so nothing is counted
+    twice; any other number is a page out of date."""
+    number, answers = data["attempt"], data["answers"]
+    stored = locked.comprehension_attempts.filter(number=number).first()
+    if stored is not None:
+        if stored.answers == answers:
+            return locked  # idempotent repeat
+        raise AnswerError("These answers were already checked; please answer on the current page.", status=409,
+                          moved=True)
+    if step_index != locked.position or number != locked.comprehension_attempts.count() + 1:
+        raise AnswerError(f"You are on step {locked.position + 1}, not step {step_index + 1}.", status=409,
+                          moved=True)
+    missed = comprehension.missed(comprehension.questions_of(locked.study), answers)
+    now = timezone.now()
+    try:
+        with transaction.atomic():
+            ComprehensionAttempt.objects.create(participant=locked, number=number, answers=answers, missed=missed,
+                                                passed=not missed, created_at=now)
+            if not missed:
+                Answer.objects.create(participant=locked, step=step_index, kind=StepKind.COMPREHENSION,
+                                      data={"attempts": number, "answers": answers}, correct=True, created_at=now)
+    except IntegrityError:
+        raise AnswerError("These answers were already checked.", status=409, moved=True) from None
+    locked.last_seen_at = now
+    if not missed:
+        locked.position = step_index + 1
+    locked.save(update_fields=["position", "last_seen_at"])
+    if missed and number >= locked.study.comprehension_attempts:
+        outcomes.end(locked, status.SCREENED_OUT, now)
+    return locked
 
 
 def decline(participant: Participant, step_index: int) -> bool:

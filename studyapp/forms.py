@@ -12,6 +12,7 @@ import re
 from django import forms
 from django.core.exceptions import ValidationError
 
+from .comprehension import ComprehensionForm
 from .models import StepKind
 from .trajectories import study_domain
 
@@ -226,6 +227,7 @@ class ShowForm(StepForm):
 STEP_FORMS: dict[StepKind, type[StepForm]] = {
     StepKind.CONSENT: ConsentForm,
     StepKind.INSTRUCTIONS: InstructionsForm,
+    StepKind.COMPREHENSION: ComprehensionForm,  # its questions are the study's (studyapp/comprehension.py)
     StepKind.TRAINING: TrainingForm,
     StepKind.CHECK: TestForm,  # a closed-loop check question is answered as a test is
     StepKind.FEEDBACK: TrainingForm,  # and its feedback watched as an example is

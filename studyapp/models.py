@@ -99,6 +99,15 @@ class Study(models.Model):
     allow_tablets = models.BooleanField(default=True, help_text="Tablets may take part.")
     device_refusals = models.PositiveIntegerField(
         default=0, editable=False, help_text="Arrivals turned away for their device (no place was kept for them).")
+    # The comprehension check after the instructions (studyapp/comprehension.py); off by default, so a study
+    # without it keeps its steps' indices.
+    comprehension_check = models.BooleanField(
+        default=False, help_text="Ask questions about the instructions before the examples; screen out whoever "
+                                 "fails them too often.")
+    comprehension_questions = models.JSONField(
+        default=list, blank=True, help_text="[{question, choices, right: [indices]}]; empty: the domain's own.")
+    comprehension_attempts = models.PositiveIntegerField(
+        default=3, help_text="Failed attempts at the comprehension check after which a participant is screened out.")
     test_set = models.JSONField(
         default=list, help_text="Shared test environments: with 4 options each (choose), or θ*'s way (show).")
     source = models.JSONField(default=dict, blank=True, help_text="Where the trajectories came from (table, seed).")
@@ -278,6 +287,7 @@ class StepKind(models.TextChoices):
 
     CONSENT = "consent"
     INSTRUCTIONS = "instructions"
+    COMPREHENSION = "comprehension"  # questions about the instructions, when the study asks them
     TRAINING = "training"
     CHECK = "check"  # closed-loop conditions: a check question between examples
     FEEDBACK = "feedback"  # closed-loop conditions: θ*'s trajectory after a check
@@ -311,6 +321,26 @@ class Answer(models.Model):
 
     def __str__(self):
         return f"{self.participant} step {self.step} ({self.kind})"
+
+
+class ComprehensionAttempt(models.Model):
+    """One attempt at a study's comprehension check, failed or passed: each is kept (and exported), while
+    the step's Answer is written once, when it is passed.  ``number`` (1, 2, ...) is unique per participant,
+    so a replayed post of an attempt is recognised instead of counted again."""
+
+    participant = models.ForeignKey(Participant, models.CASCADE, related_name="comprehension_attempts")
+    number = models.PositiveIntegerField(help_text="1 for the first attempt, then 2, ...")
+    answers = models.JSONField(default=list, help_text="Per question, the indices of the choices ticked.")
+    missed = models.JSONField(default=list, help_text="Indices (0-based) of the questions answered wrongly.")
+    passed = models.BooleanField(default=False)
+    created_at = models.DateTimeField(default=timezone.now)
+
+    class Meta:
+        ordering = ["participant", "number"]
+        constraints = [models.UniqueConstraint(fields=["participant", "number"], name="one_comprehension_attempt")]
+
+    def __str__(self):
+        return f"{self.participant} comprehension attempt {self.number}"
 
 
 class LoopStep(models.Model):

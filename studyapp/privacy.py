@@ -1,7 +1,8 @@
 """Participants' data rights: erasing everything a participant left, and exports without platform ids.
 
 * :func:`erase` deletes the participant rows of one platform id (a PROLIFIC_PID or MTurk workerId) in one
-  study or in all, with everything stored under them (answers, closed-loop steps: the database cascades),
+  study or in all, with everything stored under them (answers, closed-loop steps, comprehension attempts: the
+  database cascades),
   as an EU participant may ask.  Nothing else changes: other participants, the study, its conditions and
   their places (an erased participant's place is free again).  The audit line it logs names the study,
   the participant's database id and how many rows went, never a platform id.
@@ -19,7 +20,7 @@ from django.db import transaction
 from django.db.models import Count
 from django.utils.crypto import salted_hmac
 
-from .models import Answer, LoopStep, Participant, Study
+from .models import Answer, ComprehensionAttempt, LoopStep, Participant, Study
 
 logger = logging.getLogger(__name__)
 PSEUDONYM_SALT = "studyapp.privacy.pseudonym"
@@ -34,15 +35,21 @@ class Found:
     """What an erasure would delete: per participant row, its study's slug, database id and counts."""
 
     rows: tuple[tuple[str, int, int, int], ...]  # (study slug, participant id, answers, loop steps)
+    attempts: tuple[int, ...] = ()  # each row's comprehension attempts (a study with the check: studyapp.comprehension)
 
     @property
     def n_answers(self) -> int:
         return sum(r[2] for r in self.rows)
 
+    @property
+    def n_attempts(self) -> int:
+        return sum(self.attempts)
+
     def summary(self) -> str:
         studies = sorted({r[0] for r in self.rows})
         return (f"{len(self.rows)} participant row(s) in {', '.join(studies)}: {self.n_answers} answer(s), "
-                f"{sum(r[3] for r in self.rows)} closed-loop step(s)")
+                f"{sum(r[3] for r in self.rows)} closed-loop step(s)"
+                + (f", {self.n_attempts} comprehension attempt(s)" if self.n_attempts else ""))
 
 
 def _participants(platform_pid: str, study: Study | None):
@@ -62,7 +69,9 @@ def find(platform_pid: str, study: Study | None = None) -> Found:
         raise ErasureError(f"no participant of {where} has that platform id; nothing was erased")
     answers = _counts(Answer, people)
     steps = _counts(LoopStep, people)
-    return Found(tuple((p.study.slug, p.pk, answers.get(p.pk, 0), steps.get(p.pk, 0)) for p in people))
+    attempts = _counts(ComprehensionAttempt, people)
+    return Found(tuple((p.study.slug, p.pk, answers.get(p.pk, 0), steps.get(p.pk, 0)) for p in people),
+                 tuple(attempts.get(p.pk, 0) for p in people))
 
 
 def _counts(model, people) -> dict[int, int]:
@@ -77,9 +86,9 @@ def erase(platform_pid: str, study: Study | None = None) -> Found:
     with transaction.atomic():
         found = find(platform_pid, study)
         Participant.objects.filter(pk__in=[r[1] for r in found.rows]).delete()
-    for slug, pk, n_answers, n_steps in found.rows:
-        logger.info("erased participant %s of study %r at their request: %d answers, %d closed-loop steps",
-                    pk, slug, n_answers, n_steps)
+    for (slug, pk, n_answers, n_steps), n_attempts in zip(found.rows, found.attempts, strict=True):
+        logger.info("erased participant %s of study %r at their request: %d answers, %d closed-loop steps%s",
+                    pk, slug, n_answers, n_steps, f", {n_attempts} comprehension attempts" if n_attempts else "")
     return found
 
 

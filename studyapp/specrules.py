@@ -26,6 +26,8 @@ from teaching.api import (
     selector_names,
 )
 
+from . import comprehension
+
 LOOP_EXAMPLE = '{"model": "det-euclidean", "check_every": 2}'
 # The selectors' own names that are not slugs ("coverage-approx*"): a condition may carry them.
 SELECTOR_SPELLINGS = tuple(c for c in selector_names() if not slug_re.match(c))
@@ -155,6 +157,16 @@ def boolean(f, v, found, where):
     if not isinstance(v, bool):
         found.append(SpecError(f"{f.label} must be true or false, not {v!r}", where))
     return v
+
+
+def questions(f, v, found, where):
+    """The comprehension check's questions: stored ones ([{question, choices, right}]) or the designer's text
+    (studyapp/comprehension.py's format); empty: the domain's own."""
+    try:
+        return comprehension.parse_text(v) if isinstance(v, str) else comprehension.check(v)
+    except comprehension.QuestionsError as exc:
+        found.append(SpecError(f"{f.label}: {exc}", where))
+        return v
 
 
 def obj(f, v, found, where):

@@ -23,14 +23,15 @@ from dataclasses import replace
 
 from teaching.api import APPROX_STAR, CONDITIONS, DIFFICULTIES, MIN_REGRET, model_names, selector_names
 
+from . import comprehension
 from . import specrules as rules
 from .analysis.conditions import aliased_pairs
 from .models import Condition, Study
 from .specrules import Field, SpecError
 
-__all__ = ["BONUS_FIELDS", "CONDITION_FIELDS", "DEVICE_FIELDS", "JOB_FIELDS", "OUTCOME_FIELDS", "SPEC_FIELDS",
-           "STUDY_FIELDS", "TEXT_FIELDS", "THRESHOLD_FIELDS", "Field", "SpecError", "check_condition_names",
-           "check_job", "check_spec", "check_study", "job_problems"]
+__all__ = ["BONUS_FIELDS", "COMPREHENSION_FIELDS", "CONDITION_FIELDS", "DEVICE_FIELDS", "JOB_FIELDS", "OUTCOME_FIELDS",
+           "SPEC_FIELDS", "STUDY_FIELDS", "TEXT_FIELDS", "THRESHOLD_FIELDS", "Field", "SpecError",
+           "check_condition_names", "check_job", "check_spec", "check_study", "job_problems"]
 
 # The per-study texts of the consent page (models.Study holds their defaults, lengths and help).
 TEXT_FIELDS = ("consent_text", "estimated_minutes", "payment", "contact", "ethics_reference")
@@ -41,6 +42,8 @@ OUTCOME_FIELDS = ("time_limit_minutes", "excluded_code", "screened_out_code", "t
 BONUS_FIELDS = ("bonus_per_correct", "bonus_per_point", "bonus_cap", "bonus_currency")
 MAX_BONUS = 100  # in the study's currency, per participant: more is a typing slip
 MAX_TIME_LIMIT = 24 * 60  # minutes: a longer limit is a typing slip (Prolific's own maximum is shorter)
+# The comprehension check after the instructions (studyapp/comprehension.py).
+COMPREHENSION_FIELDS = ("comprehension_check", "comprehension_questions", "comprehension_attempts")
 MAX_TARGET = 100_000  # participants per condition: more is a typing slip, not a study
 
 
@@ -155,6 +158,16 @@ STUDY_FIELDS: dict[str, Field] = {f.name: f for f in (
     _column("payment"),
     _column("contact"),
     _column("ethics_reference"),
+    _column("comprehension_check", rules.boolean, says="the comprehension check",
+            help="Ask multiple-choice questions about the instructions before the examples; whoever fails them "
+                 "too often is screened out (the study's screened-out code)."),
+    _column("comprehension_questions", rules.questions, default=[], says="the comprehension questions",
+            help="One question per block, blocks separated by a blank line: the question on its first line, then "
+                 "one line per choice, '* ' before a right one and '- ' before a wrong one; empty: the robot's "
+                 "own questions."),
+    _column("comprehension_attempts", rules.whole, minimum=1, maximum=comprehension.MAX_ATTEMPTS,
+            says="the comprehension check's attempts",
+            help="Failed attempts after which a participant is screened out."),
 )}
 
 # One condition of a JSON spec.

@@ -51,7 +51,7 @@ from teaching.api import (
 
 from . import closedloop, specschema, trajectories
 from .models import Condition, Study
-from .specschema import BONUS_FIELDS, DEVICE_FIELDS, OUTCOME_FIELDS, TEXT_FIELDS, SpecError
+from .specschema import BONUS_FIELDS, COMPREHENSION_FIELDS, DEVICE_FIELDS, OUTCOME_FIELDS, TEXT_FIELDS, SpecError
 
 # The paper's nine conditions (Secs. "User Study" and "User Study on Coverage"), spelled as the
 # teaching selectors name them so a study built from either source reads the same.
@@ -292,8 +292,8 @@ def build_study(spec: dict, replace: bool = False) -> Study:
                           source=source, replace=replace,
                           target_per_condition=spec["target_per_condition"],
                           completion_code=spec["completion_code"], recruitment=spec["recruitment"],
-                          **{k: spec[k] for k in (*TEXT_FIELDS, *DEVICE_FIELDS, *OUTCOME_FIELDS, *BONUS_FIELDS)
-                             if k in spec})
+                          **{k: spec[k] for k in (*TEXT_FIELDS, *DEVICE_FIELDS, *OUTCOME_FIELDS, *BONUS_FIELDS,
+                                                  *COMPREHENSION_FIELDS) if k in spec})
         targets = {c["name"]: c.get("target") for c in conditions}
         for c in study.conditions.all():
             if isinstance(training[c.name], dict):

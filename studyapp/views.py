@@ -12,7 +12,7 @@ from django.views.decorators.clickjacking import xframe_options_exempt
 from django.views.decorators.csrf import csrf_exempt
 from django.views.decorators.http import require_GET, require_POST
 
-from . import bonuses, closedloop, devices, flow, forms, outcomes, security, status
+from . import bonuses, closedloop, comprehension, devices, flow, forms, outcomes, security, status
 from .assignment import StudyClosed, assign
 from .models import LoopStep, Participant, StepKind, Study
 from .scenes import instructions, scene_context
@@ -145,6 +145,8 @@ def step(request, slug, token):
     ctx = step_context(participant, current)
     if request.GET.get("moved"):
         ctx["notice"] = flow.MOVED_ON
+    # a failed comprehension check: the instructions again, its questions only when asked for
+    ctx["reviewing"] = bool(ctx.get("missed_questions")) and not request.GET.get("questions")
     return render(request, f"studyapp/step_{template_kind(participant, current)}.html", ctx)
 
 
@@ -178,9 +180,12 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
         ctx["total_training"] = f"up to {loop['settings']['max_examples']}"
     if current.kind == StepKind.CONSENT and participant.study.has_device_rules:
         ctx["device_rules"] = devices.rules(participant.study)
-    if current.kind in (StepKind.INSTRUCTIONS, StepKind.TRAINING, StepKind.FEEDBACK, StepKind.TEST, StepKind.CHECK):
+    if current.kind in (StepKind.INSTRUCTIONS, StepKind.COMPREHENSION, StepKind.TRAINING, StepKind.FEEDBACK,
+                        StepKind.TEST, StepKind.CHECK):
         ctx.update(scene_context(participant.study))  # the domain's scene module, palette, legend, texts
-    if current.kind == StepKind.INSTRUCTIONS:
+    if current.kind == StepKind.COMPREHENSION:  # its page shows the instructions again after a failed attempt
+        ctx.update(comprehension.page_context(participant))
+    if current.kind in (StepKind.INSTRUCTIONS, StepKind.COMPREHENSION):
         ctx["instructions"] = instructions(participant.study, ctx["total_training"], ctx["total_tests"])
         if loop and loop["settings"]["check_every"]:
             ctx["instructions"].append(CHECK_INSTRUCTIONS + (FEEDBACK_INSTRUCTIONS if loop["settings"]["feedback"]
@@ -236,7 +241,8 @@ def planned_steps(participant: Participant, steps: list[flow.Step]) -> int:
         return len(steps)
     s = loop["settings"]
     n_loop = s["max_examples"] + closedloop.max_checks(loop) * (2 if s["feedback"] else 1)
-    return 2 + n_loop + len(participant.study.test_set) + 3  # consent, instructions; attention, demographics, done
+    before = 3 if participant.study.comprehension_check else 2  # consent, instructions (and the comprehension check)
+    return before + n_loop + len(participant.study.test_set) + 3  # ...; attention, demographics, done
 
 
 def repeated_example(training: list[dict], item: int) -> int | None:

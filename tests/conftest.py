@@ -103,6 +103,12 @@ def answer_payload(participant, step):
         return {"consent": ["yes"]}
     if step.kind == StepKind.INSTRUCTIONS:
         return {"ack": ["1"]}
+    if step.kind == StepKind.COMPREHENSION:  # every question's right choices, as the next attempt
+        from studyapp.comprehension import questions_of  # noqa: PLC0415
+
+        body = {"attempt": [str(participant.comprehension_attempts.count() + 1)]}
+        body.update({f"q{i}": [str(k) for k in q["right"]] for i, q in enumerate(questions_of(participant.study))})
+        return body
     if step.kind in (StepKind.TRAINING, StepKind.FEEDBACK):
         return {"played": ["1"]}
     if step.kind in (StepKind.TEST, StepKind.CHECK) and participant.study.test_kind == "show":  # θ*'s way

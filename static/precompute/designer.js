@@ -89,3 +89,19 @@ if (list) {
   form.addEventListener("change", render);
   render();
 }
+
+// The comprehension questions start as the chosen table's robot's own: another table chosen swaps them for
+// its robot's, unless the researcher has written their own.
+const questions = form && form.querySelector("textarea[data-comprehension-defaults]");
+const tableSelect = form && form.elements.namedItem("table");
+if (questions && tableSelect) {
+  const defaults = JSON.parse(questions.dataset.comprehensionDefaults);
+  let shown = tableSelect.value;
+  tableSelect.addEventListener("change", () => {
+    const before = (defaults[shown] || "").trim();
+    if (questions.value.trim() === before && defaults[tableSelect.value] !== undefined) {
+      questions.value = defaults[tableSelect.value];
+    }
+    shown = tableSelect.value;
+  });
+}

@@ -47,6 +47,28 @@ class LegendEntry:
 
 
 @dataclass(frozen=True)
+class ComprehensionQuestion:
+    """One multiple-choice question of a comprehension check on the instructions: its text, the choices
+    shown (in this order) and the indices of the right ones (one or more; all of them must be ticked)."""
+
+    text: str
+    choices: tuple[str, ...]
+    right: tuple[int, ...]
+
+
+# The questions a domain that writes none of its own asks: they hold for any robot whose instructions
+# say that examples come first and questions about new situations after them.
+GENERIC_COMPREHENSION = (
+    ComprehensionQuestion("What will you see before the questions?",
+             ("Nothing: the questions come first", "Short examples of what the robot does", "A written test"),
+             (1,)),
+    ComprehensionQuestion("What do the questions after the examples ask you?",
+             ("Your own preferences", "How quickly you can answer",
+              "What the robot would do in situations you have not seen"), (2,)),
+)
+
+
+@dataclass(frozen=True)
 class ParticipantTexts:
     """What a study's pages tell participants about this robot (plain text, no markup).
 
@@ -73,6 +95,9 @@ class ParticipantTexts:
     choice_required: str = "Please choose the option that matches the robot."
     # a study's title when its researcher gives none (the demo's)
     title: str = "What does the robot prefer?"
+    # the comprehension check a study may ask after the instructions (Study.comprehension_check), unless the
+    # study gives its own questions: each about what the instructions say, in the robot's words
+    comprehension: tuple[ComprehensionQuestion, ...] = GENERIC_COMPREHENSION
 
 
 @runtime_checkable

@@ -283,7 +283,7 @@ def test_the_designer_is_in_sections_with_the_conditions_as_rows_and_a_summary_b
     assert [title for _, title in folds] == ["A hand-picked condition", "A closed-loop condition",
                                              "Learner models and seed", "A performance bonus",
                                              "Time limit and a code for each way of ending",
-                                             "The consent page"]
+                                             "The consent page", "A comprehension check"]
     assert not any(opened for opened, _ in folds)  # folded until needed
 
 
@@ -295,7 +295,7 @@ def test_a_folded_group_opens_on_its_error_and_the_sections_list_points_to_it(db
     assert folds == {"A hand-picked condition": True, "A closed-loop condition": True,
                      "Learner models and seed": False, "A performance bonus": False,
                      "Time limit and a code for each way of ending": False,
-                     "The consent page": False}
+                     "The consent page": False, "A comprehension check": False}
     assert '<a href="#design-conditions" class="error">2. Conditions (to correct)</a>' in page
     assert '<a href="#design-tests">3. Tests</a>' in page
     assert "Give whole environment ids" in page

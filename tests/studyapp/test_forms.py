@@ -39,7 +39,8 @@ def error(form) -> str | None:
 def test_stored_kind_strings_never_change():
     """Answer.kind holds these strings, the exports carry them and templates are named by them."""
     assert [k.value for k in StepKind] == [
-        "consent", "instructions", "training", "check", "feedback", "test", "attention", "demographics", "done"]
+        "consent", "instructions", "comprehension", "training", "check", "feedback", "test", "attention",
+        "demographics", "done"]
     assert Answer._meta.get_field("kind").choices == StepKind.choices
     assert set(STEP_FORMS) == set(StepKind) - {StepKind.DONE}
 

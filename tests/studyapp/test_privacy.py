@@ -17,7 +17,7 @@ from django.urls import reverse
 from studyapp import exports, privacy
 from studyapp.assignment import assign
 from studyapp.dashboard import condition_stats
-from studyapp.models import Answer, Condition, LoopStep, Participant, Study
+from studyapp.models import Answer, ComprehensionAttempt, Condition, LoopStep, Participant, Study
 
 PIDS = ["5f0c0ffee000000000000001", "5f0c0ffee000000000000002", "5f0c0ffee000000000000003"]
 
@@ -39,6 +39,7 @@ def everything() -> dict[str, set]:
         "answers": {(a, p, s, json.dumps(d, sort_keys=True))
                     for a, p, s, d in Answer.objects.values_list("pk", "participant_id", "step", "data")},
         "loop_steps": set(LoopStep.objects.values_list("pk", "participant_id", "index")),
+        "comprehension_attempts": set(ComprehensionAttempt.objects.values_list("pk", "participant_id", "number")),
         "studies": set(Study.objects.values_list("pk", "slug", "is_open")),
         "conditions": set(Condition.objects.values_list("pk", "study_id", "name")),
     }
@@ -57,7 +58,7 @@ def test_erasing_a_participant_removes_their_rows_and_nothing_else(two_studies, 
     assert {p[0] for p in before["participants"] - after["participants"]} == {gone_p.pk}
     assert {a[0] for a in before["answers"] - after["answers"]} == gone_answers and len(gone_answers) > 5
     assert after["participants"] <= before["participants"] and after["answers"] <= before["answers"]
-    for table in ("loop_steps", "studies", "conditions"):
+    for table in ("loop_steps", "comprehension_attempts", "studies", "conditions"):
         assert after[table] == before[table]
     # the other study's participant of the same id stays; the place in the condition is free again
     assert Participant.objects.filter(study=second, platform_pid=PIDS[0]).exists()

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from ...core.build import Preset
-from ...core.domain import LegendEntry, ParticipantTexts
+from ...core.domain import ComprehensionQuestion, LegendEntry, ParticipantTexts
 from . import ROOT
 from .domain import GridDomain
 from .fileworld import EXIT, fronts, play, world_fingerprint
@@ -219,7 +219,20 @@ def _texts(world: World) -> ParticipantTexts:
         legend=(LegendEntry("the robot", "robot", "robot-edge"), LegendEntry("wall", "wall", "wall"),
                 *((LegendEntry(world.obj, "object", "object"),) if world.obj else ()),
                 *(LegendEntry(k.label, f"cell-{k.name}", f"cell-{k.name}") for k in world.kinds.values())),
-        title=t.get("title", world.title))
+        title=t.get("title", world.title), comprehension=_comprehension(world))
+
+
+def _comprehension(world: World) -> tuple[ComprehensionQuestion, ...]:
+    """The comprehension check's default questions: what every grid world's instructions say (examples of a
+    robot on a grid first, then questions about new situations), with the world's own title."""
+    return (
+        ComprehensionQuestion("What will you watch first?",
+                              ("A car on a highway", f"Examples of a robot moving in a small grid world "
+                                                     f"({world.title})", "A video about the researchers"), (1,)),
+        ComprehensionQuestion("What are the questions after the examples about?",
+                              ("What the robot would do in new situations", "Where the walls of the grid should be",
+                               "How many moves you can remember"), (0,)),
+    )
 
 
 def world_domain(path) -> FileGridDomain:

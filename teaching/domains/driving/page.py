@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...core.domain import LegendEntry, ParticipantTexts
+from ...core.domain import ComprehensionQuestion, LegendEntry, ParticipantTexts
 from .environments import get_environments, other_car_states
 from .world import GOAL_NAMES, WORLD
 
@@ -60,6 +60,18 @@ TEXTS = ParticipantTexts(
     title="How does the autonomous car drive?",
     legend=(LegendEntry("autonomous car", "robot", "robot-edge"), LegendEntry("other car", "other", "other-edge"),
             LegendEntry("goal lane", "goal", "goal", hatch="goal-hatch")),
+    comprehension=(
+        ComprehensionQuestion("Which car is the autonomous car?",
+                              ("The dark gray car with a white outline", "The yellow car with a black outline",
+                               "Either car: they take turns"), (1,)),
+        ComprehensionQuestion("How is the autonomous car's goal in a situation shown?",
+                              ("As a blue striped lane marked \"goal\"", "As a red flag at the end of the road",
+                               "It is not shown: you have to guess it"), (0,)),
+        ComprehensionQuestion("What will you do in the new situations after the examples?",
+                              ("Steer the car yourself",
+                               "Pick the fastest of four drives",
+                               "Pick the drive that matches the car's driving style, and rate all four"), (2,)),
+    ),
 )
 
 

@@ -6,7 +6,7 @@ x is the column (left to right), y the row (top to bottom), as the domain's ``st
 """
 from __future__ import annotations
 
-from ...core.domain import LegendEntry, ParticipantTexts
+from ...core.domain import ComprehensionQuestion, LegendEntry, ParticipantTexts
 from .environments import get_yard
 
 SECONDS_PER_MOVE = 0.4  # the animation's pace: a 12-move delivery plays in 4.8 s
@@ -61,6 +61,18 @@ TEXTS = ParticipantTexts(
     legend=(LegendEntry("the robot", "robot", "robot-edge"), LegendEntry("mud", "mud", "mud-mark"),
             LegendEntry("next to the dog", "near", "near-mark"), LegendEntry("cart", "cart", "cart"),
             LegendEntry("wall", "wall", "wall")),
+    comprehension=(
+        ComprehensionQuestion("Where does the robot carry the parcel?",
+                              ("From the drop-off D back to its start S",
+                               "From its start S on the left edge to the drop-off D on the right edge",
+                               "Around the yard and back to S"), (1,)),
+        ComprehensionQuestion("What can the robot do with the cart (the blue square)?",
+                              ("Pick it up by moving into its cell, and push the parcel on it from then on",
+                               "Nothing: the cart is a wall", "Leave the parcel in it for the dog"), (0,)),
+        ComprehensionQuestion("What will you do in the new yards after the examples?",
+                              ("Move the robot yourself", "Pick the shortest of four deliveries",
+                               "Pick the delivery that matches the robot's preferences, and rate all four"), (2,)),
+    ),
 )
 
 
