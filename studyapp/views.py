@@ -279,7 +279,7 @@ def completion_target(participant: Participant) -> dict:
     """Where a finished or ended participant is sent back to, with their code (only once every answer is
     stored, or their outcome set): Prolific's completion address with the code, or MTurk's submit form."""
     study, code = participant.study, participant.completion_code
-    if participant.completed_at is None and not participant.outcome or not code:
+    if (participant.completed_at is None and not participant.outcome) or not code:
         return {}
     if participant.platform == Participant.PROLIFIC:
         return {"redirect_url": study.prolific_completion_url.format(code=code)}
