@@ -35,3 +35,15 @@ def record(p, step, **fields):
     for k, v in fields.items():
         q.setlist(k, v if isinstance(v, list) else [v])
     return flow.record(p, step, q)
+
+
+def design_form(table, **fields):
+    """The study designer's form for `table` (a built table's directory) with a minimal valid post, `fields`
+    added or replacing its values."""
+    from precompute.design import StudyDesignForm, built_tables  # noqa: PLC0415  (the designer's own imports)
+
+    tables = [t for t in built_tables(table.parent) if t["path"] == str(table)]
+    post = {"table": str(table), "slug": "designed", "target_per_condition": "20", "recruitment": "link",
+            "approx_star": "det-euclidean", "seed": "0", "min_regret": "0.001", "estimated_minutes": "15",
+            "conditions": ["exact"], **fields}
+    return StudyDesignForm(post, tables=tables)

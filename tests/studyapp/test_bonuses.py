@@ -11,13 +11,12 @@ from fractions import Fraction
 import pytest
 from django.urls import reverse
 
-from precompute.design import StudyDesignForm, built_tables
 from studyapp import bonuses, flow, specschema
 from studyapp.assignment import assign
 from studyapp.models import Participant, StepKind
 from studyapp.specschema import SpecError
 from tests.conftest import complete_flow
-from tests.studyapp.helpers import answer_url, step_url
+from tests.studyapp.helpers import answer_url, design_form, step_url
 
 # complete_flow rates the option it picks 6 when it is θ*'s and the others 2: a wrong pick scores -2.
 RIGHT, WRONG = 6, -2
@@ -127,19 +126,14 @@ def test_bad_bonuses_are_one_line_refusals(make_study, fields, says):
 
 
 def test_the_designer_takes_a_bonus_and_refuses_a_cap_without_one(db, tiny_table):
-    tables = [t for t in built_tables(tiny_table.parent) if t["path"] == str(tiny_table)]
-    base = {"table": str(tiny_table), "slug": "designed", "target_per_condition": "20", "recruitment": "link",
-            "approx_star": "det-euclidean", "seed": "0", "min_regret": "0.001", "estimated_minutes": "15",
-            "conditions": ["exact"]}
-    form = StudyDesignForm(dict(base, bonus_per_correct="0.05", bonus_cap="0.5", bonus_currency="USD"),
-                           tables=tables)
+    form = design_form(tiny_table, bonus_per_correct="0.05", bonus_cap="0.5", bonus_currency="USD")
     assert form.is_valid(), form.errors
     job = form.cleaned_data["job"]
     assert (job["bonus_per_correct"], job["bonus_cap"], job["bonus_currency"]) == (0.05, 0.5, "USD")
     for bad, field, says in ((dict(bonus_cap="3"), "bonus_cap", "a bonus cap needs a bonus to cap"),
                              (dict(bonus_per_correct="0.1", bonus_cap="-2"), "bonus_cap", "0"),
                              (dict(bonus_per_correct="0.1", bonus_cap="9999"), "bonus_cap", "100")):
-        form = StudyDesignForm(dict(base, **bad), tables=tables)
+        form = design_form(tiny_table, **bad)
         assert not form.is_valid()
         (message,) = form.errors[field]
         assert says in message and "\n" not in message

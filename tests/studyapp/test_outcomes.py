@@ -12,7 +12,6 @@ from django.core.management import CommandError, call_command
 from django.urls import reverse
 from django.utils import timezone
 
-from precompute.design import StudyDesignForm, built_tables
 from studyapp import exports, outcomes, status
 from studyapp.analysis.data import frames
 from studyapp.analysis.formatting import participant_groups
@@ -22,7 +21,7 @@ from studyapp.flow import AnswerError
 from studyapp.models import Answer, Participant, StepKind
 from studyapp.specschema import SpecError
 from tests.conftest import complete_flow
-from tests.studyapp.helpers import answer_url, record, snapshot, step_url
+from tests.studyapp.helpers import answer_url, design_form, record, snapshot, step_url
 
 PROLIFIC_DONE = "https://app.prolific.com/submissions/complete?cc="
 
@@ -197,16 +196,12 @@ def test_bad_limits_and_codes_are_one_line_refusals(make_study, fields, says):
 
 
 def test_the_designer_takes_a_limit_and_codes_and_refuses_a_limit_below_the_estimate(db, tiny_table):
-    tables = [t for t in built_tables(tiny_table.parent) if t["path"] == str(tiny_table)]
-    base = {"table": str(tiny_table), "slug": "designed", "target_per_condition": "20", "recruitment": "prolific",
-            "completion_code": "C1", "approx_star": "det-euclidean", "seed": "0", "min_regret": "0.001",
-            "estimated_minutes": "15", "conditions": ["exact"]}
-    form = StudyDesignForm(dict(base, time_limit_minutes="45", timed_out_code="T1", screened_out_code="S1"),
-                           tables=tables)
+    prolific = {"recruitment": "prolific", "completion_code": "C1"}
+    form = design_form(tiny_table, **prolific, time_limit_minutes="45", timed_out_code="T1", screened_out_code="S1")
     assert form.is_valid(), form.errors
     job = form.cleaned_data["job"]
     assert (job["time_limit_minutes"], job["timed_out_code"], job["screened_out_code"]) == (45, "T1", "S1")
-    form = StudyDesignForm(dict(base, time_limit_minutes="10"), tables=tables)
+    form = design_form(tiny_table, **prolific, time_limit_minutes="10")
     assert not form.is_valid()
     (message,) = form.errors["time_limit_minutes"]
     assert message.startswith("a time limit of 10 minutes is shorter than the 15 minutes") and "\n" not in message
