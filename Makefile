@@ -2,7 +2,7 @@
 PY := .venv/bin/python
 PIP := .venv/bin/pip
 
-.PHONY: demo test lint venv browser-deps serve-deps table bench clean serve load
+.PHONY: demo test lint venv browser-deps serve-deps messages table bench clean serve load
 
 venv: .venv/.installed
 .venv/.installed: requirements.txt
@@ -19,6 +19,12 @@ browser-deps:
 serve-deps:
 	@command -v nginx >/dev/null 2>&1 || (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq nginx >/dev/null)
 
+# The participants' languages: locale/<lang>/LC_MESSAGES/*.po compiled to .mo (not kept in git) with Debian's
+# gettext (msgfmt --check refuses a translation whose placeholders differ from its English).
+messages:
+	@command -v msgfmt >/dev/null 2>&1 || (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq gettext >/dev/null)
+	@for po in locale/*/LC_MESSAGES/*.po; do [ -e "$$po" ] || continue; msgfmt --check -o "$${po%.po}.mo" "$$po" || exit 1; done
+
 # Where tables live: $TABLES_DIR, else $VAR_DIR/tables, else var/tables (config/settings.py's TABLES_DIR).
 TABLES_DIR ?= $(or $(VAR_DIR),var)/tables
 
@@ -26,7 +32,7 @@ table: venv
 	$(PY) -m teaching build --preset demo --out $(TABLES_DIR)/demo
 
 # Serve the demo study locally on the embedded default (SQLite + filesystem broker, worker included).
-demo: venv table
+demo: venv table messages
 	bash scripts/demo.sh
 
 # The production configuration on this machine: gunicorn + PostgreSQL + Redis + a Celery worker
@@ -55,7 +61,7 @@ lint: venv
 # so that no test pays a cold compile or waits for that table while the two runs compete for it.
 # pytest exit 5 means "no tests collected": that is a failure here, never a pass.
 SERVICES_LOG = var/test-services.log
-test: venv browser-deps serve-deps
+test: venv browser-deps serve-deps messages
 	@mkdir -p var
 	export TEST_BUILDS_DIR=$$(mktemp -d /tmp/test-builds.XXXXXX); \
 	$(PY) -m tests.prebuild || exit 1; \

@@ -199,6 +199,10 @@ LOGIN_REDIRECT_URL = "dashboard"
 LOGOUT_REDIRECT_URL = "login"
 
 LANGUAGE_CODE = "en-us"
+# The languages a study may speak to its participants (Study.language; studyapp/i18n.py).  Researchers'
+# pages stay in LANGUAGE_CODE.  Catalogs: locale/<lang>/LC_MESSAGES, compiled by `make venv`.
+LANGUAGES = [("en", "English"), ("de", "Deutsch")]
+LOCALE_PATHS = [BASE_DIR / "locale"]
 TIME_ZONE = "UTC"
 USE_I18N = True
 USE_TZ = True

@@ -206,7 +206,9 @@ class StudyDesignForm(forms.Form):
         self.fields["min_screen_width"] = schema_field(STUDY_FIELDS["min_screen_width"], required=False,
                                                        label="Smallest screen width (px)")
         # How a participant's study may end early, and each outcome's code (studyapp/outcomes.py).
-        self.fields.update({k: schema_field(STUDY_FIELDS[k], required=False) for k in OUTCOME_FIELDS + BONUS_FIELDS})
+        self.fields.update({k: schema_field(STUDY_FIELDS[k], required=False)
+                            for k in (*OUTCOME_FIELDS, *BONUS_FIELDS, "language")})
+        self.fields["language"].label = "Participants' language"
         self.fields["time_limit_minutes"].label = "Time limit (minutes)"
         self.fields["devices"] = forms.ChoiceField(
             choices=DEVICE_CHOICES, required=False, label="Devices that may take part",
@@ -319,7 +321,7 @@ class StudyDesignForm(forms.Form):
                 "closed_loop": data["closed_loop"], "closed_loop_fit": data["closed_loop_fit"],
                 "completion_code": (data.get("completion_code") or "").strip(), "recruitment": data.get("recruitment"),
                 **{k: data.get(k) for k in TEXT_FIELDS},
-                **{k: data[k] for k in OUTCOME_FIELDS + BONUS_FIELDS if data.get(k) not in (None, "")},
+                **{k: data[k] for k in (*OUTCOME_FIELDS, *BONUS_FIELDS, "language") if data.get(k) not in (None, "")},
                 **device_arguments(data), **designquiz.arguments(data)}
 
     def _check_job(self, data: dict) -> None:

@@ -70,9 +70,10 @@ SECTIONS = (
              Group(BONUS_FIELDS, "A performance bonus", folded=True, opened_by=BONUS_FIELDS[:3]),
              Group(OUTCOME_FIELDS, "Time limit and a code for each way of ending", folded=True,
                    opened_by=OUTCOME_FIELDS))),
-    Section("texts", "Texts", "What the consent page says besides the payment and time above, and the questions "
-                              "that may check the instructions were understood.",
-            (Group(tuple(f for f in TEXT_FIELDS if f not in ("estimated_minutes", "payment")), "The consent page",
+    Section("texts", "Texts", "The language participants read, what the consent page says besides the payment and "
+                              "time above, and the questions that may check the instructions were understood.",
+            (Group(("language",)),
+             Group(tuple(f for f in TEXT_FIELDS if f not in ("estimated_minutes", "payment")), "The consent page",
                    folded=True, opened_by=("consent_text", "contact", "ethics_reference")),
              Group(COMPREHENSION_FIELDS, "A comprehension check", folded=True, wide=True,
                    opened_by=("comprehension_check",)))),

@@ -21,6 +21,8 @@ from __future__ import annotations
 
 from django import forms
 
+from .i18n import participant_texts
+
 MAX_QUESTIONS, MAX_CHOICES, MAX_TEXT = 20, 8, 500
 MAX_ATTEMPTS = 10  # more tries than this is no check at all
 
@@ -32,7 +34,7 @@ class QuestionsError(ValueError):
 def defaults(domain) -> list[dict]:
     """The domain's own questions, as a study stores them."""
     return [{"question": q.text, "choices": list(q.choices), "right": list(q.right)}
-            for q in domain.texts.comprehension]
+            for q in participant_texts(domain).comprehension]
 
 
 def questions_of(study) -> list[dict]:

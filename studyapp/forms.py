@@ -13,6 +13,7 @@ from django import forms
 from django.core.exceptions import ValidationError
 
 from .comprehension import ComprehensionForm
+from .i18n import participant_texts
 from .models import StepKind
 from .trajectories import study_domain
 
@@ -122,7 +123,7 @@ class AttentionForm(StepForm):
 
     def __init__(self, data, participant, step):
         super().__init__(data, participant, step)
-        self.texts = study_domain(participant.study).texts
+        self.texts = participant_texts(study_domain(participant.study))
         self.fields["goals"].choices = self.texts.attention_choices
 
     def answer(self) -> dict:
@@ -160,7 +161,7 @@ class TestForm(StepForm):
         self.fields["played"] = forms.MultipleChoiceField(choices=letters, required=False, error_messages={
             "invalid_choice": self.reload, "invalid_list": self.reload})
         self.fields["choice"] = OneChoiceField(choices=letters, error_messages={
-            "required": study_domain(participant.study).texts.choice_required,
+            "required": participant_texts(study_domain(participant.study)).choice_required,
             "invalid_choice": f"This question has options {listed} only; please choose one of them."})
         for letter, _ in shown:
             self.fields[f"rating_{letter}"] = _whole_number(

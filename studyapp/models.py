@@ -68,6 +68,10 @@ class Study(models.Model):
     CURRENCIES = [("GBP", "£ (GBP)"), ("USD", "$ (USD)"), ("EUR", "€ (EUR)")]
     bonus_currency = models.CharField(max_length=3, choices=CURRENCIES, default="GBP",
                                       help_text="The currency of the bonus (the recruiting platform's).")
+    LANGUAGES = [("en", "English"), ("de", "Deutsch (German)")]
+    language = models.CharField(
+        max_length=8, choices=LANGUAGES, default="en",
+        help_text="The language of every page and message participants read (researchers keep theirs).")
     time_limit_minutes = models.PositiveIntegerField(
         default=0, help_text="A participant not finished this many minutes after arriving is timed out and their "
                              "place freed; 0: no limit.")
@@ -183,9 +187,10 @@ class Study(models.Model):
         return bool(self.min_screen_width) or not (self.allow_phones and self.allow_tablets)
 
     def default_consent(self) -> str:
-        from .trajectories import study_domain  # noqa: PLC0415  (teaching loads only for a page)
+        from .i18n import participant_texts  # noqa: PLC0415  (teaching loads only for a page)
+        from .trajectories import study_domain  # noqa: PLC0415
 
-        return study_domain(self).texts.consent
+        return participant_texts(study_domain(self)).consent  # in the participant's language (the page's)
 
     def consent_version(self) -> str:
         """12 hex digits naming what the consent page says (its paragraphs and facts): stored with each

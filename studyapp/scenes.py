@@ -15,6 +15,7 @@ from django.templatetags.static import static
 
 from teaching.api import Domain
 
+from .i18n import participant_texts
 from .trajectories import study_domain
 
 # a palette entry is a hex colour or an rgb()/rgba() one: nothing else reaches the page's <style>
@@ -34,7 +35,7 @@ def palette_css(domain: Domain) -> str:
 def legend(domain: Domain) -> list[dict]:
     """The legend's swatches: label and the CSS of a swatch drawn like the canvas draws that thing."""
     out = []
-    for entry in domain.texts.legend:
+    for entry in participant_texts(domain).legend:
         style = f"background-color: var(--scene-{entry.fill}); border-color: var(--scene-{entry.edge});"
         if entry.hatch:
             style += (f" background-image: repeating-linear-gradient(-45deg, transparent 0 3px, "
@@ -48,11 +49,11 @@ def scene_context(study) -> dict:
     domain = study_domain(study)
     return {"domain": domain.name, "scene_name": domain.scene, "palette_css": palette_css(domain),
             "legend": legend(domain), "scene_module": static(f"studyapp/scenes/{domain.scene}.js"),
-            "texts": domain.texts, "scene_view": study.scene_view()}
+            "texts": participant_texts(domain), "scene_view": study.scene_view()}
 
 
 def instructions(study, n_training: int, n_tests: int) -> list[str]:
     """The domain's instruction paragraphs, filled in for one participant."""
     values = {"n_training": n_training, "n_tests": n_tests, "training_plural": "" if n_training == 1 else "s",
               "tests_plural": "" if n_tests == 1 else "s"}
-    return [p.format(**values) for p in study_domain(study).texts.instructions]
+    return [p.format(**values) for p in participant_texts(study_domain(study)).instructions]

@@ -147,6 +147,7 @@ STUDY_FIELDS: dict[str, Field] = {f.name: f for f in (
             help="Smallest screen width (CSS pixels) a participant may take part on; 0: any (a laptop: 1024)."),
     _column("allow_phones", rules.boolean, help="Phones may take part."),
     _column("allow_tablets", rules.boolean, help="Tablets may take part."),
+    _column("language", rules.choice, choices=tuple(Study.LANGUAGES)),
     _column("time_limit_minutes", rules.whole, minimum=0, maximum=MAX_TIME_LIMIT),
     _column("excluded_code"),
     _column("bonus_per_correct", rules.number, minimum=0, maximum=MAX_BONUS),

@@ -293,7 +293,7 @@ def build_study(spec: dict, replace: bool = False) -> Study:
                           target_per_condition=spec["target_per_condition"],
                           completion_code=spec["completion_code"], recruitment=spec["recruitment"],
                           **{k: spec[k] for k in (*TEXT_FIELDS, *DEVICE_FIELDS, *OUTCOME_FIELDS, *BONUS_FIELDS,
-                                                  *COMPREHENSION_FIELDS) if k in spec})
+                                                  *COMPREHENSION_FIELDS, "language") if k in spec})
         targets = {c["name"]: c.get("target") for c in conditions}
         for c in study.conditions.all():
             if isinstance(training[c.name], dict):

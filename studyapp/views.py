@@ -14,6 +14,7 @@ from django.views.decorators.http import require_GET, require_POST
 
 from . import bonuses, closedloop, comprehension, devices, flow, forms, outcomes, security, status
 from .assignment import StudyClosed, assign
+from .i18n import in_study_language, participant_texts
 from .models import LoopStep, Participant, StepKind, Study
 from .scenes import instructions, scene_context
 from .trajectories import drawn_scene, study_domain
@@ -97,13 +98,14 @@ def _platform_ids(request):
 
 
 @participant_page
+@in_study_language
 @require_GET
 @security.rate_limit("RATE_LIMIT_ENTRY", by="ip")
 def entry(request, slug):
     study = get_object_or_404(Study, slug=slug)
     if request.GET.get("assignmentId") == MTURK_PREVIEW:
         return render(request, "studyapp/mturk_preview.html",
-                      {"study": study, "summary": study_domain(study).texts.summary})
+                      {"study": study, "summary": participant_texts(study_domain(study)).summary})
     try:
         platform, pid, ids = _platform_ids(request)
     except ValueError as exc:
@@ -135,6 +137,7 @@ def _participant(slug: str, token: str) -> Participant:
 
 
 @participant_page
+@in_study_language
 @require_GET
 def step(request, slug, token):
     participant = _participant(slug, token)
@@ -221,8 +224,8 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
         ctx["option_robots"] = {letter: test["options"][k]["robot"] for letter, k in shown}
         ctx["ratings"] = range(forms.RATING_MIN, forms.RATING_MAX + 1)
     elif current.kind == StepKind.ATTENTION:
-        ctx["question"] = domain.texts.attention_question
-        ctx["choices"] = domain.texts.attention_choices
+        texts = participant_texts(domain)
+        ctx["question"], ctx["choices"] = texts.attention_question, texts.attention_choices
     elif current.kind == StepKind.DEMOGRAPHICS:
         ctx["genders"] = forms.GENDER_CHOICES
         ctx["age_min"], ctx["age_max"] = forms.AGE_MIN, forms.AGE_MAX
@@ -299,6 +302,7 @@ def completion_target(participant: Participant) -> dict:
 # refuse every answer there; without the cookie the browser's Origin must be this site instead.
 @csrf_exempt
 @participant_page
+@in_study_language
 @require_POST
 @security.rate_limit("RATE_LIMIT_ANSWER_IP", by="ip")
 @security.rate_limit("RATE_LIMIT_ANSWER", by="token")

@@ -69,6 +69,7 @@ function entries() {
       + (parseInt(value("time_limit_minutes"), 10) > 0 ? `, at most ${value("time_limit_minutes")} (then timed out)` : "")],
     ["Codes when ending early", outcomeCodes()],
     ["Bonus", bonusText()],
+    ["Participants' language", chosenText("language") || "English"],
   ];
 }
 

@@ -1,0 +1,68 @@
+"""The language participants read: their study's (Study.language), whatever their browser asks for.
+
+Participant views run inside :func:`in_study_language`, which activates the study's language for the
+request (researchers' pages stay in settings.LANGUAGE_CODE).  Every participant-facing string goes through
+Django's catalogs: templates by ``{% translate %}``, Python by ``gettext``, JavaScript by the study's
+JavaScript catalog (:func:`javascript_catalog`), and a robot's own texts (a domain's ParticipantTexts,
+written in English in ``teaching/``, which knows no Django) by :func:`participant_texts`, which looks each
+up in the catalog of the active language.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+from functools import wraps
+
+from django.conf import settings
+from django.utils import translation
+from django.utils.translation import gettext
+from django.views.i18n import JavaScriptCatalog
+
+from .models import Study
+
+
+def study_language(slug: str) -> str:
+    """The language of the study `slug` (the site's default for an unknown slug: its 404 page)."""
+    found = Study.objects.filter(slug=slug).values_list("language", flat=True).first()
+    return found or settings.LANGUAGE_CODE
+
+
+def in_study_language(view):
+    """Run a participant view (its URL names the study's ``slug``) in the study's language; the response
+    says which (Content-Language)."""
+    @wraps(view)
+    def wrapped(request, *args, **kwargs):
+        language = study_language(kwargs["slug"])
+        with translation.override(language):
+            request.LANGUAGE_CODE = language
+            response = view(request, *args, **kwargs)
+        response.headers.setdefault("Content-Language", language)
+        return response
+
+    return wrapped
+
+
+# The study's JavaScript catalog (gettext() and interpolate() for the participant pages' scripts), in its
+# language: a script from this site, so the participant pages' CSP (script-src 'self') allows it.
+javascript_catalog = in_study_language(JavaScriptCatalog.as_view(domain="djangojs"))
+
+
+def _t(text: str) -> str:
+    return gettext(text) if text else text
+
+
+def participant_texts(domain):
+    """The domain's ParticipantTexts in the active language: every text a participant reads looked up in
+    the catalog; the values stored (the attention check's answers, the right choices' indices) unchanged."""
+    texts = domain.texts
+    return replace(
+        texts,
+        summary=_t(texts.summary), consent=_t(texts.consent),
+        instructions=tuple(_t(p) for p in texts.instructions),
+        attention_question=_t(texts.attention_question),
+        attention_choices=tuple((value, _t(label)) for value, label in texts.attention_choices),
+        watch=_t(texts.watch), question=_t(texts.question),
+        legend=tuple(replace(entry, label=_t(entry.label)) for entry in texts.legend),
+        option=_t(texts.option), choice_required=_t(texts.choice_required), title=_t(texts.title),
+        comprehension=tuple(replace(q, text=_t(q.text), choices=tuple(_t(c) for c in q.choices))
+                            for q in texts.comprehension),
+    )
