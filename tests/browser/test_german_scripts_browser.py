@@ -102,7 +102,7 @@ def test_a_german_studys_scripts_speak_german(transactional_db, make_study, live
             option.locator('[data-action="play"]').click()
             play_all(page)
             expect(option.locator('[data-action="play"]')).to_have_text("Nochmal A")
-            expect(option.locator(".played-flag")).to_have_text("✓ gesehen")
+            expect(option.locator(".played-flag")).to_have_text("✓\u00a0gesehen")  # kept on one line in the narrow head
             expect(hint).to_have_text("Zum Fortfahren: Option B, C, D abspielen; die passende Option wählen; "
                                       "Option A, B, C, D bewerten.")
             page.screenshot(path=str(OUT / "german_test.png"), full_page=True)
