@@ -4,6 +4,8 @@
 // <meta name="scene-module">): a class Scene(canvas, env, robot) with duration, mode, t, boxes,
 // lastFrame, resize(), drawFrame(t), drawTrail() and redraw() (docs/domains.md "The web side").
 
+import { gettext, interpolate } from "./i18n.js";
+
 let SCENE = null;
 
 // The page's domain's Scene class (loaded once).
@@ -85,6 +87,18 @@ export class Player {
   }
 }
 
+// What the Play button says once the example has played: "Replay", "Replay B" for the page's "Play",
+// "Play B" (the template's English, or the same words already in the study's language); any other label stays.
+function replayText(label, option) {
+  const english = /^Play(?: (.+))?$/.exec(label);
+  if (english) return english[1] ? interpolate(gettext("Replay %(option)s"), { option: english[1] }, true) : gettext("Replay");
+  if (label === gettext("Play")) return gettext("Replay");
+  if (option && label === interpolate(gettext("Play %(option)s"), { option }, true)) {
+    return interpolate(gettext("Replay %(option)s"), { option }, true);
+  }
+  return label;
+}
+
 // Wire a .scene element's Play / Show trail buttons to a Player (Scene: sceneClass()'s).
 export function mountScene(Scene, root, env, robot, onPlayed) {
   const canvas = root.querySelector("canvas");
@@ -94,14 +108,17 @@ export function mountScene(Scene, root, env, robot, onPlayed) {
   const trailLabel = trailBtn.textContent.trim();  // "Show trail" toggles to "Hide trail"; a short label stays
   const scene = new Scene(canvas, withView(env), robot);
   canvas.scene = scene;  // for the browser tests, which read what each frame drew (lastFrame)
+  const replayLabel = replayText(baseLabel, root.closest("[data-option]")?.dataset.option);
   const player = new Player(scene, {
     onPlayed,
     onState: (state) => {
       root.dataset.state = state;
-      if (state !== "playing") playBtn.textContent = baseLabel.replace(/^Play/, "Replay");
+      if (state !== "playing") playBtn.textContent = replayLabel;
     },
   });
-  const trailText = (on) => (trailLabel === "Show trail" ? (on ? "Hide trail" : "Show trail") : trailLabel);
+  // the page's label, in English or already in the study's language
+  const toggles = trailLabel === "Show trail" || trailLabel === gettext("Show trail");
+  const trailText = (on) => (toggles ? (on ? gettext("Hide trail") : gettext("Show trail")) : trailLabel);
   playBtn.addEventListener("click", () => {
     trailBtn.setAttribute("aria-pressed", "false");
     trailBtn.textContent = trailText(false);
@@ -115,7 +132,7 @@ export function mountScene(Scene, root, env, robot, onPlayed) {
   });
   // pause and resume: a click on the animation, or Space / Enter on it (it is in the tab order)
   canvas.tabIndex = 0;
-  canvas.title = "Click (or press Space) to pause or resume the animation";
+  canvas.title = gettext("Click (or press Space) to pause or resume the animation");
   canvas.addEventListener("click", () => player.togglePause());
   canvas.addEventListener("keydown", (event) => {
     if (event.key === " " || event.key === "Enter") {

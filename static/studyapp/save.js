@@ -11,13 +11,15 @@
 // SLOW_MS (a busy server, or a closed loop deciding the next example), the banner says the next
 // page is being prepared, so that the participant waits on a message, not a frozen page.
 
+import { gettext, interpolate } from "./i18n.js";
+
 const FIRST_DELAY_MS = 1000;
 const MAX_DELAY_MS = 30000;
 const MAX_RETRY_AFTER_MS = 120000;  // a misconfigured Retry-After must not strand a participant
-const OFFLINE = "Connection lost — your answer is kept and will be sent automatically; please keep this page open.";
-const BUSY = "The study server is busy — your answer is kept and will be sent automatically; please keep this page open.";
-const PREPARING = "Your answer is saved; preparing your next page — one moment, please.";
-const SENDING = "Sending your answer — one moment, please.";
+const OFFLINE = gettext("Connection lost — your answer is kept and will be sent automatically; please keep this page open.");
+const BUSY = gettext("The study server is busy — your answer is kept and will be sent automatically; please keep this page open.");
+const PREPARING = gettext("Your answer is saved; preparing your next page — one moment, please.");
+const SENDING = gettext("Sending your answer — one moment, please.");
 const SLOW_MS = 1000;
 
 const banner = document.querySelector("[data-save-banner]");
@@ -49,7 +51,10 @@ async function post(url, body) {
   // an out-of-date page (answered in another tab): go where the participant is; that page says why
   if (reply && reply.moved && reply.next) return { next: reply.next };
   if (response.status >= 400 && response.status < 500 && response.status !== 429) {
-    return { error: (reply && reply.error) || `Your answer was not accepted (HTTP ${response.status}). Please reload the page.` };
+    return {
+      error: (reply && reply.error) || interpolate(
+        gettext("Your answer was not accepted (HTTP %(status)s). Please reload the page."), { status: response.status }, true),
+    };
   }
   return { retry: BUSY, wait: retryAfterMs(response) };
 }

@@ -3,6 +3,7 @@
 // ends, and submits the actions.  The page offers only what the world allows (the page's "show-rules":
 // Domain.show_rules, the same rules as the server's planner); the server replays and scores the actions
 // again and refuses any it does not allow, whatever this page let through.
+import { gettext, interpolate, ngettext } from "./i18n.js";
 import { lockOnSubmit, readJSON, sceneClass, stepMemory, withView } from "./player.js";
 
 const Scene = await sceneClass();
@@ -60,8 +61,13 @@ function after(at, place, move) {
 const saved = memory.load().moves;
 let moves = Array.isArray(saved) && replay(saved) ? saved : [];
 
-const ENDINGS = { goal: "the robot reached a goal", delivered: `the robot delivered the ${rules.object || "object"}`,
-  exit: "you stopped here" };
+const ENDINGS = {
+  goal: gettext("the robot reached a goal"),
+  // the object's name is the domain's (show_rules), in English like its other texts
+  delivered: rules.object ? interpolate(gettext("the robot delivered the %(object)s"), { object: rules.object }, true)
+    : gettext("the robot delivered the object"),
+  exit: gettext("you stopped here"),
+};
 
 function render() {
   const state = replay(moves);
@@ -75,10 +81,14 @@ function render() {
   }
   document.querySelector('[data-action="undo"]').disabled = moves.length === 0;
   document.querySelector('[data-action="restart"]').disabled = moves.length === 0;
-  const n = `${moves.length} ${moves.length === 1 ? "step" : "steps"}`;
-  status.textContent = state.ended ? `Finished in ${n}: ${ENDINGS[state.ended]}.` : `${n} so far; not finished yet.`;
+  const steps = { n: moves.length };
+  status.textContent = state.ended
+    ? interpolate(ngettext("Finished in %(n)s step: %(ending)s.", "Finished in %(n)s steps: %(ending)s.", moves.length),
+      { ...steps, ending: ENDINGS[state.ended] }, true)
+    : interpolate(ngettext("%(n)s step so far; not finished yet.", "%(n)s steps so far; not finished yet.", moves.length),
+      steps, true);
   submit.disabled = !state.ended;
-  hint.textContent = state.ended ? "You can undo, or continue." : "Move the robot until it has finished to continue.";
+  hint.textContent = state.ended ? gettext("You can undo, or continue.") : gettext("Move the robot until it has finished to continue.");
   root.dataset.moves = field.value;
   root.dataset.ended = state.ended || "";
   memory.save({ moves });

@@ -1,5 +1,6 @@
 // Test step: four animated options in a grid (each playable, or all together), one choice and a
 // 1-7 rating for each; continue only once each option was played and all are rated.
+import { gettext, interpolate } from "./i18n.js";
 import { lockOnSubmit, mountScene, readJSON, sceneClass, stepMemory } from "./player.js";
 
 const Scene = await sceneClass();
@@ -19,22 +20,23 @@ function letter(section) {
 function missing() {
   const out = [];
   const unplayed = options.filter((o) => !o.querySelector('input[name="played"]').checked);
-  if (unplayed.length) out.push(`play option ${unplayed.map(letter).join(", ")}`);
-  if (!form.querySelector('input[name="choice"]:checked')) out.push("choose the matching option");
+  if (unplayed.length) out.push(interpolate(gettext("play option %(options)s"), { options: unplayed.map(letter).join(", ") }, true));
+  if (!form.querySelector('input[name="choice"]:checked')) out.push(gettext("choose the matching option"));
   const unrated = options.filter((o) => !form.querySelector(`.rating[data-option="${letter(o)}"] input:checked`));
-  if (unrated.length) out.push(`rate option ${unrated.map(letter).join(", ")}`);
+  if (unrated.length) out.push(interpolate(gettext("rate option %(options)s"), { options: unrated.map(letter).join(", ") }, true));
   return out;
 }
 
 function update() {
   const todo = missing();
   submit.disabled = todo.length > 0;
-  hint.textContent = todo.length ? `To continue: ${todo.join("; ")}.` : "All done: you can continue.";
+  hint.textContent = todo.length ? interpolate(gettext("To continue: %(todo)s."), { todo: todo.join("; ") }, true)
+    : gettext("All done: you can continue.");
 }
 
 function markPlayed(section) {
   section.querySelector('input[name="played"]').checked = true;
-  section.querySelector(".played-flag").textContent = "✓ played";
+  section.querySelector(".played-flag").textContent = gettext("✓ played");
   section.classList.add("played");
 }
 

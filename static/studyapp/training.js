@@ -1,4 +1,5 @@
 // Training step: one animated example; "continue" unlocks once it was played to the end.
+import { gettext } from "./i18n.js";
 import { lockOnSubmit, mountScene, readJSON, sceneClass, stepMemory } from "./player.js";
 
 const Scene = await sceneClass();
@@ -13,7 +14,7 @@ const memory = stepMemory(form);
 function unlock() {
   form.querySelector('input[name="played"]').value = "1";
   submit.disabled = false;
-  hint.textContent = "You can replay the example or continue.";
+  hint.textContent = gettext("You can replay the example or continue.");
 }
 
 const player = mountScene(Scene, root, env, env.robot, () => {
@@ -30,6 +31,6 @@ if (memory.load().played) {
   player.play();
 } else {
   // reduced motion asked for (or no autoplay): nothing moves until the participant presses Play
-  hint.textContent = "Press Play to watch the example; watch it to the end to continue.";
+  hint.textContent = gettext("Press Play to watch the example; watch it to the end to continue.");
 }
 document.body.dataset.ready = "1";

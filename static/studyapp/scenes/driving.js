@@ -12,6 +12,7 @@
 // car's rows are [x, y]. Playback interpolates between rows at the display's frame rate
 // (requestAnimationFrame), so it is smooth at 60 fps.
 
+import { gettext, interpolate } from "../i18n.js";
 import { Layout, tag } from "../labels.js";
 import { colors as palette } from "../palette.js";
 
@@ -201,7 +202,7 @@ export class Scene {
       ctx.closePath(); ctx.fill(); ctx.stroke();
       right = box.x - 4;
     }
-    tag(ctx, layout, "goal-label", "goal", (w, h) => {
+    tag(ctx, layout, "goal-label", gettext("goal"), (w, h) => {
       const near = this.bandY(h, forward), far = this.bandY(h, !forward);
       return [[right - w, near], [this.w - w - 4, near], [this.w - w - 4, far]];
     });
@@ -249,7 +250,9 @@ export class Scene {
     ctx.beginPath();
     ctx.moveTo(tip, mid); ctx.lineTo(tip - dir * 12, mid - 7); ctx.lineTo(tip - dir * 12, mid + 7);
     ctx.closePath(); ctx.fill(); ctx.stroke();
-    const text = `other car ${Math.round(Math.abs(y - ry))} ft ${ahead ? "ahead" : "behind"}`;
+    const distance = { feet: Math.round(Math.abs(y - ry)) };
+    const text = ahead ? interpolate(gettext("other car %(feet)s ft ahead"), distance, true)
+      : interpolate(gettext("other car %(feet)s ft behind"), distance, true);
     tag(ctx, layout, "other-label", text, (w, h) => {
       const top = sy < this.h / 2, near = this.bandY(h, top), far = this.bandY(h, !top);
       const edge = ahead ? this.w - w - 4 : 4, other = ahead ? 4 : this.w - w - 4;
@@ -286,7 +289,7 @@ export class Scene {
     const layout = new Layout(this.w, this.h);
     for (const box of [other, robot]) if (box) layout.avoid(box);
     this.goalMarks(cam, layout);
-    this.label(layout, `t = ${t.toFixed(1)} s`);
+    this.label(layout, interpolate(gettext("t = %(seconds)s s"), { seconds: t.toFixed(1) }, true));
     if (!other) this.offscreen(cam, o.x, o.y, r.y, layout);
     this.boxes = layout.boxes;
     this.cars = layout.obstacles;
@@ -311,7 +314,7 @@ export class Scene {
         this.car(cam, r[0], r[1], r[2], "robot", alpha)]) if (box) layout.avoid(box);
     }
     this.goalMarks(cam, layout);
-    this.label(layout, "trail: whole drive");
+    this.label(layout, gettext("trail: whole drive"));
     this.boxes = layout.boxes;
     this.cars = layout.obstacles;
   }

@@ -9,6 +9,7 @@
 // (drawPath) and what it adds to the robot, a light disc with a dark outline (drawRobot, disc).  The player (../player.js) uses only the members of Scene:
 // duration, mode, t, boxes, lastFrame, resize(), drawFrame(t), drawTrail(), redraw().
 
+import { gettext, interpolate } from "../i18n.js";
 import { Layout, tag } from "../labels.js";
 import { colors } from "../palette.js";
 
@@ -199,7 +200,7 @@ export class GridScene {
     const n = this.robot.length - 1;
     const k = Math.max(0, Math.min(t / this.dt, n));
     const robot = this.draw(k);
-    this.label(`move ${Math.min(n, Math.ceil(k - 1e-9))} of ${n}`);
+    this.label(interpolate(gettext("move %(k)s of %(n)s"), { k: Math.min(n, Math.ceil(k - 1e-9)), n }, true));
     this.lastFrame = { robot };
   }
 
@@ -207,7 +208,7 @@ export class GridScene {
   drawTrail() {
     this.begin();
     this.draw(this.robot.length - 1);
-    this.label("trail: whole path");
+    this.label(gettext("trail: whole path"));
   }
 
   // The move (or view) label, in the strip under the grid: bottom left, else bottom right.

@@ -9,6 +9,7 @@
 // reads in greyscale too.  Sizing, playback, patterns, labels and the trail are the grid scene's
 // (./grid.js); this module draws the yard, the path's two widths and the robot.
 
+import { gettext } from "../i18n.js";
 import { GridScene, WORDS_FROM } from "./grid.js";
 
 const WALL = 1, MUD = 2, DOG = 3, CART = 4;   // teaching/domains/gridworld/world.py's codes (0: free)
@@ -41,10 +42,10 @@ export class Scene extends GridScene {
       if (kind === DOG) {
         ctx.fillStyle = c.dog;
         ctx.beginPath(); ctx.arc(x, y, 0.38 * s, 0, 2 * Math.PI); ctx.fill();
-        if (words) this.word("dog", x, y, 0.27 * s, c.free);
+        if (words) this.word(gettext("dog"), x, y, 0.27 * s, c.free);
       } else if (kind === CART && k < this.fetched) {
         this.cart(x, y, 0.66 * s);
-        if (words) this.word("cart", x, y, 0.25 * s, c.free);
+        if (words) this.word(gettext("cart"), x, y, 0.25 * s, c.free);
       }
     }));
   }
