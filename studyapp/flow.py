@@ -14,6 +14,8 @@ from dataclasses import dataclass
 
 from django.db import IntegrityError, transaction
 from django.utils import timezone
+from django.utils.translation import gettext
+from django.utils.translation import gettext_lazy as _
 
 from . import bonuses, closedloop, comprehension, outcomes, status
 from .forms import STEP_FORMS, ShowForm, TestForm
@@ -39,14 +41,15 @@ class AnswerError(Exception):
     is elsewhere in the study); the participant is sent to where they are, with `MOVED_ON`."""
 
     def __init__(self, message: str, status: int = 400, moved: bool = False):
+        message = str(message)  # a lazy constant (ENDED) read now, in the language of the request
         super().__init__(message)
         self.message, self.status, self.moved = message, status, moved
 
 
-ENDED = "This study has ended for you, so this answer was not saved."
+ENDED = _("This study has ended for you, so this answer was not saved.")
 
-MOVED_ON = ("That page was out of date (perhaps answered in another tab or window), "
-            "so your answer there was not saved again. You are now on your current step.")
+MOVED_ON = _("That page was out of date (perhaps answered in another tab or window), "
+             "so your answer there was not saved again. You are now on your current step.")
 
 
 def steps_for(participant: Participant) -> list[Step]:
@@ -76,7 +79,7 @@ def current_step(participant: Participant) -> Step:
 def clean_answer(participant: Participant, step: Step, post) -> dict:
     form_class = STEP_FORMS.get(step.kind)
     if form_class is None:
-        raise AnswerError("This page takes no answer.", status=409)
+        raise AnswerError(gettext("This page takes no answer."), status=409)
     if step.kind in (StepKind.TEST, StepKind.CHECK) and participant.study.test_kind == Study.SHOW:
         form = ShowForm(post, participant, step, question_of(participant, step.kind, step.item))
     elif form_class is TestForm:
@@ -127,6 +130,11 @@ def score_show(participant: Participant, j: int, data: dict,
 
 
 # --- recording ---------------------------------------------------------------
+def _elsewhere(participant: Participant, step_index: int) -> str:
+    return gettext("You are on step {current}, not step {asked}.").format(current=participant.position + 1,
+                                                                           asked=step_index + 1)
+
+
 def record(participant: Participant, step_index: int, post) -> Participant:
     """Validate and store the answer to step `step_index`; returns the updated participant.
 
@@ -136,7 +144,7 @@ def record(participant: Participant, step_index: int, post) -> Participant:
     """
     steps = steps_for(participant)
     if not 0 <= step_index < len(steps):
-        raise AnswerError("This study has no such step; please use the link you were given.", status=404)
+        raise AnswerError(gettext("This study has no such step; please use the link you were given."), status=404)
     step = steps[step_index]
     # Timed out before the lock: the outcome's own conditional update must not roll back with a refusal.
     if outcomes.check_time(participant):
@@ -160,10 +168,10 @@ def record(participant: Participant, step_index: int, post) -> Participant:
         if stored is not None:
             if stored.data == data:
                 return locked  # idempotent repeat
-            raise AnswerError("This question was already answered; an answer cannot be changed.", status=409,
+            raise AnswerError(gettext("This question was already answered; an answer cannot be changed."), status=409,
                               moved=True)
         if step_index != locked.position:
-            raise AnswerError(f"You are on step {locked.position + 1}, not step {step_index + 1}.", status=409,
+            raise AnswerError(_elsewhere(locked, step_index), status=409,
                               moved=True)
         answer = Answer(participant=locked, step=step_index, kind=step.kind, item=step.item, data=data)
         if step.kind in (StepKind.TEST, StepKind.CHECK) and locked.study.test_kind == Study.SHOW:
@@ -175,7 +183,7 @@ def record(participant: Participant, step_index: int, post) -> Participant:
             with transaction.atomic():
                 answer.save()
         except IntegrityError:
-            raise AnswerError("This question was already answered.", status=409, moved=True) from None
+            raise AnswerError(gettext("This question was already answered."), status=409, moved=True) from None
         now = timezone.now()
         locked.position = step_index + 1
         locked.last_seen_at = now
@@ -206,10 +214,10 @@ def record_attempt(locked: Participant, step_index: int, data: dict) -> Particip
     if stored is not None:
         if stored.answers == answers:
             return locked  # idempotent repeat
-        raise AnswerError("These answers were already checked; please answer on the current page.", status=409,
+        raise AnswerError(gettext("These answers were already checked; please answer on the current page."), status=409,
                           moved=True)
     if step_index != locked.position or number != locked.comprehension_attempts.count() + 1:
-        raise AnswerError(f"You are on step {locked.position + 1}, not step {step_index + 1}.", status=409,
+        raise AnswerError(_elsewhere(locked, step_index), status=409,
                           moved=True)
     missed = comprehension.missed(comprehension.questions_of(locked.study), answers)
     now = timezone.now()
@@ -221,7 +229,7 @@ def record_attempt(locked: Participant, step_index: int, data: dict) -> Particip
                 Answer.objects.create(participant=locked, step=step_index, kind=StepKind.COMPREHENSION,
                                       data={"attempts": number, "answers": answers}, correct=True, created_at=now)
     except IntegrityError:
-        raise AnswerError("These answers were already checked.", status=409, moved=True) from None
+        raise AnswerError(gettext("These answers were already checked."), status=409, moved=True) from None
     locked.last_seen_at = now
     if not missed:
         locked.position = step_index + 1
