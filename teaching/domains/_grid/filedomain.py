@@ -211,6 +211,11 @@ SUMMARY = _("you watch a robot act in a small grid world ({title}) and answer qu
 CONSENT = _("This is a research study about how people understand what a robot in a grid world ({title}) "
             "prefers. Taking part is voluntary.")
 WATCH_FIRST = _("Examples of a robot moving in a small grid world ({title})")
+# A translation may leave out the English plural endings ({training_plural}, {tests_plural}), which the format
+# check of the catalog would refuse:
+# xgettext:no-python-brace-format
+INSTRUCTIONS = _("You will watch {n_training} example{training_plural} of a robot in a small grid world, then "
+                 "answer {n_tests} question{tests_plural} about what it would do.")
 
 
 def _texts(world: World) -> ParticipantTexts:
@@ -219,9 +224,7 @@ def _texts(world: World) -> ParticipantTexts:
     return ParticipantTexts(
         summary=t.get("summary", SUMMARY.format(title=world.title)),
         consent=t.get("consent", CONSENT.format(title=world.title)),
-        instructions=tuple(t.get("instructions", (_("You will watch {n_training} example{training_plural} of a "
-                                                     "robot in a small grid world, then answer {n_tests} "
-                                                     "question{tests_plural} about what it would do."),))),
+        instructions=tuple(t.get("instructions", (INSTRUCTIONS,))),
         attention_question=t.get("attention_question", _("What did you watch?")),
         attention_choices=(("robot", _("A robot moving on a grid")), ("car", _("A car on a highway"))),
         attention_correct=frozenset({"robot"}),

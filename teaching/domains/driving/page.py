@@ -43,6 +43,9 @@ TEXTS = ParticipantTexts(
           "the dark gray car (white outline) is another driver who stays in its lane."),
         _("In every situation the autonomous car has one of two goals, shown as a blue striped lane marked "
           "\"goal\": either to merge into the right lane or to drive forward."),
+        # A translation may leave out the English plural endings ({training_plural}, {tests_plural}), which the
+        # format check of the catalog would refuse:
+        # xgettext:no-python-brace-format
         _("First you will watch {n_training} example{training_plural} of how the car drives. Watch closely: the "
           "car has its own driving style (how much it keeps its distance, accelerates, changes speed or steers). "
           "Each example can be replayed, and \"Show trail\" shows the whole drive at once (later positions "

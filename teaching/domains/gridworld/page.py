@@ -42,6 +42,9 @@ TEXTS = ParticipantTexts(
         _("Some yards have mud (brown, dotted), a dog (the red disc; the cells next to it are hatched red) or a "
           "cart (the blue square): the robot may pick the cart up by moving into its cell and push the parcel "
           "on it from then on."),
+        # A translation may leave out the English plural endings ({training_plural}, {tests_plural}), which the
+        # format check of the catalog would refuse:
+        # xgettext:no-python-brace-format
         _("First you will watch {n_training} example{training_plural} of how the robot delivers. Watch closely: "
           "the robot has its own preferences (how much it minds long paths, mud, the dog, and whether it thinks "
           "fetching the cart is worth a detour). Each example can be replayed, and \"Show trail\" shows the "
