@@ -14,8 +14,7 @@ from dataclasses import dataclass
 
 from django.db import IntegrityError, transaction
 from django.utils import timezone
-from django.utils.translation import gettext
-from django.utils.translation import gettext_lazy as _
+from django.utils.translation import gettext, gettext_noop
 
 from . import bonuses, closedloop, comprehension, outcomes, status
 from .forms import STEP_FORMS, ShowForm, TestForm
@@ -41,15 +40,15 @@ class AnswerError(Exception):
     is elsewhere in the study); the participant is sent to where they are, with `MOVED_ON`."""
 
     def __init__(self, message: str, status: int = 400, moved: bool = False):
-        message = str(message)  # a lazy constant (ENDED) read now, in the language of the request
         super().__init__(message)
         self.message, self.status, self.moved = message, status, moved
 
 
-ENDED = _("This study has ended for you, so this answer was not saved.")
+# English, as tests and pages compare them; shown through gettext, in the participant's language
+ENDED = gettext_noop("This study has ended for you, so this answer was not saved.")
 
-MOVED_ON = _("That page was out of date (perhaps answered in another tab or window), "
-             "so your answer there was not saved again. You are now on your current step.")
+MOVED_ON = gettext_noop("That page was out of date (perhaps answered in another tab or window), "
+                        "so your answer there was not saved again. You are now on your current step.")
 
 
 def steps_for(participant: Participant) -> list[Step]:
@@ -148,7 +147,7 @@ def record(participant: Participant, step_index: int, post) -> Participant:
     step = steps[step_index]
     # Timed out before the lock: the outcome's own conditional update must not roll back with a refusal.
     if outcomes.check_time(participant):
-        raise AnswerError(ENDED, status=409, moved=True)
+        raise AnswerError(gettext(ENDED), status=409, moved=True)
     data = clean_answer(participant, step, post)
     with transaction.atomic():
         # Lock only the participant's row: a FOR UPDATE joined with the study locks the study row too,
@@ -158,7 +157,7 @@ def record(participant: Participant, step_index: int, post) -> Participant:
         locked = Participant.objects.select_for_update(of=("self",)).get(pk=participant.pk)
         locked.study, locked.condition = participant.study, participant.condition
         if locked.outcome:  # returned, timed out or screened out since the page was drawn
-            raise AnswerError(ENDED, status=409, moved=True)
+            raise AnswerError(gettext(ENDED), status=409, moved=True)
         if step.kind == StepKind.COMPREHENSION:
             return record_attempt(locked, step_index, data)
         # Only a step before the participant's position can hold an answer (the position moves on with each

@@ -149,7 +149,7 @@ def step(request, slug, token):
     current = flow.current_step(participant)
     ctx = step_context(participant, current)
     if request.GET.get("moved"):
-        ctx["notice"] = flow.MOVED_ON
+        ctx["notice"] = gettext(flow.MOVED_ON)
     # a failed comprehension check: the instructions again, its questions only when asked for
     ctx["reviewing"] = bool(ctx.get("missed_questions")) and not request.GET.get("questions")
     return render(request, f"studyapp/step_{template_kind(participant, current)}.html", ctx)
