@@ -20,6 +20,8 @@ questions they missed named, and one who fails ``Study.comprehension_attempts`` 
 from __future__ import annotations
 
 from django import forms
+from django.utils.translation import gettext
+from django.utils.translation import gettext_lazy as _
 
 from .i18n import participant_texts
 
@@ -116,8 +118,9 @@ class ComprehensionForm(forms.Form):
     (``attempt``: the page's, so a replayed post is told apart from a new attempt)."""
 
     attempt = forms.IntegerField(min_value=1, error_messages={
-        "required": "This page was incomplete; please reload it.", "invalid": "This page was incomplete; please "
-                    "reload it.", "min_value": "This page was incomplete; please reload it."})
+        "required": _("This page was incomplete; please reload it."),
+        "invalid": _("This page was incomplete; please reload it."),
+        "min_value": _("This page was incomplete; please reload it.")})
 
     def __init__(self, data, participant, step):
         super().__init__(data)
@@ -125,14 +128,15 @@ class ComprehensionForm(forms.Form):
         for i, q in enumerate(self.questions):
             self.fields[f"q{i}"] = forms.TypedMultipleChoiceField(
                 coerce=int, choices=[(str(k), c) for k, c in enumerate(q["choices"])], error_messages={
-                    "required": f"Please answer every question: question {i + 1} has no answer yet.",
-                    "invalid_choice": f"Question {i + 1}: please choose among its answers."})
+                    "required": gettext("Please answer every question: question {n} has no answer yet.").format(
+                        n=i + 1),
+                    "invalid_choice": gettext("Question {n}: please choose among its answers.").format(n=i + 1)})
 
     def clean(self):
         data = super().clean()
         for i, q in enumerate(self.questions):  # a question with one right answer is a radio: one choice
             if len(q["right"]) == 1 and len(data.get(f"q{i}") or ()) > 1:
-                self.add_error(f"q{i}", f"Question {i + 1}: please choose one answer.")
+                self.add_error(f"q{i}", gettext("Question {n}: please choose one answer.").format(n=i + 1))
         return data
 
     def first_error(self) -> str:

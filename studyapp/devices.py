@@ -12,14 +12,16 @@ from __future__ import annotations
 import re
 
 from django.db.models import F
+from django.utils.translation import gettext
+from django.utils.translation import gettext_lazy as _
 
 from .models import Study
 
 DEVICES = ("computer", "tablet", "phone")
 # phones' browsers say "Mobile" (Android, iOS) or "Mobi"; tablets' do not (an iPad says "iPad" or passes as a Mac)
 _PHONE_AGENT = re.compile(r"Mobi|iPhone|iPod|Windows Phone", re.I)
-NEEDS_SCRIPT = ("This study checks that your screen can show its animations, which needs JavaScript: please turn "
-                "it on and reload the page.")
+NEEDS_SCRIPT = _("This study checks that your screen can show its animations, which needs JavaScript: please turn "
+                 "it on and reload the page.")
 
 
 def rules(study: Study) -> dict:
@@ -40,7 +42,7 @@ def problem(study: Study, reported, user_agent: str = "") -> str | None:
         return None
     width, device = str(reported.get("screen_width", "")).strip(), str(reported.get("device", "")).strip()
     if not width.isdigit() or device not in DEVICES:
-        return NEEDS_SCRIPT
+        return str(NEEDS_SCRIPT)
     if _PHONE_AGENT.search(user_agent or ""):
         device = "phone"
     if device == "phone" and not study.allow_phones:
@@ -53,17 +55,21 @@ def problem(study: Study, reported, user_agent: str = "") -> str | None:
 
 
 def _refused(study: Study, device: str) -> str:
-    return f"This study cannot be done on a {device}: {_elsewhere(study)}"
+    # one whole sentence per device: German gives each its own article ("einem Smartphone", "einem Tablet")
+    refused = (gettext("This study cannot be done on a phone: {elsewhere}") if device == "phone"
+               else gettext("This study cannot be done on a tablet: {elsewhere}"))
+    return refused.format(elsewhere=_elsewhere(study))
 
 
 def _too_narrow(study: Study, width) -> str:
-    return (f"This study needs a screen at least {study.min_screen_width} pixels wide, and yours is {width}: "
-            f"{_elsewhere(study)}")
+    return gettext("This study needs a screen at least {min_width} pixels wide, and yours is {width}: "
+                   "{elsewhere}").format(min_width=study.min_screen_width, width=width, elsewhere=_elsewhere(study))
 
 
 def _elsewhere(study: Study) -> str:
-    on = "a computer" + (" or a tablet" if study.allow_tablets else "")
-    return f"please take part on {on} instead (on Prolific, please return the study)."
+    if study.allow_tablets:
+        return gettext("please take part on a computer or a tablet instead (on Prolific, please return the study).")
+    return gettext("please take part on a computer instead (on Prolific, please return the study).")
 
 
 def count_refusal(study: Study) -> None:

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 from django.db import IntegrityError, transaction
 from django.utils import timezone
+from django.utils.translation import gettext, gettext_noop
 
 from . import bonuses, closedloop, comprehension, outcomes, status
 from .forms import STEP_FORMS, ShowForm, TestForm
@@ -43,10 +44,11 @@ class AnswerError(Exception):
         self.message, self.status, self.moved = message, status, moved
 
 
-ENDED = "This study has ended for you, so this answer was not saved."
+# English, as tests and pages compare them; shown through gettext, in the participant's language
+ENDED = gettext_noop("This study has ended for you, so this answer was not saved.")
 
-MOVED_ON = ("That page was out of date (perhaps answered in another tab or window), "
-            "so your answer there was not saved again. You are now on your current step.")
+MOVED_ON = gettext_noop("That page was out of date (perhaps answered in another tab or window), "
+                        "so your answer there was not saved again. You are now on your current step.")
 
 
 def steps_for(participant: Participant) -> list[Step]:
@@ -76,7 +78,7 @@ def current_step(participant: Participant) -> Step:
 def clean_answer(participant: Participant, step: Step, post) -> dict:
     form_class = STEP_FORMS.get(step.kind)
     if form_class is None:
-        raise AnswerError("This page takes no answer.", status=409)
+        raise AnswerError(gettext("This page takes no answer."), status=409)
     if step.kind in (StepKind.TEST, StepKind.CHECK) and participant.study.test_kind == Study.SHOW:
         form = ShowForm(post, participant, step, question_of(participant, step.kind, step.item))
     elif form_class is TestForm:
@@ -127,6 +129,11 @@ def score_show(participant: Participant, j: int, data: dict,
 
 
 # --- recording ---------------------------------------------------------------
+def _elsewhere(participant: Participant, step_index: int) -> str:
+    return gettext("You are on step {current}, not step {asked}.").format(current=participant.position + 1,
+                                                                           asked=step_index + 1)
+
+
 def record(participant: Participant, step_index: int, post) -> Participant:
     """Validate and store the answer to step `step_index`; returns the updated participant.
 
@@ -136,11 +143,11 @@ def record(participant: Participant, step_index: int, post) -> Participant:
     """
     steps = steps_for(participant)
     if not 0 <= step_index < len(steps):
-        raise AnswerError("This study has no such step; please use the link you were given.", status=404)
+        raise AnswerError(gettext("This study has no such step; please use the link you were given."), status=404)
     step = steps[step_index]
     # Timed out before the lock: the outcome's own conditional update must not roll back with a refusal.
     if outcomes.check_time(participant):
-        raise AnswerError(ENDED, status=409, moved=True)
+        raise AnswerError(gettext(ENDED), status=409, moved=True)
     data = clean_answer(participant, step, post)
     with transaction.atomic():
         # Lock only the participant's row: a FOR UPDATE joined with the study locks the study row too,
@@ -150,7 +157,7 @@ def record(participant: Participant, step_index: int, post) -> Participant:
         locked = Participant.objects.select_for_update(of=("self",)).get(pk=participant.pk)
         locked.study, locked.condition = participant.study, participant.condition
         if locked.outcome:  # returned, timed out or screened out since the page was drawn
-            raise AnswerError(ENDED, status=409, moved=True)
+            raise AnswerError(gettext(ENDED), status=409, moved=True)
         if step.kind == StepKind.COMPREHENSION:
             return record_attempt(locked, step_index, data)
         # Only a step before the participant's position can hold an answer (the position moves on with each
@@ -160,10 +167,10 @@ def record(participant: Participant, step_index: int, post) -> Participant:
         if stored is not None:
             if stored.data == data:
                 return locked  # idempotent repeat
-            raise AnswerError("This question was already answered; an answer cannot be changed.", status=409,
+            raise AnswerError(gettext("This question was already answered; an answer cannot be changed."), status=409,
                               moved=True)
         if step_index != locked.position:
-            raise AnswerError(f"You are on step {locked.position + 1}, not step {step_index + 1}.", status=409,
+            raise AnswerError(_elsewhere(locked, step_index), status=409,
                               moved=True)
         answer = Answer(participant=locked, step=step_index, kind=step.kind, item=step.item, data=data)
         if step.kind in (StepKind.TEST, StepKind.CHECK) and locked.study.test_kind == Study.SHOW:
@@ -175,7 +182,7 @@ def record(participant: Participant, step_index: int, post) -> Participant:
             with transaction.atomic():
                 answer.save()
         except IntegrityError:
-            raise AnswerError("This question was already answered.", status=409, moved=True) from None
+            raise AnswerError(gettext("This question was already answered."), status=409, moved=True) from None
         now = timezone.now()
         locked.position = step_index + 1
         locked.last_seen_at = now
@@ -206,10 +213,10 @@ def record_attempt(locked: Participant, step_index: int, data: dict) -> Particip
     if stored is not None:
         if stored.answers == answers:
             return locked  # idempotent repeat
-        raise AnswerError("These answers were already checked; please answer on the current page.", status=409,
+        raise AnswerError(gettext("These answers were already checked; please answer on the current page."), status=409,
                           moved=True)
     if step_index != locked.position or number != locked.comprehension_attempts.count() + 1:
-        raise AnswerError(f"You are on step {locked.position + 1}, not step {step_index + 1}.", status=409,
+        raise AnswerError(_elsewhere(locked, step_index), status=409,
                           moved=True)
     missed = comprehension.missed(comprehension.questions_of(locked.study), answers)
     now = timezone.now()
@@ -221,7 +228,7 @@ def record_attempt(locked: Participant, step_index: int, data: dict) -> Particip
                 Answer.objects.create(participant=locked, step=step_index, kind=StepKind.COMPREHENSION,
                                       data={"attempts": number, "answers": answers}, correct=True, created_at=now)
     except IntegrityError:
-        raise AnswerError("These answers were already checked.", status=409, moved=True) from None
+        raise AnswerError(gettext("These answers were already checked."), status=409, moved=True) from None
     locked.last_seen_at = now
     if not missed:
         locked.position = step_index + 1

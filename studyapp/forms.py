@@ -11,6 +11,9 @@ import re
 
 from django import forms
 from django.core.exceptions import ValidationError
+from django.utils.text import format_lazy
+from django.utils.translation import gettext
+from django.utils.translation import gettext_lazy as _
 
 from .comprehension import ComprehensionForm
 from .i18n import participant_texts
@@ -18,11 +21,11 @@ from .models import StepKind
 from .trajectories import study_domain
 
 GENDER_CHOICES = [
-    ("female", "Female"),
-    ("male", "Male"),
-    ("non-binary", "Non-binary"),
-    ("other", "Prefer to self-describe"),
-    ("undisclosed", "Prefer not to say"),
+    ("female", _("Female")),
+    ("male", _("Male")),
+    ("non-binary", _("Non-binary")),
+    ("other", _("Prefer to self-describe")),
+    ("undisclosed", _("Prefer not to say")),
 ]
 AGE_MIN, AGE_MAX = 18, 120
 RATING_MIN, RATING_MAX = 1, 7
@@ -50,8 +53,8 @@ class WholeNumberField(forms.IntegerField):
     re_decimal = re.compile(r"(?!)")  # matches nothing, so "6.0" stays invalid
 
 
-def _whole_number(low: int, high: int, missing: str, what: str) -> WholeNumberField:
-    bad = f"{what} must be a whole number from {low} to {high}."
+def _whole_number(low: int, high: int, missing: str, bad: str) -> WholeNumberField:
+    """bad: the message for a value that is not a whole number from low to high."""
     return WholeNumberField(min_value=low, max_value=high, error_messages={
         "required": missing, "invalid": bad, "min_value": bad, "max_value": bad})
 
@@ -73,9 +76,9 @@ class StepForm(forms.Form):
 
 class ConsentForm(StepForm):
     # Only "yes" gets here with a stored answer: the view answers "no" with the declined page.
-    consent = OneChoiceField(choices=[("yes", "I agree")], error_messages={
-        "required": "Please say whether you agree to take part.",
-        "invalid_choice": "You can only continue if you agree to take part."})
+    consent = OneChoiceField(choices=[("yes", _("I agree"))], error_messages={
+        "required": _("Please say whether you agree to take part."),
+        "invalid_choice": _("You can only continue if you agree to take part.")})
 
     # The version of the text the page showed (Study.consent_version); a page without it is read as the
     # text now, and a page of another version is sent back to be read again.
@@ -84,8 +87,8 @@ class ConsentForm(StepForm):
     def clean_consent_version(self):
         shown, now = self.cleaned_data["consent_version"], self.participant.study.consent_version()
         if shown and shown != now:
-            raise ValidationError("The study's information changed after this page was opened; please reload "
-                                  "the page and read it again before you agree.")
+            raise ValidationError(gettext("The study's information changed after this page was opened; please "
+                                          "reload the page and read it again before you agree."))
         return now
 
     def answer(self) -> dict:
@@ -94,7 +97,7 @@ class ConsentForm(StepForm):
 
 class InstructionsForm(StepForm):
     ack = forms.CharField(widget=OneValue, error_messages={
-        "required": "Please confirm that you have read the instructions."})
+        "required": _("Please confirm that you have read the instructions.")})
 
     def answer(self) -> dict:
         return {"ack": True}
@@ -103,8 +106,8 @@ class InstructionsForm(StepForm):
 class TrainingForm(StepForm):
     # The page's script sets played=1 when the animation ends.
     played = forms.ChoiceField(choices=[("1", "played")], error_messages={
-        "required": "Please watch the whole animation before you continue.",
-        "invalid_choice": "Please watch the whole animation before you continue."})
+        "required": _("Please watch the whole animation before you continue."),
+        "invalid_choice": _("Please watch the whole animation before you continue.")})
 
     def answer(self) -> dict:
         if self.participant.condition.closed_loop:  # a closed-loop example or feedback: its stored step
@@ -117,9 +120,9 @@ class AttentionForm(StepForm):
     first study's name for it, kept for every domain so exports read one column)."""
 
     goals = forms.MultipleChoiceField(choices=[], error_messages={
-        "required": "Please tick your answer.",
-        "invalid_choice": "Please tick only answers from the list.",
-        "invalid_list": "Please tick only answers from the list."})
+        "required": _("Please tick your answer."),
+        "invalid_choice": _("Please tick only answers from the list."),
+        "invalid_list": _("Please tick only answers from the list.")})
 
     def __init__(self, data, participant, step):
         super().__init__(data, participant, step)
@@ -133,9 +136,10 @@ class AttentionForm(StepForm):
 
 class DemographicsForm(StepForm):
     gender = OneChoiceField(choices=GENDER_CHOICES, error_messages={
-        "required": "Please choose an answer for gender (or 'Prefer not to say').",
-        "invalid_choice": "Please choose an answer for gender from the list."})
-    age = _whole_number(AGE_MIN, AGE_MAX, "Please enter your age.", "Your age")
+        "required": _("Please choose an answer for gender (or 'Prefer not to say')."),
+        "invalid_choice": _("Please choose an answer for gender from the list.")})
+    age = _whole_number(AGE_MIN, AGE_MAX, _("Please enter your age."), format_lazy(
+        _("Your age must be a whole number from {low} to {high}."), low=AGE_MIN, high=AGE_MAX))
     # Optional free text, cut rather than refused: a long self-description is not an error.
     gender_text = forms.CharField(required=False)
 
@@ -157,22 +161,28 @@ class TestForm(StepForm):
         self.shown, self.env_id = shown, env_id
         letters = [(letter, letter) for letter, _ in shown]
         listed = ", ".join(letter for letter, _ in shown)
-        self.reload = f"This question has options {listed} only; please reload the page."
+        self.reload = gettext("This question has options {listed} only; please reload the page.").format(
+            listed=listed)
         self.fields["played"] = forms.MultipleChoiceField(choices=letters, required=False, error_messages={
             "invalid_choice": self.reload, "invalid_list": self.reload})
         self.fields["choice"] = OneChoiceField(choices=letters, error_messages={
             "required": participant_texts(study_domain(participant.study)).choice_required,
-            "invalid_choice": f"This question has options {listed} only; please choose one of them."})
-        for letter, _ in shown:
+            "invalid_choice": gettext("This question has options {listed} only; please choose one of them.").format(
+                listed=listed)})
+        for letter, _index in shown:
             self.fields[f"rating_{letter}"] = _whole_number(
-                RATING_MIN, RATING_MAX, f"Please rate how well option {letter} matches (1 = not at all, 7 = exactly).",
-                f"The rating of option {letter}")
+                RATING_MIN, RATING_MAX,
+                gettext("Please rate how well option {letter} matches (1 = not at all, 7 = exactly).").format(
+                    letter=letter),
+                gettext("The rating of option {letter} must be a whole number from {low} to {high}.").format(
+                    letter=letter, low=RATING_MIN, high=RATING_MAX))
 
     def clean_played(self):
         played = set(self.cleaned_data["played"])
         unplayed = [letter for letter, _ in self.shown if letter not in played]
         if unplayed:
-            raise ValidationError(f"Please play option {', '.join(unplayed)} before you continue.")
+            raise ValidationError(gettext("Please play option {letters} before you continue.").format(
+                letters=", ".join(unplayed)))
         return played
 
     def clean_choice(self):
@@ -201,7 +211,7 @@ class ShowForm(StepForm):
     page let through."""
 
     moves = forms.CharField(widget=OneValue, error_messages={
-        "required": "Please show the way: move the robot until it has finished, then continue."})
+        "required": _("Please show the way: move the robot until it has finished, then continue.")})
 
     def __init__(self, data, participant, step, test: dict):
         super().__init__(data, participant, step)
@@ -212,12 +222,14 @@ class ShowForm(StepForm):
         moves = self.cleaned_data["moves"].split()
         limit = self.domain.show_rules(self.test["env_id"])["max_actions"]
         if len(moves) > limit:
-            raise ValidationError(f"This way has {len(moves)} moves; at most {limit} can be submitted. "
-                                  "Please undo some and try a shorter way.")
+            raise ValidationError(gettext("This way has {moves} moves; at most {limit} can be submitted. "
+                                          "Please undo some and try a shorter way.").format(moves=len(moves),
+                                                                                            limit=limit))
         try:
             self.score = self.domain.score_shown(self.test["env_id"], moves)
         except ValueError as exc:
-            raise ValidationError(f"This way cannot be submitted ({exc}). Please undo and try again.") from None
+            raise ValidationError(gettext("This way cannot be submitted ({reason}). Please undo and try again.").format(
+                reason=exc)) from None
         return moves
 
     def answer(self) -> dict:

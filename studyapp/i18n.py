@@ -46,13 +46,22 @@ def in_study_language(view):
 javascript_catalog = in_study_language(JavaScriptCatalog.as_view(domain="djangojs"))
 
 
-def _t(text: str) -> str:
-    return gettext(text) if text else text
-
-
 def participant_texts(domain):
     """The domain's ParticipantTexts in the active language: every text a participant reads looked up in
-    the catalog; the values stored (the attention check's answers, the right choices' indices) unchanged."""
+    the catalog; the values stored (the attention check's answers, the right choices' indices) unchanged.
+
+    A text the domain filled in from its data (a grid world's title) is in the catalog as the text it was
+    filled from: the domain's ``formatted_texts`` maps it there, and the translation is filled in alike."""
+    formatted = getattr(domain, "formatted_texts", {})
+
+    def _t(text: str) -> str:
+        if not text:
+            return text
+        if text in formatted:
+            template, values = formatted[text]
+            return gettext(template).format(**values)
+        return gettext(text)
+
     texts = domain.texts
     return replace(
         texts,

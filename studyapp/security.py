@@ -26,6 +26,7 @@ from django.http import HttpResponse, JsonResponse
 from django.http.multipartparser import MultiPartParserError
 from django.middleware.csrf import CsrfViewMiddleware
 from django.template.loader import render_to_string
+from django.utils.translation import gettext
 
 logger = logging.getLogger("studyapp.security")
 
@@ -147,8 +148,9 @@ def rate_limit(setting: str, by: str):
                 wait = hit(f"{setting}:{who}", *rule)
                 if wait:
                     logger.info("%s exceeded by %s %s on %s", setting, by, who, request.path)
-                    return refuse(request, 429, "Too many requests in a short time. Nothing was saved from "
-                                  f"this one; please wait {wait} seconds and try again.", retry_after=wait)
+                    return refuse(request, 429, gettext("Too many requests in a short time. Nothing was saved from "
+                                                          "this one; please wait {seconds} seconds and try again.")
+                                  .format(seconds=wait), retry_after=wait)
             return view(request, *args, **kwargs)
         return wrapped
     return decorate
@@ -277,12 +279,13 @@ def framed_csrf_protect(view):
             return view(request, *args, **kwargs)
         if settings.CSRF_COOKIE_NAME in request.COOKIES:
             if check.process_view(request, None, (), {}) is not None:  # Django logged the reason
-                return refuse(request, 403, "This form has expired or was sent from another site, so "
-                              "nothing was saved. Please reload the page and answer again.")
+                return refuse(request, 403, gettext("This form has expired or was sent from another site, so "
+                                                      "nothing was saved. Please reload the page and answer again."))
         elif not (getattr(request, "_dont_enforce_csrf_checks", False) or same_origin(request)):
             logger.warning("Forbidden (cookie-less post, origin %r): %s", _origin_of(request), request.path)
-            return refuse(request, 403, "This answer did not come from the study's own page (no CSRF cookie, and "
-                          "the browser named no page of this site as its origin), so nothing was saved. "
-                          "Please open the study from its link and answer there.")
+            return refuse(request, 403, gettext("This answer did not come from the study's own page (no CSRF cookie, "
+                                                  "and the browser named no page of this site as its origin), so "
+                                                  "nothing was saved. Please open the study from its link and "
+                                                  "answer there."))
         return view(request, *args, **kwargs)
     return wrapped

@@ -7,6 +7,8 @@ from urllib.parse import urlsplit
 from django.http import Http404, JsonResponse
 from django.shortcuts import get_object_or_404, redirect, render
 from django.utils import timezone
+from django.utils.translation import gettext
+from django.utils.translation import gettext_lazy as _
 from django.views.decorators.cache import never_cache
 from django.views.decorators.clickjacking import xframe_options_exempt
 from django.views.decorators.csrf import csrf_exempt
@@ -64,12 +66,12 @@ def mturk_submit_base(raw: str) -> str:
     if not raw:
         return ""
     if any(not 0x21 <= ord(c) <= 0x7E or c == "\\" for c in raw):
-        raise ValueError("turkSubmitTo must be a plain https://www.mturk.com address")
+        raise ValueError(gettext("turkSubmitTo must be a plain https://www.mturk.com address"))
     parts = urlsplit(raw)
     host = parts.netloc.lower()
     if (parts.scheme.lower() != "https" or host not in MTURK_HOSTS or parts.path not in ("", "/")
             or parts.query or parts.fragment):
-        raise ValueError("turkSubmitTo must be https://www.mturk.com or https://workersandbox.mturk.com")
+        raise ValueError(gettext("turkSubmitTo must be https://www.mturk.com or https://workersandbox.mturk.com"))
     return f"https://{host}"
 
 
@@ -83,14 +85,14 @@ def _platform_ids(request):
     values = {k: q.get(k, "").strip() for k in
               ("PROLIFIC_PID", "STUDY_ID", "SESSION_ID", "workerId", "assignmentId", "hitId", "turkSubmitTo")}
     if any(len(v) > ID_MAX for k, v in values.items() if k != "turkSubmitTo"):
-        raise ValueError(f"platform ids are at most {ID_MAX} characters")
+        raise ValueError(gettext("platform ids are at most {n} characters").format(n=ID_MAX))
     if values["PROLIFIC_PID"]:
         return Participant.PROLIFIC, values["PROLIFIC_PID"], {
             "platform_study_id": values["STUDY_ID"], "platform_session_id": values["SESSION_ID"]}
     if values["workerId"]:
         submit_to = values["turkSubmitTo"]
         if len(submit_to) > SUBMIT_TO_MAX:  # the column's length: longer would fail in PostgreSQL
-            raise ValueError(f"turkSubmitTo is at most {SUBMIT_TO_MAX} characters")
+            raise ValueError(gettext("turkSubmitTo is at most {n} characters").format(n=SUBMIT_TO_MAX))
         return Participant.MTURK, values["workerId"], {
             "platform_study_id": values["hitId"], "platform_session_id": values["assignmentId"],
             "turk_submit_to": mturk_submit_base(submit_to)}
@@ -112,7 +114,7 @@ def entry(request, slug):
         return render(request, "studyapp/error.html", {"study": study, "message": str(exc)}, status=400)
     if platform == Participant.PROLIFIC and not study.completion_code.strip():
         # Prolific accepts only its study's own code: a per-participant code would leave them unpaid.
-        return render(request, "studyapp/error.html", {"study": study, "message": (
+        return render(request, "studyapp/error.html", {"study": study, "message": gettext(
             "This study is not ready for Prolific participants yet (it has no completion code). "
             "Please return it on Prolific; the researchers have been shown why.")}, status=503)
     if platform == Participant.ANONYMOUS:
@@ -147,7 +149,7 @@ def step(request, slug, token):
     current = flow.current_step(participant)
     ctx = step_context(participant, current)
     if request.GET.get("moved"):
-        ctx["notice"] = flow.MOVED_ON
+        ctx["notice"] = gettext(flow.MOVED_ON)
     # a failed comprehension check: the instructions again, its questions only when asked for
     ctx["reviewing"] = bool(ctx.get("missed_questions")) and not request.GET.get("questions")
     return render(request, f"studyapp/step_{template_kind(participant, current)}.html", ctx)
@@ -161,10 +163,11 @@ def template_kind(participant: Participant, current: flow.Step) -> str:
 
 
 # Closed-loop conditions (studyapp.closedloop) add to the domain's instructions.
-CHECK_INSTRUCTIONS = ("Between the examples you will sometimes answer a check question, just like the questions "
-                      "at the end. Your answers decide which example you see next; they do not count towards "
-                      "your score.")
-FEEDBACK_INSTRUCTIONS = " After each check question you will see the right answer: what really happens there."
+CHECK_INSTRUCTIONS = _("Between the examples you will sometimes answer a check question, just like the questions "
+                       "at the end. Your answers decide which example you see next; they do not count towards "
+                       "your score.")
+# appended to CHECK_INSTRUCTIONS after a space (kept out of the catalog's text, so no translator loses it)
+FEEDBACK_INSTRUCTIONS = _("After each check question you will see the right answer: what really happens there.")
 
 
 def step_context(participant: Participant, current: flow.Step) -> dict:
@@ -180,7 +183,7 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
     domain = study_domain(participant.study)
     loop = participant.condition.closed_loop
     if loop:  # closed loop: examples are chosen as the participant goes, up to a most
-        ctx["total_training"] = f"up to {loop['settings']['max_examples']}"
+        ctx["total_training"] = gettext("up to {n}").format(n=loop["settings"]["max_examples"])
     if current.kind == StepKind.CONSENT and participant.study.has_device_rules:
         ctx["device_rules"] = devices.rules(participant.study)
     if current.kind in (StepKind.INSTRUCTIONS, StepKind.COMPREHENSION, StepKind.TRAINING, StepKind.FEEDBACK,
@@ -191,8 +194,8 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
     if current.kind in (StepKind.INSTRUCTIONS, StepKind.COMPREHENSION):
         ctx["instructions"] = instructions(participant.study, ctx["total_training"], ctx["total_tests"])
         if loop and loop["settings"]["check_every"]:
-            ctx["instructions"].append(CHECK_INSTRUCTIONS + (FEEDBACK_INSTRUCTIONS if loop["settings"]["feedback"]
-                                                             else ""))
+            ctx["instructions"].append(str(CHECK_INSTRUCTIONS) + (" " + str(FEEDBACK_INSTRUCTIONS)
+                                                                  if loop["settings"]["feedback"] else ""))
     elif current.kind in (StepKind.TRAINING, StepKind.FEEDBACK):
         if loop:
             shown = [s.payload for s in participant.loop_steps.filter(index__lte=current.item, kind=LoopStep.EXAMPLE)]
@@ -201,7 +204,7 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
         else:
             training, item = participant.condition.training, current.item
             payload = training[item]
-        ctx["caption"] = domain.caption(payload)
+        ctx["caption"] = caption_of(domain, payload)
         ctx["env"] = drawn_scene(payload, robot=True, domain=domain)
         ctx["number"] = item + 1
         if current.kind == StepKind.TRAINING:
@@ -210,7 +213,7 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
         test = flow.question_of(participant, current.kind, current.item)
         ctx["number"] = (participant.loop_steps.filter(index__lte=current.item, kind=LoopStep.CHECK).count()
                          if current.kind == StepKind.CHECK else current.item + 1)
-        ctx["caption"] = domain.caption(test)
+        ctx["caption"] = caption_of(domain, test)
         ctx["scene"] = drawn_scene(test, robot=False, domain=domain)  # never θ*'s way
         ctx["rules"] = domain.show_rules(test["env_id"])
     elif current.kind in (StepKind.TEST, StepKind.CHECK):
@@ -218,7 +221,7 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
         shown = flow.option_letters(participant, current.item, current.kind)
         ctx["number"] = (participant.loop_steps.filter(index__lte=current.item, kind=LoopStep.CHECK).count()
                          if current.kind == StepKind.CHECK else current.item + 1)
-        ctx["caption"] = domain.caption(test)
+        ctx["caption"] = caption_of(domain, test)
         ctx["scene"] = drawn_scene(test, robot=False, domain=domain)
         ctx["options"] = [letter for letter, _ in shown]
         ctx["option_robots"] = {letter: test["options"][k]["robot"] for letter, k in shown}
@@ -227,13 +230,20 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
         texts = participant_texts(domain)
         ctx["question"], ctx["choices"] = texts.attention_question, texts.attention_choices
     elif current.kind == StepKind.DEMOGRAPHICS:
-        ctx["genders"] = forms.GENDER_CHOICES
+        ctx["genders"] = [(key, str(label)) for key, label in forms.GENDER_CHOICES]
         ctx["age_min"], ctx["age_max"] = forms.AGE_MIN, forms.AGE_MAX
     elif current.kind == StepKind.DONE:
         ctx.update(completion_target(participant))
         if participant.bonus is not None and bonuses.offers_bonus(participant.study) and not participant.excluded:
             ctx["bonus"] = bonuses.label(participant.study, participant.bonus)
     return ctx
+
+
+def caption_of(domain, payload: dict) -> tuple[str, str] | None:
+    """The domain's caption above a canvas (what to look for, and its value there), in the participant's
+    language: both parts are English texts the domain marks for the catalog."""
+    caption = domain.caption(payload)
+    return tuple(gettext(part) for part in caption) if caption else caption
 
 
 def planned_steps(participant: Participant, steps: list[flow.Step]) -> int:
@@ -258,20 +268,20 @@ def repeated_example(training: list[dict], item: int) -> int | None:
 
 
 ENDED_PAGES = {  # outcome: (title, what happened), as the participant reads them
-    status.RETURNED: ("You returned this study", "Your recruiting platform told us that you returned this study, "
-                      "so it has ended for you. Nothing more is needed; you may close this page."),
-    status.TIMED_OUT: ("Your time for this study is up", "This study had to be finished within {minutes} minutes "
-                       "of starting it, and that time has passed, so your place has been given to someone else. "
-                       "The answers you gave are kept."),
-    status.SCREENED_OUT: ("Thank you for your time", "Your answers to the questions about the instructions did not "
-                          "match them, so the study ends here for you. The answers you gave are kept."),
+    status.RETURNED: (_("You returned this study"), _("Your recruiting platform told us that you returned this "
+                      "study, so it has ended for you. Nothing more is needed; you may close this page.")),
+    status.TIMED_OUT: (_("Your time for this study is up"), _("This study had to be finished within {minutes} "
+                       "minutes of starting it, and that time has passed, so your place has been given to someone "
+                       "else. The answers you gave are kept.")),
+    status.SCREENED_OUT: (_("Thank you for your time"), _("Your answers to the questions about the instructions "
+                          "did not match them, so the study ends here for you. The answers you gave are kept.")),
 }
 
 
 def ended_context(participant: Participant) -> dict:
     title, text = ENDED_PAGES[participant.outcome]
-    ctx = {"study": participant.study, "participant": participant, "title": title,
-           "text": text.format(minutes=participant.study.time_limit_minutes),
+    ctx = {"study": participant.study, "participant": participant, "title": str(title),
+           "text": str(text).format(minutes=participant.study.time_limit_minutes),
            "code": "" if participant.outcome == status.RETURNED else participant.completion_code}
     if ctx["code"]:
         ctx.update(completion_target(participant))

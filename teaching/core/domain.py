@@ -34,6 +34,8 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from .i18n import gettext_noop as _
+
 
 @dataclass(frozen=True)
 class LegendEntry:
@@ -59,12 +61,12 @@ class ComprehensionQuestion:
 # The questions a domain that writes none of its own asks: they hold for any robot whose instructions
 # say that examples come first and questions about new situations after them.
 GENERIC_COMPREHENSION = (
-    ComprehensionQuestion("What will you see before the questions?",
-             ("Nothing: the questions come first", "Short examples of what the robot does", "A written test"),
-             (1,)),
-    ComprehensionQuestion("What do the questions after the examples ask you?",
-             ("Your own preferences", "How quickly you can answer",
-              "What the robot would do in situations you have not seen"), (2,)),
+    ComprehensionQuestion(_("What will you see before the questions?"),
+             (_("Nothing: the questions come first"), _("Short examples of what the robot does"),
+              _("A written test")), (1,)),
+    ComprehensionQuestion(_("What do the questions after the examples ask you?"),
+             (_("Your own preferences"), _("How quickly you can answer"),
+              _("What the robot would do in situations you have not seen")), (2,)),
 )
 
 
@@ -90,11 +92,11 @@ class ParticipantTexts:
     legend: tuple[LegendEntry, ...]
     # what one of a test's options is called (a trajectory, in the robot's own word): researcher pages
     # and the data dictionary use it too
-    option: str = "option"
+    option: str = _("option")
     # a test or check submitted without a choice
-    choice_required: str = "Please choose the option that matches the robot."
+    choice_required: str = _("Please choose the option that matches the robot.")
     # a study's title when its researcher gives none (the demo's)
-    title: str = "What does the robot prefer?"
+    title: str = _("What does the robot prefer?")
     # the comprehension check a study may ask after the instructions (Study.comprehension_check), unless the
     # study gives its own questions: each about what the instructions say, in the robot's words
     comprehension: tuple[ComprehensionQuestion, ...] = GENERIC_COMPREHENSION

@@ -18,6 +18,7 @@ import numpy as np
 
 from ...core.build import Preset
 from ...core.domain import ComprehensionQuestion, LegendEntry, ParticipantTexts
+from ...core.i18n import gettext_noop as _
 from . import ROOT
 from .domain import GridDomain
 from .fileworld import EXIT, fronts, play, world_fingerprint
@@ -62,6 +63,10 @@ class FileGridDomain(GridDomain):
                         "robot-edge": "#111111", "path": "#ff7a1a", "text": "#111111", "object": "#7c3aed",
                         **{f"cell-{k}": v.colour for k, v in world.kinds.items()}}
         self.texts = _texts(world)
+        # each default text that names the world, by its English text: the marked text and the values it was
+        # filled with, so that the web side can look the marked text up and fill in the translation
+        self.formatted_texts = {text.format(title=world.title): (text, {"title": world.title})
+                                for text in (SUMMARY, CONSENT, WATCH_FIRST)}
 
     @cached_property
     def presets(self) -> tuple[Preset, ...]:
@@ -200,22 +205,31 @@ class FileGridDomain(GridDomain):
         return rows[:end].tolist()
 
 
+# The defaults that name the world: marked for the catalog with the title as a placeholder, filled in after
+# the web side has looked the text up (a file's own texts, written in its language, are not in the catalog).
+SUMMARY = _("you watch a robot act in a small grid world ({title}) and answer questions about what it prefers")
+CONSENT = _("This is a research study about how people understand what a robot in a grid world ({title}) "
+            "prefers. Taking part is voluntary.")
+WATCH_FIRST = _("Examples of a robot moving in a small grid world ({title})")
+# A translation may leave out the English plural endings ({training_plural}, {tests_plural}), which the format
+# check of the catalog would refuse:
+# xgettext:no-python-brace-format
+INSTRUCTIONS = _("You will watch {n_training} example{training_plural} of a robot in a small grid world, then "
+                 "answer {n_tests} question{tests_plural} about what it would do.")
+
+
 def _texts(world: World) -> ParticipantTexts:
     """The file's [texts], with plain defaults for what it leaves out."""
     t = world.texts
     return ParticipantTexts(
-        summary=t.get("summary", f"you watch a robot act in a small grid world ({world.title}) and answer "
-                                 "questions about what it prefers"),
-        consent=t.get("consent", f"This is a research study about how people understand what a robot in a "
-                                 f"grid world ({world.title}) prefers. Taking part is voluntary."),
-        instructions=tuple(t.get("instructions", ("You will watch {n_training} example{training_plural} of a "
-                                                   "robot in a small grid world, then answer {n_tests} "
-                                                   "question{tests_plural} about what it would do.",))),
-        attention_question=t.get("attention_question", "What did you watch?"),
-        attention_choices=(("robot", "A robot moving on a grid"), ("car", "A car on a highway")),
+        summary=t.get("summary", SUMMARY.format(title=world.title)),
+        consent=t.get("consent", CONSENT.format(title=world.title)),
+        instructions=tuple(t.get("instructions", (INSTRUCTIONS,))),
+        attention_question=t.get("attention_question", _("What did you watch?")),
+        attention_choices=(("robot", _("A robot moving on a grid")), ("car", _("A car on a highway"))),
         attention_correct=frozenset({"robot"}),
-        watch=t.get("watch", "Watch what the robot does."),
-        question=t.get("question", "Which of these matches the robot's preferences?"),
+        watch=t.get("watch", _("Watch what the robot does.")),
+        question=t.get("question", _("Which of these matches the robot's preferences?")),
         legend=(LegendEntry("the robot", "robot", "robot-edge"), LegendEntry("wall", "wall", "wall"),
                 *((LegendEntry(world.obj, "object", "object"),) if world.obj else ()),
                 *(LegendEntry(k.label, f"cell-{k.name}", f"cell-{k.name}") for k in world.kinds.values())),
@@ -226,12 +240,13 @@ def _comprehension(world: World) -> tuple[ComprehensionQuestion, ...]:
     """The comprehension check's default questions: what every grid world's instructions say (examples of a
     robot on a grid first, then questions about new situations), with the world's own title."""
     return (
-        ComprehensionQuestion("What will you watch first?",
-                              ("A car on a highway", f"Examples of a robot moving in a small grid world "
-                                                     f"({world.title})", "A video about the researchers"), (1,)),
-        ComprehensionQuestion("What are the questions after the examples about?",
-                              ("What the robot would do in new situations", "Where the walls of the grid should be",
-                               "How many moves you can remember"), (0,)),
+        ComprehensionQuestion(_("What will you watch first?"),
+                              (_("A car on a highway"), WATCH_FIRST.format(title=world.title),
+                               _("A video about the researchers")), (1,)),
+        ComprehensionQuestion(_("What are the questions after the examples about?"),
+                              (_("What the robot would do in new situations"),
+                               _("Where the walls of the grid should be"), _("How many moves you can remember")),
+                              (0,)),
     )
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...core.domain import ComprehensionQuestion, LegendEntry, ParticipantTexts
+from ...core.i18n import gettext_noop as _
 from .environments import get_environments, other_car_states
 from .world import GOAL_NAMES, WORLD
 
@@ -28,49 +29,53 @@ PALETTE = {
 PAGE_KEYS = ("goal", "dt", "other", "world")
 
 TEXTS = ParticipantTexts(
-    summary=("you watch short animations of an autonomous car on a three-lane road and answer questions about "
-             "its driving style"),
+    summary=_("you watch short animations of an autonomous car on a three-lane road and answer questions about "
+              "its driving style"),
     consent=(
-        "This is a research study about how people understand the driving style of an autonomous car. "
-        "You will watch short animations of a yellow car driving on a three-lane road and then answer "
-        "questions about how it would drive in new situations.\n\n"
-        "We record your answers, the time you spend, your age and gender, and the identifier of the "
-        "recruiting platform (if any). The data are stored under a pseudonym and used only for research. "
-        "Taking part is voluntary; you may stop at any time by closing this page."),
+        _("This is a research study about how people understand the driving style of an autonomous car. "
+          "You will watch short animations of a yellow car driving on a three-lane road and then answer "
+          "questions about how it would drive in new situations.\n\n"
+          "We record your answers, the time you spend, your age and gender, and the identifier of the "
+          "recruiting platform (if any). The data are stored under a pseudonym and used only for research. "
+          "Taking part is voluntary; you may stop at any time by closing this page.")),
     instructions=(
-        "You will see a road with three lanes from above. The yellow car (black outline) is an autonomous car; "
-        "the dark gray car (white outline) is another driver who stays in its lane.",
-        "In every situation the autonomous car has one of two goals, shown as a blue striped lane marked "
-        "\"goal\": either to merge into the right lane or to drive forward.",
-        "First you will watch {n_training} example{training_plural} of how the car drives. Watch closely: the "
-        "car has its own driving style (how much it keeps its distance, accelerates, changes speed or steers). "
-        "Each example can be replayed, and \"Show trail\" shows the whole drive at once (later positions "
-        "darker).",
-        "Then, in {n_tests} new situations, you will see four possible drives. Pick the one that matches the "
-        "car's driving style, and rate how well each of the four matches it (1 = not at all, 7 = exactly)."),
-    attention_question="In the situations you saw, what were the two possible goals of the autonomous car?",
-    attention_choices=(("merge", "Merge into the right lane"), ("forward", "Drive forward"),
-                       ("park", "Park on the shoulder"), ("left", "Turn into the left lane and stop"),
-                       ("exit", "Take the next exit"), ("overtake", "Overtake every car it meets")),
+        _("You will see a road with three lanes from above. The yellow car (black outline) is an autonomous car; "
+          "the dark gray car (white outline) is another driver who stays in its lane."),
+        _("In every situation the autonomous car has one of two goals, shown as a blue striped lane marked "
+          "\"goal\": either to merge into the right lane or to drive forward."),
+        # A translation may leave out the English plural endings ({training_plural}, {tests_plural}), which the
+        # format check of the catalog would refuse:
+        # xgettext:no-python-brace-format
+        _("First you will watch {n_training} example{training_plural} of how the car drives. Watch closely: the "
+          "car has its own driving style (how much it keeps its distance, accelerates, changes speed or steers). "
+          "Each example can be replayed, and \"Show trail\" shows the whole drive at once (later positions "
+          "darker)."),
+        _("Then, in {n_tests} new situations, you will see four possible drives. Pick the one that matches the "
+          "car's driving style, and rate how well each of the four matches it (1 = not at all, 7 = exactly).")),
+    attention_question=_("In the situations you saw, what were the two possible goals of the autonomous car?"),
+    attention_choices=(("merge", _("Merge into the right lane")), ("forward", _("Drive forward")),
+                       ("park", _("Park on the shoulder")), ("left", _("Turn into the left lane and stop")),
+                       ("exit", _("Take the next exit")), ("overtake", _("Overtake every car it meets"))),
     attention_correct=frozenset({"merge", "forward"}),
-    watch="Watch how the yellow car drives.",
-    question="Which drive matches the autonomous car's driving style?",
-    option="drive",
-    choice_required="Please choose the option that matches the car's driving style.",
-    title="How does the autonomous car drive?",
-    legend=(LegendEntry("autonomous car", "robot", "robot-edge"), LegendEntry("other car", "other", "other-edge"),
-            LegendEntry("goal lane", "goal", "goal", hatch="goal-hatch")),
+    watch=_("Watch how the yellow car drives."),
+    question=_("Which drive matches the autonomous car's driving style?"),
+    option=_("drive"),
+    choice_required=_("Please choose the option that matches the car's driving style."),
+    title=_("How does the autonomous car drive?"),
+    legend=(LegendEntry(_("autonomous car"), "robot", "robot-edge"),
+            LegendEntry(_("other car"), "other", "other-edge"),
+            LegendEntry(_("goal lane"), "goal", "goal", hatch="goal-hatch")),
     comprehension=(
-        ComprehensionQuestion("Which car is the autonomous car?",
-                              ("The dark gray car with a white outline", "The yellow car with a black outline",
-                               "Either car: they take turns"), (1,)),
-        ComprehensionQuestion("How is the autonomous car's goal in a situation shown?",
-                              ("As a blue striped lane marked \"goal\"", "As a red flag at the end of the road",
-                               "It is not shown: you have to guess it"), (0,)),
-        ComprehensionQuestion("What will you do in the new situations after the examples?",
-                              ("Steer the car yourself",
-                               "Pick the fastest of four drives",
-                               "Pick the drive that matches the car's driving style, and rate all four"), (2,)),
+        ComprehensionQuestion(_("Which car is the autonomous car?"),
+                              (_("The dark gray car with a white outline"), _("The yellow car with a black outline"),
+                               _("Either car: they take turns")), (1,)),
+        ComprehensionQuestion(_("How is the autonomous car's goal in a situation shown?"),
+                              (_("As a blue striped lane marked \"goal\""), _("As a red flag at the end of the road"),
+                               _("It is not shown: you have to guess it")), (0,)),
+        ComprehensionQuestion(_("What will you do in the new situations after the examples?"),
+                              (_("Steer the car yourself"),
+                               _("Pick the fastest of four drives"),
+                               _("Pick the drive that matches the car's driving style, and rate all four")), (2,)),
     ),
 )
 
@@ -108,8 +113,13 @@ def page_scene(payload: dict) -> dict:
     return scene
 
 
+# The goals as a caption names them (world.GOAL_NAMES, stored in every payload), marked for the catalog: the
+# web side translates a caption's parts by looking them up there.
+CAPTION_GOALS = (_("merge right"), _("drive forward"))
+
+
 def caption(payload: dict) -> tuple[str, str]:
-    return ("Goal in this situation", payload["goal_name"])
+    return (_("Goal in this situation"), payload["goal_name"])
 
 
 # scenes/driving.js's INTERACTION_FT: the other car within this distance along the road is framed with the robot

@@ -7,6 +7,7 @@ x is the column (left to right), y the row (top to bottom), as the domain's ``st
 from __future__ import annotations
 
 from ...core.domain import ComprehensionQuestion, LegendEntry, ParticipantTexts
+from ...core.i18n import gettext_noop as _
 from .environments import get_yard
 
 SECONDS_PER_MOVE = 0.4  # the animation's pace: a 12-move delivery plays in 4.8 s
@@ -25,53 +26,56 @@ PALETTE = {
 PAGE_KEYS = ("dt", "yard")
 
 TEXTS = ParticipantTexts(
-    summary=("you watch short animations of a delivery robot carrying parcels across a small yard and answer "
-             "questions about what it prefers"),
+    summary=_("you watch short animations of a delivery robot carrying parcels across a small yard and answer "
+              "questions about what it prefers"),
     consent=(
-        "This is a research study about how people understand what a delivery robot cares about. "
-        "You will watch short animations of a robot carrying a parcel across a small yard and then answer "
-        "questions about how it would deliver in new yards.\n\n"
-        "We record your answers, the time you spend, your age and gender, and the identifier of the "
-        "recruiting platform (if any). The data are stored under a pseudonym and used only for research. "
-        "Taking part is voluntary; you may stop at any time by closing this page."),
+        _("This is a research study about how people understand what a delivery robot cares about. "
+          "You will watch short animations of a robot carrying a parcel across a small yard and then answer "
+          "questions about how it would deliver in new yards.\n\n"
+          "We record your answers, the time you spend, your age and gender, and the identifier of the "
+          "recruiting platform (if any). The data are stored under a pseudonym and used only for research. "
+          "Taking part is voluntary; you may stop at any time by closing this page.")),
     instructions=(
-        "You will see a small yard from above, divided into square cells. A delivery robot (the yellow "
-        "circle) carries a parcel from its start S on the left edge to the drop-off D on the right edge, "
-        "one cell at a time. Dark cells are walls.",
-        "Some yards have mud (brown, dotted), a dog (the red disc; the cells next to it are hatched red) or a "
-        "cart (the blue square): the robot may pick the cart up by moving into its cell and push the parcel "
-        "on it from then on.",
-        "First you will watch {n_training} example{training_plural} of how the robot delivers. Watch closely: "
-        "the robot has its own preferences (how much it minds long paths, mud, the dog, and whether it thinks "
-        "fetching the cart is worth a detour). Each example can be replayed, and \"Show trail\" shows the "
-        "whole path at once.",
-        "Then, in {n_tests} new yards, you will see four possible deliveries. Pick the one that matches the "
-        "robot's preferences, and rate how well each of the four matches them (1 = not at all, 7 = exactly)."),
-    attention_question="In the yards you saw, what did the robot do every time?",
-    attention_choices=(("deliver", "Carried a parcel to the drop-off D"),
-                       ("charge", "Drove to a charging station"),
-                       ("collect", "Collected parcels from the dog"),
-                       ("clean", "Cleaned up the mud")),
+        _("You will see a small yard from above, divided into square cells. A delivery robot (the yellow "
+          "circle) carries a parcel from its start S on the left edge to the drop-off D on the right edge, "
+          "one cell at a time. Dark cells are walls."),
+        _("Some yards have mud (brown, dotted), a dog (the red disc; the cells next to it are hatched red) or a "
+          "cart (the blue square): the robot may pick the cart up by moving into its cell and push the parcel "
+          "on it from then on."),
+        # A translation may leave out the English plural endings ({training_plural}, {tests_plural}), which the
+        # format check of the catalog would refuse:
+        # xgettext:no-python-brace-format
+        _("First you will watch {n_training} example{training_plural} of how the robot delivers. Watch closely: "
+          "the robot has its own preferences (how much it minds long paths, mud, the dog, and whether it thinks "
+          "fetching the cart is worth a detour). Each example can be replayed, and \"Show trail\" shows the "
+          "whole path at once."),
+        _("Then, in {n_tests} new yards, you will see four possible deliveries. Pick the one that matches the "
+          "robot's preferences, and rate how well each of the four matches them (1 = not at all, 7 = exactly).")),
+    attention_question=_("In the yards you saw, what did the robot do every time?"),
+    attention_choices=(("deliver", _("Carried a parcel to the drop-off D")),
+                       ("charge", _("Drove to a charging station")),
+                       ("collect", _("Collected parcels from the dog")),
+                       ("clean", _("Cleaned up the mud"))),
     attention_correct=frozenset({"deliver"}),
-    watch="Watch how the robot carries the parcel from S to D.",
-    question="Which delivery matches the robot's preferences?",
-    option="delivery",
-    choice_required="Please choose the delivery that matches the robot's preferences.",
-    title="How does the delivery robot deliver?",
-    legend=(LegendEntry("the robot", "robot", "robot-edge"), LegendEntry("mud", "mud", "mud-mark"),
-            LegendEntry("next to the dog", "near", "near-mark"), LegendEntry("cart", "cart", "cart"),
-            LegendEntry("wall", "wall", "wall")),
+    watch=_("Watch how the robot carries the parcel from S to D."),
+    question=_("Which delivery matches the robot's preferences?"),
+    option=_("delivery"),
+    choice_required=_("Please choose the delivery that matches the robot's preferences."),
+    title=_("How does the delivery robot deliver?"),
+    legend=(LegendEntry(_("the robot"), "robot", "robot-edge"), LegendEntry(_("mud"), "mud", "mud-mark"),
+            LegendEntry(_("next to the dog"), "near", "near-mark"), LegendEntry(_("cart"), "cart", "cart"),
+            LegendEntry(_("wall"), "wall", "wall")),
     comprehension=(
-        ComprehensionQuestion("Where does the robot carry the parcel?",
-                              ("From the drop-off D back to its start S",
-                               "From its start S on the left edge to the drop-off D on the right edge",
-                               "Around the yard and back to S"), (1,)),
-        ComprehensionQuestion("What can the robot do with the cart (the blue square)?",
-                              ("Pick it up by moving into its cell, and push the parcel on it from then on",
-                               "Nothing: the cart is a wall", "Leave the parcel in it for the dog"), (0,)),
-        ComprehensionQuestion("What will you do in the new yards after the examples?",
-                              ("Move the robot yourself", "Pick the shortest of four deliveries",
-                               "Pick the delivery that matches the robot's preferences, and rate all four"), (2,)),
+        ComprehensionQuestion(_("Where does the robot carry the parcel?"),
+                              (_("From the drop-off D back to its start S"),
+                               _("From its start S on the left edge to the drop-off D on the right edge"),
+                               _("Around the yard and back to S")), (1,)),
+        ComprehensionQuestion(_("What can the robot do with the cart (the blue square)?"),
+                              (_("Pick it up by moving into its cell, and push the parcel on it from then on"),
+                               _("Nothing: the cart is a wall"), _("Leave the parcel in it for the dog")), (0,)),
+        ComprehensionQuestion(_("What will you do in the new yards after the examples?"),
+                              (_("Move the robot yourself"), _("Pick the shortest of four deliveries"),
+                               _("Pick the delivery that matches the robot's preferences, and rate all four")), (2,)),
     ),
 )
 
