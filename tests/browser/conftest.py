@@ -4,11 +4,15 @@ from __future__ import annotations
 import os
 
 import pytest
-from playwright.sync_api import sync_playwright
+from playwright.sync_api import expect, sync_playwright
 
 from studyapp.studies import build_study, demo_spec
 from teaching.core.table import TrajectoryTable
 from tests.studyapp.test_stimuli import real_spec
+
+# A guard against a page that never comes, not a measure of speed: Playwright's 5 s default for
+# expect() was missed on a machine running three test processes on two cores (a page under load).
+expect.set_options(timeout=30_000)
 
 
 @pytest.fixture

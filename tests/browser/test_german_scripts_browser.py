@@ -74,7 +74,7 @@ def test_a_german_studys_scripts_speak_german(transactional_db, make_study, live
             assert page.evaluate("window.canvasTexts").pop().startswith("Spur: "), page.evaluate("window.canvasTexts")
             page.screenshot(path=str(OUT / "german_training.png"), full_page=True)
             trail.click()
-            expect(trail).to_have_text("Spur anzeigen")
+            expect(trail).to_have_text("Spur zeigen")  # the page's own label (django.po), which the script toggles
 
             # the connection drops as the answer is sent: the banner says so in German; back online, it goes
             banner, heading = page.locator("[data-save-banner]"), page.locator("h1").inner_text()

@@ -13,7 +13,7 @@ from studyapp.models import Participant, Study
 from studyapp.studies import build_study, demo_spec
 from teaching.api import get_domain
 from tests.browser.grid_pages import CHROMIUM, OUT
-from tests.browser.test_participant_flow import answer_test_by_keyboard, play_all, ready
+from tests.browser.test_participant_flow import play_all, ready
 from tests.studyapp.catalogs import english_leaks
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
@@ -22,23 +22,39 @@ pytestmark = [pytest.mark.browser, pytest.mark.slow]
 @pytest.fixture
 def german_studies(transactional_db, gridworld_teach, demo_table, monkeypatch):
     monkeypatch.setenv("DEMO_TABLE", str(demo_table))
-    driving = build_study({**demo_spec(), "language": "de"})
+    # a study's name is the researcher's own text, shown on every page: a German study's is German
+    driving = build_study({**demo_spec(), "language": "de", "name": "Wie fährt das Auto?"})
     call_command("create_study", str(gridworld_teach), "--slug", "hof", "--name", "Lieferroboter",
                  "--recruitment", "prolific", "--completion-code", "HOF2026", stdout=io.StringIO())
     Study.objects.filter(slug="hof").update(language="de", is_open=True)
     return driving, Study.objects.get(slug="hof")
 
 
-def _read(page, seen: list[str], name: str):
-    """The page's visible text, kept for the English check; a screenshot of it."""
-    ready(page) if page.locator("script[type=module]").count() else None
-    seen.append(f"[{name}] " + page.locator("body").inner_text())
-    page.screenshot(path=str(OUT / f"german_{name}.png"), full_page=True)
+def _read(page, seen: list[tuple[str, str]], name: str, shot: bool = True):
+    """The page's visible text, kept for the English check; a screenshot of a page without animations (one
+    with them waits for frames the fake clock holds back: test_german_scripts_browser.py shoots those)."""
+    page.wait_for_load_state()
+    seen.append((name, page.locator("body").inner_text()))
+    if shot:
+        page.screenshot(path=str(OUT / f"german_{name}.png"), full_page=True)
 
 
-def walk(page, url: str, study: Study, label: str) -> list[str]:
-    """Every step of `study` in the browser, each page's text collected."""
-    seen: list[str] = []
+def answer_test(page):
+    """Play the four options together to their end, choose A, rate all, go on (by mouse)."""
+    ready(page)
+    before = page.locator("h1").inner_text()
+    page.locator('[data-action="play-all"]').click()
+    play_all(page, 16000)
+    page.locator('input[name="choice"][value="A"]').check(force=True)
+    for letter in "ABCD":
+        page.locator(f'.rating[data-option="{letter}"] input[value="{5 if letter == "A" else 2}"]').check(force=True)
+    page.locator('#test-form button[type="submit"]').click()
+    expect(page.locator("h1")).not_to_have_text(before)
+
+
+def walk(page, url: str, study: Study, label: str) -> list[tuple[str, str]]:
+    """Every step of `study` in the browser, each page's (name, text) collected."""
+    seen: list[tuple[str, str]] = []
     page.goto(url)
     _read(page, seen, f"{label}_consent")
     page.locator('button[value="yes"]').click()
@@ -47,15 +63,15 @@ def walk(page, url: str, study: Study, label: str) -> list[str]:
     p = Participant.objects.get(study=study)
     for i in range(len(p.condition.training)):
         ready(page)
-        play_all(page, 8000)
+        play_all(page, 16000)
         if i == 0:
-            _read(page, seen, f"{label}_training")
+            _read(page, seen, f"{label}_training", shot=False)
         page.locator('form[data-require-played] button[type="submit"]').click()
     for j in range(len(study.test_set)):
         if j == 0:
             ready(page)
-            _read(page, seen, f"{label}_test")
-        answer_test_by_keyboard(page, choose_label="A", rating=5)
+            _read(page, seen, f"{label}_test", shot=False)
+        answer_test(page)
     _read(page, seen, f"{label}_attention")
     for value in sorted(get_domain(study.domain).texts.attention_correct):
         page.locator(f'input[name="goals"][value="{value}"]').check()
@@ -88,8 +104,9 @@ def test_german_studies_of_both_robots_speak_german_on_every_page(german_studies
                 seen = walk(page, f"{live_server.url}/s/{study.slug}/?PROLIFIC_PID={pid}&STUDY_ID=S&SESSION_ID=X",
                             study, label)
                 assert page.locator("html").get_attribute("lang") == "de"
-                leaks = english_leaks("\n".join(seen))
-                assert not leaks, f"{label}: English on a German page: {leaks[:10]}"
+                leaks = {name: english_leaks(text) for name, text in seen}
+                leaks = {name: found for name, found in leaks.items() if found}
+                assert not leaks, f"{label}: English on German pages: {leaks}"
                 assert not errors, errors
         finally:
             browser.close()
