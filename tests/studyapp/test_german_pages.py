@@ -1,22 +1,17 @@
 """A German study's participant pages are German: every page a participant of a driving study and of a
 delivery-yard study can see (each step, the review after a failed comprehension check, the form errors of bad
-posts, the ended, declined, closed, refused and error pages) shows no English text of the German catalog
-(locale/de/LC_MESSAGES/django.po) that has a German translation; an English study's pages stay English."""
+posts, the ended, declined, closed, refused and error pages) shows no English text of the German catalogs
+(locale/de/LC_MESSAGES, read by tests/studyapp/catalogs.py) that has a German translation; an English study's
+pages stay English."""
 from __future__ import annotations
 
-import ast
 import html
 import os
 import re
-import struct
-import tempfile
-from array import array
 from pathlib import Path
 
 import pytest
-from django.conf import settings
 from django.urls import reverse
-from django.utils.translation import trans_real
 
 from studyapp import flow, outcomes, status
 from studyapp.assignment import assign
@@ -27,95 +22,20 @@ from teaching.api import get_domain
 from teaching.core.build import build_table
 from teaching.core.table import TrajectoryTable
 from tests.conftest import answer_payload, built_once
+from tests.studyapp.catalogs import catalog_pieces, english_pieces
 from tests.studyapp.helpers import answer_url, step_url
 from tests.studyapp.test_stimuli import real_spec, smallest_preset
 
 pytestmark = pytest.mark.django_db
 
-CATALOG = Path(settings.BASE_DIR) / "locale" / "de" / "LC_MESSAGES" / "django.po"
 # words any German page of a study shows somewhere (its header, buttons, headings)
 GERMAN_WORDS = re.compile(r"\b(Sie|Ihre?[mnrs]?|und|der|die|das|[Bb]itte|zu|von|nicht|Weiter)\b")
-PLACEHOLDER = re.compile(r"%\(\w+\)s|\{\w+\}|<[^>]+>")
-
-
-def read_po(path: Path) -> list[tuple[str, str, list[str]]]:
-    """(msgid, msgid_plural or "", msgstrs) of every entry of a .po file but its header."""
-    entries, fields, current = [], {}, None
-
-    def flush():
-        if fields.get("msgid"):
-            strs = [v for k, v in sorted(fields.items()) if k.startswith("msgstr")]
-            entries.append((fields["msgid"], fields.get("msgid_plural", ""), strs))
-        fields.clear()
-
-    for line in path.read_text(encoding="utf-8").splitlines() + [""]:
-        if not line.strip():
-            flush()
-            current = None
-        elif line.startswith("#"):
-            continue
-        elif line.startswith('"'):
-            fields[current] += ast.literal_eval(line)
-        else:
-            key, _, value = line.partition(" ")
-            current = key
-            fields[current] = ast.literal_eval(value)
-    return entries
-
-
-def write_mo(entries, header: str, path: Path) -> None:
-    """The compiled catalog (GNU .mo, as msgfmt writes it) of `entries`, written atomically: the tests may
-    run before `make messages`, and two workers may compile at once."""
-    messages = {b"": header.encode()}
-    for msgid, plural, strs in entries:
-        if all(strs):
-            key = msgid + ("\0" + plural if plural else "")
-            messages[key.encode()] = "\0".join(strs).encode()
-    keys = sorted(messages)
-    ids = strs = b""
-    offsets = []
-    for k in keys:
-        offsets.append((len(ids), len(k), len(strs), len(messages[k])))
-        ids += k + b"\0"
-        strs += messages[k] + b"\0"
-    key_start = 7 * 4 + 16 * len(keys)
-    value_start = key_start + len(ids)
-    table = []
-    for o1, l1, _o2, _l2 in offsets:
-        table += [l1, o1 + key_start]
-    for _o1, _l1, o2, l2 in offsets:
-        table += [l2, o2 + value_start]
-    data = struct.pack("Iiiiiii", 0x950412DE, 0, len(keys), 7 * 4, 7 * 4 + len(keys) * 8, 0, 0)
-    data += array("i", table).tobytes() + ids + strs
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".mo.tmp")
-    with os.fdopen(fd, "wb") as f:
-        f.write(data)
-    os.replace(tmp, path)
-
-
-def _header(path: Path) -> str:
-    text = path.read_text(encoding="utf-8").split("\n\n", 1)[0]
-    return "".join(ast.literal_eval(line) for line in text.splitlines() if line.startswith('"'))
 
 
 @pytest.fixture(scope="module")
 def english_texts() -> list[str]:
-    """The English texts (of two words or more) a German page must not show: each msgid with a different
-    German msgstr, cut at its placeholders and markup into the pieces a page could show as they are."""
-    entries = read_po(CATALOG)
-    mo = CATALOG.with_suffix(".mo")
-    if not mo.exists() or mo.stat().st_mtime < CATALOG.stat().st_mtime:
-        write_mo(entries, _header(CATALOG), mo)
-        trans_real._translations = {}  # catalogs loaded before the .mo existed are dropped
-        trans_real._default = None
-    pieces = set()
-    for msgid, plural, strs in entries:
-        for english, german in zip([msgid, plural or msgid], strs, strict=False):
-            if german and german != english:
-                for piece in PLACEHOLDER.split(english):
-                    piece = " ".join(piece.split()).strip(" .,;:()")
-                    if len(re.findall(r"[A-Za-z]+", piece)) >= 2:
-                        pieces.add(piece)
+    """The English texts (of two words or more) a German page must not show (tests/studyapp/catalogs.py)."""
+    pieces = english_pieces("de")
     assert len(pieces) > 150  # the whole catalog, not a fragment of it
     return sorted(pieces)
 
@@ -261,9 +181,7 @@ def test_an_english_studys_pages_stay_english(client, make_study, english_texts)
     study = make_study(slug="en-car", comprehension_check=True, comprehension_attempts=3, time_limit_minutes=30,
                        screened_out_code="SCRN2026", timed_out_code="TIME2026")
     pages = walk(client, study)
-    german = [german for _msgid, _plural, strs in read_po(CATALOG) for german in strs]
-    german_pieces = {" ".join(piece.split()).strip(" .,;:()") for g in german for piece in PLACEHOLDER.split(g)}
-    german_pieces = {g for g in german_pieces if len(g.split()) >= 2}
+    german_pieces = catalog_pieces("de")[1]
     shown = set()
     for name, page in pages.items():
         assert '<html lang="en">' in page, name
