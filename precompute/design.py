@@ -14,7 +14,7 @@ from django.core.exceptions import NON_FIELD_ERRORS
 
 from studyapp import specrules, specschema
 from studyapp.analysis.conditions import aliased_pairs
-from studyapp.models import Study
+from studyapp.models import Participant, Study
 from studyapp.specschema import (
     BONUS_FIELDS,
     CONDITION_FIELDS,
@@ -186,9 +186,8 @@ class StudyDesignForm(forms.Form):
         self.fields["table"].choices = table_choices(tables)
         self.fields["min_distance"].help_text += " (" + "; ".join(  # each domain's, in its own units
             f"{name}: {get_domain(name).min_option_distance}" for name in domain_names()) + ")"
-        fitted = (Study.objects.filter(participants__completed_at__isnull=False, participants__excluded=False,
-                                       participants__outcome="")
-                  .distinct().order_by("slug").values_list("slug", "name"))
+        fitted = (Study.objects.filter(Participant.complete_filter("participants__")).distinct()
+                  .order_by("slug").values_list("slug", "name"))
         self.fields["loop_fit_from"].choices = [("", "none: the settings above")] + [
             (slug, f"{name} ({slug})") for slug, name in fitted]
         for model, symbol in TUNABLE:

@@ -37,11 +37,11 @@ def counted_filter(study: Study, now=None) -> Q:
     screened out (Participant.outcome) holds none."""
     now = now or timezone.now()
     prefix = "participants__"
-    done = Q(**{prefix + "completed_at__isnull": False, prefix + "excluded": False})
     active = Q(**{prefix + "completed_at__isnull": True, prefix + "last_seen_at__gte": now - study.active_timeout})
     if study.time_limit is not None:
         active &= Q(**{prefix + "started_at__gte": now - study.time_limit})
-    return (done | active) & Q(**{prefix + "outcome": ""}) & ~Q(**{prefix + "platform": Participant.PREVIEW})
+    active &= Q(**{prefix + "outcome": ""}) & ~Q(**{prefix + "platform": Participant.PREVIEW})
+    return Participant.complete_filter(prefix) | active
 
 
 def counted_conditions(study: Study):

@@ -8,7 +8,7 @@ below 0 earns nothing), the sum capped at ``bonus_cap`` (0: no cap) and rounded 
 A bonus is computed once, on the server, in the same transaction that stores the participant's last
 answer (flow.record), and stored on their row: a reload, a replayed POST or a later change of the
 study's rates never changes it.  Only a participant who finished and passed the attention check earns
-one (the others' stored bonus is 0).  The bulk-bonus files (:func:`prolific_lines`, :func:`mturk_rows`)
+one (the others' stored bonus is 0).  The bulk-bonus files (:func:`prolific_lines`, :func:`mturk_csv`)
 list the participants whose status is complete and whose bonus is above 0.
 """
 from __future__ import annotations
@@ -62,9 +62,7 @@ def label(study: Study, value) -> str:
 def _paid(study: Study):
     """The participants the bulk-bonus files pay, in id order: bonus above 0 and complete (studyapp.status:
     finished, not excluded, no outcome; a participant who returned the study after finishing is not paid)."""
-    return (Participant.objects.filter(study=study, completed_at__isnull=False, excluded=False, outcome="",
-                                       bonus__gt=0)
-            .exclude(platform=Participant.PREVIEW).order_by("pk"))
+    return Participant.objects.filter(Participant.complete_filter(), study=study, bonus__gt=0).order_by("pk")
 
 
 def totals(study: Study) -> dict:

@@ -38,7 +38,7 @@ def condition_stats(study: Study) -> list[dict]:
         counted=Count("participants", filter=counted_filter(study, now)),
         # Valid = finished and kept: a participant who failed the attention check is excluded
         # whether or not they finished, so "completed - excluded" would undercount.
-        valid=Count("participants", filter=real & done & Q(participants__excluded=False, participants__outcome="")),
+        valid=Count("participants", filter=Participant.complete_filter("participants__")),
     )
     return [{"condition": c, "target": c.target_count, "started": c.started, "completed": c.completed,
              "excluded": c.excluded, "active": c.active, "abandoned": c.abandoned, "counted": c.counted,

@@ -284,6 +284,14 @@ class Participant(models.Model):
     def get_absolute_url(self):
         return reverse("step", args=[self.study.slug, self.token])
 
+    @classmethod
+    def complete_filter(cls, prefix: str = "") -> models.Q:
+        """The participants whose status is complete (studyapp.status), the analysed set: finished, not
+        excluded, no recorded outcome, no staff preview.  `prefix` is "participants__" when filtering
+        studies or conditions by their participants."""
+        return models.Q(**{prefix + "completed_at__isnull": False, prefix + "excluded": False,
+                           prefix + "outcome": ""}) & ~models.Q(**{prefix + "platform": cls.PREVIEW})
+
 
 class StepKind(models.TextChoices):
     """The kinds of step in a participant's flow (studyapp.flow), in order.  The values are what

@@ -40,7 +40,6 @@ TRAINING_COLUMNS = ["condition", "position", "environment_id", "cluster"]
 
 
 def _participants(study: Study, include_incomplete: bool):
-    outcomes.expire(study)  # a participant whose time ran out reads as timed out, here as in the exports
     qs = Participant.objects.filter(study=study).exclude(platform=Participant.PREVIEW)
     if not include_incomplete:
         qs = qs.filter(completed_at__isnull=False)
@@ -62,6 +61,7 @@ def frames(study: Study, include_incomplete: bool = False) -> tuple[pd.DataFrame
     """(participants, answers, training) DataFrames for :func:`stats.analyze` (a show study's answers:
     SHOW_ANSWER_COLUMNS, for :func:`shown.analyze_show`)."""
     show = study.test_kind == Study.SHOW
+    outcomes.expire(study)  # a participant whose time ran out reads as timed out, here as in the exports
     people = list(_participants(study, include_incomplete))
     ids = [p["pk"] for p in people]
     kinds = [StepKind.TEST, StepKind.ATTENTION, StepKind.DEMOGRAPHICS]

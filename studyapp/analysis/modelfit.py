@@ -102,8 +102,8 @@ def study_answers(study: Study, design: StudyDesign) -> tuple[Answers, dict[str,
     """The analysed participants' choices and ratings (complete: finished, attention check passed), and
     {sequence name: condition}.  A closed-loop condition's participants saw sequences of their own: each
     distinct one is a sequence of the Answers, named "<condition> path <k>"."""
-    people = list(Participant.objects.filter(study=study, completed_at__isnull=False, excluded=False, outcome="")
-                  .exclude(platform=Participant.PREVIEW).order_by("pk").values_list("pk", "condition__name"))
+    people = list(Participant.objects.filter(Participant.complete_filter(), study=study)
+                  .order_by("pk").values_list("pk", "condition__name"))
     sequences = dict(design.sequences)
     condition_of = {n: n for n in sequences}
     of_path, seq_of = {}, {}  # (condition, rows) -> name; participant -> name
