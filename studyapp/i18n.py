@@ -13,6 +13,7 @@ from dataclasses import replace
 from functools import wraps
 
 from django.conf import settings
+from django.urls import Resolver404, resolve
 from django.utils import translation
 from django.utils.translation import gettext
 from django.views.i18n import JavaScriptCatalog
@@ -24,6 +25,22 @@ def study_language(slug: str) -> str:
     """The language of the study `slug` (the site's default for an unknown slug: its 404 page)."""
     found = Study.objects.filter(slug=slug).values_list("language", flat=True).first()
     return found or settings.LANGUAGE_CODE
+
+
+# The URL names of the participant pages (studyapp/urls.py): what is refused before their view runs is
+# refused in their study's language.
+PARTICIPANT_URLS = frozenset({"entry", "step", "answer", "jsi18n"})
+
+
+def participant_language(request) -> str | None:
+    """The study's language when `request` asks for one of its participant pages, from the URL alone;
+    None for any other page.  For refusals sent before a view runs (a body too large, incomplete or with
+    a NUL): one indexed query by slug, only when refusing."""
+    try:
+        match = resolve(request.path_info)
+    except Resolver404:
+        return None
+    return study_language(match.kwargs["slug"]) if match.url_name in PARTICIPANT_URLS else None
 
 
 def in_study_language(view):

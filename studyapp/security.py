@@ -26,7 +26,10 @@ from django.http import HttpResponse, JsonResponse
 from django.http.multipartparser import MultiPartParserError
 from django.middleware.csrf import CsrfViewMiddleware
 from django.template.loader import render_to_string
-from django.utils.translation import gettext
+from django.utils import translation
+from django.utils.translation import gettext, gettext_noop
+
+from .i18n import participant_language
 
 logger = logging.getLogger("studyapp.security")
 
@@ -56,6 +59,15 @@ def refuse(request, status: int, message: str, retry_after: int | None = None) -
         response["Retry-After"] = str(retry_after)
     response["Cache-Control"] = "no-store"
     return response
+
+
+def refuse_before_view(request, status: int, message: str, **values) -> HttpResponse:
+    """:func:`refuse` for what the middleware refuses before any view runs: `message` (an English msgid
+    marked with gettext_noop, ``{name}`` placeholders filled from `values`) in the language of the study
+    whose participant page was asked for (studyapp.i18n.participant_language), else the site's."""
+    language = participant_language(request)
+    with translation.override(language or translation.get_language()):
+        return refuse(request, status, gettext(message).format(**values))
 
 
 # --- client address -------------------------------------------------------------------------
@@ -170,10 +182,11 @@ class RequestLimitsMiddleware:
         except ValueError:
             length = -1
         if length < 0:
-            return refuse(request, 400, "The request's Content-Length header is not a valid length.")
+            return refuse_before_view(request, 400, gettext_noop(
+                "The request's Content-Length header is not a valid length."))
         if length > settings.MAX_REQUEST_BODY:
-            return refuse(request, 413, f"The request is too large: at most {settings.MAX_REQUEST_BODY} bytes "
-                          "are accepted.")
+            return refuse_before_view(request, 413, gettext_noop(
+                "The request is too large: at most {limit} bytes are accepted."), limit=settings.MAX_REQUEST_BODY)
         return self.get_response(request)
 
     def process_view(self, request, view, args, kwargs):
@@ -185,30 +198,37 @@ class RequestLimitsMiddleware:
             if request.method == "POST":
                 incomplete = _incomplete_body(request)
                 if incomplete:
-                    return refuse(request, 400, incomplete)
+                    got, declared = incomplete
+                    return refuse_before_view(request, 400, gettext_noop(
+                        "The request arrived incomplete ({got} of {declared} bytes), so nothing was saved. "
+                        "Please answer again."), got=got, declared=declared)
                 request.POST  # noqa: B018  (the access parses the body)
         except OSError:  # the client went away mid-body: whatever arrived is not an answer
-            return refuse(request, 400, "The request arrived incomplete, so nothing was saved. Please answer again.")
+            return refuse_before_view(request, 400, gettext_noop(
+                "The request arrived incomplete, so nothing was saved. Please answer again."))
         except BODY_ERRORS as exc:
             return self.process_exception(request, exc)
         if _has_nul(request):
-            return refuse(request, 400, "The request contains a NUL character, which no field accepts.")
+            return refuse_before_view(request, 400, gettext_noop(
+                "The request contains a NUL character, which no field accepts."))
         return None
 
     def process_exception(self, request, exception):
         if not isinstance(exception, BODY_ERRORS):
             return None
         if isinstance(exception, RequestDataTooBig):
-            return refuse(request, 413, "The request is too large: at most "
-                          f"{settings.DATA_UPLOAD_MAX_MEMORY_SIZE} bytes of form data are accepted.")
+            return refuse_before_view(request, 413, gettext_noop(
+                "The request is too large: at most {limit} bytes of form data are accepted."),
+                limit=settings.DATA_UPLOAD_MAX_MEMORY_SIZE)
         if isinstance(exception, (TooManyFieldsSent, TooManyFilesSent)):
-            return refuse(request, 400, "The request has too many fields: at most "
-                          f"{settings.DATA_UPLOAD_MAX_NUMBER_FIELDS} are accepted.")
-        return refuse(request, 400, "The request's form data could not be read.")
+            return refuse_before_view(request, 400, gettext_noop(
+                "The request has too many fields: at most {limit} are accepted."),
+                limit=settings.DATA_UPLOAD_MAX_NUMBER_FIELDS)
+        return refuse_before_view(request, 400, gettext_noop("The request's form data could not be read."))
 
 
-def _incomplete_body(request) -> str | None:
-    """A message when the body is shorter than its Content-Length, else None.
+def _incomplete_body(request) -> tuple[int, int] | None:
+    """(bytes received, bytes declared) when the body is shorter than its Content-Length, else None.
 
     A client that closes its side mid-body hands the server an end of file, and the WSGI stream
     returns the bytes that came: parsed as a form, a truncated answer (`goals=merge` of
@@ -218,10 +238,7 @@ def _incomplete_body(request) -> str | None:
     if declared <= 0:
         return None
     got = len(request.body)
-    if got < declared:
-        return (f"The request arrived incomplete ({got} of {declared} bytes), so nothing was saved. "
-                "Please answer again.")
-    return None
+    return (got, declared) if got < declared else None
 
 
 def _has_nul(request) -> bool:

@@ -11,6 +11,7 @@ import re
 from pathlib import Path
 
 import pytest
+from django.conf import settings
 from django.urls import reverse
 
 from studyapp import flow, outcomes, status
@@ -59,8 +60,8 @@ class Pages:
         self.seen[name] = r.content.decode()
         return r
 
-    def post(self, name, url, data, status_code):
-        r = self.client.post(url, data)
+    def post(self, name, url, data, status_code, **extra):
+        r = self.client.post(url, data, **extra)
         assert r.status_code == status_code, (name, r.status_code)
         if status_code != 302:
             self.seen[name] = r.content.decode()
@@ -104,6 +105,12 @@ def walk(client, study: Study) -> dict[str, str]:
                        {"gender": "female", "age": "7"}, 400)
         pages.post(f"answer to {name}", answer_url(p, step.index), answer_payload(p, step), 302)
     pages.post("no such step", answer_url(p, 99), {"ack": "1"}, 404)
+    # refused by the middleware before any view runs
+    pages.post("request too large", answer_url(p, 99), {"ack": "1"}, 413,
+               CONTENT_LENGTH=str(settings.MAX_REQUEST_BODY + 1))
+    pages.post("NUL in an answer", answer_url(p, 99), {"ack": "1\x00"}, 400)
+    pages.post("too many fields", answer_url(p, 99),
+               {f"f{i}": "1" for i in range(settings.DATA_UPLOAD_MAX_NUMBER_FIELDS + 1)}, 400)
     pages.get("moved on", step_url(p), {"moved": "1"})
 
     for outcome in (status.TIMED_OUT, status.SCREENED_OUT):
@@ -166,6 +173,7 @@ def test_a_german_driving_studys_pages_are_german(client, german_driving, englis
     assert "Einwilligung zur Teilnahme" in pages["consent"] and "Abschlusscode" in pages["done"]
     assert "autonome Auto" in visible_text(pages["instructions"])
     assert "Bitte geben Sie Ihr Alter an." in pages["demographics without an age"]
+    assert "Die Anfrage ist zu groß" in pages["request too large"]
     assert "Ziel in dieser Situation" in pages["training 0"]
     assert "Bonus" in pages["done"]
 
@@ -192,6 +200,16 @@ def test_an_english_studys_pages_stay_english(client, make_study, english_texts)
     assert "Consent to take part" in pages["consent"] and "I agree, start the study" in pages["consent"]
     assert "Your completion code is" in visible_text(pages["done"])
     assert "Please enter your age." in pages["demographics without an age"]
+    assert "The request contains a NUL character" in pages["NUL in an answer"]
     assert "Goal in this situation" in pages["training 0"]
     assert "You have 2 more tries." in visible_text(pages["comprehension review"])
     assert "This study had to be finished within 30 minutes" in visible_text(pages["ended timed_out"])
+
+
+def test_a_refusal_before_a_view_is_in_the_researchers_language_off_the_participant_pages(client, german_driving):
+    too_large = {"CONTENT_LENGTH": str(settings.MAX_REQUEST_BODY + 1)}
+    researcher = client.post(reverse("dashboard_toggle", args=[german_driving.slug]), {}, **too_large)
+    participant = client.post(reverse("entry", args=[german_driving.slug]), {}, **too_large)
+    assert researcher.status_code == participant.status_code == 413
+    assert "The request is too large" in researcher.content.decode()
+    assert "Die Anfrage ist zu groß" in participant.content.decode()
