@@ -17,6 +17,9 @@ import csv
 import io
 from decimal import ROUND_HALF_UP, Decimal
 
+from django.utils.formats import number_format
+from django.utils.translation import gettext
+
 from .csvsafe import neutralise
 from .models import Answer, Participant, StepKind, Study
 
@@ -55,8 +58,18 @@ def compute(participant: Participant) -> Decimal:
 
 
 def label(study: Study, value) -> str:
-    """e.g. "£1.20"."""
+    """e.g. "£1.20" (the researchers' pages and the files)."""
     return f"{SYMBOLS.get(study.bonus_currency, study.bonus_currency + ' ')}{_money(value).quantize(CENT)}"
+
+
+def participant_label(study: Study, value) -> str:
+    """The amount as a participant reads it in the active language: its decimal mark and where the currency
+    goes come from the catalog ("£1.20" in English, "1,20 £" in German)."""
+    number = number_format(_money(value).quantize(CENT), decimal_pos=2)
+    symbol = SYMBOLS.get(study.bonus_currency, study.bonus_currency + " ")
+    # Translators: a money amount; {symbol} is the currency's sign (£, $, €) or its code and a space,
+    # {amount} the number.
+    return gettext("{symbol}{amount}").format(symbol=symbol, amount=number).strip()
 
 
 def _paid(study: Study):

@@ -235,7 +235,7 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
     elif current.kind == StepKind.DONE:
         ctx.update(completion_target(participant))
         if participant.bonus is not None and bonuses.offers_bonus(participant.study) and not participant.excluded:
-            ctx["bonus"] = bonuses.label(participant.study, participant.bonus)
+            ctx["bonus"] = bonuses.participant_label(participant.study, participant.bonus)
     return ctx
 
 

@@ -10,6 +10,7 @@ from fractions import Fraction
 
 import pytest
 from django.urls import reverse
+from django.utils import translation
 
 from studyapp import bonuses, flow, specschema
 from studyapp.assignment import assign
@@ -143,3 +144,11 @@ def test_show_tests_have_no_confidence_to_pay_for():
     _, found = specschema.job_problems({"slug": "shown", "test_kind": "show", "bonus_per_point": 0.1})
     assert [(str(p), p.field) for p in found] == [
         ("tests that show the way have no confidence score: pay a bonus per correct test instead", "bonus_per_point")]
+
+
+def test_a_participant_reads_the_amount_in_the_studys_language(paying):
+    with translation.override("de"):
+        assert bonuses.participant_label(paying, Decimal("1.2")) == "1,20\u00a0£"
+    with translation.override("en"):
+        assert bonuses.participant_label(paying, Decimal("1.2")) == "£1.20"
+    assert bonuses.label(paying, Decimal("1.2")) == "£1.20"  # the researchers' pages and the files

@@ -175,7 +175,7 @@ def test_a_german_driving_studys_pages_are_german(client, german_driving, englis
     assert "Bitte geben Sie Ihr Alter an." in pages["demographics without an age"]
     assert "Die Anfrage ist zu groß" in pages["request too large"]
     assert "Ziel in dieser Situation" in pages["training 0"]
-    assert "Bonus" in pages["done"]
+    assert "Bonus" in pages["done"] and re.search(r"\d+,\d\d\u00a0£", pages["done"])
 
 
 def test_a_german_delivery_yard_studys_pages_are_german(client, german_yard, english_texts):
