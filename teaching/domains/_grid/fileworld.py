@@ -40,7 +40,8 @@ _STEP = dict(zip(ACTIONS[:4], MOVES, strict=True))  # a move's name -> (d_row, d
 
 def world_fingerprint(world: World) -> str:
     """16 hex digits over everything in the file that decides a table's bytes (not colours or texts)."""
-    blob = {k: v for k, v in asdict(world).items() if k not in ("kinds", "texts", "source", "title", "presets")}
+    blob = {k: v for k, v in asdict(world).items()
+            if k not in ("kinds", "texts", "translations", "source", "title", "presets")}
     blob["passable"] = {k: v.passable for k, v in world.kinds.items()}
     blob["fixed"] = sorted((list(c), k) for c, k in world.fixed.items())
     blob["moves"] = MOVES
