@@ -1,10 +1,12 @@
 """A world file's own participant texts: [texts] takes only what the domain reads (a typo is named), its
 comprehension questions replace the default ones, and [translations.<language>] gives each of the file's
-own texts in another language, each mistake in one line naming the field."""
+own texts in another language, each mistake in one line naming the field; the shipped worlds have German
+for every text of theirs."""
 from __future__ import annotations
 
 import pytest
 
+from teaching.domains import WORLDS
 from teaching.domains._grid.filedomain import world_domain
 from teaching.domains._grid.worldfile import WorldFileError
 from tests.teaching.domains.worlds import key_room
@@ -116,3 +118,17 @@ def _write(tmp_path, text: str):
     path = tmp_path / "world.toml"
     path.write_text(text)
     return path
+
+
+@pytest.mark.parametrize("name", ["taxi", "two-goal", "skateboard"])
+def test_every_shipped_world_has_german_for_each_text_of_its_own(name):
+    domain = world_domain(WORLDS / f"{name}.toml")
+    german = domain.translations["de"]
+    assert set(german) == set(domain.world.participant_texts) and all(german.values())
+    assert domain.world.title in german and all(k.label in german for k in domain.world.kinds.values())
+    assert domain.world.obj is None or domain.world.obj in german
+
+
+def test_the_taxis_german_is_a_participants():
+    german = world_domain(WORLDS / "taxi.toml").translations["de"]
+    assert german == {"Augmented taxi": "Erweitertes Taxi", "toll": "Maut", "passenger": "Fahrgast"}
