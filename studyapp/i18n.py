@@ -17,6 +17,8 @@ from django.utils import translation
 from django.utils.translation import gettext
 from django.views.i18n import JavaScriptCatalog
 
+from teaching.api import TranslatableError
+
 from .models import Study
 
 
@@ -136,3 +138,9 @@ def language_problem(domain, language: str) -> str:
              else f"add them to locale/{language}/LC_MESSAGES/django.po (docs/study.md, \"Languages\")")
     return (f"a study in {name} needs every text of the robot {domain.name!r} in {name}, and these have no "
             f"translation: {shown}{more}; {where}")
+
+
+def translated_error(error) -> str:
+    """A refusal the domain raised, in the active language where it can say it (a TranslatableError:
+    its message and the words it names through the catalog), else as it was raised."""
+    return error.say(gettext) if isinstance(error, TranslatableError) else str(error)

@@ -1,8 +1,8 @@
 """A study on a world from a file in its participants' language: a German study of the shipped taxi shows the
-file's German (its title, cell label and object's name) and none of its English on any page; an English
-study of it stays English; a German study of a world whose file lacks German is refused in one line (and the
-designer says so under the language), while every registered domain can run a German study; a world's own
-comprehension questions are the study's, in its language."""
+file's German (its title, cell label and object's name) and none of its English on any page, and says why a
+shown way is refused in German; an English study of it stays English; a German study of a world whose file
+lacks German is refused in one line (and the designer says so under the language), while every registered
+domain can run a German study; a world's own comprehension questions are the study's, in its language."""
 from __future__ import annotations
 
 import contextlib
@@ -89,6 +89,10 @@ def test_a_german_taxi_studys_pages_show_the_files_german_and_none_of_its_englis
         # the show page's script names the object as the page does (its status line says what was delivered)
         rules = json.loads(re.search(r'id="show-rules"[^>]*>(.*?)</script>', pages["test 0"], re.S)[1])
         assert rules["object"] == "Fahrgast"
+        # a way into a wall is refused with the world's reason in German
+        refused = visible_text(pages["test with a way into a wall"])
+        assert re.search(r"Dieser Weg kann nicht abgeschickt werden \(Schritt \d+: „nach (oben|unten|links|rechts)“ "
+                         r"ist bei \[\d+, \d+\] nicht möglich\)", refused), refused
         with translation.override("de"):
             texts = participant_texts(domain)
         assert texts.title == "Erweitertes Taxi" and [e.label for e in texts.legend][2:] == ["Fahrgast", "Maut"]
@@ -109,6 +113,8 @@ def test_an_english_taxi_studys_pages_stay_english(client, taxi_teach):
         assert re.search(r"\btoll\b", legend) and re.search(r"\bpassenger\b", legend)
         rules = json.loads(re.search(r'id="show-rules"[^>]*>(.*?)</script>', pages["test 0"], re.S)[1])
         assert rules["object"] == "passenger"
+        assert re.search(r"This way cannot be submitted \(action \d+: (up|down|left|right) is not possible at "
+                         r"\[\d+, \d+\]\)", visible_text(pages["test with a way into a wall"]))
 
 
 def test_a_german_study_of_a_world_without_german_is_refused_in_one_line(taxi_teach):

@@ -1,13 +1,15 @@
 """A world file's own participant texts: [texts] takes only what the domain reads (a typo is named), its
 comprehension questions replace the default ones, and [translations.<language>] gives each of the file's
 own texts in another language, each mistake in one line naming the field; the shipped worlds have German
-for every text of theirs."""
+for every text of theirs; a refused way says why in English and can be said in another language."""
 from __future__ import annotations
 
 import pytest
 
+from teaching.core.i18n import TranslatableError
 from teaching.domains import WORLDS
 from teaching.domains._grid.filedomain import world_domain
+from teaching.domains._grid.fileworld import ReplayError
 from teaching.domains._grid.worldfile import WorldFileError
 from tests.teaching.domains.worlds import key_room
 
@@ -132,3 +134,18 @@ def test_every_shipped_world_has_german_for_each_text_of_its_own(name):
 def test_the_taxis_german_is_a_participants():
     german = world_domain(WORLDS / "taxi.toml").translations["de"]
     assert german == {"Augmented taxi": "Erweitertes Taxi", "toll": "Maut", "passenger": "Fahrgast"}
+
+
+def test_a_refused_way_says_why_in_english_and_can_be_said_in_another_language():
+    taxi = world_domain(WORLDS / "taxi.toml")
+    words = {"action {number}: {action} is not possible at [{x}, {y}]": "Schritt {number}: {action} geht nicht bei "
+             "[{x}, {y}]", "up": "nach oben"}
+    with pytest.raises(ReplayError) as err:
+        taxi.score_shown(0, ["left", "left", "left", "up"])  # into the wall at [1, 2]
+    assert isinstance(err.value, (ValueError, TranslatableError))
+    assert str(err.value) == "action 4: up is not possible at [1, 1]"  # what the core and its tests read
+    assert err.value.say(lambda text: words.get(text, text)) == "Schritt 4: nach oben geht nicht bei [1, 1]"
+    with pytest.raises(ReplayError) as err:
+        taxi.score_shown(0, ["jump"])
+    listed = err.value.say(lambda text: text.upper() if text in ("right", "exit") else text)
+    assert listed == "action 1: 'jump' is not one of RIGHT, up, down, left, pickup, drop, EXIT"
