@@ -14,6 +14,7 @@ from django.core.exceptions import NON_FIELD_ERRORS
 
 from studyapp import specrules, specschema
 from studyapp.analysis.conditions import aliased_pairs
+from studyapp.i18n import language_problem
 from studyapp.models import Participant, Study
 from studyapp.specschema import (
     BONUS_FIELDS,
@@ -177,6 +178,7 @@ class StudyDesignForm(forms.Form):
 
     def __init__(self, *args, tables: list[dict], **kwargs):
         super().__init__(*args, **kwargs)
+        self.tables = tables
         # Each selector's parameters right after the conditions in the form's order (the page draws them
         # on the selector's own row: designlayout.py).
         self.selector_params = selector_param_fields()
@@ -296,8 +298,18 @@ class StudyDesignForm(forms.Form):
                 self._check_in_table(data["table"], ids)
         elif not data.get("conditions") and not data.get("loop_name") and "conditions" not in self.errors:
             self.add_error("conditions", "Choose at least one condition, or give a hand-picked or closed-loop one.")
+        self._check_language(data)
         self._check_job(data)
         return data
+
+    def _check_language(self, data: dict) -> None:
+        """A language the table's robot has texts without a translation in, said under the language (the
+        study job would refuse it: studyapp.i18n.language_problem)."""
+        domain = next((t["domain"] for t in self.tables if t["path"] == data.get("table")), None)
+        if domain and data.get("language"):
+            problem = language_problem(get_domain(domain), data["language"])
+            if problem:
+                self.add_error("language", problem)
 
     def _selected(self, data: dict) -> list[dict]:
         """The ticked conditions as the job names them: each its selector, with the parameters filled in

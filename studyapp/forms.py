@@ -16,7 +16,7 @@ from django.utils.translation import gettext
 from django.utils.translation import gettext_lazy as _
 
 from .comprehension import ComprehensionForm
-from .i18n import participant_texts
+from .i18n import participant_texts, translated_error
 from .models import StepKind
 from .trajectories import study_domain
 
@@ -227,9 +227,9 @@ class ShowForm(StepForm):
                                                                                             limit=limit))
         try:
             self.score = self.domain.score_shown(self.test["env_id"], moves)
-        except ValueError as exc:
+        except ValueError as exc:  # the domain's reason, in the participant's language where it can say it
             raise ValidationError(gettext("This way cannot be submitted ({reason}). Please undo and try again.").format(
-                reason=exc)) from None
+                reason=translated_error(exc))) from None
         return moves
 
     def answer(self) -> dict:

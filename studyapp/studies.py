@@ -50,6 +50,7 @@ from teaching.api import (
 )
 
 from . import closedloop, specschema, trajectories
+from .i18n import language_problem
 from .models import Condition, Study
 from .specschema import BONUS_FIELDS, COMPREHENSION_FIELDS, DEVICE_FIELDS, OUTCOME_FIELDS, TEXT_FIELDS, SpecError
 
@@ -182,10 +183,17 @@ def new_study(*, slug: str, conditions: list[str], source: dict, name: str | Non
     """Create the study closed, with its conditions named and not yet frozen.
 
     `fields`: target_per_condition, completion_code, recruitment and the consent page's texts.
-    Refuses a bad slug, duplicate condition names, an existing study unless `replace`, and
-    replacing a study that has participants.
+    Refuses a bad slug, duplicate condition names, a language the domain's texts are not all in
+    (studyapp.i18n.language_problem), an existing study unless `replace`, and replacing a study that has
+    participants.
     """
     specschema.check_study({"slug": slug, "name": name, **fields}, conditions)
+    domain = source_domain(source)
+    # a study whose participants would read some of its robot's texts in English is not the study designed:
+    # refused here, where every study is made, rather than shown half translated
+    problem = language_problem(get_domain(domain), fields.get("language") or Study.language.field.default)
+    if problem:
+        raise SpecError(problem)
     with transaction.atomic():
         existing = Study.objects.select_for_update().filter(slug=slug).first()
         if existing and not replace:
@@ -195,7 +203,7 @@ def new_study(*, slug: str, conditions: list[str], source: dict, name: str | Non
         if existing:
             existing.delete()
         study = Study.objects.create(slug=slug, name=name or slug, source=source, is_open=False, test_set=[],
-                                     domain=source_domain(source), **fields)
+                                     domain=domain, **fields)
         for i, c in enumerate(conditions):
             Condition.objects.create(study=study, name=c, position=i, training=[])
     return study

@@ -16,7 +16,7 @@ from django.views.decorators.http import require_GET, require_POST
 
 from . import bonuses, closedloop, comprehension, devices, flow, forms, outcomes, security, status
 from .assignment import StudyClosed, assign
-from .i18n import in_study_language, participant_texts
+from .i18n import domain_text, in_study_language, participant_texts
 from .models import LoopStep, Participant, StepKind, Study
 from .scenes import instructions, scene_context
 from .trajectories import drawn_scene, study_domain
@@ -215,7 +215,8 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
                          if current.kind == StepKind.CHECK else current.item + 1)
         ctx["caption"] = caption_of(domain, test)
         ctx["scene"] = drawn_scene(test, robot=False, domain=domain)  # never θ*'s way
-        ctx["rules"] = domain.show_rules(test["env_id"])
+        rules = domain.show_rules(test["env_id"])
+        ctx["rules"] = {**rules, "object": domain_text(domain, rules["object"])}  # the page says its name
     elif current.kind in (StepKind.TEST, StepKind.CHECK):
         test = flow.question_of(participant, current.kind, current.item)
         shown = flow.option_letters(participant, current.item, current.kind)

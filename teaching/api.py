@@ -35,6 +35,8 @@ Domains (teaching.core.domain)
                              get_domain(name=None) the registered one (None: default),
                              domain_names() every registered name, default_domain_name()
     ParticipantTexts, LegendEntry  what a domain's pages tell participants
+    TranslatableError        a refusal a participant reads (teaching.core.i18n): English str(), and
+                             its marked message and values to say it in their language
 
 Choice model (teaching.core.choice; docs/analysis.md)
     option_choice(model, belief, table, env_index, options, lapse)  (K,) P(a learner of `model`
@@ -178,6 +180,7 @@ from .core.conditions import build_sequences, condition_params, condition_sequen
 from .core.domain import Domain, LegendEntry, ParticipantTexts, default_domain_name, domain_names, get_domain
 from .core.evaluation import USER_NAMES, study_matrix
 from .core.fitting import TIE_TOLERANCE, Answers, Comparison, FitError, Question, compare_models, questions_of
+from .core.i18n import TranslatableError
 from .core.learners import MODEL_NAMES, has_hyperparameter, make_model, model_names, parse_hyperparameters
 from .core.selection import ALL_CONDITIONS, APPROX_STAR, CONDITIONS, SelectionSettings
 from .core.selectors import check_params, get_selector, parse_selector, selector_names
@@ -211,7 +214,8 @@ MIN_OPTION_DISTANCE = _DRIVING.min_option_distance  # the car's; a table's own: 
 __all__ = [
     "ALL_CONDITIONS", "APPROX_STAR", "CLASS_NAMES", "CLUSTER_NAMES", "CONDITIONS", "GOAL_NAMES", "MIN_OPTION_DISTANCE",
     "MIN_REGRET",
-    "Domain", "LegendEntry", "ParticipantTexts", "default_domain_name", "domain_names", "get_domain",
+    "Domain", "LegendEntry", "ParticipantTexts", "TranslatableError", "default_domain_name", "domain_names",
+    "get_domain",
     "MODEL_NAMES", "N_CLUSTERS", "USER_NAMES",
     "N_ENVIRONMENTS", "PRESETS", "SAMPLERS", "WORLD", "Preset", "SelectionSettings", "TableError",
     "TrajectoryTable", "assemble", "build_chunk", "build_sequences", "check_writable", "chunk_key", "chunk_path",

@@ -63,7 +63,7 @@ let moves = Array.isArray(saved) && replay(saved) ? saved : [];
 
 const ENDINGS = {
   goal: gettext("the robot reached a goal"),
-  // the object's name is the domain's (show_rules), in English like its other texts
+  // the object's name is the domain's (show_rules), in the study's language (the view translates it)
   delivered: rules.object ? interpolate(gettext("the robot delivered the %(object)s"), { object: rules.object }, true)
     : gettext("the robot delivered the object"),
   exit: gettext("you stopped here"),

@@ -14,8 +14,10 @@ where it differs from these defaults:
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from functools import cached_property
 from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
 
@@ -50,6 +52,11 @@ class BaseDomain:
     code_root: Path
     # shared packages outside code_root whose source also decides this domain's tables
     extra_code_roots: tuple[Path, ...] = ()
+    # language -> its texts (ParticipantTexts) -> their translation, for texts the project's catalogs cannot
+    # hold (a domain's data written by a researcher); none: the catalogs translate every text
+    translations: Mapping[str, Mapping[str, str]] = MappingProxyType({})
+    # where those translations are written, for a message asking for the missing ones ("": the catalogs)
+    translations_source: str = ""
 
     @property
     def code_roots(self) -> tuple[Path, ...]:

@@ -132,6 +132,9 @@ class Domain(Protocol):
     # the scene that draws it: static/studyapp/scenes/<scene>.js and .css (its name, unless domains
     # share one, as every grid world from a file shares "world")
     scene: str
+    # optional: translations, language -> one of its texts -> its translation, for texts no catalog of the web
+    # side holds (a domain's data, written by a researcher), and translations_source, where they are written
+    # (teaching.core.base.BaseDomain's defaults: none, every text in the catalogs)
 
     def fingerprint(self) -> str:
         """16 hex digits over the world's constants: a table built under others is refused."""

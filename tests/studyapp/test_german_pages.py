@@ -25,6 +25,7 @@ from teaching.core.table import TrajectoryTable
 from tests.conftest import answer_payload, built_once
 from tests.studyapp.catalogs import catalog_pieces, english_pieces
 from tests.studyapp.helpers import answer_url, step_url
+from tests.studyapp.test_show_way_flow import _wall_walk
 from tests.studyapp.test_stimuli import real_spec, smallest_preset
 
 pytestmark = pytest.mark.django_db
@@ -74,9 +75,16 @@ def wrong_answers(participant) -> dict:
             for i, q in enumerate(questions_of(participant.study))}
 
 
+def wall_way(participant, step) -> str:
+    """A way from the start of show test `step` that walks into a wall or off the grid (the page's field)."""
+    test = flow.question_of(participant, step.kind, step.item)
+    return " ".join(_wall_walk(get_domain(participant.study.domain), test))
+
+
 def walk(client, study: Study) -> dict[str, str]:
     """Every page a participant of `study` may see, in order: each step, the comprehension check's review,
-    form errors of bad posts, then the pages of ending, declining, refusal, closing and errors."""
+    form errors of bad posts (in a show study a way into a wall too), then the pages of ending, declining,
+    refusal, closing and errors."""
     pages = Pages(client)
     slug = study.slug
     pages.get("mturk preview", reverse("entry", args=[slug]), {"assignmentId": "ASSIGNMENT_ID_NOT_AVAILABLE"})
@@ -97,6 +105,8 @@ def walk(client, study: Study) -> dict[str, str]:
             pages.get("comprehension again", step_url(p), {"questions": "1"})
         if step.kind == StepKind.TEST and step.item == 0:
             pages.post("test without an answer", answer_url(p, step.index), {}, 400)
+            if study.test_kind == Study.SHOW:  # the world's reason for refusing a way is a page text too
+                pages.post("test with a way into a wall", answer_url(p, step.index), {"moves": wall_way(p, step)}, 400)
         if step.kind == StepKind.ATTENTION:
             pages.post("attention without an answer", answer_url(p, step.index), {}, 400)
         if step.kind == StepKind.DEMOGRAPHICS:

@@ -67,6 +67,10 @@ class FileGridDomain(GridDomain):
         # filled with, so that the web side can look the marked text up and fill in the translation
         self.formatted_texts = {text.format(title=world.title): (text, {"title": world.title})
                                 for text in (SUMMARY, CONSENT, WATCH_FIRST)}
+        # the file's own texts in other languages ([translations.<language>]): they are the researcher's, so
+        # they travel with the file rather than in the project's catalogs
+        self.translations = world.translations
+        self.translations_source = world.source
 
     @cached_property
     def presets(self) -> tuple[Preset, ...]:
@@ -219,7 +223,8 @@ INSTRUCTIONS = _("You will watch {n_training} example{training_plural} of a robo
 
 
 def _texts(world: World) -> ParticipantTexts:
-    """The file's [texts], with plain defaults for what it leaves out."""
+    """The file's [texts], with plain defaults for what it leaves out (its comprehension questions replace
+    the default ones whole)."""
     t = world.texts
     return ParticipantTexts(
         summary=t.get("summary", SUMMARY.format(title=world.title)),
@@ -233,7 +238,9 @@ def _texts(world: World) -> ParticipantTexts:
         legend=(LegendEntry("the robot", "robot", "robot-edge"), LegendEntry("wall", "wall", "wall"),
                 *((LegendEntry(world.obj, "object", "object"),) if world.obj else ()),
                 *(LegendEntry(k.label, f"cell-{k.name}", f"cell-{k.name}") for k in world.kinds.values())),
-        title=t.get("title", world.title), comprehension=_comprehension(world))
+        title=t.get("title", world.title),
+        comprehension=tuple(ComprehensionQuestion(q, choices, right) for q, choices, right in t["comprehension"])
+        if "comprehension" in t else _comprehension(world))
 
 
 def _comprehension(world: World) -> tuple[ComprehensionQuestion, ...]:

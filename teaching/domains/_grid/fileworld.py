@@ -29,18 +29,24 @@ from dataclasses import asdict
 
 import numpy as np
 
+from ...core.i18n import TranslatableError
+from ...core.i18n import gettext_noop as _
 from .front import covers
 from .worldfile import HELD, MOVES, World, WorldFileError
 
 EXIT = "exit"
-# what a participant may do when showing the way, in the order successors() yields the actions
-ACTIONS = ("right", "up", "down", "left", "pickup", "drop", EXIT)
+# what a participant may do when showing the way, in the order successors() yields the actions; a refusal
+# names them, so each is marked for the catalogs as the participant's word for that action
+# Translators: the robot's actions when a participant shows the way (a move one cell right, up, down or left,
+# picking the object up, putting it down, stopping where it is), named in a way that cannot be submitted
+ACTIONS = (_("right"), _("up"), _("down"), _("left"), _("pickup"), _("drop"), _("exit"))
 _STEP = dict(zip(ACTIONS[:4], MOVES, strict=True))  # a move's name -> (d_row, d_col)
 
 
 def world_fingerprint(world: World) -> str:
     """16 hex digits over everything in the file that decides a table's bytes (not colours or texts)."""
-    blob = {k: v for k, v in asdict(world).items() if k not in ("kinds", "texts", "source", "title", "presets")}
+    blob = {k: v for k, v in asdict(world).items()
+            if k not in ("kinds", "texts", "translations", "source", "title", "presets")}
     blob["passable"] = {k: v.passable for k, v in world.kinds.items()}
     blob["fixed"] = sorted((list(c), k) for c, k in world.fixed.items())
     blob["moves"] = MOVES
@@ -89,36 +95,42 @@ def successors(world: World, kinds: np.ndarray, blocked: np.ndarray, state) -> I
         yield None, (0,) * len(feats), EXIT
 
 
+class ReplayError(TranslatableError):
+    """A shown way the world does not allow (play): one line, str() in English, translatable."""
+
+
 def play(world: World, variant: int, start: int, actions, states: list | None = None) -> tuple[np.ndarray, object]:
     """Replay `actions` (names of :data:`ACTIONS`) from start `start` of variant `variant`: ((D,) int64
     counts, the ending reached (a terminal feature's index or EXIT)); every state the robot is in, start
     first, is appended to `states` if given (the trajectory, as the planner's paths list it).
-    ValueError (one line) for an action not allowed where it is taken, an action after the episode
-    ended, or actions that stop before it ends."""
+    ReplayError (a ValueError, one line) for an action not allowed where it is taken, an action after the
+    episode ended, or actions that stop before it ends."""
     kinds, blocked = world.cells(variant), world.blocked(variant)
     state, counts = world.starts[start], np.zeros(len(world.features), np.int64)
     states = [] if states is None else states
     states.append(state)
     for k, name in enumerate(actions):
         if name not in ACTIONS:
-            raise ValueError(f"action {k + 1}: {name!r} is not one of {', '.join(ACTIONS)}")
-        (r, c), _ = state
+            raise ReplayError(_("action {number}: {name} is not one of {actions}"), words=("actions",),
+                              number=k + 1, name=repr(name), actions=ACTIONS)
+        r, c = state[0]
         step = _STEP.get(name)
         target = (r + step[0], c + step[1]) if step else None
         allowed = successors(world, kinds, blocked, state)
         taken = next((t for t in allowed if _is_action(name, state, t[0], t[2], target)), None)
         if taken is None:
-            raise ValueError(f"action {k + 1}: {name} is not possible at [{c + 1}, {world.height - r}]")
+            raise ReplayError(_("action {number}: {action} is not possible at [{x}, {y}]"), words=("action",),
+                              number=k + 1, action=name, x=c + 1, y=world.height - r)
         nxt, added, ending = taken
         counts += added
         if nxt is not None:
             states.append(nxt)
         if ending is not None:
             if k != len(actions) - 1:
-                raise ValueError(f"action {k + 2}: the episode ended at action {k + 1}")
+                raise ReplayError(_("action {number}: the episode ended at action {ended}"), number=k + 2, ended=k + 1)
             return counts, ending
         state = nxt
-    raise ValueError("the actions stop before the episode ends (reach a goal, deliver, or exit)")
+    raise ReplayError(_("the actions stop before the episode ends (reach a goal, deliver, or exit)"))
 
 
 def _is_action(name: str, state, nxt, ending, target) -> bool:

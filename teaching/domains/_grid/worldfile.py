@@ -8,9 +8,12 @@ Every mistake raises :class:`WorldFileError` with one line that names the file a
 """
 from __future__ import annotations
 
+import difflib
+import json
 import re
+import string
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +28,14 @@ ACTIONS = ("pickup", "drop")  # actions besides the moves that a "moves" feature
 _OPS = {"=": np.equal, "==": np.equal, "!=": np.not_equal, ">": np.greater, ">=": np.greater_equal,
         "<": np.less, "<=": np.less_equal}
 _CONDITION = re.compile(r"^\s*([A-Za-z_][\w-]*)\s*(==|!=|>=|<=|=|>|<)\s*(-?\d+)\s*$")
+# [texts]: what the domain's participant texts take from the file (filedomain._texts), each text a string but
+# the instructions (paragraphs) and the comprehension check (questions)
+TEXT_KEYS = ("summary", "consent", "instructions", "attention_question", "watch", "question", "title",
+             "comprehension")
+# what an instruction paragraph may leave to be filled in per participant (ParticipantTexts.instructions)
+INSTRUCTION_FIELDS = ("n_training", "n_tests", "training_plural", "tests_plural")
+QUESTION_KEYS = ("question", "choices", "right")
+MAX_QUESTIONS, MAX_CHOICES = 20, 8  # a study's own comprehension questions have the same limits
 
 
 class WorldFileError(ValueError):
@@ -104,7 +115,11 @@ class World:
     tests: tuple[str, ...]  # strategy names the test set covers
     presets: dict[str, tuple[int | None, int]]  # suffix -> (environments or None for all, thetas)
     min_option_distance: float
+    # [texts], checked: strings, the instructions a tuple of paragraphs, the comprehension check a tuple of
+    # (question, choices, right choices' 0-based positions)
     texts: dict = field(default_factory=dict)
+    # language -> the file's own English participant texts (participant_texts) -> their translation
+    translations: dict[str, dict[str, str]] = field(default_factory=dict)
     source: str = ""
 
     @property
@@ -124,6 +139,18 @@ class World:
             if variant >> i & 1:
                 grid[cell] = kind
         return grid
+
+    @property
+    def participant_texts(self) -> tuple[str, ...]:
+        """Every text of the file's own that a participant may read, once each: the title (filled into the
+        default texts), the cell kinds' labels and the object's name (the legend) and every string of
+        [texts].  A translation is keyed by one of them."""
+        t = self.texts
+        texts = [self.title, *(k.label for k in self.kinds.values()), *([self.obj] if self.obj else []),
+                 *(t[k] for k in ("summary", "consent") if k in t), *t.get("instructions", ()),
+                 *(t[k] for k in ("attention_question", "watch", "question", "title") if k in t),
+                 *(text for question, choices, _ in t.get("comprehension", ()) for text in (question, *choices))]
+        return tuple(dict.fromkeys(texts))
 
     def blocked(self, variant: int) -> np.ndarray:
         """(height, width) bool: cells the robot cannot enter in variant `variant`."""
@@ -277,15 +304,17 @@ def parse_world(raw: dict, source: str = "world") -> World:
         if not (envs == "all" or (isinstance(envs, int) and envs > 0)):
             r.fail(f"presets.{suffix}.environments", f"a positive number or \"all\", got {envs!r}")
         presets[suffix] = (None if envs == "all" else envs, r.get(spec, "thetas", f"presets.{suffix}.", int))
+    texts = _texts(r, r.get(raw, "texts", "", dict, {}))
     world = World(name=name, title=r.get(raw, "title", "", str, name), width=width, height=height,
                   max_moves=max_moves, kinds=kinds, fixed=fixed, optional=optional, obj=obj, obj_at=obj_at,
                   destination=destination, starts=tuple(starts), exit=r.get(raw, "exit", "", bool, False),
                   features=features, theta_star=theta, classes=tuple(classes),
                   other=r.get(raw, "other", "", str, "other"), tests=tests, presets=presets,
                   min_option_distance=r.get(raw, "min_option_distance", "", float, 0.3),
-                  texts=r.get(raw, "texts", "", dict, {}), source=source)
+                  texts=texts, source=source)
     _check_reachable(world, r)
-    return world
+    translations = _translations(r, r.get(raw, "translations", "", dict, {}), world)
+    return replace(world, translations=translations) if translations else world
 
 
 def _check_reachable(w: World, r: _Reader) -> None:
@@ -320,3 +349,104 @@ def _feature(r: _Reader, item: dict, i: int, cell, kinds, obj, destination) -> F
     if any(a not in ACTIONS for a in also) or (also and counts != "moves"):
         r.fail(where + "also", f"{list(also)}: only a 'moves' feature may also count {', '.join(ACTIONS)}")
     return Feature(name, counts, kind, at, holding, also)
+
+
+def _unknown(name: str, known) -> str:
+    """', did you mean ...' for a name close to one of `known` (a typo), else ''."""
+    close = difflib.get_close_matches(name, list(known), n=1)
+    return f"; did you mean {close[0]!r}?" if close else ""
+
+
+def _text(r: _Reader, value, where: str) -> str:
+    if not isinstance(value, str) or not value.strip():
+        r.fail(where, f"expected a non-empty text, got {repr(value)[:80]}")
+    return value
+
+
+def _fields(text: str) -> set[str] | None:
+    """The {placeholders} of `text` (str.format's), None where its braces are not str.format's."""
+    try:
+        return {name for _, name, _, _ in string.Formatter().parse(text) if name is not None}
+    except ValueError:
+        return None
+
+
+def _texts(r: _Reader, raw: dict) -> dict:
+    """[texts] checked: only the keys filedomain._texts reads, each of its type (module constants)."""
+    out = {}
+    for key, value in raw.items():
+        where = f"texts.{key}"
+        if key not in TEXT_KEYS:
+            r.fail(where, f"not a text a world file gives (one of {', '.join(TEXT_KEYS)}){_unknown(key, TEXT_KEYS)}")
+        if key == "instructions":
+            if not isinstance(value, list) or not value:
+                r.fail(where, f"expected a list of paragraphs (texts), got {repr(value)[:80]}")
+            out[key] = tuple(_text(r, p, f"{where}[{i}]") for i, p in enumerate(value))
+            for i, paragraph in enumerate(out[key]):
+                names = _fields(paragraph)
+                if names is None or names - set(INSTRUCTION_FIELDS):
+                    r.fail(f"{where}[{i}]", "braces only around what is filled in per participant: "
+                           f"{', '.join('{' + f + '}' for f in INSTRUCTION_FIELDS)} (write {{{{ for a brace)")
+        elif key == "comprehension":
+            out[key] = _comprehension(r, value, where)
+        else:
+            out[key] = _text(r, value, where)
+    return out
+
+
+def _comprehension(r: _Reader, value, where: str) -> tuple:
+    """texts.comprehension: [{question, choices, right}] -> ((question, choices, 0-based right), ...)."""
+    if not isinstance(value, list) or not value or len(value) > MAX_QUESTIONS:
+        r.fail(where, f"expected a list of 1 to {MAX_QUESTIONS} questions "
+               "({ question = \"...\", choices = [\"...\", ...], right = [1] }), got " + repr(value)[:80])
+    out = []
+    for i, item in enumerate(value):
+        at = f"{where}[{i}]"
+        if not isinstance(item, dict):
+            r.fail(at, f"expected a table {{ question, choices, right }}, got {repr(item)[:80]}")
+        for key in item:
+            if key not in QUESTION_KEYS:
+                r.fail(f"{at}.{key}", f"not one of {', '.join(QUESTION_KEYS)}{_unknown(key, QUESTION_KEYS)}")
+        question = _text(r, r.get(item, "question", at + ".", str), at + ".question")
+        choices = r.get(item, "choices", at + ".", list)
+        if not 2 <= len(choices) <= MAX_CHOICES:
+            r.fail(at + ".choices", f"a question needs 2 to {MAX_CHOICES} choices, not {len(choices)}")
+        choices = tuple(_text(r, c, f"{at}.choices[{k}]") for k, c in enumerate(choices))
+        right = r.get(item, "right", at + ".", list)
+        if not right:
+            r.fail(at + ".right", "no right choice: give the positions of the right ones, e.g. right = [1]")
+        for k in right:
+            if not isinstance(k, int) or isinstance(k, bool) or not 1 <= k <= len(choices):
+                r.fail(at + ".right", f"{k!r} is not a choice's position (1 to {len(choices)}, in the order listed)")
+        if len(set(right)) != len(right):
+            r.fail(at + ".right", f"{right}: a position given twice")
+        if len(right) == len(choices):
+            r.fail(at + ".right", "every choice is right, so the question checks nothing")
+        out.append((question, choices, tuple(sorted(k - 1 for k in right))))
+    return tuple(out)
+
+
+def _translations(r: _Reader, raw: dict, world: World) -> dict[str, dict[str, str]]:
+    """[translations.<language>]: each of the file's own texts (World.participant_texts) -> its translation;
+    an instruction paragraph's translation fills in only what the English fills in."""
+    own, paragraphs = world.participant_texts, set(world.texts.get("instructions", ()))
+    out = {}
+    for language, table in raw.items():
+        where = f"translations.{language}"
+        if not re.fullmatch(r"[a-z]{2}", language):
+            r.fail(where, f"{language!r} is not a language's two-letter code in lower case (e.g. de)")
+        if not isinstance(table, dict):
+            r.fail(where, f"expected a table of \"English text\" = \"translation\", got {repr(table)[:80]}")
+        for key, value in table.items():
+            at = f"{where}.{json.dumps(key, ensure_ascii=False)}"  # as TOML quotes a key
+            if key not in own:
+                r.fail(at, "not one of the file's own participant texts (its title, cell labels, object name and "
+                       f"[texts], written exactly){_unknown(key, own)}")
+            _text(r, value, at)
+            if key in paragraphs:  # filled in per participant: a name the English lacks has no value
+                names, english = _fields(value), _fields(key)
+                if names is None or not names <= english:
+                    r.fail(at, "braces only around what the English paragraph fills in "
+                           f"({', '.join('{' + f + '}' for f in sorted(english)) or 'nothing'}; {{{{ for a brace)")
+        out[language] = dict(table)
+    return out
