@@ -147,7 +147,17 @@ class Study(models.Model):
         if self.recruitment == self.PROLIFIC and not self.completion_code.strip():
             return ["Prolific only accepts its study's own completion code: set the completion code "
                     "(Prolific's study page, 'Completion paths') before opening."]
-        return []
+        language = self.language_problem()
+        return [language] if language else []
+
+    def language_problem(self) -> str:
+        """Why its participants would read some of the robot's texts in English ("" if none): creating the
+        study checks it, but its language may be changed later (the admin) or its world file edited."""
+        from teaching.api import get_domain  # noqa: PLC0415 (numpy and the domains load when needed)
+
+        from .i18n import language_problem  # noqa: PLC0415 (i18n reads this module's Study)
+
+        return language_problem(get_domain(self.domain), self.language)
 
     def aliased_conditions(self) -> str:
         """Which of this study's condition names are one condition ("" if none): creating a study

@@ -129,7 +129,11 @@ def test_a_german_study_of_a_world_without_german_is_refused_in_one_line(taxi_te
                            "translation: 'Augmented taxi', 'passenger', 'toll'; add them under [translations.de] "
                            "in the world file taxi.toml (docs/gridworlds.md)")
         assert not Study.objects.filter(slug="de-taxi-untranslated").exists()
-        assert taxi_study(teach_dir, "en-taxi-untranslated").language == "en"  # English needs no translation
+        english = taxi_study(teach_dir, "en-taxi-untranslated")
+        assert english.language == "en" and english.opening_problems() == []  # English needs no translation
+        Study.objects.filter(pk=english.pk).update(language="de")  # as the admin may, after creation
+        english.refresh_from_db()
+        assert english.opening_problems() == [message]  # so it is not opened in German
         form = design_form(table_dir, language="de")
         assert not form.is_valid()
         assert form.errors["language"] == [message]
