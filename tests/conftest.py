@@ -5,6 +5,7 @@ every Django import here happens inside a fixture so they stay Django-free.
 from __future__ import annotations
 
 import functools
+import json
 import os
 import sys
 from pathlib import Path
@@ -14,6 +15,25 @@ import pytest
 from teaching import teach
 from teaching.core.build import PRESETS, build_table
 from tests import builds, services
+
+# each test module's seconds in a profiled run of `make test` (scripts/module_durations.py writes it)
+DURATIONS = json.loads((Path(__file__).parent / "durations.json").read_text())
+
+
+def pytest_collection_modifyitems(items):
+    """The longest modules first (DURATIONS; one not in it last): pytest-xdist hands tests out in this
+    order, and a long module collected last would run alone at the end while the other workers idle.
+    A module's tests keep their order and stay together, so its module-scoped fixtures are not built
+    again for every other module a worker runs in between."""
+    first_seen: dict[str, int] = {}
+    for item in items:
+        first_seen.setdefault(item.nodeid.split("::")[0], len(first_seen))
+
+    def key(item):
+        module = item.nodeid.split("::")[0]
+        return -DURATIONS.get(module, 0), first_seen[module]
+
+    items.sort(key=key)
 
 # Environments of the `tiny` table (48 environments × 24 θ, built once per run by `tiny_table`).
 SMALL_SEQUENCES = {"alpha": [500, 5780, 12165], "beta": [7107, 15245], "gamma": [586, 20132]}
