@@ -56,7 +56,10 @@ def condition_counts(study: Study) -> dict[int, int]:
 
 
 def pick_condition(study: Study) -> Condition:
-    conditions = list(counted_conditions(study))
+    # Without the training examples (the largest JSON a condition stores): choosing reads names, targets and
+    # counts, and decoding every condition's examples at every arrival cost more than the choice, under the
+    # study's lock.  The arrival's condition reads them when its flow first needs them.
+    conditions = list(counted_conditions(study).defer("training"))
     if not conditions:
         raise ValueError(f"study {study.slug} has no conditions")
     if aliased_pairs([c.name for c in conditions]):

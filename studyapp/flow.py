@@ -194,7 +194,10 @@ def record(participant: Participant, step_index: int, post) -> Participant:
             locked.completed_at = now
             locked.completion_code = outcomes.code_for(locked, status.EXCLUDED if locked.excluded else status.COMPLETE)
             locked.bonus = bonuses.compute(locked)  # once, from the answers stored under this lock
-        locked.save()
+        # Only what an answer changes: writing every column re-encoded the participant's JSON (option orders,
+        # session ids) at each answer.  The row was read under this lock, so the other columns are as stored.
+        locked.save(update_fields=["position", "last_seen_at", "excluded", "completed_at", "completion_code",
+                                   "bonus"])
         if finished:
             logger.info("participant %s completed study %r (condition %r%s)", locked.pk, locked.study.slug,
                         locked.condition.name, ", excluded by the attention check" if locked.excluded else "")

@@ -184,9 +184,16 @@ def _answer_log_lik(q: np.ndarray, answers: Answers, eps: np.ndarray) -> np.ndar
         done = answers.choice[:, t] >= 0
         if not done.any():
             continue
-        p = q[:, answers.group[done], t, answers.choice[done, t]]  # (G, P_t)
+        # The logarithm is taken once per distinct (sequence, chosen option): at most S·K of them, where the
+        # participants number hundreds; each participant then adds their pair's term.
+        pairs, pair_of = np.unique(answers.group[done] * k + answers.choice[done, t], return_inverse=True)
+        p = q[:, pairs // k, t, pairs % k]  # (G, U)
         with np.errstate(divide="ignore"):
-            out[:, :, done] += np.log((1 - eps)[None, :, None] * p[:, None, :] + (eps / k)[None, :, None])
+            term = np.log((1 - eps)[None, :, None] * p[:, None, :] + (eps / k)[None, :, None])  # (G, E, U)
+        if done.all():
+            out += term[:, :, pair_of.ravel()]
+        else:
+            out[:, :, done] += term[:, :, pair_of.ravel()]
     return out
 
 

@@ -76,8 +76,20 @@ class AnswerModel:
 
 
 def draw_answers(p: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """Answers drawn from (T, K) P(option): ((T,) the chosen option, (T, K) ratings 1 + Binomial(6, P))."""
-    choice = np.array([rng.choice(len(row), p=row / row.sum()) for row in p])
+    """Answers drawn from (T, K) P(option): ((T,) the chosen option, (T, K) ratings 1 + Binomial(6, P)).
+
+    Each test's option is drawn as ``rng.choice(K, p=row / row.sum())`` draws it (one uniform from `rng`, test
+    by test, against the row's normalised cumulative sum), all tests at once: the same answers from the same
+    generator, without that call's fixed cost for every test of every simulated participant."""
+    p = np.asarray(p, np.float64)
+    norm = p / p.sum(-1, keepdims=True)
+    if not (norm >= 0).all():  # NaN too; rng.choice's own refusals, in its words
+        raise ValueError("Probabilities contain NaN" if np.isnan(norm).any() else "Probabilities are not non-negative")
+    if (np.abs(norm.sum(-1) - 1.0) > np.sqrt(np.finfo(np.float64).eps)).any():
+        raise ValueError("Probabilities do not sum to 1")
+    cdf = norm.cumsum(-1)
+    cdf /= cdf[:, -1:]
+    choice = (cdf <= rng.random(len(p))[:, None]).sum(-1)  # searchsorted(cdf, u, side="right")
     ratings = 1 + rng.binomial(RATING_STEPS, np.clip(p, 0, 1))
     return choice, ratings.astype(np.float64)
 
