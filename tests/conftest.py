@@ -79,6 +79,20 @@ def _fast_password_hashing():
 
 
 @pytest.fixture(scope="session")
+def django_db_modify_db_settings(django_db_modify_db_settings_parallel_suffix):
+    """The SQLite test database commits without waiting for the disk (PRAGMA synchronous=OFF).  Every
+    test that needs committed rows (the live server, the in-process worker) commits twice per answer,
+    and each commit's fsync on this disk costs more than the answer itself: simulating a study's
+    participants spent three quarters of its time there.  What the tests check does not depend on
+    it: locking, transactions and what a killed process leaves behind are as before; only an
+    operating-system crash could lose the last commits of a database thrown away after the run."""
+    from django.conf import settings  # noqa: PLC0415
+    db = settings.DATABASES["default"]
+    if db["ENGINE"] == "django.db.backends.sqlite3":
+        db.setdefault("OPTIONS", {})["init_command"] = "PRAGMA synchronous=OFF"
+
+
+@pytest.fixture(scope="session")
 def tiny_table(tmp_path_factory):
     """The `tiny` preset built for real (48 environments × 24 θ, a few seconds), once per run:
     every study the app's tests make draws its trajectories from it."""
