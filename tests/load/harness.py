@@ -46,6 +46,15 @@ print(study.slug, study.conditions.count(), len(study.test_set))
 """
 
 
+# Prepended to a study script: the fresh database's tables (`manage.py migrate`, in the script's process).
+MIGRATE = """
+import django
+django.setup()
+from django.core.management import call_command
+call_command("migrate", interactive=False, verbosity=0)
+"""
+
+
 @dataclass(frozen=True)
 class Visit:
     """One GET of a page as a visitor sees it: the HTTP status (None when no answer came within the
@@ -205,8 +214,9 @@ class Server:
     def start(self, ready_timeout: float = 900):  # a hang guard: several gunicorn workers warm up, CPU-bound
         with connect(self.admin_url, autocommit=True) as conn:
             conn.execute(sql.SQL("CREATE DATABASE {}").format(sql.Identifier(self.db_name)))
-        self._run([sys.executable, "manage.py", "migrate", "--noinput", "--verbosity", "0"])
-        self.study = self._run([sys.executable, "-c", self.study_script], timeout=1800).split()
+        # migrate and the study in one process: a second Django start-up would cost seconds of CPU
+        # (scripts/serve.sh migrates again below, with the system checks, as in production).
+        self.study = self._run([sys.executable, "-c", MIGRATE + self.study_script], timeout=1800).split()
         # append mode: supervisord and its programs write to this file through descriptors of their own
         with open(self.log_path, "a") as log:
             self.proc = subprocess.Popen(["bash", "scripts/serve.sh"], cwd=ROOT, env=self.env, stdout=log,
@@ -262,15 +272,32 @@ class Server:
     def log_tail(self, n: int = 3000) -> str:
         return self.log_path.read_text()[-n:] if self.log_path.exists() else ""
 
-    def server_statuses(self) -> Counter:
-        """Status codes in gunicorn's access log (what the server saw, retries included)."""
+    def mark(self) -> dict:
+        """Where the server's logs end now: log_since and server_statuses(since=...) read only what
+        came after it (a server that several tests share)."""
+        return {path: path.stat().st_size if path.exists() else 0 for path in (self.log_path, self.access_log)}
+
+    def log_since(self, mark: dict) -> str:
+        """The server's log (supervisord, nginx, gunicorn, the worker) written after `mark`."""
+        return _read_from(self.log_path, mark[self.log_path])
+
+    def server_statuses(self, since: dict | None = None) -> Counter:
+        """Status codes in gunicorn's access log (what the server saw, retries included), since `mark`."""
         counts = Counter()
         if self.access_log.exists():
-            for line in self.access_log.read_text().splitlines():
+            for line in _read_from(self.access_log, since[self.access_log] if since else 0).splitlines():
                 parts = line.split('"')
                 if len(parts) > 2 and parts[2].split():
                     counts[parts[2].split()[0]] += 1
         return counts
+
+
+def _read_from(path: Path, offset: int) -> str:
+    if not path.exists():
+        return ""
+    with open(path, "rb") as f:
+        f.seek(offset)
+        return f.read().decode(errors="replace")
 
 
 # --- checks against the database -------------------------------------------------------------

@@ -28,7 +28,7 @@ import urllib.request
 import pytest
 
 from tests.load import harness
-from tests.services import PG_URL, postgres_reachable, redis_reachable, require_service, wait_until
+from tests.services import wait_until
 
 pytestmark = [pytest.mark.slow, pytest.mark.postgres, pytest.mark.redis]
 
@@ -138,13 +138,10 @@ class SlowBodies:
             self.epoll.close()
 
 
-@pytest.fixture(scope="module")
-def server(tmp_path_factory, demo_table, ci):
-    require_service(postgres_reachable(), f"PostgreSQL at {PG_URL} is unreachable", ci)
-    require_service(redis_reachable(harness.REDIS_URL), f"Redis at {harness.REDIS_URL} is unreachable", ci)
-    with harness.Server(tmp_path_factory.mktemp("slow-bodies"), workers=harness.FEW_WORKERS,
-                        demo_table=demo_table) as server:
-        yield server
+@pytest.fixture
+def server(shared_server):
+    """The server of tests/load/conftest.py (shared with test_supervision.py and test_slow_clients.py)."""
+    return shared_server
 
 
 def under_slow_bodies(server) -> tuple[list[harness.Visit], SlowBodies]:
@@ -173,6 +170,7 @@ def under_slow_bodies(server) -> tuple[list[harness.Visit], SlowBodies]:
 
 
 def test_ten_thousand_slow_bodies_from_300_addresses_leave_gets_answered(server):
+    since = server.mark()
     assert harness.visit(server.base_url + "/", HANG_GUARD).answered
     visits, slow = under_slow_bodies(server)
     held = slow.open_counts[2:] or slow.open_counts
@@ -180,7 +178,7 @@ def test_ten_thousand_slow_bodies_from_300_addresses_leave_gets_answered(server)
     assert min(held) >= len(ADDRESSES) * CAP * 0.95
     assert slow.answered.get(b"HTTP/1.1 503", 0) >= CONNECTIONS - len(ADDRESSES) * CAP - 50  # over the cap
     assert len(visits) >= 3 and all(v.answered for v in visits), [v.status for v in visits]
-    assert "worker_connections are not enough" not in server.log_path.read_text()
+    assert "worker_connections are not enough" not in server.log_since(since)
 
 
 def supervisorctl(server, *args) -> str:

@@ -14,12 +14,11 @@ from __future__ import annotations
 
 import socket
 import threading
-import time
 
 import pytest
 
 from tests.load import harness
-from tests.services import PG_URL, postgres_reachable, redis_reachable
+from tests.services import wait_until
 
 pytestmark = [pytest.mark.slow, pytest.mark.postgres, pytest.mark.redis]
 
@@ -90,7 +89,8 @@ def under_slow_clients(server: harness.Server) -> tuple[list[harness.Visit], Tri
     slow = Trickler(server.port)
     slow.thread.start()
     try:
-        time.sleep(1.0)  # every slow connection is open and trickling
+        # every slow connection opened and trickling (the first round of bytes sent)
+        wait_until(lambda: slow.open_counts, 300, "the slow connections opened and trickling", poll=0.05)
         visits = harness.visits_during(url, DURATION, timeout=HANG_GUARD)
     finally:
         slow.stop.set()
@@ -101,11 +101,9 @@ def under_slow_clients(server: harness.Server) -> tuple[list[harness.Visit], Tri
     return visits, slow
 
 
-def test_slow_clients_from_one_address_leave_the_site_responsive(tmp_path, require_service, demo_table):
-    require_service(postgres_reachable(), f"PostgreSQL at {PG_URL} is unreachable")
-    require_service(redis_reachable(harness.REDIS_URL), f"Redis at {harness.REDIS_URL} is unreachable")
-    with harness.Server(tmp_path, workers=harness.FEW_WORKERS, demo_table=demo_table) as server:
-        assert harness.visit(server.base_url + "/", HANG_GUARD).answered
-        visits, slow = under_slow_clients(server)
+def test_slow_clients_from_one_address_leave_the_site_responsive(shared_server):
+    server = shared_server  # tests/load/conftest.py (shared with test_supervision.py and test_slow_bodies.py)
+    assert harness.visit(server.base_url + "/", HANG_GUARD).answered
+    visits, slow = under_slow_clients(server)
     assert min(slow.open_counts) >= SLOW_CONNECTIONS * 0.9  # the pressure really was on all along
     assert len(visits) >= 3 and all(v.answered for v in visits), [v.status for v in visits]

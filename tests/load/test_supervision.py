@@ -22,7 +22,7 @@ import pytest
 
 from precompute import work
 from tests.load import client, harness, run
-from tests.services import PG_URL, postgres_reachable, redis_reachable, wait_until
+from tests.services import wait_until
 
 pytestmark = [pytest.mark.slow, pytest.mark.postgres, pytest.mark.redis]
 
@@ -46,81 +46,79 @@ def job_status(server: harness.Server, job_id: int) -> str:
         return conn.execute("SELECT status FROM precompute_job WHERE id = %s", [job_id]).fetchone()[0]
 
 
-def test_a_killed_worker_comes_back_and_its_job_resumes_while_participants_carry_on(tmp_path, require_service,
-                                                                                    demo_table):
-    require_service(postgres_reachable(), f"PostgreSQL at {PG_URL} is unreachable")
-    require_service(redis_reachable(harness.REDIS_URL), f"Redis at {harness.REDIS_URL} is unreachable")
+def test_a_killed_worker_comes_back_and_its_job_resumes_while_participants_carry_on(tmp_path, shared_server):
     events: dict = {}
-    with harness.Server(tmp_path, workers=harness.FEW_WORKERS, demo_table=demo_table) as server:
-        web_pid, worker_pid = program_pid(server, "web"), program_pid(server, "worker")
-        assert web_pid and worker_pid
-        out = tmp_path / "table"
+    server = shared_server  # tests/load/conftest.py: what this test reads of its logs is what came after `since`
+    since = server.mark()
+    web_pid, worker_pid = program_pid(server, "web"), program_pid(server, "worker")
+    assert web_pid and worker_pid
+    out = tmp_path / "table"
 
-        def kill_worker_mid_chunk():
-            # The worker is stopped while the job is launched: the launch is a subprocess that, on a
-            # busy machine, can take longer to start and exit than the job's four chunks take to
-            # run, and the kill below must find a chunk in progress.
-            os.killpg(worker_pid, signal.SIGSTOP)
-            try:
-                job_id = start_table_job(server, out)
-            finally:
-                os.killpg(worker_pid, signal.SIGCONT)
+    def kill_worker_mid_chunk():
+        # The worker is stopped while the job is launched: the launch is a subprocess that, on a
+        # busy machine, can take longer to start and exit than the job's four chunks take to
+        # run, and the kill below must find a chunk in progress.
+        os.killpg(worker_pid, signal.SIGSTOP)
+        try:
+            job_id = start_table_job(server, out)
+        finally:
+            os.killpg(worker_pid, signal.SIGCONT)
 
-            def mid_chunk():
-                log = work.read_journal(out)
-                stored = {e["key"] for e in log if e["event"] == "stored"}
-                started = [e for e in log if e["event"] == "start" and e["key"] not in stored]
-                assert started or not any(e["event"] == "published" for e in log), \
-                    "the job finished before a chunk was seen in progress"
-                return started
+        def mid_chunk():
+            log = work.read_journal(out)
+            stored = {e["key"] for e in log if e["event"] == "stored"}
+            started = [e for e in log if e["event"] == "start" and e["key"] not in stored]
+            assert started or not any(e["event"] == "published" for e in log), \
+                "the job finished before a chunk was seen in progress"
+            return started
 
-            victim = wait_until(mid_chunk, 900, "the worker starting a chunk", poll=0.01)[-1]
-            readies = server.log_tail(10**9).count(" ready.")
-            os.killpg(worker_pid, signal.SIGKILL)  # main process and pool child, as the OOM killer would
-            killed = time.monotonic()
-            wait_until(lambda: program_pid(server, "worker") not in (0, worker_pid), 300, "a new worker process")
-            wait_until(lambda: server.log_tail(10**9).count(" ready.") > readies, 300, "the new worker ready")
-            events.update(job_id=job_id, victim=victim, back_s=time.monotonic() - killed)
-            wait_until(lambda: job_status(server, job_id) in ("succeeded", "failed"), 900, "the job finishing", 0.2)
-            events["resumed_s"] = time.monotonic() - killed
+        victim = wait_until(mid_chunk, 900, "the worker starting a chunk", poll=0.01)[-1]
+        readies = server.log_since(since).count(" ready.")
+        os.killpg(worker_pid, signal.SIGKILL)  # main process and pool child, as the OOM killer would
+        killed = time.monotonic()
+        wait_until(lambda: program_pid(server, "worker") not in (0, worker_pid), 300, "a new worker process")
+        wait_until(lambda: server.log_since(since).count(" ready.") > readies, 300, "the new worker ready")
+        events.update(job_id=job_id, victim=victim, back_s=time.monotonic() - killed)
+        wait_until(lambda: job_status(server, job_id) in ("succeeded", "failed"), 900, "the job finishing", 0.2)
+        events["resumed_s"] = time.monotonic() - killed
 
-        async def fault(stats):
-            await asyncio.sleep(3)
-            await asyncio.to_thread(kill_worker_mid_chunk)
+    async def fault(stats):
+        await asyncio.sleep(3)
+        await asyncio.to_thread(kill_worker_mid_chunk)
 
-        cfg = client.Config(base_url=server.base_url, slug=server.study[0], participants=40, window=15, pace=0.03,
-                            run_id=f"supervision{os.getpid()}")
-        stats = client.Stats()
-        asyncio.run(client.run_participants(cfg, stats, fault))
-        result = run.summarise(stats, harness.check_database(server.db_url, cfg.slug, stats))
-        statuses = server.server_statuses()
-        new_worker = program_pid(server, "worker")
-        log = server.log_tail(10**9)
+    cfg = client.Config(base_url=server.base_url, slug=server.study[0], participants=40, window=15, pace=0.03,
+                        run_id=f"supervision{os.getpid()}")
+    stats = client.Stats()
+    asyncio.run(client.run_participants(cfg, stats, fault))
+    result = run.summarise(stats, harness.check_database(server.db_url, cfg.slug, stats))
+    statuses = server.server_statuses(since)
+    new_worker = program_pid(server, "worker")
+    log = server.log_since(since)
 
-        # participants: not one failed request while the worker was killed and came back
-        db = result["db"]
-        nginx_errors = [line for line in log.splitlines() if "[error]" in line or "[crit]" in line][-10:]
-        assert not result["failed"] and not result["errors"], (result["failed"], result["errors"], nginx_errors)
-        assert not [s for s in statuses if s.startswith("5")], statuses
-        assert db["answers_stored"] == db["answers_acked"] > 40 * 10 and not db["lost"] and not db["duplicated"]
-        assert db["completed"] == 40
+    # participants: not one failed request while the worker was killed and came back
+    db = result["db"]
+    nginx_errors = [line for line in log.splitlines() if "[error]" in line or "[crit]" in line][-10:]
+    assert not result["failed"] and not result["errors"], (result["failed"], result["errors"], nginx_errors)
+    assert not [s for s in statuses if s.startswith("5")], statuses
+    assert db["answers_stored"] == db["answers_acked"] > 40 * 10 and not db["lost"] and not db["duplicated"]
+    assert db["completed"] == 40
 
-        # the worker: back on its own (a new process that said "ready."); the web server untouched.
-        # How soon is printed here and measured by bench/latency.py.
-        print(f"worker back in {events['back_s']:.1f} s, job finished {events['resumed_s']:.1f} s after the kill")
-        assert program_pid(server, "web") == web_pid
+    # the worker: back on its own (a new process that said "ready."); the web server untouched.
+    # How soon is printed here and measured by bench/latency.py.
+    print(f"worker back in {events['back_s']:.1f} s, job finished {events['resumed_s']:.1f} s after the kill")
+    assert program_pid(server, "web") == web_pid
 
-        # its job: resumed at once (the message put back, not left for the one-hour visibility timeout)
-        assert job_status(server, events["job_id"]) == "succeeded", log[-3000:]
-        assert "put back 1 task(s) left by a worker that died" in log
-        redone = [e for e in work.read_journal(out) if e["event"] == "stored" and e["key"] == events["victim"]["key"]]
-        assert len(redone) == 1 and redone[0]["host"] != events["victim"]["host"]
+    # its job: resumed at once (the message put back, not left for the one-hour visibility timeout)
+    assert job_status(server, events["job_id"]) == "succeeded", log[-3000:]
+    assert "put back 1 task(s) left by a worker that died" in log
+    redone = [e for e in work.read_journal(out) if e["event"] == "stored" and e["key"] == events["victim"]["key"]]
+    assert len(redone) == 1 and redone[0]["host"] != events["victim"]["host"]
 
-        # and the other way round: a killed web server comes back without touching the worker
-        os.killpg(web_pid, signal.SIGKILL)
-        wait_until(lambda: program_pid(server, "web") not in (0, web_pid), 300, "a new web server process")
-        wait_until(lambda: _serves(server), 300, "the web server serving again", poll=0.2)
-        assert program_pid(server, "worker") == new_worker
+    # and the other way round: a killed web server comes back without touching the worker
+    os.killpg(web_pid, signal.SIGKILL)
+    wait_until(lambda: program_pid(server, "web") not in (0, web_pid), 300, "a new web server process")
+    wait_until(lambda: _serves(server), 300, "the web server serving again", poll=0.2)
+    assert program_pid(server, "worker") == new_worker
 
 
 def _serves(server: harness.Server) -> bool:

@@ -95,8 +95,7 @@ def test_real_worker_builds_the_same_table(redis_url, small_preset, reference, t
 
 @pytest.mark.redis
 def test_killed_worker_is_replaced_and_nothing_stored_is_recomputed(redis_url, tmp_path, assert_same_table):
-    reference = tmp_path / "reference"
-    build_table(FAULT, reference)
+    reference = tmp_path / "reference"  # built below, while worker 2 starts and finishes the job
     queue = f"precompute-test-{uuid.uuid4().hex[:8]}"
     app = client_app(redis_url)
     env = worker_env(redis_url, tmp_path)
@@ -130,6 +129,9 @@ def test_killed_worker_is_replaced_and_nothing_stored_is_recomputed(redis_url, t
         # worker, and puts it back (precompute/recovery.py) instead of waiting an hour for it.
         second = procs.start_worker(queue, concurrency=1, env=env, log_path=tmp_path / "worker2.log",
                                     hostname="w2@%h")
+        # The one-process build to compare with, made here rather than first: it only has to exist by the
+        # comparison, and meanwhile this process would otherwise just wait for worker 2.
+        build_table(FAULT, reference)
         try:
             info = result.get(timeout=150, propagate=True)
         except Exception as exc:

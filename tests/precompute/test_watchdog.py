@@ -48,7 +48,9 @@ def redis_worker(transactional_db, redis_url, celery_app_with, settings):
     queue = f"precompute-test-{uuid.uuid4().hex[:8]}"
     app = celery_app_with(broker_url=redis_url, result_backend=redis_url, task_always_eager=False,
                           broker_transport_options={"visibility_timeout": 3600})
-    settings.PRECOMPUTE_WATCHDOG_QUIET, settings.PRECOMPUTE_WATCHDOG_EVERY = 10, 2
+    # a check every half second: the watchdog acts soon after a job's quiet time is over (a round that
+    # finds no quiet job is one small query)
+    settings.PRECOMPUTE_WATCHDOG_QUIET, settings.PRECOMPUTE_WATCHDOG_EVERY = 10, 0.5
     with start_worker(app, pool="solo", perform_ping_check=False, loglevel="WARNING", shutdown_timeout=60,
                       queues=[queue]) as worker:
         thread = watchdog.start(app)  # what worker_ready starts in a real worker
