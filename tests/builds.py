@@ -5,7 +5,10 @@ pytest-free, so that tests/prebuild.py can fill the same directories before the 
 from __future__ import annotations
 
 import fcntl
+import os
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 from numpy._core._multiarray_umath import __cpu_features__
@@ -50,6 +53,34 @@ OTHER_CPU = {"NUMBA_CPU_NAME": "generic", "GLIBC_TUNABLES": "glibc.cpu.hwcaps=-A
 
 # The other CPU's Numba cache, a directory beside the shared tables
 OTHER_CPU_NUMBA_CACHE = "numba-other-cpu"
+# The `tiny` preset's table as the other CPU builds it (tests/prebuild.py compiles the other CPU's kernels by
+# building it, and tests/teaching/core/test_table.py compares its hash with the native one's)
+OTHER_CPU_TINY_TABLE = "tiny-table-other-cpu"
+
+
+def start_tiny_build(out: Path, env: dict | None = None) -> subprocess.Popen:
+    """`python -m teaching build --preset tiny --out out` as a researcher runs it (under env, if given), started in
+    the background (the caller waits for it: wait_build); what it prints is kept beside the table (build_output)."""
+    with open(out.parent / f"{out.name}.stdout", "w") as log:
+        return subprocess.Popen([sys.executable, "-m", "teaching", "build", "--preset", "tiny", "--out", str(out)],
+                                env=env, stdout=log, stderr=subprocess.PIPE, text=True)
+
+
+def build_output(table: Path) -> str:
+    """What the command that built `table` printed (start_tiny_build)."""
+    return (table.parent / f"{table.name}.stdout").read_text()
+
+
+def build_tiny_as_other_cpu(root: Path, out: Path) -> subprocess.Popen:
+    """start_tiny_build as the other CPU runs it, with its Numba cache in root."""
+    return start_tiny_build(out, other_cpu_env(os.environ, root / OTHER_CPU_NUMBA_CACHE))
+
+
+def wait_build(proc: subprocess.Popen, what: str) -> None:
+    """Wait for a build started by start_tiny_build; raise with its stderr if it failed."""
+    _, err = proc.communicate()
+    if proc.returncode != 0:
+        raise RuntimeError(f"building {what} failed:\n{err}")
 
 
 def other_cpu_env(base: dict, numba_cache: Path) -> dict:

@@ -94,9 +94,11 @@ def django_db_modify_db_settings(django_db_modify_db_settings_parallel_suffix):
 
 @pytest.fixture(scope="session")
 def tiny_table(tmp_path_factory):
-    """The `tiny` preset built for real (48 environments × 24 θ, a few seconds), once per run:
-    every study the app's tests make draws its trajectories from it."""
-    return built_once(tmp_path_factory, builds.TINY_TABLE, functools.partial(build_table, PRESETS["tiny"]))
+    """The `tiny` preset built for real (48 environments × 24 θ, a few seconds), once per run, by the command a
+    researcher runs (`python -m teaching build`, whose output tests/teaching/test_cli.py reads: tests/builds.py
+    build_output): every study the app's tests make draws its trajectories from it."""
+    return built_once(tmp_path_factory, builds.TINY_TABLE,
+                      lambda out: builds.wait_build(builds.start_tiny_build(out), "the tiny table"))
 
 
 @pytest.fixture

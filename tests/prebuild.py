@@ -7,7 +7,8 @@
    In a fresh clone each is a cold compile of about a minute; inside the runs it would be paid on
    cores the other tests are competing for.  The build that compiles for this CPU is the `tiny`
    table itself, left where tests/conftest.py's tiny_table fixture looks for it (and marked built
-   the way tests/builds.py built_in marks it), so no test builds it again.
+   the way tests/builds.py built_in marks it), so no test builds it again; the one for the other CPU is
+   the table the reproducibility test compares with it (tests/builds.py OTHER_CPU_TINY_TABLE), likewise.
 2. Builds the demo table (tests/builds.py built_in, the directory tests/conftest.py's demo_table
    fixture reads), on both cores: the table a dozen tests of both runs wait for.
 
@@ -17,29 +18,33 @@ from __future__ import annotations
 
 import functools
 import os
-import subprocess
 import sys
 import time
 from pathlib import Path
 
 from teaching.core.build import PRESETS, build_table
-from tests.builds import OTHER_CPU_NUMBA_CACHE, TINY_TABLE, built_in, mark_built, other_cpu_env
+from tests.builds import (
+    OTHER_CPU_TINY_TABLE,
+    TINY_TABLE,
+    build_tiny_as_other_cpu,
+    built_in,
+    mark_built,
+    start_tiny_build,
+    wait_build,
+)
 
 
 def compile_kernels(root: Path) -> None:
-    """The tiny table for this CPU and a tiny build for the other CPU, in two processes at once."""
-    def build(name: str, env: dict) -> subprocess.Popen:
-        return subprocess.Popen([sys.executable, "-m", "teaching", "build", "--preset", "tiny",
-                                 "--out", str(root / name)], env=env, stdout=subprocess.DEVNULL,
-                                stderr=subprocess.PIPE, text=True)
-
-    builds = {"this CPU": build(TINY_TABLE, dict(os.environ)),
-              "the other CPU": build("kernels-other-cpu", other_cpu_env(os.environ, root / OTHER_CPU_NUMBA_CACHE))}
+    """The tiny table for this CPU and for the other CPU, in two processes at once."""
+    builds = {"this CPU": start_tiny_build(root / TINY_TABLE),
+              "the other CPU": build_tiny_as_other_cpu(root, root / OTHER_CPU_TINY_TABLE)}
     for what, proc in builds.items():
-        _, err = proc.communicate()
-        if proc.returncode != 0:
-            raise SystemExit(f"prebuild: compiling the kernels for {what} failed:\n{err}")
+        try:
+            wait_build(proc, f"the tiny table for {what}")
+        except RuntimeError as e:
+            raise SystemExit(f"prebuild: compiling the kernels for {what} failed: {e}") from None
     mark_built(root, TINY_TABLE)
+    mark_built(root, OTHER_CPU_TINY_TABLE)
 
 
 def main() -> int:

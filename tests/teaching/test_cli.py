@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from teaching.core.table import TrajectoryTable
+from tests.builds import build_output
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -18,6 +19,24 @@ def run(*args, timeout=300):
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     return subprocess.run([sys.executable, "-m", "teaching", *args], cwd=ROOT, env=env, capture_output=True,
                           text=True, timeout=timeout)
+
+
+@pytest.fixture
+def here(capsys):
+    """`python -m teaching ARGS` run as main(ARGS) in this process, the function the entry point exits with: the
+    same exit code, stdout and stderr (as a CompletedProcess) without starting an interpreter for each bad input.
+    The real entry point is run by the builds above and by test_unknown_preset."""
+    from teaching.__main__ import main  # noqa: PLC0415
+
+    def run_here(*args):
+        try:
+            code = main(list(args))
+        except SystemExit as e:  # argparse's own errors
+            code = e.code
+        out, err = capsys.readouterr()
+        return subprocess.CompletedProcess(["python", "-m", "teaching", *args], code, out, err)
+
+    return run_here
 
 
 def assert_clean_error(proc, *needles):
@@ -29,21 +48,21 @@ def assert_clean_error(proc, *needles):
 
 
 @pytest.mark.slow
-def test_build_tiny_then_info(tmp_path):
-    out = tmp_path / "tiny"
-    proc = run("build", "--preset", "tiny", "--out", str(out))
-    assert proc.returncode == 0, proc.stderr
-    assert "table: domain=driving preset=tiny envs=48 thetas=24" in proc.stdout
-    assert "min d_reward: 0 (must be >= 0)" in proc.stdout
-    assert "theta* strategies per cluster:" in proc.stdout
+def test_build_tiny_then_info(tiny_table):
+    # the run's shared tiny table, built by `python -m teaching build --preset tiny` (tests/conftest.py): what that
+    # command printed (it exited 0, or the fixture raised with its stderr)
+    out, stdout = tiny_table, build_output(tiny_table)
+    assert "table: domain=driving preset=tiny envs=48 thetas=24" in stdout
+    assert "min d_reward: 0 (must be >= 0)" in stdout
+    assert "theta* strategies per cluster:" in stdout
     # the stratified sample puts 12 environments in each class
-    assert "environments per class: merging 12, braking 12, tailgating 12, other 12" in proc.stdout
-    assert "built 1,152 trajectories" in proc.stdout  # 48 x 24
+    assert "environments per class: merging 12, braking 12, tailgating 12, other 12" in stdout
+    assert "built 1,152 trajectories" in stdout  # 48 x 24
     assert (out / "meta.json").exists() and (out / "features.npy").exists()
     info = run("info", str(out))
     assert info.returncode == 0, info.stderr
     # info prints the same summary as the build (same table, same hash)
-    assert info.stdout.strip() == proc.stdout.strip().rsplit("\n", 1)[0].strip()
+    assert info.stdout.strip() == stdout.strip().rsplit("\n", 1)[0].strip()
 
 
 def test_unknown_preset():
@@ -53,24 +72,24 @@ def test_unknown_preset():
 
 
 @pytest.mark.parametrize("n", ["1", "0", "-3"])
-def test_too_few_thetas(tmp_path, n):
-    assert_clean_error(run("build", "--preset", "tiny", "--out", str(tmp_path / "t"), "--thetas", n), "--thetas")
+def test_too_few_thetas(tmp_path, n, here):
+    assert_clean_error(here("build", "--preset", "tiny", "--out", str(tmp_path / "t"), "--thetas", n), "--thetas")
     assert not (tmp_path / "t").exists()
 
 
-def test_unwritable_output(tmp_path):
+def test_unwritable_output(tmp_path, here):
     blocker = tmp_path / "a-file"
     blocker.write_text("x")
-    assert_clean_error(run("build", "--preset", "tiny", "--out", str(blocker / "table")), "cannot write")
+    assert_clean_error(here("build", "--preset", "tiny", "--out", str(blocker / "table")), "cannot write")
 
 
-def test_info_on_a_missing_table(tmp_path):
-    assert_clean_error(run("info", str(tmp_path / "missing")), "no trajectory table")
+def test_info_on_a_missing_table(tmp_path, here):
+    assert_clean_error(here("info", str(tmp_path / "missing")), "no trajectory table")
 
 
-def test_info_on_an_altered_table(tmp_path):
+def test_info_on_an_altered_table(tmp_path, here):
     (tmp_path / "meta.json").write_text('{"world": "not this world"}')
-    assert_clean_error(run("info", str(tmp_path)), "other world constants")
+    assert_clean_error(here("info", str(tmp_path)), "other world constants")
 
 
 @pytest.mark.slow
@@ -96,8 +115,8 @@ def test_build_with_another_theta_star(tmp_path):
     ("-64,-0.1,-1,-0.1,nan", "must be a negative number"),
     ("-64,-0.1,x,-0.1,-0.5", "5 numbers separated by commas"),
 ])
-def test_bad_theta_star(tmp_path, value, needle):
-    assert_clean_error(run("build", "--preset", "tiny", "--out", str(tmp_path / "t"), f"--theta-star={value}"),
+def test_bad_theta_star(tmp_path, value, needle, here):
+    assert_clean_error(here("build", "--preset", "tiny", "--out", str(tmp_path / "t"), f"--theta-star={value}"),
                        "--theta-star", needle)
     assert not (tmp_path / "t").exists()
 

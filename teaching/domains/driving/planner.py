@@ -178,16 +178,23 @@ def _as_stored(z):
     return np.clip(z, -1.0, 1.0).astype(np.float32).astype(np.float64)
 
 
+def _writable(a, dtype):
+    """a as a C-contiguous, writable array of dtype (copied only if it is not one): Numba compiles a kernel
+    again for every new argument type, and a read-only array (a memory-mapped table's, a broadcast) is one."""
+    a = np.ascontiguousarray(a, dtype)
+    return a if a.flags.writeable else a.copy()
+
+
 def _pool_best(pool_phi, thetas, allowed=None, own=None):
     """For every theta (N, 5), the best allowed trajectory of one environment's pool (P, 5 normalised
     features; allowed (P,) bool, all if None): (index (N,), reward (N,), reward of pool trajectory
     own[i] (N,), -inf where it is not allowed).  Ties go to the lowest index; rewards are summed as
     features.reward sums them (newton.pool_best)."""
-    pool_phi = np.ascontiguousarray(pool_phi, np.float64)
-    thetas = np.ascontiguousarray(thetas, np.float64)
+    pool_phi = _writable(pool_phi, np.float64)
+    thetas = _writable(thetas, np.float64)
     n = len(thetas)
-    allowed = np.ones(len(pool_phi), np.bool_) if allowed is None else np.ascontiguousarray(allowed, np.bool_)
-    own = np.zeros(n, np.int64) if own is None else np.ascontiguousarray(own, np.int64)
+    allowed = np.ones(len(pool_phi), np.bool_) if allowed is None else _writable(allowed, np.bool_)
+    own = np.zeros(n, np.int64) if own is None else _writable(own, np.int64)
     best, best_r, own_r = np.empty(n, np.int64), np.empty(n), np.empty(n)
     newton.pool_best(pool_phi, thetas, allowed, own, best, best_r, own_r)
     return best, best_r, own_r

@@ -18,7 +18,15 @@ from teaching.domains.driving.domain import DOMAIN as DRIVING
 from teaching.domains.driving.environments import stratified_sample
 from teaching.domains.driving.features import default_normalisers
 from teaching.domains.driving.world import THETA_STAR, WORLD, world_fingerprint
-from tests.builds import NUMPY_AVX512, OTHER_CPU_NUMBA_CACHE, other_cpu_env
+from tests.builds import (
+    NUMPY_AVX512,
+    OTHER_CPU_NUMBA_CACHE,
+    OTHER_CPU_TINY_TABLE,
+    build_tiny_as_other_cpu,
+    other_cpu_env,
+    wait_build,
+)
+from tests.conftest import built_once
 
 TINY = PRESETS["tiny"]
 
@@ -147,12 +155,6 @@ def test_rebuilding_computes_no_chunk_again_and_yields_identical_bytes(built, tm
         assert computed is False and (d / "chunks" / f"{key}.npz").exists()
 
 
-def test_a_fresh_build_gives_the_same_table(built, tmp_path):
-    fresh = build_table(TINY, tmp_path / "fresh")
-    assert fresh.meta["content_hash"] == built[1].meta["content_hash"]
-    assert file_bytes(tmp_path / "fresh") == file_bytes(built[0])
-
-
 def test_a_missing_chunk_is_computed_and_only_it(built, tmp_path, monkeypatch):
     d = copy_of(built, tmp_path)
     chunks = sorted((d / "chunks").glob("*.npz"))
@@ -230,36 +232,37 @@ def _probe(env) -> list[str]:
 
 
 @pytest.mark.slow
-def test_the_same_preset_gives_the_same_hash_on_another_cpu(tmp_path, tiny_table):
+def test_the_same_preset_gives_the_same_hash_on_another_cpu(tmp_path_factory, tiny_table):
     """Reproducible builds: the tiny preset built natively and as another CPU
     would build it (libm without FMA, NumPy without AVX-512, Numba for a generic x86-64, OpenBLAS's
     oldest kernels) is bit-identical, although those settings really do change libm's and NumPy's
     last bits here: so the content hash a researcher quotes identifies the table on any x86-64."""
-    # the other CPU's kernels: compiled by tests/prebuild.py under `make test`, here otherwise
-    numba_cache = Path(os.environ.get("TEST_BUILDS_DIR") or tmp_path) / OTHER_CPU_NUMBA_CACHE
-    native, other = dict(os.environ), other_cpu_env(os.environ, numba_cache)
+    # the other CPU's table: built by tests/prebuild.py under `make test` (which compiles the other CPU's
+    # kernels by building it), here otherwise, by the same command in the same place
+    other_table = built_once(tmp_path_factory, OTHER_CPU_TINY_TABLE, lambda out: wait_build(
+        build_tiny_as_other_cpu(out.parent, out), "the tiny table for the other CPU"))
+    native, other = dict(os.environ), other_cpu_env(os.environ, other_table.parent / OTHER_CPU_NUMBA_CACHE)
     libm_native, power_native = _probe(native)
     libm_other, power_other = _probe(other)
     assert libm_native != libm_other, "GLIBC_TUNABLES no longer changes libm: the test would prove nothing"
     if NUMPY_AVX512:
         assert power_native != power_other, "NPY_DISABLE_CPU_FEATURES no longer changes np.power"
-    # native: the session's tiny table (tests/conftest.py), built in this process on this CPU
-    out = tmp_path / "other"
-    subprocess.run([sys.executable, "-m", "teaching", "build", "--preset", "tiny", "--out", str(out)], check=True,
-                   env=other, capture_output=True)
-    other_hash = json.loads((out / "meta.json").read_text())["content_hash"]
+    # native: the session's tiny table (tests/conftest.py), built on this CPU
+    other_hash = json.loads((other_table / "meta.json").read_text())["content_hash"]
     assert other_hash == json.loads((tiny_table / "meta.json").read_text())["content_hash"]
 
 
-def test_worker_processes_build_the_same_table(tmp_path, tiny_table):
-    """`build --jobs 2` plans the chunks in two spawned processes (the paper table's fastest build on
-    two cores): the table is bit-identical to the one-process build, and a bad count is refused."""
+def test_a_fresh_build_in_worker_processes_gives_the_same_table(tmp_path, built):
+    """A fresh build gives the same table, byte for byte; and `build --jobs 2`, which plans the chunks in two
+    spawned processes (the paper table's fastest build on two cores), is such a build: bit-identical to the
+    one-process build (the shared tiny table), and a bad count is refused."""
     out = tmp_path / "jobs2"
     done = subprocess.run([sys.executable, "-m", "teaching", "build", "--preset", "tiny", "--out", str(out),
                            "--jobs", "2"], capture_output=True, text=True, check=True)
     assert "built 1,152 trajectories" in done.stdout
     two = json.loads((out / "meta.json").read_text())["content_hash"]
-    assert two == json.loads((tiny_table / "meta.json").read_text())["content_hash"]
+    assert two == built[1].meta["content_hash"]
+    assert file_bytes(out) == file_bytes(built[0])
     bad = subprocess.run([sys.executable, "-m", "teaching", "build", "--preset", "tiny", "--out",
                           str(tmp_path / "bad"), "--jobs", "0"], capture_output=True, text=True)
     assert bad.returncode == 2
