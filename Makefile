@@ -56,7 +56,10 @@ lint: venv
 # the second one's output is printed when both are done.  Both build the tables they need in one
 # directory made for this command ($TEST_BUILDS_DIR, tests/conftest.py's built_once), so the demo
 # table is built once, not once per run.  (xdist's own grouping, --dist loadgroup,
-# is silently ignored under pytest 9.2: pytest-xdist #1386.)  Before both, tests/prebuild.py compiles
+# is silently ignored under pytest 9.2: pytest-xdist #1386.)  The xdist run hands each worker a contiguous
+# slice of the tests, longest modules first, and an idle worker takes half of a busy one's queue
+# (--dist worksteal): a module stays on one worker, so its module-scoped fixtures are built once, and no
+# worker sits out the last minutes while another works through a queue it was dealt.  Before both, tests/prebuild.py compiles
 # the planner's Numba kernels into their disk caches and builds the demo table, on the idle machine,
 # so that no test pays a cold compile or waits for that table while the two runs compete for it.
 # pytest exit 5 means "no tests collected": that is a failure here, never a pass.
@@ -66,7 +69,7 @@ test: venv browser-deps serve-deps messages
 	export TEST_BUILDS_DIR=$$(mktemp -d /tmp/test-builds.XXXXXX); \
 	$(PY) -m tests.prebuild || exit 1; \
 	$(PY) -m pytest -p no:cacheprovider -m "postgres or redis" > $(SERVICES_LOG) 2>&1 & svc=$$!; \
-	$(PY) -m pytest -n 3 -m "not (postgres or redis)"; a=$$?; \
+	$(PY) -m pytest -n 3 --dist worksteal -m "not (postgres or redis)"; a=$$?; \
 	echo "--- the shared-services tests ($(SERVICES_LOG)) ---"; wait $$svc; b=$$?; cat $(SERVICES_LOG); \
 	rm -rf "$$TEST_BUILDS_DIR"; \
 	for rc in $$a $$b; do if [ $$rc -eq 5 ]; then echo "pytest collected no tests" >&2; exit 1; fi; done; \
