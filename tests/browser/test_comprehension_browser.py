@@ -8,14 +8,13 @@ import os
 from pathlib import Path
 
 import pytest
-from playwright.sync_api import expect, sync_playwright
+from playwright.sync_api import expect
 
 from studyapp import comprehension
 from studyapp.models import Participant
 from studyapp.studies import build_study, table_spec
 from tests.conftest import SMALL_SEQUENCES, TINY_TEST_SET
 
-CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 SHOTS = Path(os.environ.get("QUIZ_SHOTS", "/tmp/quiz-shots"))
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
@@ -38,42 +37,37 @@ def answer(page, questions, wrong=()):
     page.get_by_role("button", name="Check my answers").click()
 
 
-def test_fail_read_the_marked_instructions_then_pass(quiz_study, live_server, monkeypatch):
+def test_fail_read_the_marked_instructions_then_pass(quiz_study, live_server, monkeypatch, browser):
     monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")  # ORM checks beside Playwright's loop
     SHOTS.mkdir(parents=True, exist_ok=True)
     questions = comprehension.questions_of(quiz_study)
-    with sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
-        try:
-            page = browser.new_context(viewport={"width": 1000, "height": 900}).new_page()
-            errors = []
-            page.on("pageerror", lambda exc: errors.append(str(exc)))
-            page.on("console", lambda msg: errors.append(msg.text) if "Content Security Policy" in msg.text else None)
-            page.goto(f"{live_server.url}/s/quiz/?PROLIFIC_PID=quizzer&STUDY_ID=s&SESSION_ID=x")
-            page.locator('button[value="yes"]').click()
-            expect(page.locator("h1")).to_have_text("Instructions")
-            page.get_by_role("button", name="Go to the questions").click()
+    page = browser.new_context(viewport={"width": 1000, "height": 900}).new_page()
+    errors = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    page.on("console", lambda msg: errors.append(msg.text) if "Content Security Policy" in msg.text else None)
+    page.goto(f"{live_server.url}/s/quiz/?PROLIFIC_PID=quizzer&STUDY_ID=s&SESSION_ID=x")
+    page.locator('button[value="yes"]').click()
+    expect(page.locator("h1")).to_have_text("Instructions")
+    page.get_by_role("button", name="Go to the questions").click()
 
-            expect(page.locator("h1")).to_have_text("Questions about the instructions")
-            expect(page.locator("fieldset.question")).to_have_count(len(questions))
-            page.screenshot(path=str(SHOTS / "comprehension.png"), full_page=True)
-            answer(page, questions, wrong={0})
+    expect(page.locator("h1")).to_have_text("Questions about the instructions")
+    expect(page.locator("fieldset.question")).to_have_count(len(questions))
+    page.screenshot(path=str(SHOTS / "comprehension.png"), full_page=True)
+    answer(page, questions, wrong={0})
 
-            expect(page.locator("h1")).to_have_text("Instructions")
-            missed = page.locator("#missed")
-            expect(missed).to_contain_text(questions[0]["question"])
-            expect(missed).to_contain_text("You have 2 more tries")
-            expect(page.locator("#instructions")).to_be_visible()
-            page.screenshot(path=str(SHOTS / "instructions_marked.png"), full_page=True)
-            page.get_by_role("link", name="Answer the questions again").click()
+    expect(page.locator("h1")).to_have_text("Instructions")
+    missed = page.locator("#missed")
+    expect(missed).to_contain_text(questions[0]["question"])
+    expect(missed).to_contain_text("You have 2 more tries")
+    expect(page.locator("#instructions")).to_be_visible()
+    page.screenshot(path=str(SHOTS / "instructions_marked.png"), full_page=True)
+    page.get_by_role("link", name="Answer the questions again").click()
 
-            expect(page.locator("fieldset.question.missed")).to_have_count(1)
-            expect(page.locator("fieldset.question").first).to_have_class("card question missed")
-            page.screenshot(path=str(SHOTS / "comprehension_again.png"), full_page=True)
-            answer(page, questions)
-            expect(page.locator("h1")).to_contain_text("Example 1 of")
-            assert not errors, errors
-        finally:
-            browser.close()
+    expect(page.locator("fieldset.question.missed")).to_have_count(1)
+    expect(page.locator("fieldset.question").first).to_have_class("card question missed")
+    page.screenshot(path=str(SHOTS / "comprehension_again.png"), full_page=True)
+    answer(page, questions)
+    expect(page.locator("h1")).to_contain_text("Example 1 of")
+    assert not errors, errors
     p = Participant.objects.get(platform_pid="quizzer")
     assert list(p.comprehension_attempts.values_list("number", "passed")) == [(1, False), (2, True)]

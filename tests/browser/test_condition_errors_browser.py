@@ -4,24 +4,20 @@ its dashboard and its analysis page why it cannot open or be analysed.  Screensh
 test-output/compare_error.png and test-output/aliased_study.png."""
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import pytest
 from django.contrib.auth.models import User
-from playwright.sync_api import sync_playwright
 
 from studyapp.models import Condition
 
-CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 OUT = Path(__file__).resolve().parents[2] / "test-output"
 
 pytestmark = pytest.mark.browser
 
 
 def test_compare_errors_and_an_aliased_study_in_chromium(transactional_db, client, live_server, make_study,
-                                                          monkeypatch):
-    assert Path(CHROMIUM).exists(), f"Chromium not installed at {CHROMIUM} (apt-get install chromium)"
+                                                          monkeypatch, browser):
     make_study("fam", sequences={"exact": [500], "det-euclidean": [5780], "random": [7107]})
     old = make_study("old", sequences={"det-strategy": [500, 5780, 12165], "exact": [7107, 15245]})
     Condition.objects.filter(study=old, name="exact").update(name="prob-strategy")  # stored before the check
@@ -29,26 +25,21 @@ def test_compare_errors_and_an_aliased_study_in_chromium(transactional_db, clien
     host = live_server.url.split("//")[1].split(":")[0]
     OUT.mkdir(exist_ok=True)
     monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")
-    with sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
-        try:
-            ctx = browser.new_context(viewport={"width": 1280, "height": 700})
-            ctx.add_cookies([{"name": "sessionid", "value": client.cookies["sessionid"].value, "domain": host,
-                              "path": "/"}])
-            page = ctx.new_page()
-            resp = page.goto(live_server.url + "/dashboard/fam/analysis/?compare=exact:exact&compare=foo:random")
-            alert = page.locator('[role="alert"]')
-            assert resp.status == 400 and "compares exact with itself" in alert.inner_text()
-            assert page.locator("#analysis-live").count() == 0
-            page.screenshot(path=str(OUT / "compare_error.png"), full_page=True)
-            page.get_by_text("The analysis without these comparisons").click()
-            page.wait_for_selector("#analysis-live")
+    ctx = browser.new_context(viewport={"width": 1280, "height": 700})
+    ctx.add_cookies([{"name": "sessionid", "value": client.cookies["sessionid"].value, "domain": host,
+                      "path": "/"}])
+    page = ctx.new_page()
+    resp = page.goto(live_server.url + "/dashboard/fam/analysis/?compare=exact:exact&compare=foo:random")
+    alert = page.locator('[role="alert"]')
+    assert resp.status == 400 and "compares exact with itself" in alert.inner_text()
+    assert page.locator("#analysis-live").count() == 0
+    page.screenshot(path=str(OUT / "compare_error.png"), full_page=True)
+    page.get_by_text("The analysis without these comparisons").click()
+    page.wait_for_selector("#analysis-live")
 
-            page.goto(live_server.url + "/dashboard/old/")
-            text = page.locator("body").inner_text()
-            assert "Cannot open: conditions 'det-strategy' and 'prob-strategy' are one condition" in text
-            page.screenshot(path=str(OUT / "aliased_study.png"), full_page=True)
-            page.goto(live_server.url + "/dashboard/old/analysis/")
-            assert "This study cannot be analysed" in page.locator('[role="alert"]').inner_text()
-        finally:
-            browser.close()
+    page.goto(live_server.url + "/dashboard/old/")
+    text = page.locator("body").inner_text()
+    assert "Cannot open: conditions 'det-strategy' and 'prob-strategy' are one condition" in text
+    page.screenshot(path=str(OUT / "aliased_study.png"), full_page=True)
+    page.goto(live_server.url + "/dashboard/old/analysis/")
+    assert "This study cannot be analysed" in page.locator('[role="alert"]').inner_text()

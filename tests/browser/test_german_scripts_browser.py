@@ -4,17 +4,15 @@ German, from the study's JavaScript catalog (locale/de/LC_MESSAGES/djangojs.po, 
 `make messages`).  Screenshot: test-output/german_training.png."""
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import pytest
-from playwright.sync_api import expect, sync_playwright
+from playwright.sync_api import expect
 
 from studyapp.models import Participant, StepKind
 from tests.browser.test_participant_flow import play_all, ready
 from tests.conftest import complete_flow
 
-CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 OUT = Path(__file__).resolve().parents[2] / "test-output"
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
@@ -46,67 +44,62 @@ def open_step(browser, live_server, study, pid, stop_before):
     return context, page, errors
 
 
-def test_a_german_studys_scripts_speak_german(transactional_db, make_study, live_server, monkeypatch):
+def test_a_german_studys_scripts_speak_german(transactional_db, make_study, live_server, monkeypatch, browser):
     study = make_study("deutsch", language="de")
     monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")  # ORM calls beside Playwright's loop
     OUT.mkdir(exist_ok=True)
-    with sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
-        try:
-            # training: the example played to its end, its trail shown
-            context, page, errors = open_step(browser, live_server, study, "5f0c0ffee000000000000de1",
-                                              StepKind.TRAINING)
-            canvas = page.locator(".scene canvas")
-            expect(canvas).to_have_attribute("title", "Klicken (oder Leertaste drücken), um die Animation "
-                                             "anzuhalten oder fortzusetzen")
-            play, trail = page.locator('[data-action="play"]'), page.locator('[data-action="trail"]')
-            submit, hint = page.locator('form[data-require-played] button[type="submit"]'), page.locator(".hint")
-            if page.locator(".scene").get_attribute("data-state") != "playing":
-                play.click()  # reduced motion: the participant starts it
-            play_all(page)
-            expect(submit).to_be_enabled()
-            expect(play).to_have_text("Erneut abspielen")
-            expect(hint).to_have_text("Sie können das Beispiel erneut abspielen oder fortfahren.")
-            texts = page.evaluate("window.canvasTexts")
-            assert any(t.startswith(("Zug ", "t = ")) for t in texts), texts  # the move (or time) label
-            trail.click()
-            expect(trail).to_have_text("Spur ausblenden")
-            assert page.evaluate("window.canvasTexts").pop().startswith("Spur: "), page.evaluate("window.canvasTexts")
-            page.screenshot(path=str(OUT / "german_training.png"), full_page=True)
-            trail.click()
-            expect(trail).to_have_text("Spur zeigen")  # the page's own label (django.po), which the script toggles
+    # training: the example played to its end, its trail shown
+    context, page, errors = open_step(browser, live_server, study, "5f0c0ffee000000000000de1",
+                                      StepKind.TRAINING)
+    canvas = page.locator(".scene canvas")
+    expect(canvas).to_have_attribute("title", "Klicken (oder Leertaste drücken), um die Animation "
+                                     "anzuhalten oder fortzusetzen")
+    play, trail = page.locator('[data-action="play"]'), page.locator('[data-action="trail"]')
+    submit, hint = page.locator('form[data-require-played] button[type="submit"]'), page.locator(".hint")
+    if page.locator(".scene").get_attribute("data-state") != "playing":
+        play.click()  # reduced motion: the participant starts it
+    play_all(page)
+    expect(submit).to_be_enabled()
+    expect(play).to_have_text("Erneut abspielen")
+    expect(hint).to_have_text("Sie können das Beispiel erneut abspielen oder fortfahren.")
+    texts = page.evaluate("window.canvasTexts")
+    assert any(t.startswith(("Zug ", "t = ")) for t in texts), texts  # the move (or time) label
+    trail.click()
+    expect(trail).to_have_text("Spur ausblenden")
+    assert page.evaluate("window.canvasTexts").pop().startswith("Spur: "), page.evaluate("window.canvasTexts")
+    page.screenshot(path=str(OUT / "german_training.png"), full_page=True)
+    trail.click()
+    expect(trail).to_have_text("Spur zeigen")  # the page's own label (django.po), which the script toggles
 
-            # the connection drops as the answer is sent: the banner says so in German; back online, it goes
-            banner, heading = page.locator("[data-save-banner]"), page.locator("h1").inner_text()
-            context.set_offline(True)
-            submit.click()
-            expect(banner).to_be_visible()
-            expect(banner).to_have_text("Verbindung unterbrochen – Ihre Antwort bleibt erhalten und wird "
-                                        "automatisch gesendet; bitte lassen Sie diese Seite geöffnet.")
-            page.screenshot(path=str(OUT / "german_offline_banner.png"))
-            context.set_offline(False)
-            expect(page.locator("h1")).not_to_have_text(heading)  # the next page
-            expect(banner).to_be_hidden()
-            assert Participant.objects.get(platform_pid="5f0c0ffee000000000000de1").answers.filter(
-                kind=StepKind.TRAINING).exists()
-            assert not errors, errors
-            context.close()
+    # the connection drops as the answer is sent: the banner says so in German; back online, it goes
+    banner, heading = page.locator("[data-save-banner]"), page.locator("h1").inner_text()
+    context.set_offline(True)
+    submit.click()
+    expect(banner).to_be_visible()
+    expect(banner).to_have_text("Verbindung unterbrochen – Ihre Antwort bleibt erhalten und wird "
+                                "automatisch gesendet; bitte lassen Sie diese Seite geöffnet.")
+    page.screenshot(path=str(OUT / "german_offline_banner.png"))
+    context.set_offline(False)
+    expect(page.locator("h1")).not_to_have_text(heading)  # the next page
+    expect(banner).to_be_hidden()
+    assert Participant.objects.get(platform_pid="5f0c0ffee000000000000de1").answers.filter(
+        kind=StepKind.TRAINING).exists()
+    assert not errors, errors
+    context.close()
 
-            # a test: what is still to do, then one option played
-            context, page, errors = open_step(browser, live_server, study, "5f0c0ffee000000000000de2",
-                                              StepKind.TEST)
-            hint = page.locator("form[data-test-form] [data-hint]")
-            expect(hint).to_have_text("Zum Fortfahren: Option A, B, C, D abspielen; die passende Option wählen; "
-                                      "Option A, B, C, D bewerten.")
-            option = page.locator('section[data-option="A"]')
-            option.locator('[data-action="play"]').click()
-            play_all(page)
-            expect(option.locator('[data-action="play"]')).to_have_text("Nochmal A")
-            expect(option.locator(".played-flag")).to_have_text("✓\u00a0gesehen")  # kept on one line in the narrow head
-            expect(hint).to_have_text("Zum Fortfahren: Option B, C, D abspielen; die passende Option wählen; "
-                                      "Option A, B, C, D bewerten.")
-            page.screenshot(path=str(OUT / "german_test.png"), full_page=True)
-            assert not errors, errors
-            context.close()
-        finally:
-            browser.close()
+    # a test: what is still to do, then one option played
+    context, page, errors = open_step(browser, live_server, study, "5f0c0ffee000000000000de2",
+                                      StepKind.TEST)
+    hint = page.locator("form[data-test-form] [data-hint]")
+    expect(hint).to_have_text("Zum Fortfahren: Option A, B, C, D abspielen; die passende Option wählen; "
+                              "Option A, B, C, D bewerten.")
+    option = page.locator('section[data-option="A"]')
+    option.locator('[data-action="play"]').click()
+    play_all(page)
+    expect(option.locator('[data-action="play"]')).to_have_text("Nochmal A")
+    expect(option.locator(".played-flag")).to_have_text("✓\u00a0gesehen")  # kept on one line in the narrow head
+    expect(hint).to_have_text("Zum Fortfahren: Option B, C, D abspielen; die passende Option wählen; "
+                              "Option A, B, C, D bewerten.")
+    page.screenshot(path=str(OUT / "german_test.png"), full_page=True)
+    assert not errors, errors
+    context.close()

@@ -7,12 +7,12 @@ import io
 
 import pytest
 from django.core.management import call_command
-from playwright.sync_api import expect, sync_playwright
+from playwright.sync_api import expect
 
 from studyapp.models import Participant, Study
 from studyapp.studies import build_study, demo_spec
 from teaching.api import get_domain
-from tests.browser.grid_pages import CHROMIUM, OUT
+from tests.browser.grid_pages import OUT
 from tests.browser.test_participant_flow import play_all, ready
 from tests.studyapp.catalogs import english_leaks
 
@@ -87,26 +87,21 @@ def walk(page, url: str, study: Study, label: str) -> list[tuple[str, str]]:
     return seen
 
 
-def test_german_studies_of_both_robots_speak_german_on_every_page(german_studies, live_server, monkeypatch):
+def test_german_studies_of_both_robots_speak_german_on_every_page(german_studies, live_server, monkeypatch, browser):
     monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")
     driving, yard = german_studies
     OUT.mkdir(exist_ok=True)
-    with sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
-        try:
-            for study, label, pid in ((driving, "driving", "de0000000000000000000001"),
-                                      (yard, "gridworld", "de0000000000000000000002")):
-                page = browser.new_context(viewport={"width": 1200, "height": 1000}, locale="en-US").new_page()
-                page.route("https://app.prolific.com/**", lambda route: route.fulfill(status=200, body="done"))
-                errors = []
-                page.on("pageerror", lambda exc, errors=errors: errors.append(str(exc)))
-                page.clock.install()
-                seen = walk(page, f"{live_server.url}/s/{study.slug}/?PROLIFIC_PID={pid}&STUDY_ID=S&SESSION_ID=X",
-                            study, label)
-                assert page.locator("html").get_attribute("lang") == "de"
-                leaks = {name: english_leaks(text) for name, text in seen}
-                leaks = {name: found for name, found in leaks.items() if found}
-                assert not leaks, f"{label}: English on German pages: {leaks}"
-                assert not errors, errors
-        finally:
-            browser.close()
+    for study, label, pid in ((driving, "driving", "de0000000000000000000001"),
+                              (yard, "gridworld", "de0000000000000000000002")):
+        page = browser.new_context(viewport={"width": 1200, "height": 1000}, locale="en-US").new_page()
+        page.route("https://app.prolific.com/**", lambda route: route.fulfill(status=200, body="done"))
+        errors = []
+        page.on("pageerror", lambda exc, errors=errors: errors.append(str(exc)))
+        page.clock.install()
+        seen = walk(page, f"{live_server.url}/s/{study.slug}/?PROLIFIC_PID={pid}&STUDY_ID=S&SESSION_ID=X",
+                    study, label)
+        assert page.locator("html").get_attribute("lang") == "de"
+        leaks = {name: english_leaks(text) for name, text in seen}
+        leaks = {name: found for name, found in leaks.items() if found}
+        assert not leaks, f"{label}: English on German pages: {leaks}"
+        assert not errors, errors

@@ -10,17 +10,14 @@ depends on no planner.  A grid of scenes at the widths participants get is writt
 test-output/gridworld_scene.png to look at."""
 from __future__ import annotations
 
-import os
 from collections import Counter, deque
 from pathlib import Path
 
 import pytest
-from playwright.sync_api import sync_playwright
 
 from studyapp.scenes import palette_css
 from teaching.api import get_domain
 
-CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 OUT = Path(__file__).resolve().parents[2] / "test-output"
 WALL, MUD, DOG, CART = 1, 2, 3, 4  # teaching/domains/gridworld/world.py's cell codes
 STRIP = 16  # px under the yard for the move label (gridworld.js)
@@ -166,41 +163,38 @@ def probes(case: dict, w: int, h: int) -> tuple[list, list, int | None]:
     return points, patches, fetched
 
 
-def test_the_yard_scene_draws_cells_robot_and_cart_where_the_data_say(live_server):
+def test_the_yard_scene_draws_cells_robot_and_cart_where_the_data_say(live_server, browser):
     palette = get_domain("gridworld").palette
     base = cases()
     results = {}
     shots = []
-    with sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
-        for dpr in (1, 2):
-            page = browser.new_page(viewport={"width": 1500, "height": 900}, device_scale_factor=dpr)
-            errors = []
-            page.on("pageerror", lambda exc, errors=errors: errors.append(str(exc)))
-            page.goto(f"{live_server.url}/static/studyapp/study.css")  # same origin as the module
-            page.add_style_tag(content=palette_css(get_domain("gridworld")))  # as a page writes it
-            for width in WIDTHS:
-                w = max(120, width)  # the scene's smallest drawing (a narrower canvas is scaled down)
-                h = round(w * 3 / 4) + STRIP  # the 8 x 6 yard at that width, and the label strip
-                batch = []
-                meta = []
-                for case in base:
-                    points, patches, fetched = probes(case, w, h)
-                    n = len(case["robot"]) - 1
-                    after = min(n, fetched + 1) if fetched is not None else 0
-                    batch.append({**case, "points": list(points.values()), "patches": list(patches.values()),
-                                  "after": after})
-                    meta.append((case, list(points), list(patches), fetched, after))
-                got = page.evaluate(CHECK, {"cases": batch, "widths": [width]})
-                for r, m in zip(got, meta, strict=True):
-                    results[(dpr, width, r["name"])] = (r, m)
-            assert not errors, errors
-            if dpr == 1:
-                shots.append(page)
-            else:
-                page.close()
-        screenshot(shots[0], base)
-        browser.close()
+    for dpr in (1, 2):
+        page = browser.new_page(viewport={"width": 1500, "height": 900}, device_scale_factor=dpr)
+        errors = []
+        page.on("pageerror", lambda exc, errors=errors: errors.append(str(exc)))
+        page.goto(f"{live_server.url}/static/studyapp/study.css")  # same origin as the module
+        page.add_style_tag(content=palette_css(get_domain("gridworld")))  # as a page writes it
+        for width in WIDTHS:
+            w = max(120, width)  # the scene's smallest drawing (a narrower canvas is scaled down)
+            h = round(w * 3 / 4) + STRIP  # the 8 x 6 yard at that width, and the label strip
+            batch = []
+            meta = []
+            for case in base:
+                points, patches, fetched = probes(case, w, h)
+                n = len(case["robot"]) - 1
+                after = min(n, fetched + 1) if fetched is not None else 0
+                batch.append({**case, "points": list(points.values()), "patches": list(patches.values()),
+                              "after": after})
+                meta.append((case, list(points), list(patches), fetched, after))
+            got = page.evaluate(CHECK, {"cases": batch, "widths": [width]})
+            for r, m in zip(got, meta, strict=True):
+                results[(dpr, width, r["name"])] = (r, m)
+        assert not errors, errors
+        if dpr == 1:
+            shots.append(page)
+        else:
+            page.close()
+    screenshot(shots[0], base)
 
     for (dpr, width, name), (r, (case, point_names, patch_names, fetched, _after)) in results.items():
         where = (dpr, width, name)

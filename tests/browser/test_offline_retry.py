@@ -34,9 +34,8 @@ import time
 from pathlib import Path
 
 import pytest
-from playwright.sync_api import Error, expect, sync_playwright
+from playwright.sync_api import Error, expect
 
-CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 ROOT = Path(__file__).resolve().parents[2]
 OUT = ROOT / "test-output"
 
@@ -124,146 +123,141 @@ def stored_answers(db: Path, token: str) -> list[tuple[int, str, int | None, dic
     return [(step, kind, item, json.loads(data)) for step, kind, item, data in rows]
 
 
-def test_answers_survive_a_server_outage(server, tmp_path):
+def test_answers_survive_a_server_outage(server, tmp_path, browser):
     OUT.mkdir(exist_ok=True)
     base = f"http://127.0.0.1:{server.port}"
-    with sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
-        try:
-            # declining posts the plain form (the server answers it with a page, not JSON)
-            other = browser.new_context().new_page()
-            other.goto(f"{base}/s/demo/")
-            other.get_by_role("button", name="I do not agree").click()
-            expect(other.locator("h1")).to_have_text("You chose not to take part")
-            other.context.close()
-            # without JavaScript the forms post as they are
-            other = browser.new_context(java_script_enabled=False).new_page()
-            other.goto(f"{base}/s/demo/")
-            other.get_by_role("button", name="I agree, start the study").click()
-            expect(other.locator("h1")).to_have_text("Instructions")
-            other.context.close()
+    # declining posts the plain form (the server answers it with a page, not JSON)
+    other = browser.new_context().new_page()
+    other.goto(f"{base}/s/demo/")
+    other.get_by_role("button", name="I do not agree").click()
+    expect(other.locator("h1")).to_have_text("You chose not to take part")
+    other.context.close()
+    # without JavaScript the forms post as they are
+    other = browser.new_context(java_script_enabled=False).new_page()
+    other.goto(f"{base}/s/demo/")
+    other.get_by_role("button", name="I agree, start the study").click()
+    expect(other.locator("h1")).to_have_text("Instructions")
+    other.context.close()
 
-            # The outage below falls between two examples; a condition may have one (exact IRL needs a
-            # single example on the demo table), and assignment breaks ties at random, so a
-            # participant who drew one starts again as a new participant (then another condition).
-            for _attempt in range(3):
-                context = browser.new_context(viewport={"width": 1200, "height": 1000})
-                page = context.new_page()
-                errors, failed_posts = [], []
-                page.on("pageerror", lambda exc: errors.append(str(exc)))  # noqa: B023
-                page.on("requestfailed",
-                        lambda r: failed_posts.append(r.url) if r.method == "POST" else None)  # noqa: B023
-                page.clock.install()
-                h1, banner = page.locator("h1"), page.locator("[data-save-banner]")
-                page.goto(f"{base}/s/demo/")
-                page.get_by_role("button", name="I agree, start the study").click()
-                expect(h1).to_have_text("Instructions")
-                page.get_by_role("button", name="Start the examples").click()
-                expect(h1).to_contain_text("Example 1 of")
-                n_train = int(h1.inner_text().rsplit(" ", 1)[1])
-                if n_train >= 2:
-                    break
-                context.close()
-            assert n_train >= 2
+    # The outage below falls between two examples; a condition may have one (exact IRL needs a
+    # single example on the demo table), and assignment breaks ties at random, so a
+    # participant who drew one starts again as a new participant (then another condition).
+    for _attempt in range(3):
+        context = browser.new_context(viewport={"width": 1200, "height": 1000})
+        page = context.new_page()
+        errors, failed_posts = [], []
+        page.on("pageerror", lambda exc: errors.append(str(exc)))  # noqa: B023
+        page.on("requestfailed",
+                lambda r: failed_posts.append(r.url) if r.method == "POST" else None)  # noqa: B023
+        page.clock.install()
+        h1, banner = page.locator("h1"), page.locator("[data-save-banner]")
+        page.goto(f"{base}/s/demo/")
+        page.get_by_role("button", name="I agree, start the study").click()
+        expect(h1).to_have_text("Instructions")
+        page.get_by_role("button", name="Start the examples").click()
+        expect(h1).to_contain_text("Example 1 of")
+        n_train = int(h1.inner_text().rsplit(" ", 1)[1])
+        if n_train >= 2:
+            break
+        context.close()
+    assert n_train >= 2
 
-            def ready():
-                page.wait_for_selector("body[data-ready]", state="attached")
+    def ready():
+        page.wait_for_selector("body[data-ready]", state="attached")
 
-            for i in range(n_train):
-                expect(h1).to_have_text(f"Example {i + 1} of {n_train}")
-                ready()
-                page.clock.run_for(5600)  # the autoplayed animation, to its end
-                submit = page.locator('form[data-save] button[type="submit"]')
-                expect(submit).to_be_enabled()
-                if i == 0:
-                    # offline: kept and retried with backoff; back online: sent at once. The page's
-                    # clock stands still from here, so only the test's steps fire the backoff's
-                    # timers and what sends the answer at the end can only be the "online" event.
-                    pause_clock(page)
-                    context.set_offline(True)
-                    submit.click()
-                    expect(banner).to_be_visible()
-                    expect(banner).to_contain_text("Connection lost")
-                    # the 4th try fails after the backoff's 0.5-1, 1-2 and 2-4 s; the next waits 4-8 s
-                    advance_until(page, lambda: len(failed_posts) >= 4)
-                    page.wait_for_timeout(300)  # a try the last step fired has failed by now
-                    tries = len(failed_posts)
-                    context.set_offline(False)
-                    expect(h1).to_have_text(f"Example 2 of {n_train}", timeout=60_000)
-                    expect(banner).to_be_hidden()
-                    assert len(failed_posts) == tries
-                    page.clock.resume()
-                    continue
-                submit.click()
+    for i in range(n_train):
+        expect(h1).to_have_text(f"Example {i + 1} of {n_train}")
+        ready()
+        page.clock.run_for(5600)  # the autoplayed animation, to its end
+        submit = page.locator('form[data-save] button[type="submit"]')
+        expect(submit).to_be_enabled()
+        if i == 0:
+            # offline: kept and retried with backoff; back online: sent at once. The page's
+            # clock stands still from here, so only the test's steps fire the backoff's
+            # timers and what sends the answer at the end can only be the "online" event.
+            pause_clock(page)
+            context.set_offline(True)
+            submit.click()
+            expect(banner).to_be_visible()
+            expect(banner).to_contain_text("Connection lost")
+            # the 4th try fails after the backoff's 0.5-1, 1-2 and 2-4 s; the next waits 4-8 s
+            advance_until(page, lambda: len(failed_posts) >= 4)
+            page.wait_for_timeout(300)  # a try the last step fired has failed by now
+            tries = len(failed_posts)
+            context.set_offline(False)
+            expect(h1).to_have_text(f"Example 2 of {n_train}", timeout=60_000)
+            expect(banner).to_be_hidden()
+            assert len(failed_posts) == tries
+            page.clock.resume()
+            continue
+        submit.click()
 
-            chosen = {}
-            for j in range(6):
-                expect(h1).to_have_text(f"Question {j + 1} of 6")
-                ready()
-                for play in page.locator('[data-action="play"]').all():
-                    play.click()
-                page.clock.run_for(5600)
-                choice = page.locator('input[name="choice"]').nth(j % 4)
-                choice.check()
-                for group in page.locator(".rating").all():
-                    group.locator(f'input[value="{2 + j % 5}"]').check()
-                chosen[j] = choice.get_attribute("value")  # the option's letter: the page has no other id
-                submit = page.locator('#test-form button[type="submit"]')
-                expect(submit).to_be_enabled()
-                if j == 1:
-                    server.kill()
-                    before = len(failed_posts)
-                    submit.click()
-                    expect(banner).to_contain_text("Connection lost")
-                    expect(banner).to_be_visible()
-                    page.wait_for_timeout(2000)
-                    assert len(failed_posts) >= before + 2  # it kept trying while the server was down
-                    expect(h1).to_have_text("Question 2 of 6")  # the page and its answer stay
-                    assert page.locator('input[name="choice"]:checked').get_attribute("value") == chosen[1]
-                    page.screenshot(path=str(OUT / "offline_banner.png"))
-                    server.start()
-                    expect(h1).to_have_text("Question 3 of 6", timeout=30_000)  # by itself
-                    expect(banner).to_be_hidden()
-                    continue
-                if j == 2:
-                    answer_url = page.locator("#test-form").evaluate("f => f.action")
-                    calls = []
+    chosen = {}
+    for j in range(6):
+        expect(h1).to_have_text(f"Question {j + 1} of 6")
+        ready()
+        for play in page.locator('[data-action="play"]').all():
+            play.click()
+        page.clock.run_for(5600)
+        choice = page.locator('input[name="choice"]').nth(j % 4)
+        choice.check()
+        for group in page.locator(".rating").all():
+            group.locator(f'input[value="{2 + j % 5}"]').check()
+        chosen[j] = choice.get_attribute("value")  # the option's letter: the page has no other id
+        submit = page.locator('#test-form button[type="submit"]')
+        expect(submit).to_be_enabled()
+        if j == 1:
+            server.kill()
+            before = len(failed_posts)
+            submit.click()
+            expect(banner).to_contain_text("Connection lost")
+            expect(banner).to_be_visible()
+            page.wait_for_timeout(2000)
+            assert len(failed_posts) >= before + 2  # it kept trying while the server was down
+            expect(h1).to_have_text("Question 2 of 6")  # the page and its answer stay
+            assert page.locator('input[name="choice"]:checked').get_attribute("value") == chosen[1]
+            page.screenshot(path=str(OUT / "offline_banner.png"))
+            server.start()
+            expect(h1).to_have_text("Question 3 of 6", timeout=30_000)  # by itself
+            expect(banner).to_be_hidden()
+            continue
+        if j == 2:
+            answer_url = page.locator("#test-form").evaluate("f => f.action")
+            calls = []
 
-                    def refuse(route):
-                        calls.append(route.request.url)  # noqa: B023  (runs in this iteration: times=1)
-                        route.fulfill(status=400, content_type="application/json",
-                                      body=json.dumps({"ok": False, "error": "That answer looks odd."}))
+            def refuse(route):
+                calls.append(route.request.url)  # noqa: B023  (runs in this iteration: times=1)
+                route.fulfill(status=400, content_type="application/json",
+                              body=json.dumps({"ok": False, "error": "That answer looks odd."}))
 
-                    page.route(answer_url, refuse, times=1)
-                    submit.click()
-                    expect(page.locator(".save-error")).to_have_text("That answer looks odd.")
-                    expect(submit).to_be_enabled()
-                    page.wait_for_timeout(1500)
-                    assert len(calls) == 1 and not banner.is_visible()  # a refusal is not retried
+            page.route(answer_url, refuse, times=1)
+            submit.click()
+            expect(page.locator(".save-error")).to_have_text("That answer looks odd.")
+            expect(submit).to_be_enabled()
+            page.wait_for_timeout(1500)
+            assert len(calls) == 1 and not banner.is_visible()  # a refusal is not retried
 
-                    def busy(route):
-                        route.fulfill(status=429, headers={"Retry-After": "1"}, content_type="application/json",
-                                      body=json.dumps({"ok": False, "error": "Too many requests."}))
+            def busy(route):
+                route.fulfill(status=429, headers={"Retry-After": "1"}, content_type="application/json",
+                              body=json.dumps({"ok": False, "error": "Too many requests."}))
 
-                    page.route(answer_url, busy, times=1)
-                    submit.click()
-                    expect(banner).to_contain_text("busy")
-                    expect(h1).to_have_text("Question 4 of 6")
-                    continue
-                submit.click()
+            page.route(answer_url, busy, times=1)
+            submit.click()
+            expect(banner).to_contain_text("busy")
+            expect(h1).to_have_text("Question 4 of 6")
+            continue
+        submit.click()
 
-            expect(h1).to_have_text("One more question")
-            page.get_by_label("Merge into the right lane").check()
-            page.get_by_label("Drive forward").check()
-            page.get_by_role("button", name="Continue").click()
-            expect(h1).to_have_text("About you")
-            page.locator("#age").fill("41")
-            page.get_by_label("Female").check()
-            page.get_by_role("button", name="Finish").click()
-            expect(h1).to_have_text("Thank you!")
-            token = page.url.rstrip("/").rsplit("/", 1)[1]
-        finally:
-            browser.close()
+    expect(h1).to_have_text("One more question")
+    page.get_by_label("Merge into the right lane").check()
+    page.get_by_label("Drive forward").check()
+    page.get_by_role("button", name="Continue").click()
+    expect(h1).to_have_text("About you")
+    page.locator("#age").fill("41")
+    page.get_by_label("Female").check()
+    page.get_by_role("button", name="Finish").click()
+    expect(h1).to_have_text("Thank you!")
+    token = page.url.rstrip("/").rsplit("/", 1)[1]
 
     assert not errors, errors
     answers = stored_answers(tmp_path / "db.sqlite3", token)

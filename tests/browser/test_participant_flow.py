@@ -11,18 +11,16 @@ answers and the redirect to Prolific's completion URL are checked.
 """
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import pytest
 from django.db import connections
-from playwright.sync_api import expect, sync_playwright
+from playwright.sync_api import expect
 
 from studyapp import flow
 from studyapp.models import Answer, Participant
 from studyapp.studies import build_study, demo_spec
 
-CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 OUT = Path(__file__).resolve().parents[2] / "test-output"
 PID, STUDY_ID, SESSION_ID = "5f0c0ffee0000000000000ab", "st-1", "se-1"
 
@@ -79,130 +77,127 @@ def answer_test_by_keyboard(page, choose_label="A", rating=5):
     page.keyboard.press("Enter")
 
 
-def test_participant_flow_in_chromium(demo_study, live_server, monkeypatch):  # db first: torn down after the server
+def test_participant_flow_in_chromium(demo_study, live_server, monkeypatch, browser):  # db first: last torn down
 
     # ORM checks below run beside Playwright's loop (undone after)
     monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")
     OUT.mkdir(exist_ok=True)
     entry = f"{live_server.url}/s/{demo_study.slug}/?PROLIFIC_PID={PID}&STUDY_ID={STUDY_ID}&SESSION_ID={SESSION_ID}"
-    with sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
-        context = browser.new_context(viewport={"width": 1200, "height": 1000})
-        page = context.new_page()
-        errors = []
-        page.on("pageerror", lambda exc: errors.append(str(exc)))
-        # the participant pages' Content-Security-Policy must not block anything they need
-        page.on("console", lambda msg: errors.append(msg.text) if "Content Security Policy" in msg.text else None)
-        completed = []
-        page.route("https://app.prolific.com/**", lambda route: (completed.append(route.request.url), route.fulfill(
-            status=200, content_type="text/html", body="<h1>Prolific: submission complete</h1>"))[-1])
-        page.clock.install()
+    context = browser.new_context(viewport={"width": 1200, "height": 1000})
+    page = context.new_page()
+    errors = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    # the participant pages' Content-Security-Policy must not block anything they need
+    page.on("console", lambda msg: errors.append(msg.text) if "Content Security Policy" in msg.text else None)
+    completed = []
+    page.route("https://app.prolific.com/**", lambda route: (completed.append(route.request.url), route.fulfill(
+        status=200, content_type="text/html", body="<h1>Prolific: submission complete</h1>"))[-1])
+    page.clock.install()
 
-        # consent and instructions, keyboard only
-        page.goto(entry)
-        expect(page.locator("h1")).to_have_text("Consent to take part")
-        tab_to(page, 'button[value="yes"]')
-        page.keyboard.press("Enter")
-        expect(page.locator("h1")).to_have_text("Instructions")
-        tab_to(page, "button.primary")
-        page.keyboard.press("Enter")
+    # consent and instructions, keyboard only
+    page.goto(entry)
+    expect(page.locator("h1")).to_have_text("Consent to take part")
+    tab_to(page, 'button[value="yes"]')
+    page.keyboard.press("Enter")
+    expect(page.locator("h1")).to_have_text("Instructions")
+    tab_to(page, "button.primary")
+    page.keyboard.press("Enter")
 
-        p = Participant.objects.get(platform_pid=PID)
-        assert (p.platform, p.platform_study_id, p.platform_session_id) == ("prolific", STUDY_ID, SESSION_ID)
-        n_train = len(p.condition.training)
+    p = Participant.objects.get(platform_pid=PID)
+    assert (p.platform, p.platform_study_id, p.platform_session_id) == ("prolific", STUDY_ID, SESSION_ID)
+    n_train = len(p.condition.training)
 
-        # training: each example autoplays; "next" unlocks only at the end of the animation
-        for i in range(n_train):
-            expect(page.locator("h1")).to_have_text(f"Example {i + 1} of {n_train}")
-            submit = page.locator('form[data-require-played] button[type="submit"]')
+    # training: each example autoplays; "next" unlocks only at the end of the animation
+    for i in range(n_train):
+        expect(page.locator("h1")).to_have_text(f"Example {i + 1} of {n_train}")
+        submit = page.locator('form[data-require-played] button[type="submit"]')
+        ready(page)
+        expect(page.locator(".scene")).to_have_attribute("data-state", "playing")  # it autoplays
+        page.clock.run_for(2500)
+        assert submit.is_disabled()
+        if i == 0:
+            page.screenshot(path=str(OUT / "training.png"))
+        play_all(page, 3200)
+        expect(submit).to_be_enabled()
+        if i == 0:
+            page.locator('[data-action="trail"]').click()
+            expect(page.locator('[data-action="trail"]')).to_have_attribute("aria-pressed", "true")
+            page.screenshot(path=str(OUT / "training_trail.png"))
+            page.locator('[data-action="play"]').click()  # replay works after the trail
+            play_all(page)
+        if i == 1:  # reloading a watched example keeps it watched
+            page.reload()
             ready(page)
-            expect(page.locator(".scene")).to_have_attribute("data-state", "playing")  # it autoplays
-            page.clock.run_for(2500)
-            assert submit.is_disabled()
-            if i == 0:
-                page.screenshot(path=str(OUT / "training.png"))
-            play_all(page, 3200)
+            expect(page.locator("h1")).to_have_text(f"Example 2 of {n_train}")
             expect(submit).to_be_enabled()
-            if i == 0:
-                page.locator('[data-action="trail"]').click()
-                expect(page.locator('[data-action="trail"]')).to_have_attribute("aria-pressed", "true")
-                page.screenshot(path=str(OUT / "training_trail.png"))
-                page.locator('[data-action="play"]').click()  # replay works after the trail
-                play_all(page)
-            if i == 1:  # reloading a watched example keeps it watched
-                page.reload()
-                ready(page)
-                expect(page.locator("h1")).to_have_text(f"Example 2 of {n_train}")
-                expect(submit).to_be_enabled()
-            submit.click()
+        submit.click()
 
-        # test 1 by keyboard alone
-        expect(page.locator("h1")).to_have_text("Question 1 of 6")
-        assert page.locator('#test-form button[type="submit"]').is_disabled()
-        for selector in ('[data-action="play"]', '[data-action="trail"]', 'input[name="choice"]',
-                         'input[name^="rating_"]'):
-            tab_to(page, selector)  # every kind of control is in the tab order
-        page.screenshot(path=str(OUT / "test.png"), full_page=True)
-        answer_test_by_keyboard(page, choose_label="A", rating=6)
+    # test 1 by keyboard alone
+    expect(page.locator("h1")).to_have_text("Question 1 of 6")
+    assert page.locator('#test-form button[type="submit"]').is_disabled()
+    for selector in ('[data-action="play"]', '[data-action="trail"]', 'input[name="choice"]',
+                     'input[name^="rating_"]'):
+        tab_to(page, selector)  # every kind of control is in the tab order
+    page.screenshot(path=str(OUT / "test.png"), full_page=True)
+    answer_test_by_keyboard(page, choose_label="A", rating=6)
 
-        # the back button shows the current step, never the stored question
-        expect(page.locator("h1")).to_have_text("Question 2 of 6")
-        page.go_back()
-        expect(page.locator("h1")).to_have_text("Question 2 of 6")
+    # the back button shows the current step, never the stored question
+    expect(page.locator("h1")).to_have_text("Question 2 of 6")
+    page.go_back()
+    expect(page.locator("h1")).to_have_text("Question 2 of 6")
 
-        # test 2, then test 3 half done and the page reloaded: it resumes at test 3
-        answer_test_by_keyboard(page, choose_label="B", rating=4)
-        expect(page.locator("h1")).to_have_text("Question 3 of 6")
-        labels_before = [page.locator(".scene").nth(k).get_attribute("data-robot") for k in range(4)]
-        ready(page)
-        page.locator('[data-action="play"]').first.click()
-        play_all(page)
-        first = page.locator("section[data-option]").first
-        first_rating = page.locator('.rating[data-option="A"] input[value="3"]')
-        first_rating.check()
-        page.reload()
-        expect(page.locator("h1")).to_have_text("Question 3 of 6")
-        ready(page)
-        # the step is shown as it was left: option A played and rated 3, the rest still to do
-        expect(first).to_have_class("option played")
-        assert first_rating.is_checked()
-        assert page.locator("section.played").count() == 1
-        assert page.locator('#test-form button[type="submit"]').is_disabled()
-        assert [page.locator(".scene").nth(k).get_attribute("data-robot") for k in range(4)] == labels_before
-        p.refresh_from_db()
-        assert Answer.objects.filter(participant=p, kind="test").count() == 2
-        assert flow.current_step(p).kind == "test" and flow.current_step(p).item == 2
+    # test 2, then test 3 half done and the page reloaded: it resumes at test 3
+    answer_test_by_keyboard(page, choose_label="B", rating=4)
+    expect(page.locator("h1")).to_have_text("Question 3 of 6")
+    labels_before = [page.locator(".scene").nth(k).get_attribute("data-robot") for k in range(4)]
+    ready(page)
+    page.locator('[data-action="play"]').first.click()
+    play_all(page)
+    first = page.locator("section[data-option]").first
+    first_rating = page.locator('.rating[data-option="A"] input[value="3"]')
+    first_rating.check()
+    page.reload()
+    expect(page.locator("h1")).to_have_text("Question 3 of 6")
+    ready(page)
+    # the step is shown as it was left: option A played and rated 3, the rest still to do
+    expect(first).to_have_class("option played")
+    assert first_rating.is_checked()
+    assert page.locator("section.played").count() == 1
+    assert page.locator('#test-form button[type="submit"]').is_disabled()
+    assert [page.locator(".scene").nth(k).get_attribute("data-robot") for k in range(4)] == labels_before
+    p.refresh_from_db()
+    assert Answer.objects.filter(participant=p, kind="test").count() == 2
+    assert flow.current_step(p).kind == "test" and flow.current_step(p).item == 2
 
-        # a new tab with the same Prolific link lands on the same question
-        tab = context.new_page()
-        tab.clock.install()
-        tab.goto(entry)
-        expect(tab.locator("h1")).to_have_text("Question 3 of 6")
-        expect(tab.locator("section.played")).to_have_count(1)
-        tab.set_viewport_size({"width": 375, "height": 800})  # phone width: no sideways scrolling
-        tab.reload()
-        assert tab.evaluate("document.documentElement.scrollWidth") <= 375
-        tab.screenshot(path=str(OUT / "test_phone.png"), full_page=True)
-        tab.close()
+    # a new tab with the same Prolific link lands on the same question
+    tab = context.new_page()
+    tab.clock.install()
+    tab.goto(entry)
+    expect(tab.locator("h1")).to_have_text("Question 3 of 6")
+    expect(tab.locator("section.played")).to_have_count(1)
+    tab.set_viewport_size({"width": 375, "height": 800})  # phone width: no sideways scrolling
+    tab.reload()
+    assert tab.evaluate("document.documentElement.scrollWidth") <= 375
+    tab.screenshot(path=str(OUT / "test_phone.png"), full_page=True)
+    tab.close()
 
-        for j, label in zip(range(2, 6), "CDAB", strict=True):
-            answer_test_by_keyboard(page, choose_label=label, rating=3 + j % 3)
-        expect(page.locator("h1")).to_have_text("One more question")
-        page.get_by_label("Merge into the right lane").check()
-        page.get_by_label("Drive forward").check()
-        page.get_by_role("button", name="Continue").click()
-        expect(page.locator("h1")).to_have_text("About you")
-        page.locator("#age").fill("29")
-        page.get_by_label("Non-binary").check()
-        assert not completed  # not sent back before the last answer is stored
-        page.get_by_role("button", name="Finish").click()
-        expect(page.locator("h1")).to_have_text("Thank you!")
-        code = page.locator("#completion-code").inner_text()
-        page.clock.run_for(4000)
-        page.wait_for_url("https://app.prolific.com/**", timeout=60_000)  # a hang guard
-        expect(page.locator("h1")).to_have_text("Prolific: submission complete")
-        browser.close()
-        connections.close_all()  # the ORM calls above ran in Playwright's context: close its connection
+    for j, label in zip(range(2, 6), "CDAB", strict=True):
+        answer_test_by_keyboard(page, choose_label=label, rating=3 + j % 3)
+    expect(page.locator("h1")).to_have_text("One more question")
+    page.get_by_label("Merge into the right lane").check()
+    page.get_by_label("Drive forward").check()
+    page.get_by_role("button", name="Continue").click()
+    expect(page.locator("h1")).to_have_text("About you")
+    page.locator("#age").fill("29")
+    page.get_by_label("Non-binary").check()
+    assert not completed  # not sent back before the last answer is stored
+    page.get_by_role("button", name="Finish").click()
+    expect(page.locator("h1")).to_have_text("Thank you!")
+    code = page.locator("#completion-code").inner_text()
+    page.clock.run_for(4000)
+    page.wait_for_url("https://app.prolific.com/**", timeout=60_000)  # a hang guard
+    expect(page.locator("h1")).to_have_text("Prolific: submission complete")
+    connections.close_all()  # the ORM calls above ran in Playwright's context: close its connection
 
     assert not errors, errors  # page errors and CSP violations
     p.refresh_from_db()

@@ -3,17 +3,15 @@ asks for reduced motion, and a training example that repeats an earlier one says
 purpose.  Debian's Chromium through Playwright, against the live test server."""
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import pytest
-from playwright.sync_api import expect, sync_playwright
+from playwright.sync_api import expect
 
 from studyapp import flow
 from studyapp.assignment import assign
 from tests.conftest import complete_flow
 
-CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 OUT = Path(__file__).resolve().parents[2] / "test-output"
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
@@ -35,43 +33,41 @@ def next_button(page):
 
 
 @pytest.mark.parametrize("motion", ["reduce", "no-preference"])
-def test_training_autoplays_only_without_reduced_motion_and_repeats_are_announced(repeating, live_server, motion):
+def test_training_autoplays_only_without_reduced_motion_and_repeats_are_announced(repeating, live_server, motion,
+                                                                                  browser):
     url = f"{live_server.url}{repeating.get_absolute_url()}"
-    with sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
-        page = browser.new_page(viewport={"width": 1280, "height": 900}, reduced_motion=motion)
-        errors = []
-        page.on("pageerror", lambda exc: errors.append(str(exc)))
-        page.clock.install()
-        page.goto(url)
-        page.wait_for_selector("body[data-ready]", state="attached")
-        expect(page.locator("h1")).to_have_text("Example 1 of 3")
-        expect(page.locator(".repeat")).to_have_count(0)  # the first showing is no repeat
-        page.clock.run_for(8000)  # longer than any drive
-        if motion == "reduce":  # nothing moved: still at t = 0, waiting for Play
-            expect(next_button(page)).to_be_disabled()
-            assert page.evaluate("document.querySelector('canvas').scene.t") == 0
-            expect(page.locator(".hint")).to_contain_text("Press Play")
-            page.locator("[data-action=play]").click()
-            page.clock.run_for(8000)
-        expect(next_button(page)).to_be_enabled()
-        next_button(page).click()
-        expect(page.locator("h1")).to_have_text("Example 2 of 3")
-        notice = page.locator(".repeat")
-        expect(notice).to_contain_text("You have seen this situation before (example 1)")
-        expect(notice).to_contain_text("on purpose")
-        if motion == "reduce":
-            OUT.mkdir(exist_ok=True)
-            page.screenshot(path=str(OUT / "training_repeat_reduced_motion.png"))
+    page = browser.new_page(viewport={"width": 1280, "height": 900}, reduced_motion=motion)
+    errors = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    page.clock.install()
+    page.goto(url)
+    page.wait_for_selector("body[data-ready]", state="attached")
+    expect(page.locator("h1")).to_have_text("Example 1 of 3")
+    expect(page.locator(".repeat")).to_have_count(0)  # the first showing is no repeat
+    page.clock.run_for(8000)  # longer than any drive
+    if motion == "reduce":  # nothing moved: still at t = 0, waiting for Play
+        expect(next_button(page)).to_be_disabled()
+        assert page.evaluate("document.querySelector('canvas').scene.t") == 0
+        expect(page.locator(".hint")).to_contain_text("Press Play")
+        page.locator("[data-action=play]").click()
         page.clock.run_for(8000)
-        if motion == "reduce":
-            expect(next_button(page)).to_be_disabled()
-            page.locator("[data-action=play]").click()
-            page.clock.run_for(8000)
-        next_button(page).click()
-        expect(page.locator("h1")).to_have_text("Example 3 of 3")
-        expect(page.locator(".repeat")).to_have_count(0)  # another environment: no notice
-        browser.close()
+    expect(next_button(page)).to_be_enabled()
+    next_button(page).click()
+    expect(page.locator("h1")).to_have_text("Example 2 of 3")
+    notice = page.locator(".repeat")
+    expect(notice).to_contain_text("You have seen this situation before (example 1)")
+    expect(notice).to_contain_text("on purpose")
+    if motion == "reduce":
+        OUT.mkdir(exist_ok=True)
+        page.screenshot(path=str(OUT / "training_repeat_reduced_motion.png"))
+    page.clock.run_for(8000)
+    if motion == "reduce":
+        expect(next_button(page)).to_be_disabled()
+        page.locator("[data-action=play]").click()
+        page.clock.run_for(8000)
+    next_button(page).click()
+    expect(page.locator("h1")).to_have_text("Example 3 of 3")
+    expect(page.locator(".repeat")).to_have_count(0)  # another environment: no notice
     assert not errors, errors
 
 
@@ -130,75 +126,72 @@ def arrival(transactional_db, make_study):
     return make_study("phone", sequences={"alpha": [500, 5780]})
 
 
-def test_a_whole_flow_on_a_phone(arrival, live_server):
+def test_a_whole_flow_on_a_phone(arrival, live_server, browser):
     """390 x 844, DPR 2, touch: every page's targets at least 44 x 44 CSS px and its text at 4.5:1, and on
     each test the ratings and Next on one screen together (scrolled to Next), and each of the four
     animations, as wide as the screen allows, whole on screen when scrolled to (the options' strips are
     one above another: the four together are taller than a phone's screen)."""
     OUT.mkdir(exist_ok=True)
     seen = []
-    with sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
-        context = browser.new_context(viewport={"width": 390, "height": 844}, device_scale_factor=2,
-                                      has_touch=True, is_mobile=True)
-        page = context.new_page()
-        errors = []
-        page.on("pageerror", lambda exc: errors.append(str(exc)))
-        page.clock.install()
-        page.goto(f"{live_server.url}/s/{arrival.slug}/?PROLIFIC_PID=phone1&STUDY_ID=S&SESSION_ID=X")
-        expect(page.locator("h1")).to_have_text("Consent to take part")
-        check_page(page, "consent", seen)
-        page.get_by_role("button", name="I agree, start the study").tap()
-        expect(page.locator("h1")).to_have_text("Instructions")
-        check_page(page, "instructions", seen)
-        page.get_by_role("button", name="Start the examples").tap()
-        for i in range(2):
-            expect(page.locator("h1")).to_have_text(f"Example {i + 1} of 2")
-            page.wait_for_selector("body[data-ready]", state="attached")
-            page.clock.run_for(8000)
-            check_page(page, "training", seen)
-            next_button(page).tap()
-        for j in range(6):
-            expect(page.locator("h1")).to_have_text(f"Question {j + 1} of 6")
-            page.wait_for_selector("body[data-ready]", state="attached")
-            page.locator("[data-action=play-all]").tap()
-            page.clock.run_for(8000)
-            expect(page.locator("section.played")).to_have_count(4)
-            submit = page.locator("#test-form button[type=submit]")
-            # scrolled so that Next is on screen: every rating and Next are too
-            submit.scroll_into_view_if_needed()
-            boxes = {what: rect(page, sel) for what, sel in (("tile", ".answer .tile"),
-                                                               ("next", "#test-form button[type=submit]"))}
-            assert len(boxes["tile"]) == 4 + 4 * 7
-            if j == 0:
-                page.screenshot(path=str(OUT / "phone_test_while_rating.png"))
-            off = [(what, b) for what, bs in boxes.items() for b in bs
-                   if b["top"] < 0 or b["bottom"] > 844 or b["left"] < 0 or b["right"] > 390]
-            assert not off, (j, off[:4])
-            for k in range(4):  # each animation whole on screen once scrolled to
-                page.locator(".option canvas").nth(k).scroll_into_view_if_needed()
-                b = rect(page, ".option canvas")[k]
-                assert b["top"] >= 0 and b["bottom"] <= 844 and b["left"] >= 0 and b["right"] <= 390, (j, k, b)
-                assert b["right"] - b["left"] >= 390 - 30, (j, k, b)
-            page.locator('.choice input[value="B"]').check()
-            for row in page.locator(".rating").all():
-                row.locator('input[value="4"]').check()
-            if j == 0:
-                check_page(page, "test", seen)
-            submit.tap()
-        expect(page.locator("h1")).to_have_text("One more question")
-        check_page(page, "attention", seen)
-        page.get_by_label("Merge into the right lane").check()
-        page.get_by_label("Drive forward").check()
-        page.get_by_role("button", name="Continue").tap()
-        expect(page.locator("h1")).to_have_text("About you")
-        check_page(page, "demographics", seen)
-        page.locator("#age").fill("30")
-        page.locator('input[name="gender"]').first.check()
-        page.route("https://app.prolific.com/**", lambda route: route.fulfill(status=200, body="done"))
-        page.get_by_role("button", name="Finish").tap()
-        expect(page.locator("h1")).to_have_text("Thank you!")
-        check_page(page, "done", seen)
-        browser.close()
+    context = browser.new_context(viewport={"width": 390, "height": 844}, device_scale_factor=2,
+                                  has_touch=True, is_mobile=True)
+    page = context.new_page()
+    errors = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    page.clock.install()
+    page.goto(f"{live_server.url}/s/{arrival.slug}/?PROLIFIC_PID=phone1&STUDY_ID=S&SESSION_ID=X")
+    expect(page.locator("h1")).to_have_text("Consent to take part")
+    check_page(page, "consent", seen)
+    page.get_by_role("button", name="I agree, start the study").tap()
+    expect(page.locator("h1")).to_have_text("Instructions")
+    check_page(page, "instructions", seen)
+    page.get_by_role("button", name="Start the examples").tap()
+    for i in range(2):
+        expect(page.locator("h1")).to_have_text(f"Example {i + 1} of 2")
+        page.wait_for_selector("body[data-ready]", state="attached")
+        page.clock.run_for(8000)
+        check_page(page, "training", seen)
+        next_button(page).tap()
+    for j in range(6):
+        expect(page.locator("h1")).to_have_text(f"Question {j + 1} of 6")
+        page.wait_for_selector("body[data-ready]", state="attached")
+        page.locator("[data-action=play-all]").tap()
+        page.clock.run_for(8000)
+        expect(page.locator("section.played")).to_have_count(4)
+        submit = page.locator("#test-form button[type=submit]")
+        # scrolled so that Next is on screen: every rating and Next are too
+        submit.scroll_into_view_if_needed()
+        boxes = {what: rect(page, sel) for what, sel in (("tile", ".answer .tile"),
+                                                           ("next", "#test-form button[type=submit]"))}
+        assert len(boxes["tile"]) == 4 + 4 * 7
+        if j == 0:
+            page.screenshot(path=str(OUT / "phone_test_while_rating.png"))
+        off = [(what, b) for what, bs in boxes.items() for b in bs
+               if b["top"] < 0 or b["bottom"] > 844 or b["left"] < 0 or b["right"] > 390]
+        assert not off, (j, off[:4])
+        for k in range(4):  # each animation whole on screen once scrolled to
+            page.locator(".option canvas").nth(k).scroll_into_view_if_needed()
+            b = rect(page, ".option canvas")[k]
+            assert b["top"] >= 0 and b["bottom"] <= 844 and b["left"] >= 0 and b["right"] <= 390, (j, k, b)
+            assert b["right"] - b["left"] >= 390 - 30, (j, k, b)
+        page.locator('.choice input[value="B"]').check()
+        for row in page.locator(".rating").all():
+            row.locator('input[value="4"]').check()
+        if j == 0:
+            check_page(page, "test", seen)
+        submit.tap()
+    expect(page.locator("h1")).to_have_text("One more question")
+    check_page(page, "attention", seen)
+    page.get_by_label("Merge into the right lane").check()
+    page.get_by_label("Drive forward").check()
+    page.get_by_role("button", name="Continue").tap()
+    expect(page.locator("h1")).to_have_text("About you")
+    check_page(page, "demographics", seen)
+    page.locator("#age").fill("30")
+    page.locator('input[name="gender"]').first.check()
+    page.route("https://app.prolific.com/**", lambda route: route.fulfill(status=200, body="done"))
+    page.get_by_role("button", name="Finish").tap()
+    expect(page.locator("h1")).to_have_text("Thank you!")
+    check_page(page, "done", seen)
     assert not errors, errors
     assert seen == ["consent", "instructions", "training", "training", "test", "attention", "demographics", "done"]

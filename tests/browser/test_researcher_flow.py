@@ -9,18 +9,16 @@ PostgreSQL or Redis fails the test instead of skipping it.
 """
 from __future__ import annotations
 
-import os
 import re
 import subprocess
 import sys
 
 import pytest
-from playwright.sync_api import expect, sync_playwright
+from playwright.sync_api import expect
 
 from tests.load import harness
 from tests.services import PG_URL, postgres_reachable, redis_reachable
 
-CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 USER, PASSWORD = "ada", "a-long-and-unusual-passphrase-42"
 # On 24 θ one environment alone shows "braking: change lane": a study whose sequences take it has
 # no test set, so the study is exact's selection and a hand-picked condition (tiny table ids).
@@ -144,17 +142,14 @@ def complete_as_participant(browser, base: str, slug: str = SLUG) -> None:
     context.close()
 
 
-def test_the_whole_researcher_flow(tmp_path, require_service, demo_table):
+def test_the_whole_researcher_flow(tmp_path, require_service, demo_table, browser):
     require_service(postgres_reachable(), f"PostgreSQL at {PG_URL} is unreachable")
     require_service(redis_reachable(harness.REDIS_URL), f"Redis at {harness.REDIS_URL} is unreachable")
-    assert os.path.exists(CHROMIUM), f"Chromium not installed at {CHROMIUM} (apt-get install chromium)"
     out = harness.ROOT / "test-output"
     out.mkdir(exist_ok=True)
-    with (harness.Server(tmp_path, workers=harness.FEW_WORKERS, demo_table=demo_table) as server,
-          sync_playwright() as pw):
+    with harness.Server(tmp_path, workers=harness.FEW_WORKERS, demo_table=demo_table) as server:
         create_researcher(server)
         base = server.base_url
-        browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
         context = browser.new_context(viewport={"width": 1200, "height": 1000})
         page = context.new_page()
         errors = []
@@ -176,4 +171,3 @@ def test_the_whole_researcher_flow(tmp_path, require_service, demo_table):
         page.goto(f"{base}/dashboard/")
         expect(page).to_have_url(re.compile(r"/login/"))
         assert not errors, errors
-        browser.close()

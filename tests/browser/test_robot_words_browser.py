@@ -5,12 +5,11 @@ scene draws every option of the test (a smoke test of each domain's scene module
 and every canvas holds a picture, not one flat colour)."""
 from __future__ import annotations
 
-import os
 import re
 from pathlib import Path
 
 import pytest
-from playwright.sync_api import expect, sync_playwright
+from playwright.sync_api import expect
 
 from studyapp.models import Participant, StepKind, Study
 from studyapp.studies import build_study
@@ -21,7 +20,6 @@ from tests.browser.test_participant_flow import ready
 from tests.conftest import built_once, complete_flow
 from tests.studyapp.test_stimuli import real_spec, smallest_preset
 
-CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 OUT = Path(__file__).resolve().parents[2] / "test-output"
 CAR_WORDS = re.compile(r"\b(cars?|driv\w*|lanes?|highway|road|merg\w*|steer\w*)\b")
 
@@ -47,7 +45,7 @@ SEND_WITHOUT_A_CHOICE = """() => {
 
 @pytest.mark.parametrize("name", domain_names())
 def test_a_test_sent_without_a_choice_is_refused_in_the_studys_words(name, transactional_db, live_server,
-                                                                     tmp_path_factory, monkeypatch):
+                                                                     tmp_path_factory, monkeypatch, browser):
     domain = get_domain(name)
     preset = smallest_preset(domain)
     out = built_once(tmp_path_factory, f"{preset.name}-table", lambda out: build_table(preset, out))
@@ -55,36 +53,31 @@ def test_a_test_sent_without_a_choice_is_refused_in_the_studys_words(name, trans
     Study.objects.filter(pk=study.pk).update(is_open=True)
     monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")  # ORM calls beside Playwright's loop
     pid = f"5f0c0ffee00000000000{name[:4]}"
-    with sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
-        try:
-            page = browser.new_context(viewport={"width": 1200, "height": 1000}).new_page()
-            errors = []
-            page.on("pageerror", lambda exc: errors.append(str(exc)))
-            page.goto(f"{live_server.url}/s/{study.slug}/?PROLIFIC_PID={pid}&STUDY_ID=S&SESSION_ID=X")
-            expect(page.locator("h1")).to_have_text("Consent to take part")
-            # consent, instructions and training answered as the pages would: the first test is next
-            participant = complete_flow(Participant.objects.get(platform_pid=pid), stop_before=StepKind.TEST)
-            page.goto(f"{live_server.url}{participant.get_absolute_url()}")
-            expect(page.locator("h1")).to_have_text(f"Question 1 of {len(study.test_set)}")
-            ready(page)
-            assert domain.texts.question in page.locator(".lead").inner_text()
-            colours = page.evaluate(CANVAS_COLOURS)
-            assert len(colours) >= 4 and min(colours) >= 3, colours  # the four options, each drawn
-            for letter in "ABCD":
-                page.locator(f'.rating[data-option="{letter}"] input[value="4"]').check(force=True)
-            page.evaluate(SEND_WITHOUT_A_CHOICE)
-            page.locator('#test-form button[type="submit"]').click()
-            refusal = page.locator(".save-error")
-            expect(refusal).to_have_text(domain.texts.choice_required)
-            OUT.mkdir(exist_ok=True)
-            page.screenshot(path=str(OUT / f"refused_without_a_choice_{name}.png"), full_page=True)
-            body = page.locator("main").inner_text()
-            if name != "driving":
-                assert not CAR_WORDS.search(refusal.inner_text().lower()), refusal.inner_text()
-                assert not CAR_WORDS.search(body.lower()), body
-        finally:
-            browser.close()
+    page = browser.new_context(viewport={"width": 1200, "height": 1000}).new_page()
+    errors = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    page.goto(f"{live_server.url}/s/{study.slug}/?PROLIFIC_PID={pid}&STUDY_ID=S&SESSION_ID=X")
+    expect(page.locator("h1")).to_have_text("Consent to take part")
+    # consent, instructions and training answered as the pages would: the first test is next
+    participant = complete_flow(Participant.objects.get(platform_pid=pid), stop_before=StepKind.TEST)
+    page.goto(f"{live_server.url}{participant.get_absolute_url()}")
+    expect(page.locator("h1")).to_have_text(f"Question 1 of {len(study.test_set)}")
+    ready(page)
+    assert domain.texts.question in page.locator(".lead").inner_text()
+    colours = page.evaluate(CANVAS_COLOURS)
+    assert len(colours) >= 4 and min(colours) >= 3, colours  # the four options, each drawn
+    for letter in "ABCD":
+        page.locator(f'.rating[data-option="{letter}"] input[value="4"]').check(force=True)
+    page.evaluate(SEND_WITHOUT_A_CHOICE)
+    page.locator('#test-form button[type="submit"]').click()
+    refusal = page.locator(".save-error")
+    expect(refusal).to_have_text(domain.texts.choice_required)
+    OUT.mkdir(exist_ok=True)
+    page.screenshot(path=str(OUT / f"refused_without_a_choice_{name}.png"), full_page=True)
+    body = page.locator("main").inner_text()
+    if name != "driving":
+        assert not CAR_WORDS.search(refusal.inner_text().lower()), refusal.inner_text()
+        assert not CAR_WORDS.search(body.lower()), body
     assert not errors, errors
     participant.refresh_from_db()
     assert not participant.answers.filter(kind=StepKind.TEST).exists()  # nothing was stored

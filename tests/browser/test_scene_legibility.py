@@ -13,12 +13,10 @@ of two built studies (the demo study and one on the tiny table):
 from __future__ import annotations
 
 import io
-import os
 from pathlib import Path
 
 import pytest
 from PIL import Image
-from playwright.sync_api import sync_playwright
 
 from studyapp.assignment import assign
 from studyapp.scenes import palette_css
@@ -26,7 +24,6 @@ from teaching.domains.driving.domain import DOMAIN as DRIVING
 from tests.browser.test_scenes import stimuli_of
 from tests.conftest import complete_flow
 
-CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 OUT = Path(__file__).resolve().parents[2] / "test-output"
 WIDTHS = [723, 1246]  # a test option's canvas at 1280 x 800 (--scene-ref-w) and the training page's
 
@@ -67,21 +64,18 @@ def overlap(a, b) -> bool:
             and a["y"] < b["y"] + b["h"] and b["y"] < a["y"] + a["h"])
 
 
-def test_labels_never_overlap_and_one_scale_per_study(studies, live_server):
+def test_labels_never_overlap_and_one_scale_per_study(studies, live_server, browser):
     inputs = {study.slug: {"stimuli": stimuli_of(study), "widths": WIDTHS,
                            "span": study.scene_view()["study_span"]}
               for study in studies}
     first = studies[0].slug
-    with sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
-        page = browser.new_page(viewport={"width": 1280, "height": 800})
-        errors = []
-        page.on("pageerror", lambda exc: errors.append(str(exc)))
-        page.goto(f"{live_server.url}/s/{first}/")  # a participant page: the study's CSS
-        page.add_style_tag(content=palette_css(DRIVING))  # the domain's palette (studyapp/scenes.py)
-        page.add_style_tag(url=f"{live_server.url}/static/studyapp/scenes/driving.css")  # its option sizes
-        drawn = {slug: page.evaluate(COLLECT, args) for slug, args in inputs.items()}
-        browser.close()
+    page = browser.new_page(viewport={"width": 1280, "height": 800})
+    errors = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    page.goto(f"{live_server.url}/s/{first}/")  # a participant page: the study's CSS
+    page.add_style_tag(content=palette_css(DRIVING))  # the domain's palette (studyapp/scenes.py)
+    page.add_style_tag(url=f"{live_server.url}/static/studyapp/scenes/driving.css")  # its option sizes
+    drawn = {slug: page.evaluate(COLLECT, args) for slug, args in inputs.items()}
     assert not errors, errors
     kinds = set()
     for slug, canvases in drawn.items():
@@ -155,23 +149,20 @@ WHERE = """() => {
 }"""
 
 
-def test_goal_lane_and_cars_apart_in_greyscale_and_text_contrast(on_training, live_server):
-    with sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
-        page = browser.new_page(viewport={"width": 1280, "height": 900}, reduced_motion="reduce")
-        page.goto(f"{live_server.url}{on_training.get_absolute_url()}")
-        page.wait_for_selector("body[data-ready]", state="attached")
-        w = page.evaluate(WHERE)
-        # the page hands the scene the study's one scale (its scene-view block): a training canvas is drawn
-        # at the span that holds every canvas of the study, not its own example's
-        assert w["viewSpan"] == pytest.approx(on_training.study.scene_view()["study_span"], abs=0.1)
-        canvas = page.locator(".scene canvas")
-        shot = grey(canvas.screenshot())
-        OUT.mkdir(exist_ok=True)
-        shot.save(OUT / "scene_greyscale.png")
-        legend = page.eval_on_selector_all(
-            ".legend, .legend *, h1, p, strong", "els => els.map(e => [getComputedStyle(e).color, e.textContent])")
-        browser.close()
+def test_goal_lane_and_cars_apart_in_greyscale_and_text_contrast(on_training, live_server, browser):
+    page = browser.new_page(viewport={"width": 1280, "height": 900}, reduced_motion="reduce")
+    page.goto(f"{live_server.url}{on_training.get_absolute_url()}")
+    page.wait_for_selector("body[data-ready]", state="attached")
+    w = page.evaluate(WHERE)
+    # the page hands the scene the study's one scale (its scene-view block): a training canvas is drawn
+    # at the span that holds every canvas of the study, not its own example's
+    assert w["viewSpan"] == pytest.approx(on_training.study.scene_view()["study_span"], abs=0.1)
+    canvas = page.locator(".scene canvas")
+    shot = grey(canvas.screenshot())
+    OUT.mkdir(exist_ok=True)
+    shot.save(OUT / "scene_greyscale.png")
+    legend = page.eval_on_selector_all(
+        ".legend, .legend *, h1, p, strong", "els => els.map(e => [getComputedStyle(e).color, e.textContent])")
     assert w["other"] is not None, "both cars on the canvas at their closest approach"
     scale = shot.width / w["w"]  # the screenshot is in device pixels
 

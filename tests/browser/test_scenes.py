@@ -7,18 +7,15 @@ training page).  And it draws the road, the lanes and the cars with the sizes th
 not sizes of its own."""
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import pytest
-from playwright.sync_api import sync_playwright
 
 from studyapp.scenes import palette_css
 from studyapp.trajectories import drawn_scene
 from teaching.domains.driving.domain import DOMAIN as DRIVING
 from teaching.domains.driving.page import scene_sizes
 
-CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 OUT = Path(__file__).resolve().parents[2] / "test-output"
 INTERACTION_FT = 150  # scenes/driving.js
 
@@ -84,24 +81,21 @@ def stimuli_of(study) -> list[dict]:
     return out
 
 
-def test_both_cars_are_on_the_canvas_whenever_they_interact(studies, live_server):
+def test_both_cars_are_on_the_canvas_whenever_they_interact(studies, live_server, browser):
     stimuli = [s for study in studies for s in stimuli_of(study)]
     real_tests = [s for s in stimuli_of(studies[1]) if s["name"].startswith("test")]
     assert len(stimuli) > 40
-    with sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
-        page = browser.new_page(viewport={"width": 1280, "height": 800})
-        errors = []
-        page.on("pageerror", lambda exc: errors.append(str(exc)))
-        page.goto(f"{live_server.url}/s/{studies[0].slug}/")  # a participant page: the study's CSS colours
-        page.add_style_tag(content=palette_css(DRIVING))  # the domain's palette (studyapp/scenes.py)
-        page.add_style_tag(url=f"{live_server.url}/static/studyapp/scenes/driving.css")  # its option sizes
-        frames = page.evaluate(CHECK, {"stimuli": stimuli, "widths": [364, 723, 1246]})
-        # what participants see at the closest approach, to look at: the real study's test options
-        page.evaluate(GRID, real_tests)
-        OUT.mkdir(exist_ok=True)
-        page.locator("#closest-grid").screenshot(path=str(OUT / "scenes_closest_approach.png"))
-        browser.close()
+    page = browser.new_page(viewport={"width": 1280, "height": 800})
+    errors = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    page.goto(f"{live_server.url}/s/{studies[0].slug}/")  # a participant page: the study's CSS colours
+    page.add_style_tag(content=palette_css(DRIVING))  # the domain's palette (studyapp/scenes.py)
+    page.add_style_tag(url=f"{live_server.url}/static/studyapp/scenes/driving.css")  # its option sizes
+    frames = page.evaluate(CHECK, {"stimuli": stimuli, "widths": [364, 723, 1246]})
+    # what participants see at the closest approach, to look at: the real study's test options
+    page.evaluate(GRID, real_tests)
+    OUT.mkdir(exist_ok=True)
+    page.locator("#closest-grid").screenshot(path=str(OUT / "scenes_closest_approach.png"))
     assert not errors, errors
     assert len(frames) >= len(stimuli) * 3 * 20
     missing = [f for f in frames if not f["robot"] or (f["near"] and not f["other"])]
@@ -160,7 +154,7 @@ def at(got: int, origin: float, ft: float, scale: float) -> bool:
     return abs(got - (origin + ft * scale)) <= 3
 
 
-def test_the_drawing_follows_the_payloads_sizes(live_server):
+def test_the_drawing_follows_the_payloads_sizes(live_server, browser):
     """scenes/driving.js draws the road, the lanes and the cars with the sizes the scene data carry
     (drawn_scene's "world"), not sizes of its own: with wider lanes, a wider road and a bigger car
     in the payload the road, the merge goal lane and the robot's car are drawn that wide."""
@@ -172,18 +166,15 @@ def test_the_drawing_follows_the_payloads_sizes(live_server):
     wide = {"lane_width": 16.0, "lane_centres": [-16.0, 0.0, 16.0], "road_half_width": 24.0,
             "car_length": 20.0, "car_width": 8.0}
     assert wide != today
-    with sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
-        page = browser.new_page(viewport={"width": 800, "height": 600})
-        errors = []
-        page.on("pageerror", lambda exc: errors.append(str(exc)))
-        page.goto(f"{live_server.url}/static/studyapp/study.css")  # same origin as scene.js, no page colours
-        page.add_style_tag(content=palette_css(DRIVING))  # the domain's palette (studyapp/scenes.py)
-        drawn = {}
-        for name, world in (("today", today), ("wide", wide)):
-            env = drawn_scene({**payload, "world": world}, robot=False, domain=DRIVING)
-            drawn[name] = page.evaluate(SIZES, {"env": env, "robot": robot})
-        browser.close()
+    page = browser.new_page(viewport={"width": 800, "height": 600})
+    errors = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    page.goto(f"{live_server.url}/static/studyapp/study.css")  # same origin as scene.js, no page colours
+    page.add_style_tag(content=palette_css(DRIVING))  # the domain's palette (studyapp/scenes.py)
+    drawn = {}
+    for name, world in (("today", today), ("wide", wide)):
+        env = drawn_scene({**payload, "world": world}, robot=False, domain=DRIVING)
+        drawn[name] = page.evaluate(SIZES, {"env": env, "robot": robot})
     assert not errors, errors
     for name, world in (("today", today), ("wide", wide)):
         d = drawn[name]

@@ -9,13 +9,13 @@ import csv
 import io
 
 import pytest
-from playwright.sync_api import expect, sync_playwright
+from playwright.sync_api import expect
 
 from studyapp import flow
 from studyapp.exports import long_csv
 from studyapp.models import Answer, Participant, StepKind, Study
 from studyapp.studies import build_study, spec_from_teach
-from tests.browser.grid_pages import CHROMIUM, OUT
+from tests.browser.grid_pages import OUT
 from tests.browser.test_participant_flow import ready
 from tests.conftest import complete_flow
 from tests.studyapp.helpers import record
@@ -62,7 +62,7 @@ def a_free_step(domain, test, best: list[str]) -> str:
 
 
 def test_a_participant_shows_the_way_by_keyboard_and_by_touch(transactional_db, live_server, tmp_path_factory,
-                                                             monkeypatch):
+                                                             monkeypatch, browser):
     monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")  # ORM calls beside Playwright's loop
     errors = []
     with key_room.registered() as domain:
@@ -76,80 +76,75 @@ def test_a_participant_shows_the_way_by_keyboard_and_by_touch(transactional_db, 
         best = brute.actions_of(domain.world, test["robot"])
         wall, free = a_wall_or_edge(domain, test), a_free_step(domain, test, best)
         OUT.mkdir(exist_ok=True)
-        with sync_playwright() as pw:
-            browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
-            try:
-                for device, options in (("laptop", {"viewport": {"width": 1200, "height": 900}}),
-                                        ("phone", {"viewport": {"width": 390, "height": 844}, "has_touch": True,
-                                                   "is_mobile": True, "device_scale_factor": 2})):
-                    page = browser.new_context(**options).new_page()
-                    page.on("pageerror", lambda exc: errors.append(str(exc)))
-                    pid = f"show-{device}-000000000000000000"
-                    page.goto(f"{live_server.url}/s/{study.slug}/?PROLIFIC_PID={pid}&STUDY_ID=S&SESSION_ID=X")
-                    participant = complete_flow(Participant.objects.get(platform_pid=pid), stop_before=StepKind.TEST)
-                    page.goto(f"{live_server.url}{participant.get_absolute_url()}")
-                    ready(page)
-                    submit = page.locator('#show-form button[type="submit"]')
-                    expect(submit).to_be_disabled()
-                    if device == "laptop":
-                        page.keyboard.press(KEYS[wall])  # into a wall or off the grid: nothing happens
-                        assert shown(page) == []
-                        page.keyboard.press(KEYS[free])
-                        assert shown(page) == [free]
-                        page.reload()  # the way so far is kept across a reload
-                        ready(page)
-                        assert shown(page) == [free]
-                        page.keyboard.press("Backspace")  # undo
-                        assert shown(page) == []
-                        for move in best:
-                            if move in KEYS:
-                                page.keyboard.press(KEYS[move])
-                            else:
-                                page.click(f'[data-move="{move}"]')
-                        want = best
+        for device, options in (("laptop", {"viewport": {"width": 1200, "height": 900}}),
+                                ("phone", {"viewport": {"width": 390, "height": 844}, "has_touch": True,
+                                           "is_mobile": True, "device_scale_factor": 2})):
+            page = browser.new_context(**options).new_page()
+            page.on("pageerror", lambda exc: errors.append(str(exc)))
+            pid = f"show-{device}-000000000000000000"
+            page.goto(f"{live_server.url}/s/{study.slug}/?PROLIFIC_PID={pid}&STUDY_ID=S&SESSION_ID=X")
+            participant = complete_flow(Participant.objects.get(platform_pid=pid), stop_before=StepKind.TEST)
+            page.goto(f"{live_server.url}{participant.get_absolute_url()}")
+            ready(page)
+            submit = page.locator('#show-form button[type="submit"]')
+            expect(submit).to_be_disabled()
+            if device == "laptop":
+                page.keyboard.press(KEYS[wall])  # into a wall or off the grid: nothing happens
+                assert shown(page) == []
+                page.keyboard.press(KEYS[free])
+                assert shown(page) == [free]
+                page.reload()  # the way so far is kept across a reload
+                ready(page)
+                assert shown(page) == [free]
+                page.keyboard.press("Backspace")  # undo
+                assert shown(page) == []
+                for move in best:
+                    if move in KEYS:
+                        page.keyboard.press(KEYS[move])
                     else:
-                        expect(page.locator(f'[data-move="{wall}"]')).to_be_disabled()
-                        page.tap(f'[data-move="{free}"]')
-                        assert shown(page) == [free]
-                        page.tap('[data-action="undo"]')
-                        assert shown(page) == []
-                        # a detour by tapping the cells: out and back, then θ*'s way
-                        col, row = test["world"]["start"]
-                        want = [free, BACK[free], *best]
-                        for move in want:
-                            if move not in STEP:
-                                page.tap(f'[data-move="{move}"]')
-                                continue
-                            x, y = page.evaluate(CELL_AT, [col + STEP[move][0], row + STEP[move][1]])
-                            page.touchscreen.tap(x, y)
-                            col, row = col + STEP[move][0], row + STEP[move][1]
-                    assert shown(page) == want
-                    expect(submit).to_be_enabled()
-                    for move in STEP:  # finished: no more moves
-                        expect(page.locator(f'[data-move="{move}"]')).to_be_disabled()
-                    page.screenshot(path=str(OUT / f"show_way_{device}.png"), full_page=True)
-                    if device == "laptop":
-                        submit.click()
-                    else:
-                        submit.tap()
-                    page.wait_for_function("() => !document.querySelector('#show-form')")
-                    answer = Answer.objects.get(participant__platform_pid=pid, kind=StepKind.TEST, item=0)
-                    assert answer.data == {"env_id": test["env_id"], "moves": want}
-                    score = domain.score_shown(test["env_id"], want)
-                    assert answer.regret == pytest.approx(score["regret"]) and answer.correct is score["optimal"]
-                    assert (answer.regret == pytest.approx(0)) is (device == "laptop")
-                    row = next(r for r in csv.DictReader(io.StringIO(long_csv(study)))
-                               if r["kind"] == "test" and r["item"] == "0"
-                               and r["participant_id"] == str(answer.participant_id))
-                    assert row["moves"] == " ".join(want) and float(row["regret"]) == pytest.approx(answer.regret)
-                    assert row["optimal"] == str(int(answer.correct))
-            finally:
-                browser.close()
+                        page.click(f'[data-move="{move}"]')
+                want = best
+            else:
+                expect(page.locator(f'[data-move="{wall}"]')).to_be_disabled()
+                page.tap(f'[data-move="{free}"]')
+                assert shown(page) == [free]
+                page.tap('[data-action="undo"]')
+                assert shown(page) == []
+                # a detour by tapping the cells: out and back, then θ*'s way
+                col, row = test["world"]["start"]
+                want = [free, BACK[free], *best]
+                for move in want:
+                    if move not in STEP:
+                        page.tap(f'[data-move="{move}"]')
+                        continue
+                    x, y = page.evaluate(CELL_AT, [col + STEP[move][0], row + STEP[move][1]])
+                    page.touchscreen.tap(x, y)
+                    col, row = col + STEP[move][0], row + STEP[move][1]
+            assert shown(page) == want
+            expect(submit).to_be_enabled()
+            for move in STEP:  # finished: no more moves
+                expect(page.locator(f'[data-move="{move}"]')).to_be_disabled()
+            page.screenshot(path=str(OUT / f"show_way_{device}.png"), full_page=True)
+            if device == "laptop":
+                submit.click()
+            else:
+                submit.tap()
+            page.wait_for_function("() => !document.querySelector('#show-form')")
+            answer = Answer.objects.get(participant__platform_pid=pid, kind=StepKind.TEST, item=0)
+            assert answer.data == {"env_id": test["env_id"], "moves": want}
+            score = domain.score_shown(test["env_id"], want)
+            assert answer.regret == pytest.approx(score["regret"]) and answer.correct is score["optimal"]
+            assert (answer.regret == pytest.approx(0)) is (device == "laptop")
+            row = next(r for r in csv.DictReader(io.StringIO(long_csv(study)))
+                       if r["kind"] == "test" and r["item"] == "0"
+                       and r["participant_id"] == str(answer.participant_id))
+            assert row["moves"] == " ".join(want) and float(row["regret"]) == pytest.approx(answer.regret)
+            assert row["optimal"] == str(int(answer.correct))
     assert not errors, errors
 
 
 def test_the_taxi_picks_up_and_delivers_its_passenger_by_the_buttons_and_by_a_tap(transactional_db, live_server,
-                                                                                tmp_path_factory, monkeypatch):
+                                                                                tmp_path_factory, monkeypatch, browser):
     """The augmented taxi's show test (teach --tests show): θ*'s way, whose pick-up and drop are the page's
     buttons (laptop) or a tap on the robot's own cell (phone); the drop on the destination ends the
     episode as a delivery, and the way is stored with regret 0."""
@@ -163,45 +158,40 @@ def test_the_taxi_picks_up_and_delivers_its_passenger_by_the_buttons_and_by_a_ta
         j, test = next((j, t) for j, t in enumerate(study.test_set)
                        if {"pickup", "drop"} <= set(brute.actions_of(domain.world, t["robot"])))
         best = brute.actions_of(domain.world, test["robot"])
-        with sync_playwright() as pw:
-            browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
-            try:
-                for device, options in (("laptop", {"viewport": {"width": 1200, "height": 900}}),
-                                        ("phone", {"viewport": {"width": 390, "height": 844}, "has_touch": True,
-                                                   "is_mobile": True})):
-                    page = browser.new_context(**options).new_page()
-                    page.on("pageerror", lambda exc: errors.append(str(exc)))
-                    pid = f"taxi-{device}-0000000000000000000"
-                    page.goto(f"{live_server.url}/s/{study.slug}/?PROLIFIC_PID={pid}&STUDY_ID=S&SESSION_ID=X")
-                    participant = complete_flow(Participant.objects.get(platform_pid=pid), stop_before=StepKind.TEST)
-                    for _ in range(j):  # the earlier show tests, answered with θ*'s way
-                        participant = _answer_show(participant, domain)
-                    page.goto(f"{live_server.url}{participant.get_absolute_url()}")
-                    ready(page)
-                    col, row = test["world"]["start"]
-                    for move in best:
-                        if move in STEP and device == "laptop":
-                            page.keyboard.press(KEYS[move])
-                        elif move in STEP:
-                            page.tap(f'[data-move="{move}"]')
-                        elif device == "phone" and move in ("pickup", "drop"):
-                            x, y = page.evaluate(CELL_AT, [col, row])  # a tap on the robot's own cell
-                            page.touchscreen.tap(x, y)
-                        else:
-                            page.click(f'[data-move="{move}"]')
-                        if move in STEP:
-                            col, row = col + STEP[move][0], row + STEP[move][1]
-                    assert shown(page) == best
-                    assert page.locator("[data-show-scene]").get_attribute("data-ended") == "delivered"
-                    expect(page.locator("[data-status]")).to_contain_text("the robot delivered the passenger")
-                    page.screenshot(path=str(OUT / f"show_way_taxi_{device}.png"), full_page=True)
-                    heading = page.locator("h1").text_content()
-                    page.locator('#show-form button[type="submit"]').click()
-                    page.wait_for_function("h => document.querySelector('h1').textContent !== h", arg=heading)
-                    answer = Answer.objects.get(participant__platform_pid=pid, kind=StepKind.TEST, item=j)
-                    assert answer.data["moves"] == best and answer.correct and answer.regret == pytest.approx(0)
-            finally:
-                browser.close()
+        for device, options in (("laptop", {"viewport": {"width": 1200, "height": 900}}),
+                                ("phone", {"viewport": {"width": 390, "height": 844}, "has_touch": True,
+                                           "is_mobile": True})):
+            page = browser.new_context(**options).new_page()
+            page.on("pageerror", lambda exc: errors.append(str(exc)))
+            pid = f"taxi-{device}-0000000000000000000"
+            page.goto(f"{live_server.url}/s/{study.slug}/?PROLIFIC_PID={pid}&STUDY_ID=S&SESSION_ID=X")
+            participant = complete_flow(Participant.objects.get(platform_pid=pid), stop_before=StepKind.TEST)
+            for _ in range(j):  # the earlier show tests, answered with θ*'s way
+                participant = _answer_show(participant, domain)
+            page.goto(f"{live_server.url}{participant.get_absolute_url()}")
+            ready(page)
+            col, row = test["world"]["start"]
+            for move in best:
+                if move in STEP and device == "laptop":
+                    page.keyboard.press(KEYS[move])
+                elif move in STEP:
+                    page.tap(f'[data-move="{move}"]')
+                elif device == "phone" and move in ("pickup", "drop"):
+                    x, y = page.evaluate(CELL_AT, [col, row])  # a tap on the robot's own cell
+                    page.touchscreen.tap(x, y)
+                else:
+                    page.click(f'[data-move="{move}"]')
+                if move in STEP:
+                    col, row = col + STEP[move][0], row + STEP[move][1]
+            assert shown(page) == best
+            assert page.locator("[data-show-scene]").get_attribute("data-ended") == "delivered"
+            expect(page.locator("[data-status]")).to_contain_text("the robot delivered the passenger")
+            page.screenshot(path=str(OUT / f"show_way_taxi_{device}.png"), full_page=True)
+            heading = page.locator("h1").text_content()
+            page.locator('#show-form button[type="submit"]').click()
+            page.wait_for_function("h => document.querySelector('h1').textContent !== h", arg=heading)
+            answer = Answer.objects.get(participant__platform_pid=pid, kind=StepKind.TEST, item=j)
+            assert answer.data["moves"] == best and answer.correct and answer.regret == pytest.approx(0)
     assert not errors, errors
 
 

@@ -22,7 +22,7 @@ pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
 
 def test_a_small_grid_study_draws_its_examples_and_options(transactional_db, live_server, settings,
-                                                            tmp_path_factory, monkeypatch):
+                                                            tmp_path_factory, monkeypatch, browser):
     settings.STATICFILES_DIRS = [*settings.STATICFILES_DIRS, HERE / "static"]  # its scene module
     monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")  # ORM calls beside Playwright's loop
     with small.registered():
@@ -32,6 +32,6 @@ def test_a_small_grid_study_draws_its_examples_and_options(transactional_db, liv
         study = build_study(spec)
         Study.objects.filter(pk=study.pk).update(is_open=True)
         # the 7 x 5 field at the canvas's width plus the label strip, unstretched
-        errors = walk_scene_pages(live_server, study, "5f0c0ffee000000000000small", small.HEIGHT, small.WIDTH,
+        errors = walk_scene_pages(browser, live_server, study, "5f0c0ffee000000000000small", small.HEIGHT, small.WIDTH,
                                   "small_grid")
     assert not errors, errors

@@ -19,11 +19,10 @@ phone (DPR 2, touch), on a participant's training page and first test page:
 Screenshots: test-output/glance_<domain>_<size>_<training|test>.png."""
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import pytest
-from playwright.sync_api import expect, sync_playwright
+from playwright.sync_api import expect
 
 from studyapp.assignment import assign
 from studyapp.models import Study
@@ -35,7 +34,6 @@ from teaching.core.table import TrajectoryTable
 from tests.conftest import built_once, complete_flow
 from tests.studyapp.test_stimuli import real_spec, smallest_preset
 
-CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 OUT = Path(__file__).resolve().parents[2] / "test-output"
 SIZES = {"1280x800": {"viewport": {"width": 1280, "height": 800}},
          "1920x1080": {"viewport": {"width": 1920, "height": 1080}},
@@ -247,39 +245,36 @@ def laptop_question_on_one_screen(page, height: int) -> None:
 
 
 @pytest.mark.parametrize("name", ["driving", "gridworld"])
-def test_the_robot_and_what_it_meets_are_large_enough_to_judge(name, served, live_server):
+def test_the_robot_and_what_it_meets_are_large_enough_to_judge(name, served, live_server, browser):
     study = served[name]
     domain = get_domain(name)
     stimuli = stimuli_of(study, domain)
     script, check = (DRIVING, check_driving) if name == "driving" else (GRIDWORLD, check_gridworld)
     OUT.mkdir(exist_ok=True)
     figures = {}
-    with sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
-        for n, (size, options) in enumerate(SIZES.items()):
-            p = assign(study, "prolific", f"glance-{name}-{n}", platform_study_id="S", platform_session_id="X")
-            page = browser.new_page(**options, reduced_motion="reduce")
-            errors = []
-            page.on("pageerror", lambda exc, errors=errors: errors.append(str(exc)))
-            scales = []
-            for step in ("training", "test"):
-                p = complete_flow(p, stop_before=step)
-                page.goto(f"{live_server.url}{p.get_absolute_url()}")
-                page.wait_for_selector("body[data-ready]", state="attached")
-                assert page.evaluate("document.documentElement.scrollWidth") <= options["viewport"]["width"]
-                got = page.evaluate(script, {"stimuli": stimuli})
-                assert len(got["page"]) == (1 if step == "training" else 4)
-                fig = check(size, step, got)
-                scales += fig.pop("scales")
-                figures[(size, step)] = fig
-                page.screenshot(path=str(OUT / f"glance_{name}_{size}_{step}.png"))
-                if step == "test" and size == "1280x800":
-                    laptop_question_on_one_screen(page, 800)
-                    page.screenshot(path=str(OUT / f"glance_{name}_{size}_rating.png"))
-            assert not errors, errors
-            # one scale: training and test, every canvas of the study, within 15 %
-            assert scales and max(scales) <= SPREAD * min(scales), (size, min(scales), max(scales))
-            figures[(size, "spread")] = round(max(scales) / min(scales) - 1, 3)
-            page.close()
-        browser.close()
+    for n, (size, options) in enumerate(SIZES.items()):
+        p = assign(study, "prolific", f"glance-{name}-{n}", platform_study_id="S", platform_session_id="X")
+        page = browser.new_page(**options, reduced_motion="reduce")
+        errors = []
+        page.on("pageerror", lambda exc, errors=errors: errors.append(str(exc)))
+        scales = []
+        for step in ("training", "test"):
+            p = complete_flow(p, stop_before=step)
+            page.goto(f"{live_server.url}{p.get_absolute_url()}")
+            page.wait_for_selector("body[data-ready]", state="attached")
+            assert page.evaluate("document.documentElement.scrollWidth") <= options["viewport"]["width"]
+            got = page.evaluate(script, {"stimuli": stimuli})
+            assert len(got["page"]) == (1 if step == "training" else 4)
+            fig = check(size, step, got)
+            scales += fig.pop("scales")
+            figures[(size, step)] = fig
+            page.screenshot(path=str(OUT / f"glance_{name}_{size}_{step}.png"))
+            if step == "test" and size == "1280x800":
+                laptop_question_on_one_screen(page, 800)
+                page.screenshot(path=str(OUT / f"glance_{name}_{size}_rating.png"))
+        assert not errors, errors
+        # one scale: training and test, every canvas of the study, within 15 %
+        assert scales and max(scales) <= SPREAD * min(scales), (size, min(scales), max(scales))
+        figures[(size, "spread")] = round(max(scales) / min(scales) - 1, 3)
+        page.close()
     print(name, figures)  # the figures docs/decisions.md quotes (pytest -s)

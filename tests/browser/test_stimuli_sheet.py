@@ -5,16 +5,13 @@ it, theta*'s option is marked once per test, a Play starts that scene's animatio
 changes), and the whole page goes to test-output/stimuli_sheet.png to look at."""
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import pytest
 from django.urls import reverse
-from playwright.sync_api import sync_playwright
 
 from tests.conftest import PAPER_SEQUENCES
 
-CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 OUT = Path(__file__).resolve().parents[2] / "test-output"
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
@@ -40,8 +37,7 @@ PIXELS = """() => [...document.querySelectorAll(".cell canvas")].map((canvas) =>
 })"""
 
 
-def test_every_stimulus_is_drawn_and_plays(staff_cookie, make_study, live_server):  # db first
-    assert Path(CHROMIUM).exists(), f"Chromium not installed at {CHROMIUM} (apt-get install chromium)"
+def test_every_stimulus_is_drawn_and_plays(staff_cookie, make_study, live_server, browser):  # db first
     study = make_study("sheet", sequences=PAPER_SEQUENCES, is_open=False)  # looked at before opening
     n_examples = sum(len(c.training) for c in study.conditions.all())
     n_options = sum(len(t["options"]) for t in study.test_set)
@@ -52,45 +48,40 @@ def test_every_stimulus_is_drawn_and_plays(staff_cookie, make_study, live_server
     if shot.exists():
         shot.unlink()
     host = live_server.url.split("//")[1].split(":")[0]
-    with sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
-        try:
-            ctx = browser.new_context(viewport={"width": 1280, "height": 900})
-            ctx.add_cookies([{"name": "sessionid", "value": staff_cookie, "domain": host, "path": "/"}])
-            page = ctx.new_page()
-            errors = []
-            page.on("pageerror", lambda e: errors.append(str(e)))
-            # reached from the study's dashboard page
-            page.goto(live_server.url + reverse("dashboard_study", args=[study.slug]))
-            page.click("#stimuli-link")
-            page.wait_for_selector("body[data-ready='1']")
-            assert page.url == live_server.url + reverse("dashboard_stimuli", args=[study.slug])
-            assert page.locator(".sheet-section[data-condition]").count() == n_conditions
-            assert page.locator(".test-row").count() == n_tests
-            assert page.locator(".cell.theta-star .star-badge").count() == n_tests
+    ctx = browser.new_context(viewport={"width": 1280, "height": 900})
+    ctx.add_cookies([{"name": "sessionid", "value": staff_cookie, "domain": host, "path": "/"}])
+    page = ctx.new_page()
+    errors = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    # reached from the study's dashboard page
+    page.goto(live_server.url + reverse("dashboard_study", args=[study.slug]))
+    page.click("#stimuli-link")
+    page.wait_for_selector("body[data-ready='1']")
+    assert page.url == live_server.url + reverse("dashboard_stimuli", args=[study.slug])
+    assert page.locator(".sheet-section[data-condition]").count() == n_conditions
+    assert page.locator(".test-row").count() == n_tests
+    assert page.locator(".cell.theta-star .star-badge").count() == n_tests
 
-            cells = page.evaluate(PIXELS)
-            assert len(cells) == n_examples + n_options
-            blank = [c for c in cells if c["opaque"] < 0.99 * c["pixels"] or c["colours"] < 6 or c["yellow"] < 20]
-            assert not blank, blank[:5]
-            assert {c["mode"] for c in cells} == {"trail"}  # a static contact sheet until played
-            page.screenshot(path=str(shot), full_page=True)
+    cells = page.evaluate(PIXELS)
+    assert len(cells) == n_examples + n_options
+    blank = [c for c in cells if c["opaque"] < 0.99 * c["pixels"] or c["colours"] < 6 or c["yellow"] < 20]
+    assert not blank, blank[:5]
+    assert {c["mode"] for c in cells} == {"trail"}  # a static contact sheet until played
+    page.screenshot(path=str(shot), full_page=True)
 
-            # one Play: that scene animates (frames change, away from the trail), the others stay still
-            cell = page.locator(".test-row").first.locator(".cell").nth(1)
-            before = cell.locator("canvas").evaluate("c => c.toDataURL()")
-            cell.locator('[data-action="play"]').click()
-            page.wait_for_function("c => c.scene.mode === 'frame' && c.scene.t > 0.5",
-                                   arg=cell.locator("canvas").element_handle(), timeout=60_000)  # a hang guard
-            first = cell.locator("canvas").evaluate("c => [c.toDataURL(), c.scene.t]")
-            page.wait_for_timeout(400)
-            second = cell.locator("canvas").evaluate("c => [c.toDataURL(), c.scene.t]")
-            assert first[0] != before and second[0] != first[0] and second[1] > first[1]
-            assert cell.get_attribute("data-state") == "playing"
-            others = page.evaluate("() => [...document.querySelectorAll('.cell canvas')].filter("
-                                   "(c) => c.scene.mode !== 'trail').length")
-            assert others == 1
-            assert errors == []
-        finally:
-            browser.close()
+    # one Play: that scene animates (frames change, away from the trail), the others stay still
+    cell = page.locator(".test-row").first.locator(".cell").nth(1)
+    before = cell.locator("canvas").evaluate("c => c.toDataURL()")
+    cell.locator('[data-action="play"]').click()
+    page.wait_for_function("c => c.scene.mode === 'frame' && c.scene.t > 0.5",
+                           arg=cell.locator("canvas").element_handle(), timeout=60_000)  # a hang guard
+    first = cell.locator("canvas").evaluate("c => [c.toDataURL(), c.scene.t]")
+    page.wait_for_timeout(400)
+    second = cell.locator("canvas").evaluate("c => [c.toDataURL(), c.scene.t]")
+    assert first[0] != before and second[0] != first[0] and second[1] > first[1]
+    assert cell.get_attribute("data-state") == "playing"
+    others = page.evaluate("() => [...document.querySelectorAll('.cell canvas')].filter("
+                           "(c) => c.scene.mode !== 'trail').length")
+    assert others == 1
+    assert errors == []
     assert shot.exists() and shot.stat().st_size > 50_000

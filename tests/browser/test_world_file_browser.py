@@ -29,7 +29,7 @@ def check(kind, page, drawn):
 
 
 def test_a_study_of_a_world_from_a_file_draws_its_examples_and_options(transactional_db, live_server,
-                                                                       tmp_path_factory, monkeypatch):
+                                                                       tmp_path_factory, monkeypatch, browser):
     monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")  # ORM calls beside Playwright's loop
     with key_room.registered() as domain:
         _, teach_dir = key_room.built(tmp_path_factory)
@@ -38,6 +38,6 @@ def test_a_study_of_a_world_from_a_file_draws_its_examples_and_options(transacti
         study = build_study(spec)
         Study.objects.filter(pk=study.pk).update(is_open=True)
         # the 7 x 5 world at the canvas's width plus the label strip, unstretched
-        errors = walk_scene_pages(live_server, study, "5f0c0ffee00000000000keyroom", domain.world.height,
+        errors = walk_scene_pages(browser, live_server, study, "5f0c0ffee00000000000keyroom", domain.world.height,
                                   domain.world.width, "world_file", check)
     assert not errors, errors
