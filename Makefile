@@ -1,14 +1,17 @@
 # The README's two commands are `make demo` and `make test`; everything else is a step of those.
 PY := .venv/bin/python
 PIP := .venv/bin/pip
+# uv installs the pinned requirements: in about 16 s where pip took 42 (one core, then byte-compiling
+# every file on it), the first step of every `make test` from a fresh clone (docs/decisions.md, Dependencies)
+UV_VERSION := 0.13.9
 
 .PHONY: demo test lint venv browser-deps serve-deps messages table bench clean serve load
 
 venv: .venv/.installed
 .venv/.installed: requirements.txt
 	test -x $(PY) || python3 -m venv .venv
-	$(PIP) install -q --upgrade pip
-	$(PIP) install -q -r requirements.txt
+	$(PIP) install -q uv==$(UV_VERSION)
+	.venv/bin/uv pip install -q --python $(PY) --compile-bytecode -r requirements.txt
 	touch $@
 
 # Debian's Chromium for the Playwright browser tests (CI runs as root on Debian).
