@@ -38,6 +38,18 @@ def ready(page):
     page.wait_for_selector("body[data-ready]", state="attached")
 
 
+def open_on_fake_clock(browser, url: str, **page_options):
+    """A new page of `browser` at `url` (`page_options`: Playwright's new_page options) on Playwright's fake
+    clock, once its controls are wired, and the list of JavaScript errors it meets: (page, errors)."""
+    page = browser.new_page(**page_options)
+    errors = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    page.clock.install()
+    page.goto(url)
+    ready(page)
+    return page, errors
+
+
 def play_all(page, ms=5600):
     """Let every started animation run to its end on the fake clock."""
     page.clock.run_for(ms)

@@ -10,6 +10,7 @@ from playwright.sync_api import expect
 
 from studyapp import flow
 from studyapp.assignment import assign
+from tests.browser.test_participant_flow import open_on_fake_clock
 from tests.conftest import complete_flow
 
 OUT = Path(__file__).resolve().parents[2] / "test-output"
@@ -36,12 +37,7 @@ def next_button(page):
 def test_training_autoplays_only_without_reduced_motion_and_repeats_are_announced(repeating, live_server, motion,
                                                                                   browser):
     url = f"{live_server.url}{repeating.get_absolute_url()}"
-    page = browser.new_page(viewport={"width": 1280, "height": 900}, reduced_motion=motion)
-    errors = []
-    page.on("pageerror", lambda exc: errors.append(str(exc)))
-    page.clock.install()
-    page.goto(url)
-    page.wait_for_selector("body[data-ready]", state="attached")
+    page, errors = open_on_fake_clock(browser, url, viewport={"width": 1280, "height": 900}, reduced_motion=motion)
     expect(page.locator("h1")).to_have_text("Example 1 of 3")
     expect(page.locator(".repeat")).to_have_count(0)  # the first showing is no repeat
     page.clock.run_for(8000)  # longer than any drive

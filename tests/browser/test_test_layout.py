@@ -12,6 +12,7 @@ from playwright.sync_api import expect
 from studyapp import flow
 from studyapp.assignment import assign
 from studyapp.models import Answer
+from tests.browser.test_participant_flow import open_on_fake_clock
 from tests.conftest import complete_flow
 
 OUT = Path(__file__).resolve().parents[2] / "test-output"
@@ -38,12 +39,8 @@ def sizes(page, selector):
 @pytest.mark.parametrize("name, width, height", [("phone", 390, 844), ("laptop", 1280, 800)])
 def test_four_options_compared_without_scrolling_and_44px_targets(on_a_test, live_server, name, width, height, browser):
     url = f"{live_server.url}{on_a_test.get_absolute_url()}"
-    page = browser.new_page(viewport={"width": width, "height": height}, has_touch=(name == "phone"))
-    errors = []
-    page.on("pageerror", lambda exc: errors.append(str(exc)))
-    page.clock.install()
-    page.goto(url)
-    page.wait_for_selector("body[data-ready]", state="attached")
+    page, errors = open_on_fake_clock(browser, url, viewport={"width": width, "height": height},
+                                      has_touch=(name == "phone"))
     expect(page.locator("h1")).to_have_text("Question 1 of 6")
     assert page.evaluate("document.documentElement.scrollWidth") <= width  # no sideways scrolling
     # every control a participant presses: at least 44 x 44 px
