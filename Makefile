@@ -61,8 +61,9 @@ lint: venv
 # table is built once, not once per run.  (xdist's own grouping, --dist loadgroup,
 # is silently ignored under pytest 9.2: pytest-xdist #1386.)  The xdist run hands each worker a contiguous
 # slice of the tests, longest modules first, and an idle worker takes half of a busy one's queue
-# (--dist worksteal): a module stays on one worker, so its module-scoped fixtures are built once, and no
-# worker sits out the last minutes while another works through a queue it was dealt.  Before both, tests/prebuild.py compiles
+# (--dist worksteal): a module's tests mostly stay on one worker, so its module-scoped fixtures are
+# built once, and no worker sits out the last minutes while another works through a queue it was
+# dealt.  Before both, tests/prebuild.py compiles
 # the planner's Numba kernels into their disk caches and builds the demo table, on the idle machine,
 # so that no test pays a cold compile or waits for that table while the two runs compete for it.
 # pytest exit 5 means "no tests collected": that is a failure here, never a pass.
