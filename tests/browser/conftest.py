@@ -72,11 +72,10 @@ def studies(transactional_db, demo_table, tiny_table, monkeypatch):
 
 
 @pytest.fixture
-def staff_page(staff_cookie, live_server, monkeypatch, browser):
+def staff_page(staff_cookie, live_server, browser):
     """A researcher's page in Debian's Chromium (1280 × 900, logged in) for the live server, and the list of
     JavaScript errors it meets: yields (page, errors)."""
     host = live_server.url.split("//")[1].split(":")[0]
-    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")  # ORM calls in a test run beside Playwright's loop
     ctx = browser.new_context(viewport={"width": 1280, "height": 900})
     ctx.add_cookies([{"name": "sessionid", "value": staff_cookie, "domain": host, "path": "/"}])
     page = ctx.new_page()

@@ -29,8 +29,7 @@ def loop_study(transactional_db, demo_table, settings, tmp_path):
     return build_study(spec)
 
 
-def test_a_closed_loop_condition_with_feedback_in_chromium(loop_study, live_server, monkeypatch, browser):
-    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")  # ORM checks beside Playwright's loop
+def test_a_closed_loop_condition_with_feedback_in_chromium(loop_study, live_server, browser):
     OUT.mkdir(exist_ok=True)
     entry = f"{live_server.url}/s/{loop_study.slug}/?PROLIFIC_PID=loop-browser&STUDY_ID=s&SESSION_ID=x"
     page = browser.new_context(viewport={"width": 1200, "height": 1000}).new_page()
@@ -87,10 +86,9 @@ def test_a_closed_loop_condition_with_feedback_in_chromium(loop_study, live_serv
     assert closedloop.replay(p) == []
 
 
-def test_a_slow_next_page_shows_a_progress_message_not_a_frozen_page(loop_study, live_server, monkeypatch, browser):
+def test_a_slow_next_page_shows_a_progress_message_not_a_frozen_page(loop_study, live_server, browser):
     """The next step's page is held back (as a late decision would hold it): after a second the banner says
     it is being prepared; when it arrives the participant is on it, with nothing lost and no error."""
-    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")
     OUT.mkdir(exist_ok=True)
     entry = f"{live_server.url}/s/{loop_study.slug}/?PROLIFIC_PID=slow-next&STUDY_ID=s&SESSION_ID=x"
     held = []

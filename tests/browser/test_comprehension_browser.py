@@ -37,8 +37,7 @@ def answer(page, questions, wrong=()):
     page.get_by_role("button", name="Check my answers").click()
 
 
-def test_fail_read_the_marked_instructions_then_pass(quiz_study, live_server, monkeypatch, browser):
-    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")  # ORM checks beside Playwright's loop
+def test_fail_read_the_marked_instructions_then_pass(quiz_study, live_server, browser):
     SHOTS.mkdir(parents=True, exist_ok=True)
     questions = comprehension.questions_of(quiz_study)
     page = browser.new_context(viewport={"width": 1000, "height": 900}).new_page()

@@ -17,14 +17,13 @@ pytestmark = pytest.mark.browser
 
 
 def test_compare_errors_and_an_aliased_study_in_chromium(transactional_db, client, live_server, make_study,
-                                                          monkeypatch, browser):
+                                                          browser):
     make_study("fam", sequences={"exact": [500], "det-euclidean": [5780], "random": [7107]})
     old = make_study("old", sequences={"det-strategy": [500, 5780, 12165], "exact": [7107, 15245]})
     Condition.objects.filter(study=old, name="exact").update(name="prob-strategy")  # stored before the check
     client.force_login(User.objects.create_user("r", password="pw-names-1", is_staff=True))
     host = live_server.url.split("//")[1].split(":")[0]
     OUT.mkdir(exist_ok=True)
-    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")
     ctx = browser.new_context(viewport={"width": 1280, "height": 700})
     ctx.add_cookies([{"name": "sessionid", "value": client.cookies["sessionid"].value, "domain": host,
                       "path": "/"}])

@@ -19,10 +19,7 @@ OUT = Path(__file__).resolve().parents[2] / "test-output"
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
 
-def test_dashboard_live_progress(make_study, transactional_db, live_server, django_user_model, monkeypatch, browser):
-    # ORM calls below run beside Playwright's loop; undone after the test, so no later
-    # subprocess (manage.py check --deploy) inherits it
-    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")
+def test_dashboard_live_progress(make_study, transactional_db, live_server, django_user_model, browser):
     study = make_study("live")
     django_user_model.objects.create_user("res", password="pw-dash-123", is_staff=True)
     OUT.mkdir(exist_ok=True)

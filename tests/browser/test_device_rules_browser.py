@@ -15,8 +15,7 @@ IPHONE = "Mozilla/5.0 (iPhone; CPU iPhone OS 17_0 like Mac OS X) AppleWebKit/605
 
 
 def test_a_phone_is_turned_away_from_a_desktop_only_study_and_a_laptop_takes_part(transactional_db, live_server,
-                                                                                  make_study, monkeypatch, browser):
-    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")
+                                                                                  make_study, browser):
     study = make_study(slug="desk", min_screen_width=1024, allow_phones=False, allow_tablets=False,
                        recruitment="prolific")
     errors = []

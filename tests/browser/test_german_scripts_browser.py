@@ -44,9 +44,8 @@ def open_step(browser, live_server, study, pid, stop_before):
     return context, page, errors
 
 
-def test_a_german_studys_scripts_speak_german(transactional_db, make_study, live_server, monkeypatch, browser):
+def test_a_german_studys_scripts_speak_german(transactional_db, make_study, live_server, browser):
     study = make_study("deutsch", language="de")
-    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")  # ORM calls beside Playwright's loop
     OUT.mkdir(exist_ok=True)
     # training: the example played to its end, its trail shown
     context, page, errors = open_step(browser, live_server, study, "5f0c0ffee000000000000de1",

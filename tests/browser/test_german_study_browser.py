@@ -87,8 +87,7 @@ def walk(page, url: str, study: Study, label: str) -> list[tuple[str, str]]:
     return seen
 
 
-def test_german_studies_of_both_robots_speak_german_on_every_page(german_studies, live_server, monkeypatch, browser):
-    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")
+def test_german_studies_of_both_robots_speak_german_on_every_page(german_studies, live_server, browser):
     driving, yard = german_studies
     OUT.mkdir(exist_ok=True)
     for study, label, pid in ((driving, "driving", "de0000000000000000000001"),

@@ -47,9 +47,8 @@ def studies(transactional_db, gridworld_teach, demo_table, monkeypatch):
     return yard, driving
 
 
-def test_a_gridworld_study_from_table_to_analysis(studies, live_server, monkeypatch, tmp_path, browser):
+def test_a_gridworld_study_from_table_to_analysis(studies, live_server, tmp_path, browser):
     yard, driving = studies
-    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")  # ORM checks beside Playwright's loop
     assert (yard.domain, driving.domain) == ("gridworld", "driving")
     n_tests = len(yard.test_set)
     texts = get_domain("gridworld").texts

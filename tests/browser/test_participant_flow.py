@@ -89,10 +89,9 @@ def answer_test_by_keyboard(page, choose_label="A", rating=5):
     page.keyboard.press("Enter")
 
 
-def test_participant_flow_in_chromium(demo_study, live_server, monkeypatch, browser):  # db first: last torn down
+def test_participant_flow_in_chromium(demo_study, live_server, browser):  # db first: last torn down
 
     # ORM checks below run beside Playwright's loop (undone after)
-    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")
     OUT.mkdir(exist_ok=True)
     entry = f"{live_server.url}/s/{demo_study.slug}/?PROLIFIC_PID={PID}&STUDY_ID={STUDY_ID}&SESSION_ID={SESSION_ID}"
     context = browser.new_context(viewport={"width": 1200, "height": 1000})

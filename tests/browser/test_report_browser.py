@@ -45,7 +45,6 @@ def test_report_renders_in_chromium_and_updates_live(staff_cookie, live_server, 
     url = live_server.url + reverse("dashboard_analysis", args=["browser"])
     host = live_server.url.split("//")[1].split(":")[0]
 
-    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")  # ORM calls below run beside Playwright's loop
     try:
         ctx = browser.new_context(viewport={"width": 1280, "height": 900})
         ctx.add_cookies([{"name": "sessionid", "value": staff_cookie, "domain": host, "path": "/"}])

@@ -45,13 +45,12 @@ SEND_WITHOUT_A_CHOICE = """() => {
 
 @pytest.mark.parametrize("name", domain_names())
 def test_a_test_sent_without_a_choice_is_refused_in_the_studys_words(name, transactional_db, live_server,
-                                                                     tmp_path_factory, monkeypatch, browser):
+                                                                     tmp_path_factory, browser):
     domain = get_domain(name)
     preset = smallest_preset(domain)
     out = built_once(tmp_path_factory, f"{preset.name}-table", lambda out: build_table(preset, out))
     study = build_study(real_spec(TrajectoryTable.load(out), out, slug=f"words-{name}"))
     Study.objects.filter(pk=study.pk).update(is_open=True)
-    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")  # ORM calls beside Playwright's loop
     pid = f"5f0c0ffee00000000000{name[:4]}"
     page = browser.new_context(viewport={"width": 1200, "height": 1000}).new_page()
     errors = []

@@ -62,8 +62,7 @@ def a_free_step(domain, test, best: list[str]) -> str:
 
 
 def test_a_participant_shows_the_way_by_keyboard_and_by_touch(transactional_db, live_server, tmp_path_factory,
-                                                             monkeypatch, browser):
-    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")  # ORM calls beside Playwright's loop
+                                                             browser):
     errors = []
     with key_room.registered() as domain:
         _, teach_dir = key_room.built(tmp_path_factory)
@@ -144,11 +143,10 @@ def test_a_participant_shows_the_way_by_keyboard_and_by_touch(transactional_db, 
 
 
 def test_the_taxi_picks_up_and_delivers_its_passenger_by_the_buttons_and_by_a_tap(transactional_db, live_server,
-                                                                                tmp_path_factory, monkeypatch, browser):
+                                                                                tmp_path_factory, browser):
     """The augmented taxi's show test (teach --tests show): θ*'s way, whose pick-up and drop are the page's
     buttons (laptop) or a tap on the robot's own cell (phone); the drop on the destination ends the
     episode as a delivery, and the way is stored with regret 0."""
-    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")
     errors = []
     with shipped("taxi") as domain:
         _, teach_dir = teach_show(tmp_path_factory, domain)

@@ -22,9 +22,8 @@ pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
 
 def test_a_small_grid_study_draws_its_examples_and_options(transactional_db, live_server, settings,
-                                                            tmp_path_factory, monkeypatch, browser):
+                                                            tmp_path_factory, browser):
     settings.STATICFILES_DIRS = [*settings.STATICFILES_DIRS, HERE / "static"]  # its scene module
-    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")  # ORM calls beside Playwright's loop
     with small.registered():
         _, teach_dir = built_small_grid(tmp_path_factory)
         spec = {**spec_from_teach(teach_dir), "slug": "small-grid", "name": "Small grid",

@@ -164,7 +164,6 @@ def stimuli_of(study, domain) -> list[dict]:
 def served(transactional_db, demo_table, tmp_path_factory, monkeypatch):
     """The driving demo study and a gridworld study on its smallest table, both open."""
     monkeypatch.setenv("DEMO_TABLE", str(demo_table))
-    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")  # ORM calls beside Playwright's loop
     preset = smallest_preset(get_domain("gridworld"))
     table = built_once(tmp_path_factory, f"{preset.name}-table", lambda out: build_table(preset, out))
     studies = {"driving": build_study(demo_spec()),

@@ -29,8 +29,7 @@ def check(kind, page, drawn):
 
 
 def test_a_study_of_a_world_from_a_file_draws_its_examples_and_options(transactional_db, live_server,
-                                                                       tmp_path_factory, monkeypatch, browser):
-    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")  # ORM calls beside Playwright's loop
+                                                                       tmp_path_factory, browser):
     with key_room.registered() as domain:
         _, teach_dir = key_room.built(tmp_path_factory)
         spec = {**spec_from_teach(teach_dir), "slug": "key-room", "name": "Key room",
