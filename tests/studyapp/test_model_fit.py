@@ -28,6 +28,25 @@ def seeded_assignment(monkeypatch):
     monkeypatch.setattr(assignment, "_rng", random.Random(20261125), raising=False)
 
 
+@pytest.fixture(scope="module")
+def det_euclidean_study(django_db_setup, django_db_blocker, demo_table):
+    """A study answered through the real flow by 24 det-euclidean learners per condition (λ 1, lapse 0.1),
+    committed once for the tests that read the answers of that generator: simulating them costs about a
+    quarter of a minute, a third of this module's time when each test simulated its own.  No test here
+    writes to it, and it is deleted after the module (with the fits it cached), so no other test sees it."""
+    from django.core.cache import cache  # noqa: PLC0415
+
+    with django_db_blocker.unblock(), pytest.MonkeyPatch.context() as mp:
+        mp.setattr(assignment, "_rng", random.Random(20261125), raising=False)
+        study = make_study(demo_table, "fit-det-euclidean")
+        simulate(study, n_per_condition=24, seed=2, learner=SimulatedLearner("det-euclidean", 1.0, 0.1))
+    yield study
+    with django_db_blocker.unblock():
+        Participant.objects.filter(study=study).delete()  # a condition with participants cannot be deleted
+        study.delete()
+        cache.clear()
+
+
 def run(*args) -> str:
     out = io.StringIO()
     call_command("fit_models", *args, stdout=out)
@@ -35,9 +54,12 @@ def run(*args) -> str:
 
 
 @pytest.mark.parametrize("model, value", [("det-euclidean", 1.0), ("prob-reward", 100.0)])
-def test_the_generating_model_is_found_in_the_stored_answers(demo_table, tmp_path, model, value):
-    study = make_study(demo_table, f"fit-{model}")
-    simulate(study, n_per_condition=24, seed=2, learner=SimulatedLearner(model, value, 0.1))
+def test_the_generating_model_is_found_in_the_stored_answers(demo_table, det_euclidean_study, tmp_path, model, value):
+    if model == "det-euclidean":
+        study = det_euclidean_study
+    else:
+        study = make_study(demo_table, f"fit-{model}")
+        simulate(study, n_per_condition=24, seed=2, learner=SimulatedLearner(model, value, 0.1))
     answers, _ = study_answers(study, study_design(study))
     excluded = Participant.objects.filter(study=study, excluded=True).count()
     assert excluded > 0 and answers.n_participants == 9 * 24 - excluded  # the analysed set only
@@ -52,9 +74,8 @@ def test_the_generating_model_is_found_in_the_stored_answers(demo_table, tmp_pat
     assert (tmp_path / "m.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def test_accuracy_cells_compare_prediction_and_observation(demo_table):
-    study = make_study(demo_table, "fit-cells")
-    simulate(study, n_per_condition=12, seed=3, learner=SimulatedLearner("det-euclidean", 1.0, 0.1))
+def test_accuracy_cells_compare_prediction_and_observation(det_euclidean_study):
+    study = det_euclidean_study
     fit = fit_study(study)
     cells = fit.accuracy()
     assert len(cells) == 9 * len(study.test_set)
@@ -95,15 +116,14 @@ def test_a_study_whose_table_is_gone_says_so(demo_table):
 
 
 # --- the analysis page's panel and CSV --------------------------------------------------------------------
-def test_the_panel_ranks_the_models_and_serves_the_csv(demo_table, staff_client):
+def test_the_panel_ranks_the_models_and_serves_the_csv(demo_table, det_euclidean_study, staff_client):
     from django.urls import reverse  # noqa: PLC0415
 
-    study = make_study(demo_table, "fit-panel")
-    url = reverse("dashboard_models", args=[study.slug])
-    empty = staff_client.get(url)
+    empty = staff_client.get(reverse("dashboard_models", args=[make_study(demo_table, "fit-panel").slug]))
     assert empty.status_code == 200
     assert b"No model fit: no participant has finished this study yet" in empty.content
-    simulate(study, n_per_condition=12, seed=5, learner=SimulatedLearner("det-euclidean", 1.0, 0.1))
+    study = det_euclidean_study
+    url = reverse("dashboard_models", args=[study.slug])
     page = staff_client.get(url)
     html = page.content.decode()
     assert page.status_code == 200 and 'id="model-fit-table"' in html
