@@ -65,12 +65,15 @@ lint: venv
 # built once, and no worker sits out the last minutes while another works through a queue it was
 # dealt.  Before both, tests/prebuild.py compiles
 # the planner's Numba kernels into their disk caches and builds the demo table, on the idle machine,
-# so that no test pays a cold compile or waits for that table while the two runs compete for it.
+# so that no test pays a cold compile or waits for that table while the two runs compete for it, and
+# collects the tests once: Python may write bytecode here (unset PYTHONDONTWRITEBYTECODE, which this
+# machine sets), so the project's modules and pytest's rewritten test modules are compiled once, not in
+# every pytest process, server and subprocess of the suite.
 # pytest exit 5 means "no tests collected": that is a failure here, never a pass.
 SERVICES_LOG = var/test-services.log
 test: venv browser-deps serve-deps messages
 	@mkdir -p var
-	export TEST_BUILDS_DIR=$$(mktemp -d /tmp/test-builds.XXXXXX); \
+	unset PYTHONDONTWRITEBYTECODE; export TEST_BUILDS_DIR=$$(mktemp -d /tmp/test-builds.XXXXXX); \
 	$(PY) -m tests.prebuild || exit 1; \
 	$(PY) -m pytest -p no:cacheprovider -m "postgres or redis" > $(SERVICES_LOG) 2>&1 & svc=$$!; \
 	$(PY) -m pytest -n 3 --dist worksteal -m "not (postgres or redis)"; a=$$?; \
