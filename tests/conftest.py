@@ -254,6 +254,13 @@ def gridworld_table(tmp_path_factory):
 
 
 @pytest.fixture(scope="session")
+def gridworld_tiny_table(tmp_path_factory):
+    """The `gridworld-tiny` preset, once per run."""
+    return built_once(tmp_path_factory, "gridworld-tiny-table",
+                      functools.partial(build_table, PRESETS["gridworld-tiny"]))
+
+
+@pytest.fixture(scope="session")
 def gridworld_teach(gridworld_table, tmp_path_factory):
     """`python -m teaching.teach` on the gridworld table."""
     return built_once(tmp_path_factory, "gridworld-teach", _teach(gridworld_table))

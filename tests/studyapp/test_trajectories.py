@@ -100,12 +100,10 @@ def test_drawn_scene_of_a_payload_stored_before_sizes_gets_todays():
 
 
 # --- the gridworld's payloads: the domain's scene, the path up to its arrival --------------
-def test_gridworld_payloads_draw_the_tables_paths(tmp_path):
-    from teaching.core.build import PRESETS, build_table  # noqa: PLC0415
+def test_gridworld_payloads_draw_the_tables_paths(gridworld_tiny_table):
     from teaching.domains.gridworld.environments import get_yard  # noqa: PLC0415
 
-    build_table(PRESETS["gridworld-tiny"], tmp_path / "t")
-    table = TrajectoryTable.load(tmp_path / "t")
+    table = TrajectoryTable.load(gridworld_tiny_table)
     grid = table.domain
     ids = [int(e) for e in table.env_ids]
     for i, p in enumerate(tj.training_from_table(table, ids)):

@@ -15,6 +15,7 @@ from teaching.core.build import PRESETS, build_table
 from teaching.core.domain import get_domain
 from teaching.core.rewards import reward
 from teaching.core.sheet import make_sheet
+from teaching.core.table import TrajectoryTable
 from teaching.domains.gridworld import environments as E
 from teaching.domains.gridworld import labels as L
 from teaching.domains.gridworld.planner import pareto_paths
@@ -158,14 +159,8 @@ def dijkstra_best(y: E.Yard, theta: np.ndarray) -> float:
     return -min(dist[node(*y.goal, 0)], dist[node(*y.goal, 1)])
 
 
-@pytest.fixture(scope="module")
-def tiny(tmp_path_factory):
-    out = tmp_path_factory.mktemp("grid") / "table"
-    return build_table(PRESETS["gridworld-tiny"], out), out
-
-
-def test_every_path_of_a_built_table_is_valid_and_optimal(tiny):
-    table, _ = tiny
+def test_every_path_of_a_built_table_is_valid_and_optimal(gridworld_tiny_table):
+    table = TrajectoryTable.load(gridworld_tiny_table)
     assert table.meta["domain"] == "gridworld" and table.domain is GRIDWORLD
     feats, thetas = np.asarray(table.features), np.asarray(table.thetas)
     for m, eid in enumerate(table.env_ids):
