@@ -31,9 +31,9 @@ def seeded_assignment(monkeypatch):
 @pytest.fixture(scope="module")
 def det_euclidean_study(django_db_setup, django_db_blocker, demo_table):
     """A study answered through the real flow by 24 det-euclidean learners per condition (λ 1, lapse 0.1),
-    committed once for the tests that read the answers of that generator: simulating them costs about a
-    quarter of a minute, a third of this module's time when each test simulated its own.  No test here
-    writes to it, and it is deleted after the module (with the fits it cached), so no other test sees it."""
+    committed once for the three tests that read the answers of that generator (two of them simulated 108
+    of their own: 12 of the module's 68 s of CPU).  No test here writes to it, and it is deleted after the
+    module (and the cache cleared of its fits), so no other test sees it."""
     from django.core.cache import cache  # noqa: PLC0415
 
     with django_db_blocker.unblock(), pytest.MonkeyPatch.context() as mp:
