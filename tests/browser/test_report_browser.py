@@ -72,8 +72,8 @@ def test_report_renders_in_chromium_and_updates_live(staff_cookie, live_server, 
         # report to be recomputed (1.4 s on an idle machine, over 15 s once beside a busy loop, in the
         # live server's thread of this process, beside the model panel's fit): a hang guard only
         run_participant(study, rng)
-        page.wait_for_function(
-            "() => document.querySelector('.summary-line').innerText.includes('46')", timeout=180_000)
+        page.wait_for_function(  # null-safe: a check in the moment the report is replaced must not throw
+            "() => document.querySelector('.summary-line')?.innerText.includes('46')", timeout=180_000)
         assert errors == []
     finally:
         connections.close_all()  # the ORM call above ran in Playwright's context: close its connection
