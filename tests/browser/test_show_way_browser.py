@@ -187,8 +187,8 @@ def test_the_taxi_picks_up_and_delivers_its_passenger_by_the_buttons_and_by_a_ta
             page.screenshot(path=str(OUT / f"show_way_taxi_{device}.png"), full_page=True)
             heading = page.locator("h1").text_content()
             page.locator('#show-form button[type="submit"]').click()
-            # retried until the next page's heading is there: a check of document.querySelector('h1') in
-            # the moment between the two pages found no h1 and failed the test (once in ~30 runs)
+            # retried until the next page's heading is there: a one-shot check of document.querySelector('h1')
+            # can run between the two pages, find no h1 and throw
             expect(page.locator("h1")).not_to_have_text(heading)
             answer = Answer.objects.get(participant__platform_pid=pid, kind=StepKind.TEST, item=j)
             assert answer.data["moves"] == best and answer.correct and answer.regret == pytest.approx(0)
