@@ -90,8 +90,6 @@ def answer_test_by_keyboard(page, choose_label="A", rating=5):
 
 
 def test_participant_flow_in_chromium(demo_study, live_server, browser):  # db first: last torn down
-
-    # ORM checks below run beside Playwright's loop (undone after)
     OUT.mkdir(exist_ok=True)
     entry = f"{live_server.url}/s/{demo_study.slug}/?PROLIFIC_PID={PID}&STUDY_ID={STUDY_ID}&SESSION_ID={SESSION_ID}"
     context = browser.new_context(viewport={"width": 1200, "height": 1000})
