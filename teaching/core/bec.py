@@ -37,6 +37,9 @@ HIGHS = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e
 MC_SAMPLES, MC_SEED = 100_000, 0
 PILOT = 1000  # samples that order the constraints of a Monte-Carlo size (speed only)
 CHUNK = 1 << 22  # (sample, constraint) products held at once when testing every constraint together
+# The interior point's constraint generation: rows added per round, and the shortfall below the
+# working set's depth that counts as a violation.
+GENERATE, GENERATE_TOL = 1000, 1e-12
 
 
 class BECError(ValueError):
@@ -102,8 +105,40 @@ def is_implied(normals: np.ndarray, c: np.ndarray) -> bool:
 
 def interior_point(normals: np.ndarray) -> tuple[np.ndarray, float]:
     """(u (D,), r): the point of {u ≥ 0, Σu = 1, normals·u ≥ 0} deepest inside every constraint
-    (unit normals: u·n ≥ r and u_i ≥ r for all), r ≤ 0 when the region has no interior."""
-    k, d = normals.shape
+    (unit normals: u·n ≥ r and u_i ≥ r for all), r ≤ 0 when the region has no interior.
+
+    By constraint generation: the LP over a working set of constraints, then every constraint
+    checked at its optimum, the most violated added, until none is.  A relaxation's optimum that
+    every constraint holds is the whole LP's, and a whole table's union has millions of rows, of
+    which a few dozen bind.
+    """
+    normals = np.asarray(normals, np.float64)
+    d = normals.shape[1]
+    centre = np.full(d, 1.0 / d)
+    work = _most_violated(normals @ centre, np.inf, GENERATE)
+    while True:
+        u, r = _deepest(normals[work], d)
+        if not np.isfinite(r):
+            return centre, -np.inf
+        at = normals @ u
+        extra = np.setdiff1d(_most_violated(at, r - GENERATE_TOL, GENERATE), work)
+        if not len(extra):
+            return u, min(r, float(at.min(initial=np.inf)))
+        work = np.union1d(work, extra)
+
+
+def _most_violated(at: np.ndarray, below: float, k: int) -> np.ndarray:
+    """Indices of the (at most) k smallest entries of ``at`` (K,) that are below ``below``, sorted."""
+    below_idx = np.flatnonzero(at < below)
+    if len(below_idx) > k:
+        below_idx = below_idx[np.argpartition(at[below_idx], k)[:k]]
+    return np.sort(below_idx)
+
+
+def _deepest(normals: np.ndarray, d: int) -> tuple[np.ndarray, float]:
+    """:func:`interior_point`'s LP over the rows ``normals`` (K, D) as given: (u, r), r = -inf if
+    HiGHS finds no optimum."""
+    k = len(normals)
     a_ub = np.vstack([np.hstack([-normals, np.ones((k, 1))]), np.hstack([-np.eye(d), np.ones((d, 1))])])
     res = linprog(np.r_[np.zeros(d), -1.0], A_ub=a_ub, b_ub=np.zeros(k + d), A_eq=np.r_[np.ones(d), 0.0][None],
                   b_eq=[1.0], bounds=[(0, None)] * d + [(None, 1.0)], method="highs", options=HIGHS)
@@ -161,19 +196,26 @@ def remove_redundant(normals: np.ndarray) -> np.ndarray:
 
 def _clarkson(normals: np.ndarray, inside: np.ndarray) -> list[int]:
     facets: list[int] = []
-    at_inside = normals @ inside  # > 0: strictly inside every constraint
+    # The rows not yet shown redundant.  A row no vertex of the facets' region violates holds on
+    # all of it, and that region only shrinks as facets join: the row is redundant for good, and
+    # never the first crossed (its crossing lies at or beyond the target vertex).  Dropping such
+    # rows leaves each pass over a whole table's millions of rows to the few still in question.
+    ids = np.arange(len(normals))
+    rows, at_inside = normals, normals @ inside  # at_inside > 0: strictly inside every constraint
     while True:
         v = _vertices(normals[facets], inside)
-        worst = (normals @ v.T).min(1)
+        worst = (rows @ v.T).min(1)
         violated = np.flatnonzero(worst < -LP_TOL)
         if not len(violated):
             return facets
-        target = v[int(np.argmin(normals[violated[0]] @ v.T))]
-        along = normals @ (target - inside)
+        target = v[int(np.argmin(rows[violated[0]] @ v.T))]
+        keep = worst < 0
+        keep[np.isin(ids, facets)] = False
+        ids, rows, at_inside = ids[keep], rows[keep], at_inside[keep]
+        along = rows @ (target - inside)
         with np.errstate(divide="ignore", invalid="ignore"):
             t = np.where(along < 0, at_inside / -along, np.inf)
-        t[facets] = np.inf
-        facets.append(int(np.argmin(t)))  # the first crossed: lowest index on exact ties
+        facets.append(int(ids[np.argmin(t)]))  # the first crossed: lowest index on exact ties
 
 
 def implies(normals: np.ndarray, others: np.ndarray) -> bool:

@@ -92,3 +92,47 @@ def test_implication_by_linear_programming():
 def test_a_theta_star_with_a_zero_weight_has_no_sign_constrained_space():
     with pytest.raises(bec.BECError, match="zero weight"):
         bec.weight_signs([-1.0, 0.0])
+
+
+def _random_region(d: int, k: int, seed: int) -> np.ndarray:
+    """(k, d) unit normals of constraints that all hold at one point of the orthant (a region with
+    an interior), many of them redundant: normals a - (a·p) p / |p|² + small positive slack."""
+    rng = np.random.default_rng(seed)
+    p = rng.uniform(0.2, 1.0, d)
+    a = rng.standard_normal((k, d))
+    a -= np.outer(a @ p, p) / (p @ p)  # through p ...
+    a += rng.uniform(0.0, 0.3, (k, 1)) * p / np.linalg.norm(p)  # ... then p strictly inside
+    return bec.unit_normals(a)
+
+
+@pytest.mark.parametrize("d, k, seed", [(3, 120, 0), (5, 200, 2)])
+def test_redundancy_removal_equals_one_linear_program_per_constraint(d, k, seed):
+    # the definition, independent of the vertex method: a row is redundant when the others imply it
+    normals = _random_region(d, k, seed)
+    brute = [i for i in range(len(normals)) if not bec.is_implied(np.delete(normals, i, 0), normals[i])]
+    assert 3 <= len(brute) < len(normals) / 4
+    np.testing.assert_array_equal(bec.remove_redundant(normals), normals[brute])
+
+
+@pytest.mark.parametrize("generate", [1, 7, bec.GENERATE])
+def test_the_interior_point_is_the_deepest_of_all_the_constraints(monkeypatch, generate):
+    # a few rows per round forces many rounds of constraint generation; the depth must be the one
+    # linear program over every row gives
+    normals = _random_region(4, 500, 3)
+    monkeypatch.setattr(bec, "GENERATE", generate)
+    u, r = bec.interior_point(normals)
+    _, whole = bec._deepest(normals, 4)
+    assert r == pytest.approx(whole, abs=1e-9) and r > 0
+    assert (normals @ u >= r - 1e-9).all() and (u >= r - 1e-9).all() and u.sum() == pytest.approx(1.0)
+
+
+def test_the_interior_point_of_two_features_by_hand():
+    # the whole's BEC of the hand table is the arc 33.69°..53.13° of the quarter circle; on the line
+    # u0 + u1 = 1 its deepest point is equally far (in n·u) from the two bounding constraints
+    union = bec.union(bec.environment_half_spaces(hand_bec_table()))
+    u, r = bec.interior_point(union)
+    lo, hi = unit(-2, 3), unit(0.8, -0.6)
+    assert lo @ u == pytest.approx(r, abs=1e-9) and hi @ u == pytest.approx(r, abs=1e-9)
+    grid = np.linspace(0, 1, 200_001)[:, None] * [1.0, -1.0] + [0.0, 1.0]  # (s, 1 - s)
+    depth = np.minimum((grid @ union.T).min(1), grid.min(1))
+    assert r == pytest.approx(depth.max(), abs=1e-5)
