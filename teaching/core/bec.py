@@ -121,7 +121,9 @@ def interior_point(normals: np.ndarray) -> tuple[np.ndarray, float]:
         if not np.isfinite(r):
             return centre, -np.inf
         at = normals @ u
-        extra = np.setdiff1d(_most_violated(at, r - GENERATE_TOL, GENERATE), work)
+        outside = at.copy()
+        outside[work] = np.inf  # the working set's rows hold to HiGHS's tolerance: only new rows can join
+        extra = _most_violated(outside, r - GENERATE_TOL, GENERATE)
         if not len(extra):
             return u, min(r, float(at.min(initial=np.inf)))
         work = np.union1d(work, extra)
