@@ -253,11 +253,20 @@ def gridworld_table(tmp_path_factory):
     return built_once(tmp_path_factory, "gridworld-table", functools.partial(build_table, PRESETS["gridworld"]))
 
 
+# Both domains' tiny presets and the directories each is built in, once per run (tiny-table is also the
+# one tiny_table and tests/prebuild.py build, by the command line: the same table).
+TINY_PRESETS = {"tiny": builds.TINY_TABLE, "gridworld-tiny": "gridworld-tiny-table"}
+
+
+def tiny_preset_table(tmp_path_factory, preset: str) -> Path:
+    """The directory of the table of `preset` (a key of TINY_PRESETS), built once per run (built_once)."""
+    return built_once(tmp_path_factory, TINY_PRESETS[preset], functools.partial(build_table, PRESETS[preset]))
+
+
 @pytest.fixture(scope="session")
 def gridworld_tiny_table(tmp_path_factory):
     """The `gridworld-tiny` preset, once per run."""
-    return built_once(tmp_path_factory, "gridworld-tiny-table",
-                      functools.partial(build_table, PRESETS["gridworld-tiny"]))
+    return tiny_preset_table(tmp_path_factory, "gridworld-tiny")
 
 
 @pytest.fixture(scope="session")

@@ -3,29 +3,25 @@ sequences.json, the extended ideal-user matrix, the cluster grids, the pilot's p
 name or parameter is one line from the argument parser (exit 2)."""
 from __future__ import annotations
 
-import functools
 import json
 
 import numpy as np
 import pytest
 
-from teaching.core.build import PRESETS, build_table
 from teaching.core.conditions import condition_sequence
 from teaching.core.selection import CONDITIONS
 from teaching.core.table import TrajectoryTable
 from teaching.core.teachout import read_teach
 from teaching.teach import main
-from tests.conftest import built_once
+from tests.conftest import TINY_PRESETS, tiny_preset_table
 
-PRESET_TABLES = {"tiny": "tiny-table", "gridworld-tiny": "gridworld-tiny-table"}
 SELECTORS = {"scot": ("scot", {}), "bec-scaffold:k=2": ("bec-scaffold", {"k": 2}),
              "highlights:k=5": ("highlights", {"k": 5})}
 
 
-@pytest.fixture(scope="module", params=list(PRESET_TABLES))
+@pytest.fixture(scope="module", params=list(TINY_PRESETS))
 def tiny(request, tmp_path_factory):
-    preset = request.param
-    return built_once(tmp_path_factory, PRESET_TABLES[preset], functools.partial(build_table, PRESETS[preset]))
+    return tiny_preset_table(tmp_path_factory, request.param)
 
 
 def test_named_selectors_join_the_conditions(tiny, tmp_path):

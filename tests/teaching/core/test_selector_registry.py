@@ -22,10 +22,9 @@ from teaching.core.conditions import build_sequences, condition_sequence, teach
 from teaching.core.selection import ALL_CONDITIONS, CONDITIONS
 from teaching.core.selectors import check_params, get_selector, selector_names
 from teaching.core.table import TrajectoryTable
-from tests.conftest import built_once
+from tests.conftest import TINY_PRESETS, tiny_preset_table
 
 FIXTURE = Path(__file__).parent / "fixtures" / "tiny_sequences.json"
-PRESET_TABLES = {"tiny": "tiny-table", "gridworld-tiny": "gridworld-tiny-table"}
 SEED = 3
 
 
@@ -42,11 +41,9 @@ def recorded(table: TrajectoryTable) -> dict:
             "models": {name: str(m) for name, m in sorted(result.models.items())}}
 
 
-@pytest.fixture(scope="module", params=list(PRESET_TABLES))
+@pytest.fixture(scope="module", params=list(TINY_PRESETS))
 def tiny(request, tmp_path_factory):
-    preset = request.param
-    path = built_once(tmp_path_factory, PRESET_TABLES[preset], functools.partial(build_table, PRESETS[preset]))
-    return preset, TrajectoryTable.load(path)
+    return request.param, TrajectoryTable.load(tiny_preset_table(tmp_path_factory, request.param))
 
 
 def test_the_conditions_give_the_outputs_recorded_before_the_registry(tiny):
@@ -99,7 +96,7 @@ def test_bad_names_and_parameters_get_one_line_errors(call, message):
 def main() -> int:
     root = Path(os.environ["TEST_BUILDS_DIR"])
     out = {}
-    for preset, name in PRESET_TABLES.items():
+    for preset, name in TINY_PRESETS.items():
         from tests.builds import built_in  # noqa: PLC0415
 
         path = built_in(root, name, functools.partial(build_table, PRESETS[preset]))

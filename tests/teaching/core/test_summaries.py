@@ -2,14 +2,12 @@
 tiny tables of both domains against brute force and linear programming."""
 from __future__ import annotations
 
-import functools
 import itertools
 
 import numpy as np
 import pytest
 
 from teaching.core import bec
-from teaching.core.build import PRESETS, build_table
 from teaching.core.conditions import SelectionContext, condition_sequence
 from teaching.core.selection import theta_star_clusters
 from teaching.core.selectors import check_params, get_selector
@@ -22,10 +20,9 @@ from teaching.core.summaries import (
     showable_half_spaces,
 )
 from teaching.core.table import TrajectoryTable
-from tests.conftest import built_once
+from tests.conftest import TINY_PRESETS, tiny_preset_table
 from tests.teaching.core.hand_bec_table import hand_bec_table
 
-PRESET_TABLES = {"tiny": "tiny-table", "gridworld-tiny": "gridworld-tiny-table"}
 BRUTE_FORCE_LIMIT = 200_000  # subsets tried before a brute force gives up
 
 
@@ -81,11 +78,9 @@ def test_scot_errors_in_one_line_where_no_cover_exists():
 
 
 # --- the tiny tables of both domains --------------------------------------------------------
-@pytest.fixture(scope="module", params=list(PRESET_TABLES))
+@pytest.fixture(scope="module", params=list(TINY_PRESETS))
 def tiny(request, tmp_path_factory):
-    path = built_once(tmp_path_factory, PRESET_TABLES[request.param],
-                      functools.partial(build_table, PRESETS[request.param]))
-    return TrajectoryTable.load(path)
+    return TrajectoryTable.load(tiny_preset_table(tmp_path_factory, request.param))
 
 
 def test_scot_examples_hold_the_whole_bec_and_no_smaller_set_does(tiny):

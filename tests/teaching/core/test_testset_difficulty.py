@@ -23,12 +23,11 @@ from teaching.core.table import TrajectoryTable
 from teaching.core.teachout import TeachOutputError, read_teach
 from teaching.core.testset import DIFFICULTIES, TestSetError, difficulty_levels, select_test_set
 from teaching.teach import main as teach_main
-from tests.conftest import TINY_TEST_SET, built_once
+from tests.conftest import TINY_PRESETS, TINY_TEST_SET, tiny_preset_table
 from tests.teaching.core.hand_bec_table import hand_bec_table
 
 FIXTURE = Path(__file__).parent / "fixtures" / "tiny_test_sets.json"
 SEQUENCES = Path(__file__).parent / "fixtures" / "tiny_sequences.json"  # the conditions' training
-PRESET_TABLES = {"tiny": "tiny-table", "gridworld-tiny": "gridworld-tiny-table"}
 SEEDS = (0, 3)
 
 
@@ -45,10 +44,10 @@ def ungraded(table: TrajectoryTable, preset: str) -> dict:
                           for seed in SEEDS}}
 
 
-@pytest.fixture(scope="module", params=list(PRESET_TABLES))
+@pytest.fixture(scope="module", params=list(TINY_PRESETS))
 def tiny(request, tmp_path_factory):
     preset = request.param
-    path = built_once(tmp_path_factory, PRESET_TABLES[preset], functools.partial(build_table, PRESETS[preset]))
+    path = tiny_preset_table(tmp_path_factory, preset)
     return preset, TrajectoryTable.load(path), path
 
 
@@ -138,7 +137,7 @@ def main() -> int:
     root = Path(os.environ["TEST_BUILDS_DIR"])
     out = {preset: ungraded(TrajectoryTable.load(built_in(root, name, functools.partial(build_table, PRESETS[preset]))),
                             preset)
-           for preset, name in PRESET_TABLES.items()}
+           for preset, name in TINY_PRESETS.items()}
     FIXTURE.write_text(json.dumps(out, indent=1, sort_keys=True) + "\n")
     print(f"recorded {FIXTURE}")
     return 0
