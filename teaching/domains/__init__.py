@@ -14,7 +14,7 @@ import os
 from importlib import import_module
 from pathlib import Path
 
-from ..core.domain import domain_names, register
+from ..core.domain import domain_names, register, unregister
 
 # the grid worlds shipped as files (docs/gridworlds.md)
 WORLDS = Path(__file__).resolve().parent / "worlds"
@@ -41,24 +41,45 @@ def register_world_files(spec: str) -> list[str]:
     parts = [p for p in spec.split(os.pathsep) if p]
     if not parts:
         return []  # the world-file modules load only where world files are named
-    from ._grid.filedomain import FileGridDomain  # noqa: PLC0415
-    from ._grid.worldfile import WorldFileError, load_world  # noqa: PLC0415
+    from ._grid.worldfile import WorldFileError  # noqa: PLC0415
 
+    log = logging.getLogger(__name__)
     names = []
     for part in parts:
         root = Path(part)
         for path in sorted(root.glob("*.toml")) if root.is_dir() else [root]:
             try:
-                world = load_world(path)
-                if world.name in domain_names():
-                    raise WorldFileError(f"{path.name}: name: {world.name!r} is already a domain's name")
-            except WorldFileError as exc:
-                WORLD_ERRORS.append(str(exc))
-                logging.getLogger(__name__).warning("world file not registered: %s", exc)
+                names.append(_register_world(path))
                 continue
-            register(world.name, lambda world=world: FileGridDomain(world))
-            names.append(world.name)
+            except WorldFileError as exc:
+                error = str(exc)
+            except Exception as exc:  # no file may stop the other domains
+                error = f"{path.name}: not a usable world file: {type(exc).__name__}: {exc}".splitlines()[0]
+                log.debug("world file %s", path, exc_info=True)
+            WORLD_ERRORS.append(error)
+            log.warning("world file not registered: %s", error)
     return names
+
+
+def _register_world(path: Path) -> str:
+    """Register the world file at `path` and return its name; WorldFileError (one line) for a mistake, any
+    other exception for a file the checks let through but the domain cannot take (nothing registered)."""
+    from ._grid.filedomain import FileGridDomain  # noqa: PLC0415
+    from ._grid.worldfile import WorldFileError, load_world  # noqa: PLC0415
+
+    world = load_world(path)
+    if world.name in domain_names():
+        raise WorldFileError(f"{path.name}: name: {world.name!r} is already a domain's name")
+    domain = FileGridDomain(world)
+    register(world.name, lambda: domain)
+    try:
+        # made now, not on first use: a domain that cannot list its presets fails here, once, instead of
+        # in every command that lists the domains' presets
+        domain.presets  # noqa: B018
+    except BaseException:
+        unregister(world.name)
+        raise
+    return world.name
 
 
 register_world_files(os.environ.get("TEACHING_WORLDS", ""))

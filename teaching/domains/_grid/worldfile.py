@@ -8,10 +8,8 @@ Every mistake raises :class:`WorldFileError` with one line that names the file a
 """
 from __future__ import annotations
 
-import difflib
-import json
+import math
 import re
-import string
 import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -19,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from .cells import shortest_moves
+from .worldtexts import check_texts, check_translations, did_you_mean
 
 MOVES = ((0, 1), (-1, 0), (1, 0), (0, -1))  # (d_row, d_col): right, up, down, left, the tie order
 HELD = "held"  # an object's place in a start state when the robot starts holding it
@@ -28,14 +27,22 @@ ACTIONS = ("pickup", "drop")  # actions besides the moves that a "moves" feature
 _OPS = {"=": np.equal, "==": np.equal, "!=": np.not_equal, ">": np.greater, ">=": np.greater_equal,
         "<": np.less, "<=": np.less_equal}
 _CONDITION = re.compile(r"^\s*([A-Za-z_][\w-]*)\s*(==|!=|>=|<=|=|>|<)\s*(-?\d+)\s*$")
-# [texts]: what the domain's participant texts take from the file (filedomain._texts), each text a string but
-# the instructions (paragraphs) and the comprehension check (questions)
-TEXT_KEYS = ("summary", "consent", "instructions", "attention_question", "watch", "question", "title",
-             "comprehension")
-# what an instruction paragraph may leave to be filled in per participant (ParticipantTexts.instructions)
-INSTRUCTION_FIELDS = ("n_training", "n_tests", "training_plural", "tests_plural")
-QUESTION_KEYS = ("question", "choices", "right")
-MAX_QUESTIONS, MAX_CHOICES = 20, 8  # a study's own comprehension questions have the same limits
+# Every field a world file may give, by the table it sits in (docs/gridworlds.md, "The file, field by
+# field"): any other is refused with a "did you mean", so that a typo ("max_move") is never ignored.  A
+# start's table also takes the object's name (starts[i].<object>).
+FIELDS = {
+    "": ("name", "title", "width", "height", "max_moves", "exit", "cells", "fixed", "optional", "object",
+         "starts", "features", "theta_star", "classes", "other", "tests", "min_option_distance", "presets",
+         "texts", "translations"),
+    "cells": ("colour", "label", "passable"),
+    "fixed": ("at", "kind"),
+    "object": ("name", "at", "destination"),
+    "starts": ("at",),
+    "features": ("name", "counts", "cell", "at", "holding", "also"),
+    "classes": ("name", "strategies"),
+    "strategies": ("name", "when"),
+    "presets": ("environments", "thetas"),
+}
 
 
 class WorldFileError(ValueError):
@@ -176,26 +183,53 @@ class _Reader:
         value = table[key]
         if kind is float and isinstance(value, int) and not isinstance(value, bool):
             value = float(value)
-        if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
-            self.fail(f"{where}{key}", f"expected {getattr(kind, '__name__', kind)}, got {value!r}")
+        if not isinstance(value, kind) or (kind in (int, float) and isinstance(value, bool)):
+            self.fail(f"{where}{key}", f"expected {getattr(kind, '__name__', kind)}, got {repr(value)[:80]}")
+        if kind is float and not math.isfinite(value):
+            self.fail(f"{where}{key}", f"{value}: expected a finite number")
         return value
+
+    def table(self, value, where: str, fields) -> dict:
+        """`value` checked to be a table whose keys are all among `fields`."""
+        if not isinstance(value, dict):
+            self.fail(where, f"expected a table {{ {', '.join(fields)} }}, got {repr(value)[:80]}")
+        for key in value:
+            if key not in fields:
+                self.fail(f"{where}.{key}" if where else key,
+                          f"not a field of {'a world file' if not where else 'this table'} "
+                          f"(one of {', '.join(fields)}){did_you_mean(key, fields)}")
+        return value
+
+    def tables(self, raw: dict, key: str, fields, default=...) -> list[dict]:
+        """raw[key] checked to be a list of tables whose keys are all among `fields`."""
+        items = self.get(raw, key, "", list, default)
+        return [self.table(item, f"{key}[{i}]", fields) for i, item in enumerate(items)]
 
 
 def load_world(path) -> World:
     """Parse and check the world file at `path`; WorldFileError (one line) on any mistake."""
     path = Path(path)
     try:
-        raw = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as e:
-        raise WorldFileError(f"{path.name}: not valid TOML: {e}") from None
+        data = path.read_bytes()
     except OSError as e:
         raise WorldFileError(f"{path.name}: cannot be read: {e.strerror}") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        line = data.count(b"\n", 0, e.start) + 1
+        raise WorldFileError(f"{path.name}: line {line}: byte {data[e.start]:#04x} is not UTF-8 text "
+                             "(save the file as UTF-8)") from None
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise WorldFileError(f"{path.name}: not valid TOML: {e}") from None
     return parse_world(raw, path.name)
 
 
 def parse_world(raw: dict, source: str = "world") -> World:
     """A world from the file's parsed TOML (a dict); `source` names it in error messages."""
     r = _Reader(source)
+    r.table(raw, "", FIELDS[""])
     name = r.get(raw, "name", "", str)
     if not re.fullmatch(r"[a-z][a-z0-9-]*", name):
         r.fail("name", f"{name!r} is not a lower-case name (letters, digits, '-')")
@@ -207,8 +241,9 @@ def parse_world(raw: dict, source: str = "world") -> World:
         r.fail("max_moves", f"{max_moves}: must lie in 1..200")
 
     def cell(value, where) -> tuple[int, int]:
-        if not (isinstance(value, list) and len(value) == 2 and all(isinstance(v, int) for v in value)):
-            r.fail(where, f"a cell is [x, y], got {value!r}")
+        if not (isinstance(value, list) and len(value) == 2
+                and all(isinstance(v, int) and not isinstance(v, bool) for v in value)):
+            r.fail(where, f"a cell is [x, y], got {repr(value)[:80]}")
         x, y = value
         if not (1 <= x <= width and 1 <= y <= height):
             r.fail(where, f"cell [{x}, {y}] lies outside the {width} x {height} grid")
@@ -219,35 +254,38 @@ def parse_world(raw: dict, source: str = "world") -> World:
         where = f"cells.{kname}."
         if kname == "wall" or not re.fullmatch(r"[a-z]+(-[a-z]+)*", kname):
             r.fail(f"cells.{kname}", "a kind is named in lower-case words joined by '-', and not 'wall' (built in)")
+        r.table(spec, f"cells.{kname}", FIELDS["cells"])
         colour = r.get(spec, "colour", where, str)
         if not re.fullmatch(r"#[0-9a-fA-F]{6}", colour):
             r.fail(where + "colour", f"{colour!r} is not a colour written #rrggbb")
         kinds[kname] = CellKind(kname, colour, r.get(spec, "label", where, str, kname),
                                 r.get(spec, "passable", where, bool, True))
 
-    def kind_of(value, where):
+    def kind_of(item, where):
+        value = r.get(item, "kind", where + ".", str, "wall")
         if value != "wall" and value not in kinds:
-            r.fail(where, f"unknown cell kind {value!r} (declared: wall, {', '.join(kinds) or 'none'})")
+            r.fail(where + ".kind", f"unknown cell kind {value!r} (declared: wall, {', '.join(kinds) or 'none'})")
         return value
 
     fixed = {}
-    for i, item in enumerate(r.get(raw, "fixed", "", list, [])):
-        fixed[cell(item.get("at"), f"fixed[{i}].at")] = kind_of(item.get("kind", "wall"), f"fixed[{i}].kind")
-    optional = tuple((cell(item.get("at"), f"optional[{i}].at"),
-                      kind_of(item.get("kind", "wall"), f"optional[{i}].kind"))
-                     for i, item in enumerate(r.get(raw, "optional", "", list, [])))
+    for i, item in enumerate(r.tables(raw, "fixed", FIELDS["fixed"], [])):
+        fixed[cell(item.get("at"), f"fixed[{i}].at")] = kind_of(item, f"fixed[{i}]")
+    optional = tuple((cell(item.get("at"), f"optional[{i}].at"), kind_of(item, f"optional[{i}]"))
+                     for i, item in enumerate(r.tables(raw, "optional", FIELDS["fixed"], [])))
     if len(optional) > 12:
         r.fail("optional", f"{len(optional)} optional cells: at most 12 (4,096 variants)")
 
     obj = obj_at = destination = None
     if "object" in raw:
-        spec = r.get(raw, "object", "", dict)
+        spec = r.table(raw["object"], "object", FIELDS["object"])
         obj = r.get(spec, "name", "object.", str)
+        if obj in FIELDS["starts"]:
+            r.fail("object.name", f"{obj!r} is a start's own field: name the object otherwise")
         obj_at = cell(spec.get("at"), "object.at")
         destination = cell(spec["destination"], "object.destination") if "destination" in spec else None
 
     starts = []
-    for i, item in enumerate(r.get(raw, "starts", "", list)):
+    for i, item in enumerate(r.tables(raw, "starts", (*FIELDS["starts"], *([obj] if obj else [])))):
         at = cell(item.get("at"), f"starts[{i}].at")
         place = None
         if obj is not None:
@@ -258,15 +296,18 @@ def parse_world(raw: dict, source: str = "world") -> World:
         r.fail("starts", "at least one start is needed")
 
     features = tuple(_feature(r, item, i, cell, kinds, obj, destination)
-                     for i, item in enumerate(r.get(raw, "features", "", list)))
+                     for i, item in enumerate(r.tables(raw, "features", FIELDS["features"])))
     names = [f.name for f in features]
     if len(set(names)) != len(names) or not names:
         r.fail("features", f"feature names must be present and distinct, got {names}")
     theta = r.get(raw, "theta_star", "", list)
-    if len(theta) != len(features) or not all(isinstance(v, (int, float)) for v in theta):
-        r.fail("theta_star", f"needs one number per feature ({len(features)}), got {theta!r}")
+    if len(theta) != len(features) or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                              for v in theta):
+        r.fail("theta_star", f"needs one number per feature ({len(features)}), got {repr(theta)[:80]}")
     theta = tuple(float(v) for v in theta)
     for f, w in zip(features, theta, strict=True):
+        if not math.isfinite(w):
+            r.fail("theta_star", f"the weight of {f.name!r} is {w}: every weight must be a finite number")
         if w == 0:
             r.fail("theta_star", f"the weight of {f.name!r} is 0: every weight needs a sign")
         if not f.terminal and w > 0:
@@ -276,11 +317,12 @@ def parse_world(raw: dict, source: str = "world") -> World:
         r.fail("features", "no feature ends an episode ('reach' or 'deliver') and exit is off: no trajectory ends")
 
     classes, seen = [], {}
-    for i, item in enumerate(r.get(raw, "classes", "", list)):
+    for i, item in enumerate(r.tables(raw, "classes", FIELDS["classes"])):
         cname = r.get(item, "name", f"classes[{i}].", str)
         strategies = []
         for j, s in enumerate(r.get(item, "strategies", f"classes[{i}].", list)):
             where = f"classes[{i}].strategies[{j}]"
+            r.table(s, where, FIELDS["strategies"])
             sname = r.get(s, "name", where + ".", str)
             conds = []
             for part in r.get(s, "when", where + ".", str).split(" and "):
@@ -295,25 +337,32 @@ def parse_world(raw: dict, source: str = "world") -> World:
         classes.append(WorldClass(cname, tuple(strategies)))
     tests = tuple(r.get(raw, "tests", "", list, list(seen)))
     for t in tests:
-        if t not in seen:
-            r.fail("tests", f"{t!r} is not a strategy of a class")
+        if not isinstance(t, str) or t not in seen:
+            r.fail("tests", f"{repr(t)[:80]} is not a strategy of a class")
 
     presets = {}
     for suffix, spec in r.get(raw, "presets", "", dict, {"tiny": {"environments": 48, "thetas": 24}}).items():
+        r.table(spec, f"presets.{suffix}", FIELDS["presets"])
         envs = spec.get("environments", "all")
-        if not (envs == "all" or (isinstance(envs, int) and envs > 0)):
-            r.fail(f"presets.{suffix}.environments", f"a positive number or \"all\", got {envs!r}")
-        presets[suffix] = (None if envs == "all" else envs, r.get(spec, "thetas", f"presets.{suffix}.", int))
-    texts = _texts(r, r.get(raw, "texts", "", dict, {}))
+        if not (envs == "all" or (isinstance(envs, int) and not isinstance(envs, bool) and envs > 0)):
+            r.fail(f"presets.{suffix}.environments", f"a positive number or \"all\", got {repr(envs)[:80]}")
+        thetas = r.get(spec, "thetas", f"presets.{suffix}.", int)
+        if thetas < 2:
+            r.fail(f"presets.{suffix}.thetas", f"{thetas}: a table needs θ* and at least one other θ")
+        presets[suffix] = (None if envs == "all" else envs, thetas)
+    min_option_distance = r.get(raw, "min_option_distance", "", float, 0.3)
+    if min_option_distance < 0:
+        r.fail("min_option_distance", f"{min_option_distance}: a distance is 0 or more")
+    texts = check_texts(r, r.get(raw, "texts", "", dict, {}))
     world = World(name=name, title=r.get(raw, "title", "", str, name), width=width, height=height,
                   max_moves=max_moves, kinds=kinds, fixed=fixed, optional=optional, obj=obj, obj_at=obj_at,
                   destination=destination, starts=tuple(starts), exit=r.get(raw, "exit", "", bool, False),
                   features=features, theta_star=theta, classes=tuple(classes),
                   other=r.get(raw, "other", "", str, "other"), tests=tests, presets=presets,
-                  min_option_distance=r.get(raw, "min_option_distance", "", float, 0.3),
+                  min_option_distance=min_option_distance,
                   texts=texts, source=source)
     _check_reachable(world, r)
-    translations = _translations(r, r.get(raw, "translations", "", dict, {}), world)
+    translations = check_translations(r, r.get(raw, "translations", "", dict, {}), world)
     return replace(world, translations=translations) if translations else world
 
 
@@ -349,104 +398,3 @@ def _feature(r: _Reader, item: dict, i: int, cell, kinds, obj, destination) -> F
     if any(a not in ACTIONS for a in also) or (also and counts != "moves"):
         r.fail(where + "also", f"{list(also)}: only a 'moves' feature may also count {', '.join(ACTIONS)}")
     return Feature(name, counts, kind, at, holding, also)
-
-
-def _unknown(name: str, known) -> str:
-    """', did you mean ...' for a name close to one of `known` (a typo), else ''."""
-    close = difflib.get_close_matches(name, list(known), n=1)
-    return f"; did you mean {close[0]!r}?" if close else ""
-
-
-def _text(r: _Reader, value, where: str) -> str:
-    if not isinstance(value, str) or not value.strip():
-        r.fail(where, f"expected a non-empty text, got {repr(value)[:80]}")
-    return value
-
-
-def _fields(text: str) -> set[str] | None:
-    """The {placeholders} of `text` (str.format's), None where its braces are not str.format's."""
-    try:
-        return {name for _, name, _, _ in string.Formatter().parse(text) if name is not None}
-    except ValueError:
-        return None
-
-
-def _texts(r: _Reader, raw: dict) -> dict:
-    """[texts] checked: only the keys filedomain._texts reads, each of its type (module constants)."""
-    out = {}
-    for key, value in raw.items():
-        where = f"texts.{key}"
-        if key not in TEXT_KEYS:
-            r.fail(where, f"not a text a world file gives (one of {', '.join(TEXT_KEYS)}){_unknown(key, TEXT_KEYS)}")
-        if key == "instructions":
-            if not isinstance(value, list) or not value:
-                r.fail(where, f"expected a list of paragraphs (texts), got {repr(value)[:80]}")
-            out[key] = tuple(_text(r, p, f"{where}[{i}]") for i, p in enumerate(value))
-            for i, paragraph in enumerate(out[key]):
-                names = _fields(paragraph)
-                if names is None or names - set(INSTRUCTION_FIELDS):
-                    r.fail(f"{where}[{i}]", "braces only around what is filled in per participant: "
-                           f"{', '.join('{' + f + '}' for f in INSTRUCTION_FIELDS)} (write {{{{ for a brace)")
-        elif key == "comprehension":
-            out[key] = _comprehension(r, value, where)
-        else:
-            out[key] = _text(r, value, where)
-    return out
-
-
-def _comprehension(r: _Reader, value, where: str) -> tuple:
-    """texts.comprehension: [{question, choices, right}] -> ((question, choices, 0-based right), ...)."""
-    if not isinstance(value, list) or not value or len(value) > MAX_QUESTIONS:
-        r.fail(where, f"expected a list of 1 to {MAX_QUESTIONS} questions "
-               "({ question = \"...\", choices = [\"...\", ...], right = [1] }), got " + repr(value)[:80])
-    out = []
-    for i, item in enumerate(value):
-        at = f"{where}[{i}]"
-        if not isinstance(item, dict):
-            r.fail(at, f"expected a table {{ question, choices, right }}, got {repr(item)[:80]}")
-        for key in item:
-            if key not in QUESTION_KEYS:
-                r.fail(f"{at}.{key}", f"not one of {', '.join(QUESTION_KEYS)}{_unknown(key, QUESTION_KEYS)}")
-        question = _text(r, r.get(item, "question", at + ".", str), at + ".question")
-        choices = r.get(item, "choices", at + ".", list)
-        if not 2 <= len(choices) <= MAX_CHOICES:
-            r.fail(at + ".choices", f"a question needs 2 to {MAX_CHOICES} choices, not {len(choices)}")
-        choices = tuple(_text(r, c, f"{at}.choices[{k}]") for k, c in enumerate(choices))
-        right = r.get(item, "right", at + ".", list)
-        if not right:
-            r.fail(at + ".right", "no right choice: give the positions of the right ones, e.g. right = [1]")
-        for k in right:
-            if not isinstance(k, int) or isinstance(k, bool) or not 1 <= k <= len(choices):
-                r.fail(at + ".right", f"{k!r} is not a choice's position (1 to {len(choices)}, in the order listed)")
-        if len(set(right)) != len(right):
-            r.fail(at + ".right", f"{right}: a position given twice")
-        if len(right) == len(choices):
-            r.fail(at + ".right", "every choice is right, so the question checks nothing")
-        out.append((question, choices, tuple(sorted(k - 1 for k in right))))
-    return tuple(out)
-
-
-def _translations(r: _Reader, raw: dict, world: World) -> dict[str, dict[str, str]]:
-    """[translations.<language>]: each of the file's own texts (World.participant_texts) -> its translation;
-    an instruction paragraph's translation fills in only what the English fills in."""
-    own, paragraphs = world.participant_texts, set(world.texts.get("instructions", ()))
-    out = {}
-    for language, table in raw.items():
-        where = f"translations.{language}"
-        if not re.fullmatch(r"[a-z]{2}", language):
-            r.fail(where, f"{language!r} is not a language's two-letter code in lower case (e.g. de)")
-        if not isinstance(table, dict):
-            r.fail(where, f"expected a table of \"English text\" = \"translation\", got {repr(table)[:80]}")
-        for key, value in table.items():
-            at = f"{where}.{json.dumps(key, ensure_ascii=False)}"  # as TOML quotes a key
-            if key not in own:
-                r.fail(at, "not one of the file's own participant texts (its title, cell labels, object name and "
-                       f"[texts], written exactly){_unknown(key, own)}")
-            _text(r, value, at)
-            if key in paragraphs:  # filled in per participant: a name the English lacks has no value
-                names, english = _fields(value), _fields(key)
-                if names is None or not names <= english:
-                    r.fail(at, "braces only around what the English paragraph fills in "
-                           f"({', '.join('{' + f + '}' for f in sorted(english)) or 'nothing'}; {{{{ for a brace)")
-        out[language] = dict(table)
-    return out
