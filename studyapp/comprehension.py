@@ -24,6 +24,7 @@ from django.utils.translation import gettext
 from django.utils.translation import gettext_lazy as _
 
 from .i18n import participant_texts
+from .inputs import WholeNumberField
 
 MAX_QUESTIONS, MAX_CHOICES, MAX_TEXT = 20, 8, 500
 MAX_ATTEMPTS = 10  # more tries than this is no check at all
@@ -117,7 +118,7 @@ class ComprehensionForm(forms.Form):
     """The questions' answers (``q<i>``: the positions of the choices ticked) and which attempt they are
     (``attempt``: the page's, so a replayed post is told apart from a new attempt)."""
 
-    attempt = forms.IntegerField(min_value=1, error_messages={
+    attempt = WholeNumberField(min_value=1, error_messages={
         "required": _("This page was incomplete; please reload it."),
         "invalid": _("This page was incomplete; please reload it."),
         "min_value": _("This page was incomplete; please reload it.")})

@@ -15,6 +15,7 @@ from django.db.models import F
 from django.utils.translation import gettext
 from django.utils.translation import gettext_lazy as _
 
+from .inputs import parse_whole
 from .models import Study
 
 DEVICES = ("computer", "tablet", "phone")
@@ -32,25 +33,33 @@ def rules(study: Study) -> dict:
                          "width": _too_narrow(study, "{width}")}}
 
 
+class ReportError(ValueError):
+    """A consent post whose device fields no page of the study sends (a width that is not 1 to
+    inputs.MAX_DIGITS ASCII digits, a device not in DEVICES): tampered, refused before anything is stored."""
+
+
 def problem(study: Study, reported, user_agent: str = "") -> str | None:
     """Why this participant's device cannot take part in `study` (a message in their words), or None.
 
     reported: the consent form's fields, ``screen_width`` (whole CSS pixels) and ``device`` (DEVICES), as
-    the page's script filled them; a User-Agent that names a phone makes the device a phone whatever the
-    page reported."""
+    the page's script filled them, both empty where the script did not run; a User-Agent that names a phone
+    makes the device a phone whatever the page reported.  ReportError for fields the script never sends."""
     if not study.has_device_rules:
         return None
     width, device = str(reported.get("screen_width", "")).strip(), str(reported.get("device", "")).strip()
-    if not width.isdigit() or device not in DEVICES:
+    if not width or not device:
         return str(NEEDS_SCRIPT)
+    pixels = parse_whole(width)
+    if pixels is None or device not in DEVICES:
+        raise ReportError(f"device fields no page sends: screen_width={width[:20]!r}, device={device[:20]!r}")
     if _PHONE_AGENT.search(user_agent or ""):
         device = "phone"
     if device == "phone" and not study.allow_phones:
         return _refused(study, "phone")
     if device == "tablet" and not study.allow_tablets:
         return _refused(study, "tablet")
-    if int(width) < study.min_screen_width:
-        return _too_narrow(study, int(width))
+    if pixels < study.min_screen_width:
+        return _too_narrow(study, pixels)
     return None
 
 

@@ -218,9 +218,13 @@ def record_attempt(locked: Participant, step_index: int, data: dict) -> Particip
             return locked  # idempotent repeat
         raise AnswerError(gettext("These answers were already checked; please answer on the current page."), status=409,
                           moved=True)
-    if step_index != locked.position or number != locked.comprehension_attempts.count() + 1:
-        raise AnswerError(_elsewhere(locked, step_index), status=409,
-                          moved=True)
+    if step_index != locked.position:
+        raise AnswerError(_elsewhere(locked, step_index), status=409, moved=True)
+    current = locked.comprehension_attempts.count() + 1
+    if number != current:  # the right step, but a page drawn for another attempt (an old tab, a tampered post)
+        raise AnswerError(gettext("This page is out of date: it sent attempt {sent} at the questions of step {step}, "
+                                  "and you are on attempt {current}. Please answer on the current page.").format(
+                                      sent=number, step=step_index + 1, current=current), status=409, moved=True)
     missed = comprehension.missed(comprehension.questions_of(locked.study), answers)
     now = timezone.now()
     try:

@@ -7,8 +7,6 @@ participant sees.  Every message is in the participant's words: the page calls t
 """
 from __future__ import annotations
 
-import re
-
 from django import forms
 from django.core.exceptions import ValidationError
 from django.utils.text import format_lazy
@@ -17,6 +15,7 @@ from django.utils.translation import gettext_lazy as _
 
 from .comprehension import ComprehensionForm
 from .i18n import participant_texts, translated_error
+from .inputs import OneValue, WholeNumberField
 from .models import StepKind
 from .trajectories import study_domain
 
@@ -32,25 +31,8 @@ RATING_MIN, RATING_MAX = 1, 7
 GENDER_TEXT_MAX = 100
 
 
-class OneValue(forms.TextInput):
-    """Exactly one value, stripped: a field sent twice counts as missing instead of Django's
-    usual last-one-wins, so a tampered or doubled post is refused rather than half-read."""
-
-    def value_from_datadict(self, data, files, name):
-        values = data.getlist(name) if hasattr(data, "getlist") else [data.get(name)]
-        return values[0].strip() if len(values) == 1 and isinstance(values[0], str) else None
-
-
 class OneChoiceField(forms.ChoiceField):
     widget = OneValue
-
-
-class WholeNumberField(forms.IntegerField):
-    """IntegerField without Django's leniency for "6.0": the pages send whole numbers, and
-    nothing else was ever accepted."""
-
-    widget = OneValue
-    re_decimal = re.compile(r"(?!)")  # matches nothing, so "6.0" stays invalid
 
 
 def _whole_number(low: int, high: int, missing: str, bad: str) -> WholeNumberField:
@@ -220,12 +202,7 @@ class ShowForm(StepForm):
 
     def clean_moves(self):
         moves = self.cleaned_data["moves"].split()
-        limit = self.domain.show_rules(self.test["env_id"])["max_actions"]
-        if len(moves) > limit:
-            raise ValidationError(gettext("This way has {moves} moves; at most {limit} can be submitted. "
-                                          "Please undo some and try a shorter way.").format(moves=len(moves),
-                                                                                            limit=limit))
-        try:
+        try:  # the domain bounds the number of moves too (FileGridDomain.max_actions), for every caller
             self.score = self.domain.score_shown(self.test["env_id"], moves)
         except ValueError as exc:  # the domain's reason, in the participant's language where it can say it
             raise ValidationError(gettext("This way cannot be submitted ({reason}). Please undo and try again.").format(

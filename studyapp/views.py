@@ -349,7 +349,14 @@ def answer(request, slug, token, step_index):
 def _refuse_device(request, participant: Participant, step_index: int):
     """The refusal page if the participant's device may not take part (studyapp.devices); None otherwise.
     They are deleted as one who declines is (flow.decline), so no place is kept, and the refusal is counted."""
-    message = devices.problem(participant.study, request.POST, request.META.get("HTTP_USER_AGENT", ""))
+    try:
+        message = devices.problem(participant.study, request.POST, request.META.get("HTTP_USER_AGENT", ""))
+    except devices.ReportError:  # no page sends it: refused as bad input, nothing stored or deleted
+        message = gettext("The page's report of your screen could not be read; please reload the page.")
+        if security.wants_json(request):
+            return JsonResponse({"ok": False, "error": message}, status=400)
+        return render(request, "studyapp/error.html", {"study": participant.study, "participant": participant,
+                                                       "message": message}, status=400)
     if message is None or not flow.decline(participant, step_index):
         return None
     devices.count_refusal(participant.study)

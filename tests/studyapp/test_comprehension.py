@@ -115,6 +115,10 @@ def test_a_replayed_post_is_counted_once(client, arrived):
     assert changed.status_code == 302 and "moved=1" in changed["Location"]
     assert p.comprehension_attempts.count() == 1
     assert post(client, p, RIGHT, 5).status_code == 302 and p.comprehension_attempts.count() == 1
+    stale = client.post(answer_url(p, 2), {**RIGHT, "attempt": "5"}, HTTP_ACCEPT="application/json")
+    assert stale.status_code == 409 and stale.json()["error"] == (
+        "This page is out of date: it sent attempt 5 at the questions of step 3, and you are on attempt 2. "
+        "Please answer on the current page.")
     assert post(client, p, RIGHT, 2).status_code == 302
     assert post(client, p, RIGHT, 2).status_code == 302  # passed, replayed: still one Answer, two attempts
     assert p.comprehension_attempts.count() == 2 and Answer.objects.filter(kind=StepKind.COMPREHENSION).count() == 1

@@ -32,12 +32,40 @@ def desktop_only(make_study):
     ({"screen_width": "1180", "device": "tablet"}, DESKTOP, "cannot be done on a tablet"),
     ({"screen_width": "800", "device": "computer"}, DESKTOP, "at least 1024 pixels wide, and yours is 800"),
     ({}, DESKTOP, "needs JavaScript"),
-    ({"screen_width": "wide", "device": "computer"}, DESKTOP, "needs JavaScript"),
-    ({"screen_width": "1920", "device": "toaster"}, DESKTOP, "needs JavaScript"),
+    ({"screen_width": "", "device": ""}, DESKTOP, "needs JavaScript"),  # the page's fields, its script off
 ])
 def test_what_the_browser_reports_is_checked_against_the_rules(desktop_only, reported, agent, says):
     problem = devices.problem(desktop_only, reported, agent)
     assert (problem is None) if says is None else says in problem
+
+
+# what no page sends: its script writes String(a whole number) and one of DEVICES
+TAMPERED = [{"screen_width": "²", "device": "computer"},  # str.isdigit() says True, int() refuses
+            {"screen_width": "١٩٢٠", "device": "computer"},  # Arabic-Indic digits: int() reads 1920
+            {"screen_width": "１９２０", "device": "computer"},  # full-width digits: int() reads 1920
+            {"screen_width": "9" * 5000, "device": "computer"},
+            {"screen_width": "1920.0", "device": "computer"},
+            {"screen_width": "wide", "device": "computer"},
+            {"screen_width": "1920", "device": "toaster"}]
+
+
+@pytest.mark.parametrize("reported", TAMPERED, ids=range(len(TAMPERED)))
+def test_what_no_page_sends_is_refused_as_such(desktop_only, reported):
+    with pytest.raises(devices.ReportError):
+        devices.problem(desktop_only, reported, DESKTOP)
+
+
+@pytest.mark.parametrize("reported", TAMPERED, ids=range(len(TAMPERED)))
+def test_a_tampered_consent_post_is_a_400_and_stores_nothing(desktop_only, reported):
+    client = Client(HTTP_USER_AGENT=DESKTOP)
+    p = assign(desktop_only, Participant.PROLIFIC, "tamperer")
+    r = client.post(answer_url(p), {"consent": "yes", **reported})
+    assert r.status_code == 400 and "could not be read; please reload the page" in r.content.decode()
+    p.refresh_from_db()  # still there, as they were: no consent stored, no refusal counted
+    assert p.position == 0 and not p.answers.exists()
+    assert Study.objects.get(pk=desktop_only.pk).device_refusals == 0
+    r = client.post(answer_url(p), {"consent": "yes", **reported}, HTTP_ACCEPT="application/json")
+    assert r.status_code == 400 and r.json()["ok"] is False
 
 
 def test_a_study_without_rules_takes_every_device(study):

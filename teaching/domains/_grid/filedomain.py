@@ -21,7 +21,7 @@ from ...core.domain import ComprehensionQuestion, LegendEntry, ParticipantTexts
 from ...core.i18n import gettext_noop as _
 from . import ROOT
 from .domain import GridDomain
-from .fileworld import EXIT, fronts, play, world_fingerprint
+from .fileworld import EXIT, ReplayError, fronts, play, world_fingerprint
 from .worldfile import HELD, World, WorldFileError, load_world
 
 PLANNER_VERSION = 1  # bump whenever a change alters the trajectories the planner returns
@@ -160,15 +160,25 @@ class FileGridDomain(GridDomain):
         scored under θ*: its counts, reward, the optimum's reward, regret = optimum - reward (≥ 0, in
         θ*'s units), optimal (regret ≤ tolerance) and its rows as path_rows gives a table's trajectory
         (to find it among the table's).  ValueError (one line) for actions the world
-        does not allow (fileworld.play)."""
+        does not allow (fileworld.play) or more of them than :attr:`max_actions`, whoever calls."""
+        actions = list(actions)
+        if len(actions) > self.max_actions:
+            raise ReplayError(_("this way has {count} actions, and at most {limit} can be shown"),
+                              count=len(actions), limit=self.max_actions)
         path = []
-        counts, ending = play(self.world, *self.split(env_id), list(actions), states=path)
-        phi, _ = self.front(env_id)
+        counts, ending = play(self.world, *self.split(env_id), actions, states=path)
+        phi = self.front(env_id)[0]
         best = float(np.max(phi @ self.theta_star))
         got = float(counts @ self.theta_star)
         return {"counts": counts.tolist(), "ending": ending if ending == EXIT else self.feature_names[ending],
                 "reward": got, "optimum": best, "regret": best - got, "optimal": best - got <= tolerance,
                 "rows": [[c, r, int(place == HELD)] for (r, c), place in path]}
+
+    @property
+    def max_actions(self) -> int:
+        """The most actions a shown way may have: four times the table's longest trajectory, room for every
+        detour a participant might try, and a bound on what one answer makes the server replay."""
+        return 4 * self.max_moves
 
     def show_rules(self, env_id: int) -> dict:
         """What a "show the way" page needs to offer exactly the actions fileworld.successors allows:
@@ -178,7 +188,7 @@ class FileGridDomain(GridDomain):
         variant, _ = self.split(env_id)
         return {"blocked": self.world.blocked(variant).tolist(),
                 "deliver": any(f.counts == "deliver" for f in self.world.features),
-                "exit": bool(self.world.exit), "max_actions": 4 * self.max_moves,
+                "exit": bool(self.world.exit), "max_actions": self.max_actions,
                 "object": self.world.obj or ""}
 
     # --- the page ---------------------------------------------------------------------------

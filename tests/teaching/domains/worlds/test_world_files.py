@@ -168,6 +168,20 @@ def test_a_shown_trajectory_the_world_does_not_allow_is_refused_in_one_line(acti
     assert taxi.score_shown(0, ["pickup", "left", "left", "left", "drop"])["optimal"]
 
 
+def test_a_shown_way_is_bounded_by_the_domain_whoever_calls():
+    """score_shown replays at most max_actions (the page's own bound, show_rules) for any caller, so a
+    post of 10,001 actions costs the server one length check, not a replay."""
+    taxi = world_domain(WORLDS / "taxi.toml")
+    limit = taxi.show_rules(0)["max_actions"]
+    assert limit == taxi.max_actions == 4 * taxi.world.max_moves
+    with pytest.raises(ValueError) as err:
+        taxi.score_shown(0, ["left"] * 10_001)
+    assert str(err.value) == f"this way has 10001 actions, and at most {limit} can be shown"
+    # the bound is on the count alone: a way of exactly `limit` actions is replayed (and refused for what it does)
+    with pytest.raises(ValueError, match=r"^action 1: down is not possible at \[4, 1\]$"):
+        taxi.score_shown(0, ["down"] * limit)  # the taxi starts on the bottom row
+
+
 def test_a_world_file_named_in_teaching_worlds_is_built_and_checked_from_the_command_line(tmp_path):
     """No Python: the file's folder in TEACHING_WORLDS, and the command line knows its domain."""
     env = {**os.environ, "TEACHING_WORLDS": str(key_room.PATH.parent)}
