@@ -17,18 +17,30 @@ Non-redundant constraints come from linear programs (SciPy's HiGHS) over the sli
 """
 from __future__ import annotations
 
+import logging
+from dataclasses import dataclass
+
 import numpy as np
 from scipy.optimize import linprog
 from scipy.spatial import HalfspaceIntersection, QhullError
 
-# Unit normals equal to this many decimals are one constraint (same half-space up to scaling).
-NORMAL_DECIMALS = 9
+# Unit normals equal to this many decimals are one constraint (same half-space up to scaling).  The
+# rounding moves normal·u by at most 5e-13 on the simplex, below every cut of the shipped tables (the
+# thinnest, 1.4e-10, is the tiny table's); at 9 decimals it moved it by 5e-10, which made and unmade cuts
+# of that size.
+NORMAL_DECIMALS = 12
 # A feature difference shorter than this is θ*'s own trajectory: no constraint.
 ZERO_NORM = 1e-12
-# An LP minimum of normal·u (u on the simplex Σu = 1) at or above -LP_TOL counts as ≥ 0.  Rounding
-# the normals to NORMAL_DECIMALS moves normal·u by up to 5e-10 per feature, and on the 5-feature tiny
-# table constraints whose minimum is -3e-9 against the others come and go with the order they are
-# tested in; 1e-8 lies above both, so a constraint that cuts less than that is redundant.
+# What counts as a cut.  A constraint cuts the region (is a facet, not redundant) when its minimum of
+# normal·u over the region of the others (u on the simplex Σu = 1, found on that region's vertices) is below
+# -cut_tolerance(r): CUT_REL of the region's inradius r (interior_point's depth), and never less than
+# CUT_FLOOR, the vertices' own resolution (on the shipped tables every constraint either cuts by 1e-10 or
+# more or touches the region within 1e-13).  One absolute 1e-8 dropped facets of the tiny table cutting 4e-9,
+# 1.4e-10 and 3e-10 (down to 3e-7 of its inradius), and SCOT's cover then missed them.
+CUT_REL, CUT_FLOOR = 1e-8, 1e-12
+# An LP minimum at or above -LP_TOL counts as ≥ 0 where an LP decides (is_implied; a region without
+# interior): HiGHS answers these LPs within about 1e-9 (it called a facet that cuts 1.4e-10 redundant by
+# 3.7e-10), so facets are decided on the region's vertices instead, where it has an interior.
 LP_TOL = 1e-8
 # HiGHS's default feasibility tolerances (1e-7) let an LP's optimum violate constraints by more
 # than LP_TOL, which moved the minima by 8e-8 on the 5-feature tiny table: tightened below it.
@@ -89,18 +101,29 @@ def environment_half_spaces(table) -> list[np.ndarray]:
     return [half_spaces(table.features[m], signs, table.theta_star_index) for m in range(table.n_envs)]
 
 
-def lp_minimum(normals: np.ndarray, c: np.ndarray) -> float:
-    """min c·u over {u ≥ 0, Σu = 1, normals·u ≥ 0} (normals (K, D), c (D,)); +inf if empty."""
+def _lp_argmin(normals: np.ndarray, c: np.ndarray) -> tuple[float, np.ndarray | None]:
+    """:func:`lp_minimum` and the u (D,) where HiGHS found it (None if the region is empty)."""
     d = len(c)
     res = linprog(c, A_ub=-normals if len(normals) else None, b_ub=np.zeros(len(normals)) if len(normals) else None,
                   A_eq=np.ones((1, d)), b_eq=[1.0], bounds=[(0, None)] * d, method="highs", options=HIGHS)
-    return float(res.fun) if res.status == 0 else np.inf
+    return (float(res.fun), res.x) if res.status == 0 else (np.inf, None)
 
 
-def is_implied(normals: np.ndarray, c: np.ndarray) -> bool:
-    """Whether every u of the region ``normals`` (K, D) satisfies c·u ≥ 0 (c (D,)): c is
-    redundant given them."""
-    return lp_minimum(np.asarray(normals, np.float64).reshape(-1, len(c)), np.asarray(c, np.float64)) >= -LP_TOL
+def lp_minimum(normals: np.ndarray, c: np.ndarray) -> float:
+    """min c·u over {u ≥ 0, Σu = 1, normals·u ≥ 0} (normals (K, D), c (D,)); +inf if empty."""
+    return _lp_argmin(normals, c)[0]
+
+
+def cut_tolerance(inradius: float) -> float:
+    """The smallest cut counted in a region of inradius ``inradius`` (simplex units): CUT_REL of it,
+    at least CUT_FLOOR."""
+    return max(CUT_FLOOR, CUT_REL * max(float(inradius), 0.0))
+
+
+def is_implied(normals: np.ndarray, c: np.ndarray, tol: float = LP_TOL) -> bool:
+    """Whether every u of the region ``normals`` (K, D) satisfies c·u ≥ -tol (c (D,)): c is
+    redundant given them, to ``tol`` (default LP_TOL: as far as the LP can tell)."""
+    return lp_minimum(np.asarray(normals, np.float64).reshape(-1, len(c)), np.asarray(c, np.float64)) >= -tol
 
 
 def interior_point(normals: np.ndarray) -> tuple[np.ndarray, float]:
@@ -166,37 +189,132 @@ def _vertices(normals: np.ndarray, inside: np.ndarray) -> np.ndarray:
     return np.hstack([y, 1.0 - y.sum(1, keepdims=True)])
 
 
+@dataclass(frozen=True)
+class Facets:
+    """The non-redundant constraints of a region and how sure each is (:func:`facets`).
+
+    normals (F, D): the facets, in the input's order.  cuts (F,): how far each cuts into the region of
+    the others (minus its LP minimum there, simplex units; the others being the facets).  inradius: the
+    region's (interior_point's depth).  uncertain: how many facets no witness point certifies (a cut the
+    LP reports but float64 cannot confirm): kept, so that a cover holds them too."""
+
+    normals: np.ndarray
+    cuts: np.ndarray
+    inradius: float
+    uncertain: int = 0
+
+    def thinnest(self) -> float:
+        """The smallest cut as a fraction of the inradius (inf without facets or interior)."""
+        return float(self.cuts.min() / self.inradius) if len(self.cuts) and self.inradius > 0 else np.inf
+
+
 def remove_redundant(normals: np.ndarray) -> np.ndarray:
-    """The non-redundant rows of ``normals`` (K, D) (unit, deduplicated: :func:`unit_normals`):
-    the smallest subset with the same region inside the orthant, in the input's order.
+    """The non-redundant rows of ``normals`` (K, D) (:func:`facets`'s normals)."""
+    return facets(normals).normals
+
+
+def facets(normals: np.ndarray) -> Facets:
+    """The non-redundant rows of ``normals`` (K, D) (unit, deduplicated: :func:`unit_normals`): the
+    smallest subset with the same region inside the orthant, in the input's order, each row that cuts
+    the region by more than :func:`cut_tolerance` of its inradius.
 
     Clarkson's method: keep a set R of proven facets; the region of R has vertices (qhull), and a
     constraint no vertex violates is redundant; a violated one gives a ray from an interior point
     to the vertex, and the first constraint the ray crosses is a facet of the whole, added to R.
     Costs one vertex enumeration per facet, not one LP per constraint.  A region without interior
     (θ* indifferent between two trajectories), or one qhull cannot take, falls back to one LP per
-    constraint against the others.
+    constraint against the others.  Each facet is then confirmed by its own LP against the other
+    facets and certified by a witness (:func:`_certified`); a warning names any it cannot certify.
     """
     normals = np.asarray(normals, np.float64)
     if not len(normals):
-        return normals
+        return Facets(normals, np.zeros(0), 0.0)
     inside, depth = interior_point(normals)
-    kept = None
-    if depth > LP_TOL:
+    tol = cut_tolerance(depth)
+    if depth > tol:
         try:
-            kept = _clarkson(normals, inside)
+            return _facets_by_vertices(normals, inside, depth, tol)
         except QhullError:
-            kept = None
-    if kept is None:
-        kept = list(range(len(normals)))
-    for i in list(kept):  # whatever survived is irredundant only once tested against the rest
+            pass
+    return _facets_by_lp(normals, max(depth, 0.0))
+
+
+def _facets_by_vertices(normals: np.ndarray, inside: np.ndarray, depth: float, tol: float) -> Facets:
+    cuts, witnesses = {}, {}
+    kept = _clarkson(normals, inside, tol)
+    for i in list(kept):  # one at a time: of two rows within tol of each other, one stays
         others = [j for j in kept if j != i]
-        if is_implied(normals[others], normals[i]):
+        if _region_min(normals[others], normals[i], inside)[0] >= -tol:
             kept = others
-    return normals[sorted(kept)]
+            continue
+        # how far it cuts into every other row's region (a row Clarkson never needed may lie a hair
+        # behind it), and where: its cut, and the witness that certifies it
+        low, witnesses[i] = _cut(normals, i, others, inside)
+        cuts[i] = -low
+    kept = sorted(kept)
+    uncertain = sum(not _certified(normals, i, witnesses[i], inside, depth) for i in kept)
+    if uncertain:
+        logging.getLogger(__name__).warning(
+            "%d of the region's %d facets cut it by less than float64 can certify (thinnest cut %.2g of the "
+            "inradius %.2g): kept as facets, so a cover holds them too", uncertain, len(kept),
+            min(cuts.values()) / depth, depth)
+    return Facets(normals[kept], np.array([cuts[i] for i in kept]), depth, uncertain)
 
 
-def _clarkson(normals: np.ndarray, inside: np.ndarray) -> list[int]:
+def _facets_by_lp(normals: np.ndarray, depth: float) -> Facets:
+    """A region without interior, or one qhull cannot take: one LP per row against the others kept (the
+    LP's answers, to LP_TOL)."""
+    kept, cuts = list(range(len(normals))), {}
+    for i in list(kept):
+        others = [j for j in kept if j != i]
+        low = lp_minimum(normals[others], normals[i])
+        if low >= -LP_TOL:
+            kept = others
+        else:
+            cuts[i] = -low
+    return Facets(normals[kept], np.array([cuts[i] for i in kept]), depth)
+
+
+def _cut(normals: np.ndarray, i: int, start: list[int], inside: np.ndarray) -> tuple[float, np.ndarray]:
+    """(min, u): row i's minimum over the region of every other row of ``normals`` (K, D), and a vertex
+    where it lies.  The minimum over the vertices (qhull) of the region of the rows ``start``, rows
+    violated at the minimising vertex added until none is: a vertex is exact to float64's rounding,
+    where HiGHS answers within its tolerance (on the tiny table it called a facet cutting 1.4e-10 redundant
+    by 3.7e-10).  ``inside`` (D,): strictly inside every row."""
+    work = np.asarray(start, np.int64)
+    while True:
+        low, u = _region_min(normals[work], normals[i], inside)
+        values = normals @ u
+        values[i] = np.inf
+        values[work] = np.inf
+        extra = _most_violated(values, -GENERATE_TOL, GENERATE)
+        if not len(extra):
+            return low, u
+        work = np.union1d(work, extra)
+
+
+def _region_min(rows: np.ndarray, c: np.ndarray, inside: np.ndarray) -> tuple[float, np.ndarray]:
+    """(min c·u over the region of ``rows`` (K, D), a vertex where it lies): on the region's vertices."""
+    vertices = _vertices(rows, inside)
+    at = vertices @ c
+    k = int(np.argmin(at))
+    return float(at[k]), vertices[k]
+
+
+def _certified(normals: np.ndarray, i: int, u: np.ndarray | None, inside: np.ndarray, depth: float) -> bool:
+    """Whether a point is shown, in float64 and against every row of ``normals`` (K, D) but i, to lie in
+    their region and outside row i: the LP's witness ``u`` (D,) moved towards ``inside`` (depth > 0) just
+    far enough to undo the LP's tolerance.  Certifies that row i is a facet whatever the LP's tolerances."""
+    if u is None or depth <= 0:
+        return False
+    others = np.delete(normals, i, 0)
+    violation = max(0.0, -float((others @ u).min(initial=np.inf)), -float(u.min()))
+    t = min(1.0, (2 * violation + 1e-15) / (violation + depth))
+    point = (1 - t) * u + t * inside
+    return bool((others @ point).min(initial=np.inf) >= 0 and point.min() >= 0 and normals[i] @ point < 0)
+
+
+def _clarkson(normals: np.ndarray, inside: np.ndarray, tol: float) -> list[int]:
     facets: list[int] = []
     # The rows not yet shown redundant.  A row no vertex of the facets' region violates holds on
     # all of it, and that region only shrinks as facets join: the row is redundant for good, and
@@ -207,7 +325,7 @@ def _clarkson(normals: np.ndarray, inside: np.ndarray) -> list[int]:
     while True:
         v = _vertices(normals[facets], inside)
         worst = (rows @ v.T).min(1)
-        violated = np.flatnonzero(worst < -LP_TOL)
+        violated = np.flatnonzero(worst < -tol)
         if not len(violated):
             return facets
         target = v[int(np.argmin(rows[violated[0]] @ v.T))]

@@ -53,6 +53,40 @@ def test_redundant_half_spaces_are_removed_by_hand():
     assert rows(bec.remove_redundant(np.vstack([union, unit(1, 1)]))) == rows([unit(-2, 3), unit(0.8, -0.6)])
 
 
+def test_each_facets_cut_by_hand():
+    # on the line u = (s, 1 - s) the hand table's rows bound s: unit(-2, 3) s ≤ 3/5, unit(-1, 2) s ≤ 2/3,
+    # unit(-1, 3) s ≤ 3/4, unit(0.8, -0.6) s ≥ 3/7, unit(3, -2) s ≥ 2/5, unit(2, -1) s ≥ 1/3
+    found = bec.facets(bec.union(bec.environment_half_spaces(hand_bec_table())))
+    lo, hi = unit(-2, 3), unit(0.8, -0.6)
+    assert rows(found.normals) == rows([lo, hi]) and found.uncertain == 0
+    # without lo, s reaches 2/3, where lo·u = (3 - 5 * 2/3) / √13; without hi, s reaches 2/5: 1.4 * 2/5 - 0.6
+    cut = dict(zip(map(tuple, found.normals), found.cuts, strict=True))
+    assert cut[tuple(lo)] == pytest.approx(1 / (3 * np.sqrt(13)), rel=1e-9)
+    assert cut[tuple(hi)] == pytest.approx(0.04, rel=1e-9)
+    assert found.inradius == pytest.approx(bec.interior_point(found.normals)[1], rel=1e-9)
+    assert found.thinnest() == pytest.approx(0.04 / found.inradius, rel=1e-9)
+
+
+@pytest.mark.parametrize("cut, replaces", [(1e-6, True), (3e-9, True), (1e-11, False)])
+def test_a_row_a_hair_inside_another_is_a_facet_when_it_cuts_more_than_the_tolerance(cut, replaces):
+    # unit(1 - s0, -s0) bounds s ≥ s0, and cuts the hand region (s ≥ 3/7) by (s0 - 3/7) / |(1 - s0, -s0)|
+    s0 = 3 / 7 + cut * np.hypot(4 / 7, 3 / 7)
+    tighter = unit(1 - s0, -s0)
+    union = np.vstack([bec.union(bec.environment_half_spaces(hand_bec_table())), tighter])
+    found = bec.facets(union)
+    tol = bec.cut_tolerance(found.inradius)
+    assert 1e-11 < tol < 3e-9  # the cases straddle it: 1e-8 of this region's inradius
+    lo, hi = unit(-2, 3), unit(0.8, -0.6)
+    assert not any(np.array_equal(r, tighter) for r in (lo, hi))  # three rows, not merged by the rounding
+    # the lower bound is never lost: the tighter row when its cut counts, else one of the two
+    assert len(found.normals) == 2 and any(np.array_equal(r, lo) for r in found.normals)
+    lower = [r for r in found.normals if not np.array_equal(r, lo)]
+    if replaces:
+        assert rows(lower) == rows([tighter]) and found.cuts.min() == pytest.approx(min(cut, 0.04), rel=1e-3)
+    else:
+        assert rows(lower) in (rows([tighter]), rows([hi]))
+
+
 @pytest.mark.parametrize("env, lo, hi", [
     (0, np.arctan(1 / 2), np.arctan(2)),       # (63.43 - 26.57) / 90 = 0.4097
     (1, np.arctan(1 / 3), np.arctan(3 / 2)),   # (56.31 - 18.43) / 90 = 0.4209

@@ -68,7 +68,7 @@ def test_tertiles_by_hand():
 
     want = [width(1 / 2, 2), width(1 / 3, 3 / 2), width(2 / 3, np.inf), width(1 / 2, 4 / 3)]
     size = bec.environment_sizes(hand_bec_table(), np.arange(4))
-    np.testing.assert_allclose(size, want, rtol=1e-8)  # normals are rounded to 9 decimals (bec.NORMAL_DECIMALS)
+    np.testing.assert_allclose(size, want, rtol=1e-8)  # normals are rounded (bec.NORMAL_DECIMALS)
     level, (q1, q2) = difficulty_levels(size)
     assert [DIFFICULTIES[v] for v in level] == ["high", "medium", "low", "high"]
     assert (q1, q2) == (size[0], size[1])
