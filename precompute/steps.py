@@ -119,7 +119,7 @@ def finish_study(job_id, spec: StudyJobSpec, study: Study, conditions: list[Cond
     table = _table(spec)
     training = [c.env_ids for c in conditions]
     if spec.test_kind == Study.SHOW:  # the way, not options: nothing for the pilot to predict in the tests
-        tests = select_show_tests(table, training, seed=spec.seed,
+        tests = select_show_tests(table, training, seed=spec.seed, difficulty=spec.test_difficulty,
                                   min_regret=spec.test_set_thresholds.get("min_regret", MIN_REGRET))
         test_set = show_tests_from_table(table, tests)
     else:

@@ -45,7 +45,7 @@ def create_study_job(table_path, slug: str, name: str | None = None, seed: int |
     each a name, "NAME:KEY=VALUE,..." (teaching's --selector form) or {"selector", "params", "name"}; each
     condition's selector and every parameter it runs with are recorded in the study's source ("selectors")
     and on its task's Part.  `test_difficulty`: none, or every test of that difficulty.  `test_kind`: "choose"
-    (the default) or "show" (the way: grid worlds from a file; not graded by difficulty).
+    (the default) or "show" (the way: grid worlds from a file), either graded by `test_difficulty`.
     `hand_picked`: {condition name: environment ids}, conditions shown in the given order (after the
     selected ones).
     `test_set_thresholds`: min_regret and/or min_distance for ``select_test_set``.  `closed_loop`:
@@ -117,8 +117,6 @@ def _show_problem(table, args: dict) -> str:
     problem = cannot_show(table.domain)
     if problem:
         return f"tests that show the way: {problem}"
-    if args["test_difficulty"] != "none":
-        return "tests that show the way are not graded by difficulty: choose 'none' for the difficulty"
     return ""
 
 

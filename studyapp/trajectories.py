@@ -119,7 +119,7 @@ def training_from_table(table, env_ids) -> list[dict]:
 
 # What a graded test (select_test_set with a difficulty) says of itself, kept with its payload: the
 # analysis reports scores by difficulty.
-GRADED_KEYS = ("difficulty", "bec_size", "bec_tertiles")
+GRADED_KEYS = ("difficulty", "bec_size", "bec_tertiles", "graded")
 
 
 def cannot_show(domain: Domain) -> str | None:
@@ -134,7 +134,7 @@ def cannot_show(domain: Domain) -> str | None:
 def show_tests_from_table(table, tests) -> list[dict]:
     """Payloads of "show the way" tests (``teaching.api.select_show_tests``' dicts, or any with an
     ``env_id``): the environment's scene, θ*'s way in it and its reward (``optimum``).  ValueError if
-    the table's domain cannot have them (:func:`cannot_show`)."""
+    the table's domain cannot have them (:func:`cannot_show`).  A graded test keeps its GRADED_KEYS."""
     problem = cannot_show(table.domain)
     if problem:
         raise ValueError(problem)
@@ -144,6 +144,7 @@ def show_tests_from_table(table, tests) -> list[dict]:
     for test in tests:
         i, payload = _star_payload(table, int(test["env_id"]))
         payload.update(kind=SHOW, optimum=float(np.asarray(table.features[i, star], np.float64) @ theta_star))
+        payload.update({k: test[k] for k in GRADED_KEYS if k in test})
         out.append(payload)
     check_test_set(out)
     return out

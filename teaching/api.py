@@ -124,12 +124,14 @@ Learners and selection (DESIGN §5-6)
                              parse_selector("bec-scaffold:k=2") -> (label, name, checked parameters)
     select_test_set(table, training_env_ids, seed=0, min_regret=, min_distance=, difficulty=None)  6 dicts:
                              env_id, env_index, cluster and 4 options {theta_index, is_theta_star, cluster,
-                             regret}; with a difficulty also difficulty, bec_size (in [0, 1]), bec_tertiles
-    DIFFICULTIES             ("low", "medium", "high"): a graded test's levels, by tertile of BEC size
-                             (large BEC = easy = low; docs/teaching.md); TeachOutput.test_difficulty
+                             regret}; with a difficulty also difficulty, bec_size (exact, in [0, 1]),
+                             bec_tertiles and graded ("all" or "cluster": the tertiles' scale)
+    DIFFICULTIES             ("low", "medium", "high"): a graded test's levels, by tertile of exact BEC size
+                             (large BEC = easy = low; teaching.core.difficulty); TeachOutput.test_difficulty
     MIN_REGRET, MIN_OPTION_DISTANCE  the test set's default thresholds: θ*-reward units (1e-3), and
                              scaled state units between options (0.5)
-    select_show_tests(table, training_env_ids, seed=0, min_regret=MIN_REGRET, min_share=MIN_SHARE)
+    select_show_tests(table, training_env_ids, seed=0, min_regret=MIN_REGRET, min_share=MIN_SHARE,
+                      difficulty=None)
                              "show the way" tests (teaching.core.showtests), one per test cluster that has an
                              eligible environment: dicts {env_id, kind: "show", cluster, share_worse (the
                              fraction of the N θ clearly worse under θ* there, >= min_share = 0.25)}
@@ -177,6 +179,7 @@ from .core.closedloop import (
 from .core.closedloop_pack import Pack, load_pack, write_pack
 from .core.closedloop_pilot import loop_pilot
 from .core.conditions import build_sequences, condition_params, condition_sequence
+from .core.difficulty import DIFFICULTIES
 from .core.domain import Domain, LegendEntry, ParticipantTexts, default_domain_name, domain_names, get_domain
 from .core.evaluation import USER_NAMES, study_matrix
 from .core.fitting import TIE_TOLERANCE, Answers, Comparison, FitError, Question, compare_models, questions_of
@@ -195,7 +198,7 @@ from .core.simulate import (
 )
 from .core.table import TableError, TrajectoryTable
 from .core.teachout import TEST_KINDS, TeachOutput, TeachOutputError, read_teach
-from .core.testset import DIFFICULTIES, MIN_REGRET, select_test_set
+from .core.testset import MIN_REGRET, select_test_set
 from .domains.driving.domain import DOMAIN as _DRIVING
 from .domains.driving.environments import (
                     CLASS_NAMES,

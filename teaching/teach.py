@@ -5,7 +5,8 @@
 writes to --out (the format: teaching/core/teachout.py, which also reads it):
     sequences.json             every condition's environment ids, P(θ*) curve, chosen τ/λ and sweeps
     test_set.json              the 6 test environments and their 4 options (with --test-difficulty,
-                               each test's difficulty, BEC size and the tertiles it was graded by);
+                               each test's difficulty, exact BEC size and the tertiles it was graded
+                               by, also printed one line a test);
                                with --tests show, one "show the way" environment per test cluster
                                (teaching/core/showtests.py) and no options
     matrix.json                ideal-user matrix P_M(θ* | sequence for M'), rows = sequences
@@ -17,8 +18,8 @@ conditions under that label (with its selector and parameters), to the extended 
 cluster grids and the pilot's predictions; the test set keeps clear of it too.
 
 Bad input (unknown model, τ/λ <= 0, a table without θ*, no environments,
-an unreadable table, a table with no valid test set, a selector with nothing to choose,
---test-difficulty with --tests show) prints one line to stderr and exits with status 2; an unknown
+an unreadable table, a table with no valid test set, a selector with nothing to choose) prints one
+line to stderr and exits with status 2; an unknown
 selector or a bad parameter is refused by the argument parser (one line, status 2).
 """
 from __future__ import annotations
@@ -31,6 +32,7 @@ import numpy as np
 
 from .core.bec import BECError
 from .core.conditions import teach
+from .core.difficulty import DIFFICULTIES, describe
 from .core.evaluation import SEQUENCE_NAMES, USER_NAMES, examples_per_cluster, grid_layout, ideal_user_matrix
 from .core.learners import Distances, model_names, parse_hyperparameters
 from .core.selection import APPROX_STAR, CONDITIONS, COVERAGE_EPSILON, SelectionSettings, theta_star_clusters
@@ -39,7 +41,7 @@ from .core.showtests import SHOW, select_show_tests
 from .core.simulate import pilot_predictions
 from .core.table import TableError, TrajectoryTable
 from .core.teachout import TEST_KINDS, write_json
-from .core.testset import DIFFICULTIES, MIN_REGRET, TestSetError, select_test_set
+from .core.testset import MIN_REGRET, TestSetError, select_test_set
 
 EXIT_BAD_INPUT = 2
 
@@ -64,9 +66,9 @@ def parse_args(argv=None) -> argparse.Namespace:
                    help="add the sequence of a registered selector to the conditions, e.g. scot, bec-scaffold:k=2, "
                         f"highlights:k=5 (repeatable; one of {', '.join(selector_names())})")
     p.add_argument("--test-difficulty", choices=DIFFICULTIES, default=None,
-                   help="draw every test among environments of this difficulty: tertiles of the BEC size of the "
-                        "eligible test environments, low = large BEC = easy (docs/teaching.md, 'Test set'); "
-                        "each test then records its difficulty and BEC size")
+                   help="draw every test among environments of this difficulty: tertiles of the exact BEC size of "
+                        "the eligible test environments, low = large BEC = easy (docs/teaching.md, 'Test set'); "
+                        "each test then records its difficulty and BEC size, choice and show tests alike")
     p.add_argument("--tests", choices=TEST_KINDS, default="choose",
                    help="choose: each test asks which of 4 trajectories the robot takes; show: each test asks the "
                         "participant to move the robot, scored by its regret under θ* (docs/teaching.md, "
@@ -110,8 +112,6 @@ def run(args) -> dict:
                          f"choose from {', '.join(model_names())}")
     if not args.epsilon > 0:
         raise InputError(f"--epsilon must be > 0, got {args.epsilon}")
-    if args.tests == SHOW and args.test_difficulty is not None:
-        raise InputError("--test-difficulty grades choice tests; it cannot be used with --tests show")
     try:
         table = TrajectoryTable.load(args.table)
     except TableError as exc:
@@ -154,10 +154,13 @@ def run(args) -> dict:
         # the test set as it was)
         training = [ids[envs[c]].tolist() for c in conditions]
         if args.tests == SHOW:
-            tests = select_show_tests(table, training, seed=args.seed, min_regret=args.min_regret)
+            tests = select_show_tests(table, training, seed=args.seed, min_regret=args.min_regret,
+                                      difficulty=args.test_difficulty)
         else:
             tests = select_test_set(table, training, seed=args.seed, min_regret=args.min_regret,
                                     min_distance=args.min_option_distance, difficulty=args.test_difficulty)
+        for line in describe(tests):  # the levels, with the sizes and tertiles they come from
+            print(line)
     except TestSetError as exc:
         tests = {"error": str(exc)}
     except BECError as exc:  # grading needs θ*'s sign-constrained space

@@ -19,11 +19,17 @@ when
 NumPy Generator) among its cluster's eligible environments, in test-cluster order; a cluster with no
 eligible environment is skipped, and TestSetError (one line naming the clusters and thresholds) is
 raised when no cluster has one.  The same table, training and seed give the same tests.
+
+Graded by difficulty (:mod:`teaching.core.difficulty`, as choice tests are): each test among its
+cluster's eligible environments of that level on the scale of every test cluster's eligible
+environments, or where it has none there, on its own cluster's; a cluster with none on either is
+skipped, and the TestSetError when none has one says how many each level has.
 """
 from __future__ import annotations
 
 import numpy as np
 
+from .difficulty import DIFFICULTIES, grade
 from .testset import MIN_REGRET, TestSetError, theta_star_regret
 
 SHOW = "show"  # a test's "kind" when the participant shows the way (a test without one chooses among options)
@@ -60,23 +66,39 @@ def eligible_rows(table, training_env_ids: list[list[int]], min_regret: float = 
 
 
 def select_show_tests(table, training_env_ids: list[list[int]], seed: int = 0, min_regret: float = MIN_REGRET,
-                      min_share: float = MIN_SHARE) -> list[dict]:
+                      min_share: float = MIN_SHARE, difficulty: str | None = None) -> list[dict]:
     """One show test per test cluster that has an eligible environment (module docstring).
 
     training_env_ids: lists of environment ids (not rows) the study trains on.  Returns, in
-    test-cluster order, dicts {"env_id": int, "kind": "show", "cluster": int, "share_worse": float}.
-    Raises TestSetError when no cluster has an eligible environment.
+    test-cluster order, dicts {"env_id": int, "kind": "show", "cluster": int, "share_worse": float}, and
+    with a difficulty (one of DIFFICULTIES) also difficulty, bec_size, bec_tertiles and graded.
+    Raises TestSetError when no cluster has an eligible environment (of that difficulty).
     """
+    if difficulty is not None and difficulty not in DIFFICULTIES:
+        raise ValueError(f"unknown test difficulty {difficulty!r}; choose from {', '.join(DIFFICULTIES)}")
     rng = np.random.default_rng(seed)
     env_ids = np.asarray(table.env_ids)
+    eligible = eligible_rows(table, training_env_ids, min_regret, min_share)
+    share = {m: s for rows in eligible.values() for m, s in rows}
+    grading = None if difficulty is None else grade(table, {c: [m for m, _ in rows] for c, rows in eligible.items()})
     out = []
-    for c, rows in eligible_rows(table, training_env_ids, min_regret, min_share).items():
-        if not rows:
+    for c, rows in eligible.items():
+        pools = [(None, [m for m, _ in rows])] if grading is None else grading.candidates(c, difficulty)
+        scale, pool = next(((scale, pool) for scale, pool in pools if pool), (None, []))
+        if not pool:
             continue
-        m, share = rows[int(rng.integers(len(rows)))]
-        out.append({"env_id": int(env_ids[m]), "kind": SHOW, "cluster": int(c), "share_worse": share})
+        m = pool[int(rng.integers(len(pool)))]
+        test = {"env_id": int(env_ids[m]), "kind": SHOW, "cluster": int(c), "share_worse": share[m]}
+        if grading is not None:
+            test.update(difficulty=difficulty, **grading.record(m, scale))
+        out.append(test)
     if not out:
         names = ", ".join(f"'{table.domain.cluster_names[c]}'" for c in table.domain.test_clusters)
-        raise TestSetError(f"no show test environment for any of {names}: no environment in no training sequence "
-                           f"where θ* shows one has at least {min_share:g} of the θ with θ*-regret >= {min_regret:g}")
+        why = (f"no environment in no training sequence where θ* shows one has at least {min_share:g} of the θ with "
+               f"θ*-regret >= {min_regret:g}")
+        if grading is not None and any(eligible.values()):
+            why = "; ".join(f"'{table.domain.cluster_names[c]}': {grading.counts(c)}" for c in eligible if eligible[c])
+            why = f"of the eligible environments, {why}; ask for another difficulty, or none"
+        of_level = "" if difficulty is None else f" of {difficulty} difficulty"
+        raise TestSetError(f"no show test environment{of_level} for any of {names}: {why}")
     return out

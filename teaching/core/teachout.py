@@ -21,8 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .difficulty import DIFFICULTIES
 from .showtests import SHOW, is_show
-from .testset import DIFFICULTIES
 
 # What a test asks: choose among 4 options (a test without "kind"), or show the way.
 TEST_KINDS = ("choose", SHOW)

@@ -22,22 +22,21 @@ strategy (it happens on the paper's demo table: docs/decisions.md), the two rema
 either strategy of the class (``"rule": "relaxed"`` in the test's entry,
 ``"design"`` otherwise).  Trajectories that show no strategy are never options.
 
-Tests may be graded by difficulty (Lee, Admoni & Simmons 2021): the eligible test environments are
+Tests may be graded by difficulty (:mod:`teaching.core.difficulty`): the eligible test environments are
 every environment in no training sequence in which θ* shows one of the test clusters (in that
 cluster's class) and which has the alternatives a test needs (one of the cluster and three of its
 class, distinct, with θ*-regret >= min_regret: the relaxed rule's pools; the options' distance is
-not checked, it needs drawing).  Their BEC sizes (:func:`teaching.core.bec.environment_sizes`: the
-fraction of θ*'s orthant of weights under which θ*'s trajectory stays optimal against the table's
-there, in [0, 1]) are cut at their tertiles q1 ≤ q2 (``numpy.quantile``, linear interpolation, over
-that whole set, not per cluster).  A large BEC is easy: "low" difficulty is size > q2, "medium" q1 <
-size ≤ q2, "high" size ≤ q1; a size equal to an edge counts as the harder level.  With a difficulty,
-each test is drawn only among its cluster's environments of that level.
+not checked, it needs drawing), graded by the exact size of their BEC.  With a difficulty, each test
+is drawn among its cluster's environments of that level, relaxing in this order until one has options:
+the level on the scale of every test cluster's environments with the design rule, then the relaxed
+rule; then the level on its own cluster's scale, design then relaxed.  When none has, the TestSetError
+says how many of the cluster's environments each level has on both scales.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from . import bec
+from .difficulty import DIFFICULTIES, grade
 from .domain import siblings
 
 MIN_REGRET = 1e-3  # θ*-reward units; on the demo table |θ*·φ(ξ^θ*)| has median 0.039 (see docs/teaching.md)
@@ -45,8 +44,6 @@ MIN_REGRET = 1e-3  # θ*-reward units; on the demo table |θ*·φ(ξ^θ*)| has m
 # environment of one cluster passed in 50, one 0.87 apart passed in 200)
 MAX_TRIES = 200
 _PAIRS = np.triu_indices(4, 1)  # the 6 pairs among a test's 4 options
-# Difficulty levels of a graded test, easiest first (large BEC first).
-DIFFICULTIES = ("low", "medium", "high")
 
 
 class TestSetError(ValueError):
@@ -109,15 +106,6 @@ def _draw_options(table, env_index: int, cluster: int, rng, min_regret, min_dist
     return None
 
 
-def difficulty_levels(size: np.ndarray) -> tuple[np.ndarray, tuple[float, float]]:
-    """(level (E,) index into DIFFICULTIES, (q1, q2)): the tertiles of the BEC sizes ``size`` (E,)
-    (numpy.quantile at 1/3 and 2/3); level "high" for size ≤ q1, "medium" for q1 < size ≤ q2,
-    "low" for size > q2 (an edge counts as the harder side).  E ≥ 1."""
-    size = np.asarray(size, np.float64)
-    q1, q2 = (float(q) for q in np.quantile(size, [1 / 3, 2 / 3]))
-    return np.where(size <= q1, 2, np.where(size <= q2, 1, 0)), (q1, q2)
-
-
 def _eligible(table, free: np.ndarray) -> dict[int, np.ndarray]:
     """{test cluster c: rows (in table order) of the environments in ``free`` (M,) bool where θ*
     shows c, in c's class}."""
@@ -136,21 +124,6 @@ def _may_host_a_test(table, env_index: int, cluster: int, min_regret: float) -> 
     return len(same) >= 1 and len(other) >= 3
 
 
-def graded(table, eligible: dict[int, np.ndarray], min_regret: float = MIN_REGRET
-           ) -> tuple[dict[int, float], dict[int, int], tuple[float, float]]:
-    """The difficulty of the eligible test environments ({cluster: rows}, :func:`_eligible`) that
-    may host a test (:func:`_may_host_a_test`): ({row: BEC size}, {row: level index into
-    DIFFICULTIES}, (q1, q2) the tertiles over them all, NaN when there is none)."""
-    rows = np.array(sorted({int(m) for c, cand in eligible.items() for m in cand
-                            if _may_host_a_test(table, int(m), c, min_regret)}), np.int64)
-    if not len(rows):
-        return {}, {}, (float("nan"), float("nan"))
-    size = bec.environment_sizes(table, rows)
-    level, edges = difficulty_levels(size)
-    return (dict(zip(rows.tolist(), size.tolist(), strict=True)),
-            dict(zip(rows.tolist(), level.tolist(), strict=True)), edges)
-
-
 def select_test_set(table, training_env_ids: list[list[int]], seed: int = 0, min_regret: float = MIN_REGRET,
                     min_distance: float | None = None, max_tries: int = MAX_TRIES,
                     skip_missing: bool = False, difficulty: str | None = None) -> list[dict]:
@@ -161,9 +134,10 @@ def select_test_set(table, training_env_ids: list[list[int]], seed: int = 0, min
     {theta_index, is_theta_star, cluster, regret} in a seeded random order.
     difficulty: None (any environment) or one of DIFFICULTIES: each test only among its cluster's
     environments of that level (module docstring); the dicts then also hold difficulty, bec_size
-    (the environment's, in [0, 1]) and bec_tertiles ([q1, q2] over every eligible environment).
-    Raises TestSetError when some cluster has no acceptable environment (of that difficulty), unless
-    ``skip_missing`` (closed-loop check questions: as many clusters as the environments left over allow).
+    (the environment's exact size, in [0, 1]), bec_tertiles ([q1, q2] it was graded by) and graded
+    ("all" or "cluster": which environments' tertiles).  Raises TestSetError when some cluster has no
+    acceptable environment (of that difficulty), unless ``skip_missing`` (closed-loop check questions:
+    as many clusters as the environments left over allow).
     """
     if difficulty is not None and difficulty not in DIFFICULTIES:
         raise ValueError(f"unknown test difficulty {difficulty!r}; choose from {', '.join(DIFFICULTIES)}")
@@ -174,33 +148,21 @@ def select_test_set(table, training_env_ids: list[list[int]], seed: int = 0, min
     used = {int(e) for seq in training_env_ids for e in seq}
     env_ids = np.asarray(table.env_ids)
     eligible = _eligible(table, ~np.isin(env_ids, list(used)))
+    grading = None
     if difficulty is not None:
-        size, level, edges = graded(table, eligible, min_regret)
-        wanted = DIFFICULTIES.index(difficulty)
+        hosts = _hosts(table, eligible, seed, min_regret, min_distance)
+        grading = grade(table, {c: sorted(found) for c, found in hosts.items()})
     out = []
     for c in domain.test_clusters:
-        cand = eligible[c]
-        of_level = ""
-        if difficulty is not None:
-            cand = np.array([m for m in cand if level.get(int(m)) == wanted], np.int64)
-            of_level = f" of {difficulty} difficulty"
-        drawn = None
-        for rule in ("design", "relaxed"):
-            for m in rng.permutation(cand):
-                drawn = _draw_options(table, int(m), c, rng, min_regret, min_distance, max_tries,
-                                      relaxed=rule == "relaxed")
-                if drawn is not None:
-                    break
-            if drawn is not None:
-                break
+        if grading is None:
+            drawn = _draw_test(table, c, eligible[c], rng, min_regret, min_distance, max_tries)
         else:
+            drawn = _graded_test(hosts[c], grading.candidates(c, difficulty), rng)
+        if drawn is None:
             if skip_missing:
                 continue
-            raise TestSetError(
-                f"no test environment{of_level} for cluster '{domain.cluster_names[c]}': {len(cand)} unused "
-                f"environments{of_level} show it, none has 3 alternatives of its class's strategies (at least 1 of "
-                f"this one) with θ*-regret >= {min_regret:g} that are pairwise >= {min_distance:g} apart")
-        pick, regret, dmin = drawn
+            raise TestSetError(_no_test(table, c, eligible[c], grading, difficulty, min_regret, min_distance))
+        m, rule, scale, (pick, regret, dmin) = drawn
         strat = table.strategy[m]
         options = [{"theta_index": t, "is_theta_star": t == 0, "cluster": int(strat[t]),
                     "regret": float(regret[t])} for t in pick]
@@ -209,7 +171,102 @@ def select_test_set(table, training_env_ids: list[list[int]], seed: int = 0, min
                 "cluster_name": domain.cluster_names[c],
                 "env_class": domain.class_names[domain.class_of_cluster[c]], "rule": rule,
                 "min_option_distance": dmin, "options": options}
-        if difficulty is not None:
-            test.update(difficulty=difficulty, bec_size=size[int(m)], bec_tertiles=list(edges))
+        if grading is not None:
+            test.update(difficulty=difficulty, **grading.record(int(m), scale))
         out.append(test)
     return out
+
+
+def _draw_test(table, cluster: int, cand, rng, min_regret, min_distance, max_tries):
+    """(row, rule, None, options) of the first environment of ``cand`` (rows, in a seeded random order),
+    under the design rule and then the relaxed one, whose options meet the thresholds; None if none."""
+    for rule in ("design", "relaxed"):
+        for m in rng.permutation(np.asarray(cand, np.int64)):
+            drawn = _draw_options(table, int(m), cluster, rng, min_regret, min_distance, max_tries,
+                                  relaxed=rule == "relaxed")
+            if drawn is not None:
+                return int(m), rule, None, drawn
+    return None
+
+
+def _hosts(table, eligible: dict[int, np.ndarray], seed: int, min_regret, min_distance) -> dict:
+    """{cluster: {row: (rule, options)}}: the eligible environments that can host a test, each with its
+    options drawn (:func:`_exact_draw`, a generator of its own seeded by ``seed`` and the row), under the
+    design rule or else the relaxed one.  Graded tests are graded among these alone: an environment no
+    test can be drawn in is no test's level."""
+    hosts = {}
+    for c, cand in eligible.items():
+        hosts[c] = {}
+        for m in cand:
+            if _may_host_a_test(table, int(m), c, min_regret):
+                drawn = _exact_draw(table, int(m), c, np.random.default_rng([seed, int(m)]), min_regret, min_distance)
+                if drawn is not None:
+                    hosts[c][int(m)] = drawn
+    return hosts
+
+
+def _exact_draw(table, env_index: int, cluster: int, rng, min_regret, min_distance):
+    """(rule, (pick, regret, min distance)) for a test in ``env_index``, drawn uniformly among every option
+    set that meets the thresholds (θ*, one of the cluster, two others, all pairwise >= min_distance), under
+    the design rule or else the relaxed one; None when no set does.  Exact where :func:`_draw_options`
+    samples: every set is looked at, through the distances among the alternatives far enough from θ*."""
+    for rule in ("design", "relaxed"):
+        regret, same, other = _alternatives(table, env_index, cluster, min_regret, relaxed=rule == "relaxed")
+        if not len(same) or len(other) < 2:
+            continue
+        pool = np.unique(np.concatenate([same, other]))
+        states = np.asarray(table.states(env_index, np.concatenate([[0], pool])), np.float64)
+        # every option must lie min_distance from θ*'s: the pairs among those alone
+        far = np.flatnonzero(table.domain.euclidean_distance(states[:1], states[1:]) >= min_distance)
+        pool, states = pool[far], states[np.r_[0, far + 1]]
+        d = table.domain.euclidean_distance(states[:, None], states[None])  # (1 + P, 1 + P), θ* first
+        at = {int(t): i + 1 for i, t in enumerate(pool)}  # θ -> its row of d
+        far = set(at)
+        others = np.array([t for t in other.tolist() if t in far], np.int64)
+        sets = []  # (first, (k, 2) pairs of others that go with it)
+        for first in (t for t in same.tolist() if t in far):
+            ok = others[others != first]
+            ok = ok[d[at[first], [at[t] for t in ok.tolist()]] >= min_distance] if len(ok) else ok
+            if len(ok) < 2:
+                continue
+            rows = np.array([at[t] for t in ok.tolist()])
+            i, j = np.triu_indices(len(ok), 1)
+            keep = d[rows[i], rows[j]] >= min_distance
+            if keep.any():
+                sets.append((first, np.stack([ok[i[keep]], ok[j[keep]]], axis=1)))
+        if sets:
+            counts = np.array([len(pairs) for _, pairs in sets], np.float64)
+            first, pairs = sets[int(rng.choice(len(sets), p=counts / counts.sum()))]
+            o1, o2 = (int(t) for t in pairs[int(rng.integers(len(pairs)))])
+            pick = [0, first, o1, o2]
+            rows = [0 if t == 0 else at[t] for t in pick]
+            return rule, (pick, regret, float(d[np.ix_(rows, rows)][_PAIRS].min()))
+    return None
+
+
+def _graded_test(hosts: dict, pools, rng):
+    """(row, rule, scale, options): an environment drawn uniformly among the pool's ``hosts`` (a cluster's
+    {row: (rule, options)}), pool by pool (``[(scale, rows)]``), design-rule hosts before relaxed ones."""
+    for scale, pool in pools:
+        for rule in ("design", "relaxed"):
+            rows = [m for m in pool if hosts[m][0] == rule]
+            if rows:
+                m = rows[int(rng.integers(len(rows)))]
+                return m, rule, scale, hosts[m][1]
+    return None
+
+
+def _no_test(table, c: int, cand, grading, difficulty, min_regret: float, min_distance: float) -> str:
+    """Why cluster c has no test (one line), with what to ask for instead where a difficulty was asked."""
+    name = table.domain.cluster_names[c]
+    options = (f"3 alternatives of its class's strategies (at least 1 of this one) with θ*-regret >= {min_regret:g} "
+               f"that are pairwise >= {min_distance:g} apart")
+    if grading is None:
+        return f"no test environment for cluster '{name}': {len(cand)} unused environments show it, none has {options}"
+    hosts = len(grading.rows[c])
+    if not hosts:
+        return (f"no test environment of {difficulty} difficulty for cluster '{name}': none of its {len(cand)} unused "
+                f"environments has {options}, whatever the difficulty; ask for no difficulty, or lower "
+                "--min-option-distance or --min-regret")
+    return (f"no test environment of {difficulty} difficulty for cluster '{name}': of its {hosts} unused environments "
+            f"with {options}, {grading.counts(c)}; ask for another difficulty, or none")

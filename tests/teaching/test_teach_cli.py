@@ -64,7 +64,6 @@ def _err(argv, capsys):
     (["--hyper", "det-euclidean=0"], "must be a finite number > 0"),
     (["--hyper", "prob-reward=-3"], "must be a finite number > 0"),
     (["--hyper", "prob-reward"], "MODEL=VALUE"),
-    (["--tests", "show", "--test-difficulty", "low"], "--test-difficulty grades choice tests"),
 ])
 def test_bad_model_or_hyperparameter(saved, tmp_path, capsys, extra, message):
     code, err = _err(["--table", str(saved), "--out", str(tmp_path / "o"), *extra], capsys)
