@@ -4,7 +4,7 @@ The size is exact: the (D−1)-volume of the environment's BEC on the simplex sl
 (u = sign(θ*) ⊙ w, :mod:`teaching.core.bec`) as a fraction of the whole simplex, in [0, 1]: the region's
 vertices and their convex hull's volume (qhull), or with 2 features the segment's length; a region without
 interior has size 0.  It ranks environments as :func:`teaching.core.bec.bec_size`'s Monte-Carlo fraction of
-the sphere does up to that estimate's noise, but has none: on the driving tables the Monte-Carlo tertiles lay
+the sphere does up to that estimate's noise, but has none: on the paper's demo table the Monte-Carlo tertiles lay
 about one standard error apart at 100,000 samples, so the levels were the sampler's seed
 (docs/decisions.md, "Test difficulty").  Its precision is float64's (a relative 1e-12 or better).
 
