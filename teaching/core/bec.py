@@ -101,17 +101,12 @@ def environment_half_spaces(table) -> list[np.ndarray]:
     return [half_spaces(table.features[m], signs, table.theta_star_index) for m in range(table.n_envs)]
 
 
-def _lp_argmin(normals: np.ndarray, c: np.ndarray) -> tuple[float, np.ndarray | None]:
-    """:func:`lp_minimum` and the u (D,) where HiGHS found it (None if the region is empty)."""
+def lp_minimum(normals: np.ndarray, c: np.ndarray) -> float:
+    """min c·u over {u ≥ 0, Σu = 1, normals·u ≥ 0} (normals (K, D), c (D,)); +inf if empty."""
     d = len(c)
     res = linprog(c, A_ub=-normals if len(normals) else None, b_ub=np.zeros(len(normals)) if len(normals) else None,
                   A_eq=np.ones((1, d)), b_eq=[1.0], bounds=[(0, None)] * d, method="highs", options=HIGHS)
-    return (float(res.fun), res.x) if res.status == 0 else (np.inf, None)
-
-
-def lp_minimum(normals: np.ndarray, c: np.ndarray) -> float:
-    """min c·u over {u ≥ 0, Σu = 1, normals·u ≥ 0} (normals (K, D), c (D,)); +inf if empty."""
-    return _lp_argmin(normals, c)[0]
+    return float(res.fun) if res.status == 0 else np.inf
 
 
 def cut_tolerance(inradius: float) -> float:
@@ -194,9 +189,9 @@ class Facets:
     """The non-redundant constraints of a region and how sure each is (:func:`facets`).
 
     normals (F, D): the facets, in the input's order.  cuts (F,): how far each cuts into the region of
-    the others (minus its LP minimum there, simplex units; the others being the facets).  inradius: the
-    region's (interior_point's depth).  uncertain: how many facets no witness point certifies (a cut the
-    LP reports but float64 cannot confirm): kept, so that a cover holds them too."""
+    every other row (minus its minimum there, on that region's vertices; simplex units; with no interior,
+    the LP's against the other facets).  inradius: the region's (interior_point's depth).  uncertain: how
+    many facets no witness point certifies in float64: kept, so that a cover holds them too."""
 
     normals: np.ndarray
     cuts: np.ndarray
@@ -223,8 +218,9 @@ def facets(normals: np.ndarray) -> Facets:
     to the vertex, and the first constraint the ray crosses is a facet of the whole, added to R.
     Costs one vertex enumeration per facet, not one LP per constraint.  A region without interior
     (θ* indifferent between two trajectories), or one qhull cannot take, falls back to one LP per
-    constraint against the others.  Each facet is then confirmed by its own LP against the other
-    facets and certified by a witness (:func:`_certified`); a warning names any it cannot certify.
+    constraint against the others.  Each facet is then confirmed on the vertices of the other facets'
+    region, its cut measured against every other row (:func:`_cut`) and certified by a witness
+    (:func:`_certified`); a warning names any it cannot certify.
     """
     normals = np.asarray(normals, np.float64)
     if not len(normals):
@@ -244,13 +240,11 @@ def _facets_by_vertices(normals: np.ndarray, inside: np.ndarray, depth: float, t
     kept = _clarkson(normals, inside, tol)
     for i in list(kept):  # one at a time: of two rows within tol of each other, one stays
         others = [j for j in kept if j != i]
-        if _region_min(normals[others], normals[i], inside)[0] >= -tol:
+        among_facets, low, witnesses[i] = _cut(normals, i, others, inside)
+        if among_facets >= -tol:
             kept = others
-            continue
-        # how far it cuts into every other row's region (a row Clarkson never needed may lie a hair
-        # behind it), and where: its cut, and the witness that certifies it
-        low, witnesses[i] = _cut(normals, i, others, inside)
-        cuts[i] = -low
+        else:
+            cuts[i] = -low
     kept = sorted(kept)
     uncertain = sum(not _certified(normals, i, witnesses[i], inside, depth) for i in kept)
     if uncertain:
@@ -275,21 +269,24 @@ def _facets_by_lp(normals: np.ndarray, depth: float) -> Facets:
     return Facets(normals[kept], np.array([cuts[i] for i in kept]), depth)
 
 
-def _cut(normals: np.ndarray, i: int, start: list[int], inside: np.ndarray) -> tuple[float, np.ndarray]:
-    """(min, u): row i's minimum over the region of every other row of ``normals`` (K, D), and a vertex
-    where it lies.  The minimum over the vertices (qhull) of the region of the rows ``start``, rows
-    violated at the minimising vertex added until none is: a vertex is exact to float64's rounding,
-    where HiGHS answers within its tolerance (on the tiny table it called a facet cutting 1.4e-10 redundant
-    by 3.7e-10).  ``inside`` (D,): strictly inside every row."""
+def _cut(normals: np.ndarray, i: int, start: list[int], inside: np.ndarray) -> tuple[float, float, np.ndarray]:
+    """(min over the rows ``start``, min over every row but i, u): row i's minimum over the region of the
+    rows ``start`` of ``normals`` (K, D), then over that of every other row, and a vertex where the latter
+    lies.  The minimum over the vertices (qhull) of the region of the rows ``start``, rows violated at the
+    minimising vertex added until none is (a row Clarkson never needed may lie a hair behind row i): a
+    vertex is exact to float64's rounding, where HiGHS answers within its tolerance (on the tiny table it
+    called a facet cutting 1.4e-10 redundant by 3.7e-10).  ``inside`` (D,): strictly inside every row."""
     work = np.asarray(start, np.int64)
+    first = None
     while True:
         low, u = _region_min(normals[work], normals[i], inside)
+        first = low if first is None else first
         values = normals @ u
         values[i] = np.inf
         values[work] = np.inf
         extra = _most_violated(values, -GENERATE_TOL, GENERATE)
         if not len(extra):
-            return low, u
+            return first, low, u
         work = np.union1d(work, extra)
 
 
@@ -301,12 +298,10 @@ def _region_min(rows: np.ndarray, c: np.ndarray, inside: np.ndarray) -> tuple[fl
     return float(at[k]), vertices[k]
 
 
-def _certified(normals: np.ndarray, i: int, u: np.ndarray | None, inside: np.ndarray, depth: float) -> bool:
+def _certified(normals: np.ndarray, i: int, u: np.ndarray, inside: np.ndarray, depth: float) -> bool:
     """Whether a point is shown, in float64 and against every row of ``normals`` (K, D) but i, to lie in
-    their region and outside row i: the LP's witness ``u`` (D,) moved towards ``inside`` (depth > 0) just
-    far enough to undo the LP's tolerance.  Certifies that row i is a facet whatever the LP's tolerances."""
-    if u is None or depth <= 0:
-        return False
+    their region and outside row i: the vertex ``u`` (D,) where row i's minimum lies (:func:`_cut`), moved
+    towards ``inside`` (depth > 0 inside every row) just far enough to undo any violation its rounding left."""
     others = np.delete(normals, i, 0)
     violation = max(0.0, -float((others @ u).min(initial=np.inf)), -float(u.min()))
     t = min(1.0, (2 * violation + 1e-15) / (violation + depth))

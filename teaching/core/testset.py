@@ -24,9 +24,8 @@ either strategy of the class (``"rule": "relaxed"`` in the test's entry,
 
 Tests may be graded by difficulty (:mod:`teaching.core.difficulty`): the eligible test environments are
 every environment in no training sequence in which θ* shows one of the test clusters (in that
-cluster's class) and which has the alternatives a test needs (one of the cluster and three of its
-class, distinct, with θ*-regret >= min_regret: the relaxed rule's pools; the options' distance is
-not checked, it needs drawing), graded by the exact size of their BEC.  With a difficulty, each test
+cluster's class) and in which some option set meets the thresholds (every set looked at, not sampled:
+``_exact_draw``), graded by the exact size of their BEC.  With a difficulty, each test
 is drawn among its cluster's environments of that level, relaxing in this order until one has options:
 the level on the scale of every test cluster's environments with the design rule, then the relaxed
 rule; then the level on its own cluster's scale, design then relaxed.  When none has, the TestSetError
@@ -221,10 +220,9 @@ def _exact_draw(table, env_index: int, cluster: int, rng, min_regret, min_distan
         pool, states = pool[far], states[np.r_[0, far + 1]]
         d = table.domain.euclidean_distance(states[:, None], states[None])  # (1 + P, 1 + P), θ* first
         at = {int(t): i + 1 for i, t in enumerate(pool)}  # θ -> its row of d
-        far = set(at)
-        others = np.array([t for t in other.tolist() if t in far], np.int64)
+        others = other[np.isin(other, pool)]
         sets = []  # (first, (k, 2) pairs of others that go with it)
-        for first in (t for t in same.tolist() if t in far):
+        for first in same[np.isin(same, pool)].tolist():
             ok = others[others != first]
             ok = ok[d[at[first], [at[t] for t in ok.tolist()]] >= min_distance] if len(ok) else ok
             if len(ok) < 2:
