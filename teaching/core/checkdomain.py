@@ -33,6 +33,7 @@ import numpy as np
 
 from .rewards import reward
 from .scenecolours import STATIC, scene_colours
+from .showtests import MIN_SHARE, eligible_rows
 from .table import TrajectoryTable
 from .testset import MIN_REGRET, select_test_set
 
@@ -274,9 +275,12 @@ def _table(domain, out, env_ids, thetas, normalisers) -> _SampleTable:
 def check_test_set(domain, preset, order, first, thetas, normalisers, min_regret, min_distance,
                    log: Callable[[str], None]) -> Result:
     """Each test cluster's feasibility on the preset: `first` is the plan of order[:len], the rest is planned
-    a chunk at a time while some cluster has no test environment."""
+    a chunk at a time while some cluster has no test environment.  A domain that scores a shown way
+    (``score_shown``) may test a cluster by asking to show the way (teaching.core.showtests) where no
+    environment has four options to choose among."""
     distance = domain.min_option_distance if min_distance is None else min_distance
-    found, shown, done = {}, {c: 0 for c in domain.test_clusters}, 0
+    shows = callable(getattr(domain, "score_shown", None))
+    found, found_show, shown, done = {}, {}, {c: 0 for c in domain.test_clusters}, 0
     out = first
     while True:
         ids = order[done:done + len(out["strategy"])]
@@ -288,8 +292,11 @@ def check_test_set(domain, preset, order, first, thetas, normalisers, min_regret
         for test in select_test_set(table, [], seed=preset.seed, min_regret=min_regret, min_distance=distance,
                                     skip_missing=True):
             found[test["cluster"]] = test
+        for c, rows in (eligible_rows(table, [], min_regret) if shows else {}).items():
+            if rows and c not in found_show:
+                found_show[c] = int(ids[rows[0][0]])
         done += len(ids)
-        missing = [c for c in domain.test_clusters if c not in found]
+        missing = [c for c in domain.test_clusters if c not in found and c not in found_show]
         if not missing or done >= len(order):
             break
         log(f"test set: searched {done:,} of {len(order):,} environments, no test yet for "
@@ -300,13 +307,18 @@ def check_test_set(domain, preset, order, first, thetas, normalisers, min_regret
     fails = tuple(
         f"no environment of {on} can test cluster {c} '{domain.cluster_names[c]}': {shown[c]} show it under θ*, "
         f"none has 3 distinct optimal alternatives to θ*'s (1 of this strategy and 2 of a sibling's, or any 3 of its "
-        f"class) with θ*-regret >= {min_regret:g}, all 4 pairwise >= {distance:g} apart: use a preset with more θ or "
-        f"environments, lower --min-option-distance, or drop it from test_clusters ({where(domain, 'test_clusters')})"
+        f"class) with θ*-regret >= {min_regret:g}, all 4 pairwise >= {distance:g} apart"
+        + (f", nor enough θ doing worse for a show test (a share >= {MIN_SHARE:g} with θ*-regret >= {min_regret:g})"
+           if shows else "")
+        + ": use a preset with more θ or environments, lower --min-option-distance, or drop it from test_clusters "
+        f"({where(domain, 'test_clusters')})"
         for c in missing)
     if fails:
         return Result("test set", fails)
     picks = ", ".join(f"'{domain.cluster_names[c]}' environment {found[c]['env_id']}"
-                      f"{' (relaxed)' if found[c]['rule'] == 'relaxed' else ''}" for c in domain.test_clusters)
+                      f"{' (relaxed)' if found[c]['rule'] == 'relaxed' else ''}" if c in found else
+                      f"'{domain.cluster_names[c]}' environment {found_show[c]} (show the way)"
+                      for c in domain.test_clusters)
     return Result("test set", (), f"every test cluster has a test environment on {on}, found in the first {done:,} "
                                   f"(min distance {distance:g}, min regret {min_regret:g}): {picks}")
 

@@ -245,8 +245,10 @@ _DEFAULT: list[str] = []
 
 def register(name: str, loader: Callable[[], Domain], default: bool = False) -> None:
     """Make `name` available to :func:`get_domain`; `loader()` returns the Domain on first use.
-    default: the domain of tables and presets that name none (those built before domains)."""
+    default: the domain of tables and presets that name none (those built before domains).  Registering
+    a name again replaces its domain, in its place among :func:`domain_names`."""
     _LOADERS[name] = loader
+    _LOADED.pop(name, None)
     if default:
         _DEFAULT[:] = [name]
 

@@ -1,7 +1,7 @@
 """The palette colours a domain's browser scene reads, found by reading its files, not by running them.
 
 A scene (``static/studyapp/scenes/<name>.js``) names the colours it needs in one call to
-``palette.js``'s ``colors(NAMES)``, in camelCase (``goalHatch`` is the page's ``--scene-goal-hatch``);
+``palette.js``'s ``colors(NAMES)``, in camelCase (``robotEdge`` is the page's ``--scene-robot-edge``);
 its stylesheet (``scenes/<name>.css``) may read ``var(--scene-<name>)`` too.  A scene built on a base
 module beside it (``import { GridScene } from "./grid.js"``) hands the base its ``const NAMES = [...]``,
 and the base calls ``colors(this.names)`` over its own ``NAMES`` and the scene's: the scene's colours are
@@ -28,7 +28,7 @@ _COMMENT = re.compile(r"/\*.*?\*/|(?<![:\"'])//[^\n]*", re.S)
 
 
 def kebab(name: str) -> str:
-    """``goalHatch`` -> ``goal-hatch``: palette.js's mapping from a scene's name to its CSS property."""
+    """``robotEdge`` -> ``robot-edge``: palette.js's mapping from a scene's name to its CSS property."""
     return re.sub(r"[A-Z]", lambda m: "-" + m.group(0).lower(), name)
 
 

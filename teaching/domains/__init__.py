@@ -3,9 +3,11 @@
 A domain implements :class:`teaching.core.domain.Domain`; registering it here (with a loader, so
 its modules load only when it is used) is all the core and the web side need.  docs/domains.md.
 
-Grid worlds from a file (docs/gridworlds.md) register from the environment: ``TEACHING_WORLDS``, a
-list of world files and folders of them separated by ``os.pathsep``, read once on import, so the
-command line, the web app and the workers all see the same worlds.
+Grid worlds from a file (docs/gridworlds.md): the ones shipped in ``worlds/`` (Lee, Admoni & Simmons'
+three) register as the built-in domains do, by name, loading on first use; those ``TEACHING_WORLDS`` names
+(world files and folders of them separated by ``os.pathsep``) are read and checked once on import, so a
+researcher's broken file is one line at once, and the command line, the web app and the workers all see
+the same worlds.
 """
 from __future__ import annotations
 
@@ -29,8 +31,26 @@ register("driving", _loader("driving"), default=True)
 register("gridworld", _loader("gridworld"))
 
 
+def _shipped_world(path: Path):
+    def load():
+        from ._grid.filedomain import world_domain  # noqa: PLC0415
+
+        domain = world_domain(path)
+        if domain.name != path.stem:  # a shipped file is registered under its file's name before it is read
+            raise ValueError(f"{path.name}: name: {domain.name!r} is not the file's name {path.stem!r}")
+        return domain
+
+    return load
+
+
+for _path in sorted(WORLDS.glob("*.toml")):
+    register(_path.stem, _shipped_world(_path))
+
+
 # world files named in TEACHING_WORLDS that were not registered: their one-line WorldFileError each
 WORLD_ERRORS: list[str] = []
+# a file named twice (TEACHING_WORLDS naming worlds/, say) registers once
+_REGISTERED_FILES: set[Path] = {p.resolve() for p in WORLDS.glob("*.toml")}
 
 
 def register_world_files(spec: str) -> list[str]:
@@ -48,6 +68,8 @@ def register_world_files(spec: str) -> list[str]:
     for part in parts:
         root = Path(part)
         for path in sorted(root.glob("*.toml")) if root.is_dir() else [root]:
+            if path.resolve() in _REGISTERED_FILES:
+                continue
             try:
                 names.append(_register_world(path))
                 continue
@@ -72,12 +94,14 @@ def _register_world(path: Path) -> str:
         raise WorldFileError(f"{path.name}: name: {world.name!r} is already a domain's name")
     domain = FileGridDomain(world)
     register(world.name, lambda: domain)
+    _REGISTERED_FILES.add(path.resolve())
     try:
         # made now, not on first use: a domain that cannot list its presets fails here, once, instead of
         # in every command that lists the domains' presets
         domain.presets  # noqa: B018
     except BaseException:
         unregister(world.name)
+        _REGISTERED_FILES.discard(path.resolve())
         raise
     return world.name
 

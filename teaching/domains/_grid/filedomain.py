@@ -1,7 +1,8 @@
 """A world file as a registered domain: :class:`FileGridDomain` and :func:`world_domain`.
 
 Everything a domain needs comes from the file (teaching.domains._grid.worldfile) and the exact
-planner (teaching.domains._grid.fileworld): environments are variants x starts, classes and strategy
+planner (teaching.domains._grid.fileworld): an environment is a variant and a state of its start pool
+(ids variant by variant, each variant's pool in order), classes and strategy
 clusters are the file's rules over a trajectory's counts, θ* and the presets are the file's.
 
 An environment's class, never from θ: the first of the file's classes of which at least two
@@ -21,9 +22,12 @@ from ...core.domain import ComprehensionQuestion, LegendEntry, ParticipantTexts
 from ...core.i18n import gettext_noop as _
 from . import ROOT
 from .domain import GridDomain
-from .fileworld import EXIT, ReplayError, fronts, play, world_fingerprint
+from .fileworld import EXIT, ReplayError, fronts, play, start_pool, world_fingerprint
 from .worldfile import HELD, World, WorldFileError, load_world
 
+# words a world's name or class names may hold that any text about teaching uses too (the "two" of "two-goal",
+# the "which" of "which goal"): not the robot's own, so not in its vocabulary (the core names no robot's words)
+PLAIN_WORDS = frozenset({"one", "two", "three", "four", "which", "what", "the", "and", "other"})
 PLANNER_VERSION = 1  # bump whenever a change alters the trajectories the planner returns
 SECONDS_PER_ACTION = 0.4
 
@@ -44,8 +48,18 @@ class FileGridDomain(GridDomain):
     def __init__(self, world: World):
         self.world = world
         self.name = world.name
-        self.n_starts = len(world.starts)
-        self.n_environments = world.n_variants * self.n_starts
+        pools = []
+        # each variant's start pool; reachability depends only on which cells are blocked, so variants that
+        # block the same cells share one pool
+        by_blocked: dict[bytes, tuple] = {}
+        for v in range(world.n_variants):
+            key = world.blocked(v).tobytes()
+            if key not in by_blocked:
+                by_blocked[key] = start_pool(world, v)
+            pools.append(by_blocked[key])
+        self.pools = tuple(pools)  # (V,) each variant's start states
+        self._first_id = np.cumsum([0, *(len(p) for p in self.pools)])  # (V + 1,) each variant's first id
+        self.n_environments = int(self._first_id[-1])
         self.feature_names = world.feature_names
         self.theta_star = np.array(world.theta_star)
         self.min_option_distance = world.min_option_distance
@@ -58,7 +72,8 @@ class FileGridDomain(GridDomain):
         self.class_of_cluster = np.array([i for i, _ in strategies] + [len(world.classes)])
         self.test_clusters = tuple(next(k for k, (_, s) in enumerate(strategies) if s.name == t) for t in world.tests)
         words = {world.name, *world.kinds, *(world.obj or "").split()} | {c.name for c in world.classes}
-        self.vocabulary = frozenset(w for word in words for w in re.findall(r"[a-z]+", word.lower()) if len(w) > 2)
+        self.vocabulary = frozenset(w for word in words for w in re.findall(r"[a-z]+", word.lower())
+                                    if len(w) > 2 and w not in PLAIN_WORDS)
         self.palette = {"free": "#f4f1e8", "grid": "#c8c2b4", "wall": "#2f3338", "robot": "#f5c518",
                         "robot-edge": "#111111", "path": "#ff7a1a", "text": "#111111", "object": "#7c3aed",
                         **{f"cell-{k}": v.colour for k, v in world.kinds.items()}}
@@ -101,26 +116,63 @@ class FileGridDomain(GridDomain):
         return star
 
     def split(self, env_id: int) -> tuple[int, int]:
-        """Environment id -> (variant, start)."""
+        """Environment id -> (variant, the start's place in the variant's pool)."""
         env_id = int(env_id)
         if not 0 <= env_id < self.n_environments:
             raise ValueError(f"environment ids must lie in [0, {self.n_environments}); got {env_id}")
-        return divmod(env_id, self.n_starts)
+        variant = int(np.searchsorted(self._first_id, env_id, side="right")) - 1
+        return variant, env_id - int(self._first_id[variant])
+
+    def environment_id(self, variant: int, start: int = 0) -> int:
+        """(variant, the start's place in its pool) -> environment id: split's inverse."""
+        if not (0 <= variant < self.world.n_variants and 0 <= start < len(self.pools[variant])):
+            raise ValueError(f"no start {start} in variant {variant}")
+        return int(self._first_id[variant]) + start
+
+    def environment(self, env_id: int) -> tuple[int, tuple]:
+        """Environment id -> (variant, start state)."""
+        variant, start = self.split(env_id)
+        return variant, self.pools[variant][start]
 
     @cache  # noqa: B019  (one domain object per world, alive as long as the process)
     def front(self, env_id: int) -> tuple[np.ndarray, list]:
         """fileworld.fronts of environment `env_id`; ValueError if a trajectory needs more actions
         than the table holds."""
-        phi, paths = fronts(self.world, *self.split(env_id))
-        longest = max(len(p) for p in paths) - 1
-        if longest > self.max_moves:
-            raise WorldFileError(f"{self.world.source}: max_moves: environment {env_id} has an optimal "
-                                 f"trajectory of {longest} actions; raise max_moves to at least {longest}")
+        phi, paths = fronts(self.world, *self.environment(env_id))
+        lengths = [len(p) - 1 for p in paths]
+        if max(lengths) > self.max_moves:
+            own = lengths[int(np.argmax(phi @ self.theta_star))]
+            raise WorldFileError(f"{self.world.source}: max_moves: environment {env_id} has a trajectory of "
+                                 f"{max(lengths)} actions that some θ finds best (θ*'s own takes {own}); every "
+                                 f"such trajectory is a candidate, so raise max_moves to at least {max(lengths)}")
         return phi, paths
 
     def environment_class(self, env_ids) -> np.ndarray:
         ids = np.asarray(env_ids, np.int64)
         return np.array([self._class_of(int(i)) for i in ids], np.int8).reshape(ids.shape)
+
+    def stratified_sample(self, n: int, seed: int = 0) -> np.ndarray:
+        """(n,) sorted int64 ids with a share for every class (shares differ by at most one).  A pool of
+        every reachable state holds thousands of environments, and a class needs the environment's fronts,
+        so there the classes are found lazily: environments in a seeded random order, each taken while its
+        class's share is not full, until every share is; a class with fewer members than its share leaves
+        its places to the others' next environments in that order, so a preset gets the environments it
+        names (two-goal has no "other" environment).  A file of listed starts keeps the core's sample
+        (teaching.core.base.stratified_sample: a short class's places stay empty), and so its tables."""
+        if self.world.start_pool == "listed":
+            return super().stratified_sample(n, seed=seed)
+        n_classes = len(self.class_names)
+        if not n_classes <= n <= self.n_environments:
+            raise ValueError(f"sample size must lie in [{n_classes}, {self.n_environments}]")
+        shares = np.diff(np.linspace(0, n, n_classes + 1).round().astype(int))
+        taken, passed = {c: [] for c in range(n_classes)}, []
+        for env_id in np.random.default_rng(seed).permutation(self.n_environments):
+            c = self._class_of(int(env_id))
+            (taken[c] if len(taken[c]) < shares[c] else passed).append(int(env_id))
+            if all(len(taken[c]) == shares[c] for c in taken):
+                break
+        picks = [e for c in taken for e in taken[c]]
+        return np.sort(np.array(picks + passed[:n - len(picks)], np.int64))
 
     def _class_of(self, env_id: int) -> int:
         phi, _ = self.front(env_id)
@@ -158,7 +210,8 @@ class FileGridDomain(GridDomain):
     def score_shown(self, env_id: int, actions, tolerance: float = 1e-9) -> dict:
         """A trajectory a participant showed in environment `env_id` (action names, fileworld.ACTIONS)
         scored under θ*: its counts, reward, the optimum's reward, regret = optimum - reward (≥ 0, in
-        θ*'s units), optimal (regret ≤ tolerance) and its rows as path_rows gives a table's trajectory
+        θ*'s units), regret_normalised (the same with θ* scaled to an L1 norm of 1, the units Lee, Admoni &
+        Simmons report in), optimal (regret ≤ tolerance) and its rows as path_rows gives a table's trajectory
         (to find it among the table's).  ValueError (one line) for actions the world
         does not allow (fileworld.play) or more of them than :attr:`max_actions`, whoever calls."""
         actions = list(actions)
@@ -166,12 +219,14 @@ class FileGridDomain(GridDomain):
             raise ReplayError(_("this way has {count} actions, and at most {limit} can be shown"),
                               count=len(actions), limit=self.max_actions)
         path = []
-        counts, ending = play(self.world, *self.split(env_id), actions, states=path)
+        counts, ending = play(self.world, *self.environment(env_id), actions, states=path)
         phi = self.front(env_id)[0]
         best = float(np.max(phi @ self.theta_star))
         got = float(counts @ self.theta_star)
         return {"counts": counts.tolist(), "ending": ending if ending == EXIT else self.feature_names[ending],
-                "reward": got, "optimum": best, "regret": best - got, "optimal": best - got <= tolerance,
+                "reward": got, "optimum": best, "regret": best - got,
+                "regret_normalised": (best - got) / float(np.abs(self.theta_star).sum()),
+                "optimal": best - got <= tolerance,
                 "rows": [[c, r, int(place == HELD)] for (r, c), place in path]}
 
     @property
@@ -195,9 +250,8 @@ class FileGridDomain(GridDomain):
     def scene_payload(self, env_id) -> dict:
         """The variant's cells (kind names, "" free), the start, the object and the goals, in (x, y)
         screen cells: x the column, y the row from the top."""
-        variant, start = self.split(env_id)
+        variant, ((r, c), place) = self.environment(env_id)
         w = self.world
-        (r, c), place = w.starts[start]
         return {"dt": SECONDS_PER_ACTION, "env_id": int(env_id), "variant": variant,
                 "world": {"cells": w.cells(variant).tolist(), "start": [c, r],
                           "labels": {k: v.label for k, v in w.kinds.items()},

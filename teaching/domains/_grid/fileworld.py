@@ -1,7 +1,8 @@
 """A grid world from a file as a domain: exact optimal trajectories, environments, classes, labels.
 
-An environment is a variant (a set of optional cells switched on) and a start state: id =
-variant * n_starts + start.  A state is (robot cell, where the object is: its cell, HELD, or None).
+An environment is a variant (a set of optional cells switched on) and a start state from the variant's
+start pool (:func:`start_pool`): the file's starts, and with ``start_pool = "reachable"`` every state they
+reach.  A state is (robot cell, where the object is: its cell, HELD, or None).
 Actions, in the tie rule's order: move right, up, down, left (into a cell of the grid that is not
 blocked), pick up (where the object lies), drop (while holding it), exit (where the file allows it).
 
@@ -46,7 +47,8 @@ _STEP = dict(zip(ACTIONS[:4], MOVES, strict=True))  # a move's name -> (d_row, d
 def world_fingerprint(world: World) -> str:
     """16 hex digits over everything in the file that decides a table's bytes (not colours or texts)."""
     blob = {k: v for k, v in asdict(world).items()
-            if k not in ("kinds", "texts", "translations", "source", "title", "presets")}
+            if k not in ("kinds", "texts", "translations", "source", "title", "presets")
+            and not (k == "start_pool" and v == "listed")}  # a file without the field keeps its tables
     blob["passable"] = {k: v.passable for k, v in world.kinds.items()}
     blob["fixed"] = sorted((list(c), k) for c, k in world.fixed.items())
     blob["moves"] = MOVES
@@ -99,14 +101,36 @@ class ReplayError(TranslatableError):
     """A shown way the world does not allow (play): one line, str() in English, translatable."""
 
 
-def play(world: World, variant: int, start: int, actions, states: list | None = None) -> tuple[np.ndarray, object]:
-    """Replay `actions` (names of :data:`ACTIONS`) from start `start` of variant `variant`: ((D,) int64
+def start_pool(world: World, variant: int) -> tuple:
+    """The start states of variant `variant`, in order: the file's starts, then (``start_pool =
+    "reachable"``) every other state they reach by the actions successors() allows, breadth first in
+    the tie order, but for the states in which an episode has ended (a goal reached, the object
+    delivered): the pool Lee, Admoni & Simmons draw demonstrations and tests from (every state of
+    their MDP but the terminal ones).  WorldFileError for a file's start inside a blocked cell."""
+    kinds, blocked = world.cells(variant), world.blocked(variant)
+    for i, (cell, _place) in enumerate(world.starts):
+        if blocked[cell]:
+            raise WorldFileError(f"{world.source}: starts[{i}].at: the robot starts inside a blocked cell "
+                                 f"in variant {variant}")
+    pool = dict.fromkeys(world.starts)
+    if world.start_pool == "reachable":
+        queue = list(pool)
+        for state in queue:  # grows as it is read: breadth first
+            for nxt, _, ending in successors(world, kinds, blocked, state):
+                if ending is None and nxt not in pool:
+                    pool[nxt] = None
+                    queue.append(nxt)
+    return tuple(pool)
+
+
+def play(world: World, variant: int, start, actions, states: list | None = None) -> tuple[np.ndarray, object]:
+    """Replay `actions` (names of :data:`ACTIONS`) from start state `start` of variant `variant`: ((D,) int64
     counts, the ending reached (a terminal feature's index or EXIT)); every state the robot is in, start
     first, is appended to `states` if given (the trajectory, as the planner's paths list it).
     ReplayError (a ValueError, one line) for an action not allowed where it is taken, an action after the
     episode ended, or actions that stop before it ends."""
     kinds, blocked = world.cells(variant), world.blocked(variant)
-    state, counts = world.starts[start], np.zeros(len(world.features), np.int64)
+    state, counts = start, np.zeros(len(world.features), np.int64)
     states = [] if states is None else states
     states.append(state)
     for k, name in enumerate(actions):
@@ -146,18 +170,14 @@ def _is_action(name: str, state, nxt, ending, target) -> bool:
     return nxt[0] == state[0] and (picked if name == "pickup" else held_before and not held_after)
 
 
-def fronts(world: World, variant: int, start: int) -> tuple[np.ndarray, list[list]]:
-    """Every (ending, non-dominated φ) of environment (variant, start) with one trajectory each:
+def fronts(world: World, variant: int, start) -> tuple[np.ndarray, list[list]]:
+    """Every (ending, non-dominated φ) of environment (variant, start state) with one trajectory each:
     ((P, D) int64 φ, the ending's terminal feature counted once; P lists of states, start first),
     endings in :func:`endings` order and each ending's φ sorted lexicographically."""
     kinds, blocked = world.cells(variant), world.blocked(variant)
-    start_state = world.starts[start]
-    if blocked[start_state[0]]:
-        raise WorldFileError(f"{world.source}: starts[{start}].at: the robot starts inside a blocked cell "
-                             f"in variant {variant}")
     n = len(world.features)
-    phi, parent, state = [(0,) * n], [-1], [start_state]
-    live = {start_state: [0]}  # state -> labels no other label there covers
+    phi, parent, state = [(0,) * n], [-1], [start]
+    live = {start: [0]}  # state -> labels no other label there covers
     dead: set[int] = set()
     ends: dict = {e: [] for e in endings(world)}
     layer = [0]

@@ -21,6 +21,7 @@ from .worldtexts import check_texts, check_translations, did_you_mean
 
 MOVES = ((0, 1), (-1, 0), (1, 0), (0, -1))  # (d_row, d_col): right, up, down, left, the tie order
 HELD = "held"  # an object's place in a start state when the robot starts holding it
+START_POOLS = ("listed", "reachable")  # a variant's starts: the file's, or every state they reach
 COUNTS = ("moves", "enter", "reach", "deliver")  # what a feature counts (docs/gridworlds.md)
 TERMINAL_COUNTS = ("reach", "deliver")  # features that end an episode, counted at most once
 ACTIONS = ("pickup", "drop")  # actions besides the moves that a "moves" feature may also count
@@ -32,8 +33,8 @@ _CONDITION = re.compile(r"^\s*([A-Za-z_][\w-]*)\s*(==|!=|>=|<=|=|>|<)\s*(-?\d+)\
 # start's table also takes the object's name (starts[i].<object>).
 FIELDS = {
     "": ("name", "title", "width", "height", "max_moves", "exit", "cells", "fixed", "optional", "object",
-         "starts", "features", "theta_star", "classes", "other", "tests", "min_option_distance", "presets",
-         "texts", "translations"),
+         "starts", "start_pool", "features", "theta_star", "classes", "other", "tests", "min_option_distance",
+         "presets", "texts", "translations"),
     "cells": ("colour", "label", "passable"),
     "fixed": ("at", "kind"),
     "object": ("name", "at", "destination"),
@@ -122,6 +123,7 @@ class World:
     tests: tuple[str, ...]  # strategy names the test set covers
     presets: dict[str, tuple[int | None, int]]  # suffix -> (environments or None for all, thetas)
     min_option_distance: float
+    start_pool: str = "listed"  # one of START_POOLS (teaching.domains._grid.fileworld.start_pool)
     # [texts], checked: strings, the instructions a tuple of paragraphs, the comprehension check a tuple of
     # (question, choices, right choices' 0-based positions)
     texts: dict = field(default_factory=dict)
@@ -294,6 +296,9 @@ def parse_world(raw: dict, source: str = "world") -> World:
         starts.append((at, place))
     if not starts:
         r.fail("starts", "at least one start is needed")
+    start_pool = r.get(raw, "start_pool", "", str, "listed")
+    if start_pool not in START_POOLS:
+        r.fail("start_pool", f"{start_pool!r}: one of {', '.join(START_POOLS)}{did_you_mean(start_pool, START_POOLS)}")
 
     features = tuple(_feature(r, item, i, cell, kinds, obj, destination)
                      for i, item in enumerate(r.tables(raw, "features", FIELDS["features"])))
@@ -359,8 +364,7 @@ def parse_world(raw: dict, source: str = "world") -> World:
                   destination=destination, starts=tuple(starts), exit=r.get(raw, "exit", "", bool, False),
                   features=features, theta_star=theta, classes=tuple(classes),
                   other=r.get(raw, "other", "", str, "other"), tests=tests, presets=presets,
-                  min_option_distance=min_option_distance,
-                  texts=texts, source=source)
+                  min_option_distance=min_option_distance, start_pool=start_pool, texts=texts, source=source)
     _check_reachable(world, r)
     translations = check_translations(r, r.get(raw, "translations", "", dict, {}), world)
     return replace(world, translations=translations) if translations else world

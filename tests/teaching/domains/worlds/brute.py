@@ -68,9 +68,14 @@ def step(world: World, variant: int, state, action):
 ACTIONS = ("right", "up", "down", "left", "pickup", "drop", "exit")
 
 
-def best_rewards(world: World, variant: int, start: int, thetas: np.ndarray, horizon: int) -> np.ndarray:
-    """(T,) for thetas (T, D): the highest θ·φ of any action sequence of at most `horizon` actions
-    that ends the episode (by a terminal feature or exit); -inf where none does."""
+def best_rewards(world: World, variant: int, start, thetas: np.ndarray, horizon: int) -> np.ndarray:
+    """(T,) for thetas (T, D): the highest θ·φ of any action sequence from start state `start` of at most
+    `horizon` actions that ends the episode (by a terminal feature or exit); -inf where none does."""
+    return best_rewards_from(world, variant, [start], thetas, horizon)[0]
+
+
+def best_rewards_from(world: World, variant: int, starts, thetas: np.ndarray, horizon: int) -> np.ndarray:
+    """(S, T): best_rewards from each of the start states `starts`, one memo for all of them."""
     thetas = np.asarray(thetas, np.float64)
 
     @cache
@@ -87,14 +92,28 @@ def best_rewards(world: World, variant: int, start: int, thetas: np.ndarray, hor
             out = np.maximum(out, gain if ended else gain + best(nxt, left - 1))
         return out
 
-    return best(world.starts[start], horizon)
+    return np.array([best(s, horizon) for s in starts]).reshape(len(starts), len(thetas))
 
 
-def replay(world: World, variant: int, start: int, cells_holding: list) -> np.ndarray:
+def reachable(world: World, variant: int) -> set:
+    """Every state the file's starts reach by allowed actions, but those in which the episode has ended
+    (this module's own rules, breadth first)."""
+    seen, queue = set(world.starts), list(world.starts)
+    while queue:
+        state = queue.pop()
+        for action in ACTIONS[:-1]:
+            moved = step(world, variant, state, action)
+            if moved is not None and not moved[2] and moved[0] not in seen:
+                seen.add(moved[0])
+                queue.append(moved[0])
+    return seen
+
+
+def replay(world: World, variant: int, start, cells_holding: list) -> np.ndarray:
     """Counts (D,) of a stored trajectory given as [(row, col, holding)] per action, start first:
     each step is the one action that leads there (a move, a pick-up or a drop); the episode then
-    ends by the terminal feature it reached, else by exit."""
-    state = world.starts[start]
+    ends by the terminal feature it reached, else by exit; `start` the start state."""
+    state = start
     assert (state[0][0], state[0][1], int(state[1] == HELD)) == tuple(cells_holding[0])
     total = np.zeros(len(world.features), np.int64)
     ended = False

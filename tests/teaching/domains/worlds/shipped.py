@@ -1,11 +1,11 @@
-"""The shipped worlds (teaching/domains/worlds/*.toml), registered only by the tests that use them
-(:func:`shipped`), with their tiny presets' tables and show-the-way teach outputs built once per run."""
+"""The shipped worlds (teaching/domains/worlds/*.toml, registered by default), with their tiny presets'
+tables and show-the-way teach outputs built once per run."""
 from __future__ import annotations
 
 import contextlib
 
 from teaching.core.build import build_table
-from teaching.core.domain import register, unregister
+from teaching.core.domain import get_domain
 from teaching.domains import WORLDS
 from teaching.domains._grid.filedomain import world_domain
 from teaching.teach import main as teach_main
@@ -16,13 +16,11 @@ NAMES = ["taxi", "two-goal", "skateboard"]
 
 @contextlib.contextmanager
 def shipped(name: str):
-    """A shipped world registered for the duration (they are not by default), then forgotten."""
-    domain = world_domain(WORLDS / f"{name}.toml")
-    register(domain.name, lambda: domain)
-    try:
-        yield domain
-    finally:
-        unregister(domain.name)
+    """The shipped world's registered domain, checked to be the file's (a context, so that a test reads
+    as the block that uses the world)."""
+    domain = get_domain(name)
+    assert domain.fingerprint() == world_domain(WORLDS / f"{name}.toml").fingerprint()
+    yield domain
 
 
 def tiny_table(tmp_path_factory, domain):

@@ -24,8 +24,11 @@ BROKEN = {
                        "theta_star: the weight of 'sand' is -inf: every weight must be a finite number"),
     "typo-field.toml": (("max_moves = 20", "max_moves = 20\nmax_move = 30"),
                         "max_move: not a field of a world file (one of name, title, width, height, max_moves, "
-                        "exit, cells, fixed, optional, object, starts, features, theta_star, classes, other, "
-                        "tests, min_option_distance, presets, texts, translations); did you mean 'max_moves'?"),
+                        "exit, cells, fixed, optional, object, starts, start_pool, features, theta_star, classes, "
+                        "other, tests, min_option_distance, presets, texts, translations); did you mean "
+                        "'max_moves'?"),
+    "typo-pool.toml": (("max_moves = 20", 'max_moves = 20\nstart_pool = "reachble"'),
+                       "start_pool: 'reachble': one of listed, reachable; did you mean 'reachable'?"),
     "typo-feature.toml": (('{ name = "steps", counts = "moves" }', '{ name = "steps", count = "moves" }'),
                           "features[3].count: not a field of this table (one of name, counts, cell, at, holding, "
                           "also); did you mean 'counts'?"),
