@@ -159,7 +159,7 @@ def analyze_study(study: Study, include_incomplete: bool = False, extra_comparis
     participants, answers, training = frames(study, include_incomplete)
     if study.test_kind == Study.SHOW:
         return SH.analyze_show(participants, answers, training, extra_comparisons=extra_comparisons,
-                               approx_star=star, conditions=names)
+                               approx_star=star, conditions=names, cluster_names=study_domain(study).cluster_names)
     return S.analyze(participants, answers, training, extra_comparisons=extra_comparisons, approx_star=star,
                      checks=checks_frame(study, include_incomplete), clusters=S.Clusters.of(study_domain(study)))
 

@@ -2,7 +2,8 @@
 
 The same files as a choice study's report (report.py, which hands a ShowAnalysis here), with each table
 carrying its measure: ``participants.csv`` (regret_<i>, optimal_<i>, mean_regret, share_optimal),
-``answers.csv``, ``conditions.csv``, ``anova.csv`` and ``welch.csv`` (a ``measure`` column), and
+``answers.csv``, ``conditions.csv``, ``anova.csv`` and ``welch.csv`` (a ``measure`` column), ``by_test.csv``
+and ``by_level.csv`` (each condition's answers per test and per difficulty level), and
 ``index.html`` (``templates/studyapp/analysis/show_report.html``).  No figures: the choice report's figures
 are of confidence scores.
 """
@@ -52,6 +53,14 @@ def measure_context(m, approx_star: str) -> dict:
     return item
 
 
+def summary_rows(df: pd.DataFrame, approx_star: str) -> list[dict]:
+    """by_test / by_level rows for the page: numbers at the report's digits, conditions by their labels."""
+    return [{**{k: r[k] for k in ("test_index", "cluster", "difficulty") if k in r},
+             "condition": S.label(r["condition"], approx_star), "n": int(r["n"]),
+             "mean_regret": num(r["mean_regret"], DIGITS["mean_regret"]), "sd_regret": num(r["sd_regret"], 2),
+             "share_optimal": num(r["share_optimal"], DIGITS["share_optimal"])} for _, r in df.iterrows()]
+
+
 def context(analysis: ShowAnalysis, title: str = "Study analysis") -> dict:
     p = analysis.participants
     cols = participant_columns(p)
@@ -60,7 +69,9 @@ def context(analysis: ShowAnalysis, title: str = "Study analysis") -> dict:
             "measures": [measure_context(m, analysis.approx_star) for m in analysis.measures],
             "skipped": list(analysis.skipped), "participant_columns": cols,
             "participant_rows": [[cell(r[c]) for c in cols] + [bool(r["excluded"])] for _, r in p[cols].iterrows()],
-            "headline": headline(analysis)}
+            "headline": headline(analysis),
+            "by_test": summary_rows(analysis.by_test, analysis.approx_star),
+            "by_level": summary_rows(analysis.by_level, analysis.approx_star)}
 
 
 def render_fragment(analysis: ShowAnalysis, title: str = "Study analysis") -> str:
@@ -112,7 +123,8 @@ def write_csvs(analysis: ShowAnalysis, out: Path) -> list[Path]:
               "conditions.csv": pd.concat([_with_measure(m.summary.reset_index(), m) for m in analysis.measures],
                                           ignore_index=True),
               "welch.csv": pd.concat([_with_measure(m.welch, m) for m in analysis.measures], ignore_index=True),
-              "anova.csv": pd.concat(anova, ignore_index=True)}
+              "anova.csv": pd.concat(anova, ignore_index=True),
+              "by_test.csv": analysis.by_test, "by_level.csv": analysis.by_level}
     written = []
     for name, df in tables.items():
         df.to_csv(out / name, index=False)

@@ -3,6 +3,8 @@ would go, and the way shown is scored under θ* (its regret: θ*'s optimal rewar
 θ*'s units; optimal when that is 0).
 
 Each participant has two measures over the tests they answered: their mean regret and their share of
+optimal ways.  Per test and per difficulty level (where the tests are graded), each condition's answers are
+summarised too (:func:`by_test`, :func:`by_level`): how many, their mean regret and SD, their share of
 optimal ways.  Each is analysed as a choice study's confidence score is compared between conditions: per
 condition n, mean, SD and SE (tables.condition_summary), a one-way ANOVA across the study's conditions
 (anova.oneway_anova) and Welch's t-tests of the planned and named pairs, Holm-adjusted within the measure
@@ -24,7 +26,7 @@ import pandas as pd
 from .anova import AnovaResult, oneway_anova
 from .comparisons import check_approx_star, comparison_family, default_comparisons, welch_tests
 from .conditions import APPROX_STAR_DEFAULT, PAPER_CONDITIONS, canonicalize
-from .tables import ParticipantCounts, condition_summary, participant_table
+from .tables import ParticipantCounts, condition_summary, included, participant_table
 
 # (column of the participants table, its name in words): the dependent measures, in the report's order.
 MEASURES = (("mean_regret", "mean regret (θ*'s units, 0 = optimal)"),
@@ -59,6 +61,8 @@ class ShowAnalysis(ParticipantCounts):
     measures: list[Measure]
     messages: list[str]
     approx_star: str = APPROX_STAR_DEFAULT
+    by_test: pd.DataFrame = field(default_factory=pd.DataFrame)
+    by_level: pd.DataFrame = field(default_factory=pd.DataFrame)
     skipped: tuple[str, ...] = field(default=SKIPPED)
 
 
@@ -84,6 +88,49 @@ def show_table(participants: pd.DataFrame, answers: pd.DataFrame, training: pd.D
     return p
 
 
+SUMMARY_COLUMNS = ["condition", "n", "mean_regret", "sd_regret", "share_optimal"]
+
+
+def _summarise(answers: pd.DataFrame, keys: list[str], order: list[str]) -> pd.DataFrame:
+    """Answers (with a condition column) grouped by `keys` + condition, conditions in `order`."""
+    if answers.empty:
+        return pd.DataFrame(columns=[*keys, *SUMMARY_COLUMNS])
+    out = (answers.groupby([*keys, "condition"], dropna=False, sort=False)
+           .agg(n=("regret", "size"), mean_regret=("regret", "mean"), sd_regret=("regret", "std"),
+                share_optimal=("optimal", "mean")).reset_index())
+    out["order"] = out["condition"].map({c: k for k, c in enumerate(order)}).fillna(len(order))
+    return out.sort_values([*keys, "order", "condition"]).drop(columns="order").reset_index(drop=True)
+
+
+def _included_answers(table: pd.DataFrame, answers: pd.DataFrame) -> pd.DataFrame:
+    """The answers of the participants the analysis includes, with their condition."""
+    people = included(table)[["participant_id", "condition"]]
+    a = answers.assign(participant_id=answers["participant_id"].astype(str), regret=answers["regret"].astype(float),
+                       optimal=answers["optimal"].astype(float), test_index=answers["test_index"].astype(int))
+    return a.merge(people, on="participant_id", how="inner")
+
+
+def by_test(table: pd.DataFrame, answers: pd.DataFrame, cluster_names=(), order=()) -> pd.DataFrame:
+    """One row per (test, condition) over the included participants' answers: test_index, the test's
+    cluster (its name where `cluster_names` gives it) and difficulty level ("" ungraded), then n, mean_regret,
+    sd_regret (NaN for one answer) and share_optimal."""
+    a = _included_answers(table, answers)
+    a["cluster"] = [cluster_names[int(c)] if c is not None and not pd.isna(c) and int(c) < len(cluster_names)
+                    else ("" if c is None or pd.isna(c) else str(int(c))) for c in a["test_cluster"]]
+    a["difficulty"] = a["test_difficulty"].fillna("").astype(str)
+    return _summarise(a, ["test_index", "cluster", "difficulty"], list(order))
+
+
+def by_level(table: pd.DataFrame, answers: pd.DataFrame, order=()) -> pd.DataFrame:
+    """One row per (difficulty level, condition), levels low, medium, high: as :func:`by_test` over every
+    test of the level; empty when no test is graded."""
+    a = _included_answers(table, answers)
+    a = a[a["test_difficulty"].notna() & (a["test_difficulty"].astype(str) != "")]
+    out = _summarise(a.rename(columns={"test_difficulty": "difficulty"}), ["difficulty"], list(order))
+    rank = {"low": 0, "medium": 1, "high": 2}
+    return out.sort_values("difficulty", key=lambda d: d.map(rank), kind="stable").reset_index(drop=True)
+
+
 def _conditions(names) -> list[str]:
     """The study's conditions (with or without participants), the paper's first, in its order."""
     names = set(names)
@@ -92,10 +139,11 @@ def _conditions(names) -> list[str]:
 
 def analyze_show(participants: pd.DataFrame, answers: pd.DataFrame, training: pd.DataFrame,
                  comparisons=None, extra_comparisons=(), approx_star: str = APPROX_STAR_DEFAULT,
-                 conditions=()) -> ShowAnalysis:
+                 conditions=(), cluster_names=()) -> ShowAnalysis:
     """The analysis of a show study's answers, as stats.analyze's arguments: ``extra_comparisons`` join the
     planned pairs (those the study has both conditions of) in each measure's Holm family; ``conditions``: the
-    study's (canonical), which the one-way ANOVA expects even before they have participants or examples.  A
+    study's (canonical), which the one-way ANOVA expects even before they have participants or examples;
+    ``cluster_names``: the domain's, naming each test's cluster in the per-test summary.  A
     ConditionError for an approx* that is no approximate model or comparisons that are not distinct pairs of
     its conditions."""
     participants, training = canonicalize(participants), canonicalize(training)
@@ -114,4 +162,5 @@ def analyze_show(participants: pd.DataFrame, answers: pd.DataFrame, training: pd
                                 summary=condition_summary(table, order=PAPER_CONDITIONS, dv=column)))
         messages += ([anova.message] if not anova.ok else []) + [f"{name}: {note}" for note in notes]
     return ShowAnalysis(participants=table, answers=answers, measures=measures, messages=messages,
-                        approx_star=approx_star)
+                        approx_star=approx_star, by_test=by_test(table, answers, cluster_names, conditions),
+                        by_level=by_level(table, answers, conditions))

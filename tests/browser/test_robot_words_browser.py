@@ -2,7 +2,8 @@
 robot's words (Domain.texts.choice_required): a yard's participant reads of deliveries, never of the
 car's driving style.  One study of every registered domain, on its smallest table; on the way, its
 scene draws every option of the test (a smoke test of each domain's scene module: no page error,
-and every canvas holds a picture, not one flat colour)."""
+and every canvas holds a picture, not one flat colour).  A world that tests by showing the way (Lee et
+al.'s three) is sent without a way instead, and is told to show it."""
 from __future__ import annotations
 
 import re
@@ -33,6 +34,10 @@ CANVAS_COLOURS = """() => [...document.querySelectorAll("canvas")].map((canvas) 
   return seen.size;
 })"""
 
+# a show test sent without JavaScript's guard: no way shown, the disabled button out of the way
+SEND_WITHOUT_A_WAY = """() => {
+  document.querySelector('#show-form button[type="submit"]').disabled = false;
+}"""
 # what a participant's browser would send without JavaScript's guard: every option played and rated,
 # the form's own `required` and the disabled button out of the way, no option chosen
 SEND_WITHOUT_A_CHOICE = """() => {
@@ -62,6 +67,18 @@ def test_a_test_sent_without_a_choice_is_refused_in_the_studys_words(name, trans
     page.goto(f"{live_server.url}{participant.get_absolute_url()}")
     expect(page.locator("h1")).to_have_text(f"Question 1 of {len(study.test_set)}")
     ready(page)
+    if study.test_kind == "show":
+        colours = page.evaluate(CANVAS_COLOURS)
+        assert len(colours) == 1 and colours[0] >= 3, colours  # the world, drawn, and no option
+        page.evaluate(SEND_WITHOUT_A_WAY)
+        page.locator('#show-form button[type="submit"]').click()
+        refusal = page.locator(".save-error")
+        expect(refusal).to_have_text("Please show the way: move the robot until it has finished, then continue.")
+        OUT.mkdir(exist_ok=True)
+        page.screenshot(path=str(OUT / f"refused_without_a_way_{name}.png"), full_page=True)
+        assert not CAR_WORDS.search(page.locator("main").inner_text().lower())
+        assert not errors, errors
+        return
     assert domain.texts.question in page.locator(".lead").inner_text()
     colours = page.evaluate(CANVAS_COLOURS)
     assert len(colours) >= 4 and min(colours) >= 3, colours  # the four options, each drawn

@@ -216,3 +216,28 @@ def test_a_choice_studys_analysis_page_is_as_before(study, complete, staff_clien
     page = r.content.decode()
     assert r.status_code == 200 and "Scores per condition" in page and "mean confidence score" in page
     assert "regret" not in page and "Not computed for a show study" not in page
+
+
+def test_each_conditions_answers_per_test_and_per_level_as_worked_by_hand(show_study, tmp_path):
+    show_study.test_set = [{**t, "difficulty": level} for t, level in zip(TEST_SET, ["low", "high", "low"],
+                                                                           strict=True)]
+    show_study.save()
+    analysis = D.analyze_study(show_study)
+    exact = analysis.by_test[analysis.by_test["condition"] == "exact"].set_index("test_index")
+    # test 0 in "exact": regrets 0, 0, 0, 2.0 (the careless participant's 9.0 is excluded)
+    assert exact.loc[0, "n"] == 4 and exact.loc[0, "mean_regret"] == pytest.approx(0.5)
+    assert exact.loc[0, "share_optimal"] == pytest.approx(0.75) and exact.loc[0, "difficulty"] == "low"
+    assert exact.loc[0, "sd_regret"] == pytest.approx(np.std([0, 0, 0, 2.0], ddof=1))
+    assert list(analysis.by_test["test_index"].unique()) == [0, 1, 2]
+    # the unfinished participant's one answer to test 0 is not analysed: det-euclidean has its four
+    assert analysis.by_test.query("condition == 'det-euclidean' and test_index == 0")["n"].item() == 4
+    levels = analysis.by_level[analysis.by_level["condition"] == "exact"].set_index("difficulty")
+    assert list(analysis.by_level["difficulty"].unique()) == ["low", "high"]
+    # low: tests 0 and 2, regrets 0, 0, 0, 2.0 and 1.5, 0, 0, 0.25: 3.75 / 8, five of eight optimal
+    assert levels.loc["low", "n"] == 8 and levels.loc["low", "mean_regret"] == pytest.approx(3.75 / 8)
+    assert levels.loc["low", "share_optimal"] == pytest.approx(5 / 8)
+    assert levels.loc["high", "mean_regret"] == pytest.approx(0.125) and levels.loc["high", "n"] == 4
+    written = R.write_report(analysis, tmp_path)
+    assert {p.name for p in written["csv"]} >= {"by_test.csv", "by_level.csv"}
+    page = written["html"].read_text()
+    assert 'id="table-by-test"' in page and 'id="table-by-level"' in page

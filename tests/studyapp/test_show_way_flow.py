@@ -41,10 +41,10 @@ def show_study(db, tmp_path_factory):
         yield study, domain
 
 
-def reference_regret(world, env_id: int, n_starts: int, actions: list[str], horizon: int) -> float:
-    """θ*'s best reward there (brute force) minus the reward of `actions` replayed by brute's own rules."""
-    variant, start = divmod(env_id, n_starts)
-    state, total = world.starts[start], np.zeros(len(world.features))
+def reference_regret(world, variant: int, start, actions: list[str], horizon: int) -> float:
+    """θ*'s best reward from start state `start` of `variant` (brute force) minus the reward of `actions`
+    replayed by brute's own rules."""
+    state, total = start, np.zeros(len(world.features))
     for a in actions:
         state, add, _ = brute.step(world, variant, state, a)
         total += add
@@ -100,7 +100,7 @@ def test_a_shown_way_is_stored_as_its_moves_with_the_regret_the_reference_finds(
         answer = Answer.objects.get(participant=p, step=step)
         assert answer.data == {"env_id": test["env_id"], "moves": moves}
         assert answer.correct is optimal and answer.chosen_option is None and answer.confidence_score is None
-        want = reference_regret(domain.world, test["env_id"], domain.n_starts, moves, horizon)
+        want = reference_regret(domain.world, *domain.environment(test["env_id"]), moves, horizon)
         assert answer.regret == pytest.approx(want, abs=1e-9)
         assert (want == pytest.approx(0, abs=1e-9)) is optimal
 

@@ -57,17 +57,26 @@ def distinct_options(table, m) -> list[int]:
     return picked
 
 
+def shows_the_way(table) -> bool:
+    """A world too small for four different trajectories in an environment (Lee et al.'s three) tests by
+    asking to show the way, which a domain that scores a shown way (score_shown) can."""
+    return callable(getattr(table.domain, "score_shown", None)) and not any(
+        len(distinct_options(table, int(m))) == 4 for m in np.flatnonzero(showable(table)))
+
+
 def real_spec(table, path, slug="real"):
-    """A study on the tiny table: two conditions of two training examples, and N_TESTS tests,
-    each theta*'s trajectory and three other trajectories (all real optima, all four different)."""
+    """A study on the tiny table: two conditions of two training examples, and N_TESTS tests, each
+    theta*'s trajectory and three other trajectories (all real optima, all four different), or on a
+    world that shows the way, N_TESTS show tests."""
     ok = [int(m) for m in np.flatnonzero(showable(table))]
     train = ok[:4]
-    tests = [m for m in ok[4:] if len(distinct_options(table, m)) == 4][:N_TESTS]
-    assert len(tests) == N_TESTS, f"{table.domain.name}: {len(tests)} environments with 4 different trajectories"
-    test_set = []
-    for m in tests:
-        test_set.append({"env_id": int(table.env_ids[m]), "options": [
-            {"theta_index": n, "is_theta_star": n == 0} for n in distinct_options(table, m)]})
+    if shows_the_way(table):
+        test_set = [{"env_id": int(table.env_ids[m]), "kind": "show"} for m in ok[4:4 + N_TESTS]]
+    else:
+        tests = [m for m in ok[4:] if len(distinct_options(table, m)) == 4][:N_TESTS]
+        assert len(tests) == N_TESTS, f"{table.domain.name}: {len(tests)} environments with 4 different trajectories"
+        test_set = [{"env_id": int(table.env_ids[m]), "options": [
+            {"theta_index": n, "is_theta_star": n == 0} for n in distinct_options(table, m)]} for m in tests]
     return {"slug": slug, "name": "Real tiny study", "table": str(path), "test_set": test_set,
             "recruitment": "prolific", "completion_code": "REAL2026",
             "conditions": [{"name": "exact", "env_ids": [int(e) for e in table.env_ids[train[:2]]]},
@@ -115,8 +124,12 @@ def test_no_test_page_tells_theta_stars_option_apart(tiny_table):
             if step.kind != StepKind.TEST:
                 continue
             test = study.test_set[step.item]
-            shown = flow.option_letters(p, step.item)
             assert '"robot"' not in html  # no trajectory outside the four options
+            if study.test_kind == "show":  # the world and its rules, never θ*'s way nor its reward
+                assert "optimum" not in html and data["scene-data"] == {k: test[k] for k in keys}
+                asset_sets.add(frozenset(u for u in URL_ATTR.findall(html) if "/p/" not in u))
+                continue
+            shown = flow.option_letters(p, step.item)
             # the shared scene: the goal, the time step, the other car, the world's sizes; no reference trajectory
             assert set(data) == {"scene-data", "option-robots", "scene-view"}
             assert data["scene-data"] == {k: test[k] for k in keys}
@@ -142,8 +155,9 @@ def test_no_test_page_tells_theta_stars_option_apart(tiny_table):
             assert not re.search(r'name="(choice|played)" value="\d', html)
             asset_sets.add(frozenset(u for u in URL_ATTR.findall(html) if "/p/" not in u))  # not the form's
             star_letters.append(next(letter for letter, k in shown if test["options"][k]["is_theta_star"]))
-    assert len(star_letters) == 4 * N_TESTS
-    assert len(set(star_letters)) > 1  # theta*'s letter is drawn per participant and test
+    if study.test_kind != "show":
+        assert len(star_letters) == 4 * N_TESTS
+        assert len(set(star_letters)) > 1  # theta*'s letter is drawn per participant and test
     # every test page refers to the same static assets: nothing is fetched per option or per test
     assert len(asset_sets) == 1, asset_sets
     # static files, and the study's JavaScript catalog (one per study, the same on every page of it)

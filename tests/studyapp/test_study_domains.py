@@ -47,6 +47,14 @@ def others_words(domain) -> set[str]:
 
 def test_a_studys_report_names_its_own_domains_clusters(domain_study, tmp_path):
     study, domain = domain_study
+    if study.test_kind == "show":  # a world that shows the way: its report is of regrets, per test cluster
+        call_command("analyze", study.slug, "--out", str(tmp_path), stdout=io.StringIO())
+        page = (tmp_path / "index.html").read_text()
+        for test in study.test_set:  # the per-test table's cluster cells
+            assert f"<td>{html.escape(domain.cluster_names[test['cluster']])}</td>" in page, test["cluster"]
+        for name in others_words(domain):  # a whole cell ("other: deliver" is a prefix of the taxi's "other")
+            assert f">{html.escape(name)}<" not in page, name
+        return
     analysis = D.analyze_study(study)
     assert analysis.clusters == S.Clusters.of(domain)
     assert list(analysis.examples_per_cluster.columns) == list(range(len(domain.class_of_cluster)))
@@ -119,8 +127,11 @@ def test_a_studys_data_dictionary_describes_its_own_domain(domain_study, staff_c
     assert domain.name in env and f"{domain.n_environments:,}" in env
     assert all(c in env for c in domain.class_names), env
     assert all(other not in env for other in domain_names() if other != domain.name), env
-    assert domain.texts.question in d[("long", "chosen_option")]
-    assert domain.texts.option in d[("long", "chosen_option")]
+    if study.test_kind == "show":  # the way shown and its regret, not a choice
+        assert "moves" in d[("long", "moves")] and "theta*" in d[("long", "regret")]
+    else:
+        assert domain.texts.question in d[("long", "chosen_option")]
+        assert domain.texts.option in d[("long", "chosen_option")]
     right = [label for value, label in domain.texts.attention_choices if value in domain.texts.attention_correct]
     assert all(label in d[("wide", "attention_passed")] for label in right)
     # the command writes the same file

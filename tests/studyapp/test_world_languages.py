@@ -21,7 +21,7 @@ from studyapp.models import Participant, StepKind, Study
 from studyapp.specschema import SpecError
 from studyapp.studies import build_study, spec_from_teach
 from teaching.api import domain_names, get_domain
-from teaching.core.domain import register, unregister
+from teaching.core.domain import register
 from teaching.domains import WORLDS
 from teaching.domains._grid.filedomain import FileGridDomain
 from teaching.domains._grid.worldfile import parse_world
@@ -49,14 +49,15 @@ right = [1]
 
 @contextlib.contextmanager
 def taxi_from(text: str):
-    """The taxi registered from `text`, a version of its file with other texts: the same world, so the taxi's
-    table is its table (texts decide no trajectory)."""
+    """The taxi registered from `text`, a version of its file with other texts, in place of the shipped one
+    for the duration: the same world, so the taxi's table is its table (texts decide no trajectory)."""
     domain = FileGridDomain(parse_world(tomllib.loads(text), "taxi.toml"))
+    shipped_taxi = get_domain("taxi")
     register(domain.name, lambda: domain)
     try:
         yield domain
     finally:
-        unregister(domain.name)
+        register("taxi", lambda: shipped_taxi)
 
 
 @pytest.fixture
