@@ -137,21 +137,22 @@ def oneway_anova(table: pd.DataFrame, dv: str, conditions, name: str = "",
     return res
 
 
-def distance_determinism_anovas(table: pd.DataFrame) -> list[AnovaResult]:
-    """The approximate-inference experiment (paper Sec. "Analysis"), honest about the missing cell."""
+def distance_determinism_anovas(table: pd.DataFrame, dv: str = "mean_score") -> list[AnovaResult]:
+    """The approximate-inference experiment (paper Sec. "Analysis"), honest about the missing cell; `dv`
+    the participants' measure (a show study's mean regret or share of optimal ways)."""
     inc = included(table)
     approx = inc[(inc["model"] == "approximate") & ~inc["coverage"]]
     additive_cells = [(x, y) for x, y in [("reward", "deterministic"), ("euclidean", "deterministic"),
                                          ("strategy", "deterministic"), ("reward", "probabilistic"),
                                          ("euclidean", "probabilistic")]]
-    r1 = factorial_anova(approx, ("distance", "determinism"), interaction=False,
+    r1 = factorial_anova(approx, ("distance", "determinism"), dv=dv, interaction=False,
                          name="distance + determinism (five approximate models, additive)",
                          expect_cells=additive_cells)
     r1.note = ("All five approximate models; strategy appears only as deterministic (prob-strategy == "
                "det-strategy), so the interaction is not estimable here and the model is additive. "
                "Without an interaction term type II and type III coincide.")
     sub = approx[approx["distance"].isin(["reward", "euclidean"])]
-    r2 = factorial_anova(sub, ("distance", "determinism"), interaction=True,
+    r2 = factorial_anova(sub, ("distance", "determinism"), dv=dv, interaction=True,
                          name="distance x determinism (complete 2x2: reward/euclidean x det/prob)",
                          expect_cells=[c for c in additive_cells if c[0] != "strategy"])
     r2.note = "The complete part of the design, with interaction; type II and III differ when cells are unbalanced."
@@ -169,16 +170,17 @@ def coverage_conditions(approx_star: str = APPROX_STAR_DEFAULT) -> tuple[str, ..
     return ("random", COVERAGE_RANDOM, approx_star, COVERAGE_APPROX)
 
 
-def paper_anovas(table: pd.DataFrame, conditions, approx_star: str = APPROX_STAR_DEFAULT) -> list[AnovaResult]:
-    """The paper's ANOVAs whose conditions are all among the study's `conditions` (canonical names)."""
+def paper_anovas(table: pd.DataFrame, conditions, approx_star: str = APPROX_STAR_DEFAULT,
+                 dv: str = "mean_score") -> list[AnovaResult]:
+    """The paper's ANOVAs of `dv` whose conditions are all among the study's `conditions` (canonical names)."""
     present = set(conditions)
     out = []
     if set(SQUARE_CONDITIONS) <= present:  # the additive design holds the square one: neither without it
-        additive, square = distance_determinism_anovas(table)
+        additive, square = distance_determinism_anovas(table, dv)
         out += [anova for anova, needs in ((additive, ADDITIVE_CONDITIONS), (square, SQUARE_CONDITIONS))
                 if set(needs) <= present]
     if set(coverage_conditions(approx_star)) <= present:
-        out.append(coverage_model_anova(table, approx_star))
+        out.append(coverage_model_anova(table, approx_star, dv))
     return out
 
 
@@ -191,9 +193,10 @@ def coverage_model_frame(table: pd.DataFrame, approx_star: str = APPROX_STAR_DEF
     return d
 
 
-def coverage_model_anova(table: pd.DataFrame, approx_star: str = APPROX_STAR_DEFAULT) -> AnovaResult:
+def coverage_model_anova(table: pd.DataFrame, approx_star: str = APPROX_STAR_DEFAULT,
+                         dv: str = "mean_score") -> AnovaResult:
     d = coverage_model_frame(table, approx_star)
-    r = factorial_anova(d, ("coverage", "model"), interaction=True,
+    r = factorial_anova(d, ("coverage", "model"), dv=dv, interaction=True,
                         name="coverage x model ({random, approx*} x {without, with coverage})",
                         expect_cells=[(c, m) for c in ("without", "with") for m in ("random", "approx*")])
     r.note = f"approx* = {approx_star}; its no-coverage cell is the {approx_star} condition."

@@ -112,7 +112,7 @@ def checks_frame(study: Study, include_incomplete: bool = False) -> pd.DataFrame
     answers, the example steps of those who answered one); a study without check answers stops at two."""
     people = {p["pk"]: p["condition__name"] for p in _participants(study, include_incomplete)}
     answers = list(Answer.objects.filter(participant_id__in=list(people), kind=StepKind.CHECK)
-                   .values_list("participant_id", "item", "correct", "confidence_score"))
+                   .values_list("participant_id", "item", "correct", "confidence_score", "regret"))
     if not answers:
         return pd.DataFrame(columns=L.CHECK_COLUMNS)
     examples: dict[int, list[int]] = {}  # participant id -> loop indices of the examples they saw
@@ -121,7 +121,10 @@ def checks_frame(study: Study, include_incomplete: bool = False) -> pd.DataFrame
         examples.setdefault(pid, []).append(index)
     rows = [{"participant_id": str(pid), "condition": people[pid], "loop_index": int(item),
              "examples_before": sum(i < item for i in examples.get(pid, [])), "correct": bool(correct),
-             "score": float(score)} for pid, item, correct, score in answers]
+             # a choice check has a confidence score, a show check a regret
+             "score": float("nan") if score is None else float(score),
+             "regret": float("nan") if regret is None else float(regret)}
+            for pid, item, correct, score, regret in answers]
     return L.number_checks(pd.DataFrame(rows))[L.CHECK_COLUMNS]
 
 
@@ -159,7 +162,8 @@ def analyze_study(study: Study, include_incomplete: bool = False, extra_comparis
     participants, answers, training = frames(study, include_incomplete)
     if study.test_kind == Study.SHOW:
         return SH.analyze_show(participants, answers, training, extra_comparisons=extra_comparisons,
-                               approx_star=star, conditions=names, cluster_names=study_domain(study).cluster_names)
+                               approx_star=star, conditions=names, cluster_names=study_domain(study).cluster_names,
+                               checks=checks_frame(study, include_incomplete))
     return S.analyze(participants, answers, training, extra_comparisons=extra_comparisons, approx_star=star,
                      checks=checks_frame(study, include_incomplete), clusters=S.Clusters.of(study_domain(study)))
 

@@ -38,6 +38,20 @@ def anova_rows(table: pd.DataFrame) -> list[dict]:
     return rows
 
 
+def anova_item(a, digits: int = 2) -> dict:
+    """A factorial ANOVA (anova.AnovaResult) for the page: its cells, type II and III tables and APA lines
+    (templates/studyapp/analysis/_report_anova.html)."""
+    item = {"name": a.name, "ok": a.ok, "message": a.message, "note": a.note, "n": a.n, "factors": a.factors,
+            "cells": [{"a": r[a.factors[0]], "b": r[a.factors[1]], "n": int(r["n"]), "mean": num(r["mean"], digits),
+                       "sd": num(r["sd"], digits)} for _, r in a.cells.iterrows()] if a.cells is not None else []}
+    if a.ok:
+        item["type2"] = anova_rows(a.type2)
+        item["type3"] = anova_rows(a.type3)
+        item["apa"] = [(typ, "; ".join(f"{r['effect']}: {r['apa']}, partial η² = {r['eta']}" for r in rows if r["apa"]))
+                       for typ, rows in (("type II", item["type2"]), ("type III", item["type3"]))]
+    return item
+
+
 def pval_apa(p):
     return "< .001" if p < 0.001 else f"= {S.fmt_p(p)}"
 

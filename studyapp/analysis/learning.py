@@ -13,15 +13,19 @@ condition             str      the closed-loop condition's name
 check_number          int      1, 2, ...: the participant's k-th check, in the order answered
 loop_index            int      the check's step within the participant's loop (LoopStep.index)
 examples_before       int      examples the participant had seen before this check
-correct               bool     θ*'s option was chosen
-score                 float    confidence score, -7..7 (the chosen option's rating, negated if wrong)
+correct               bool     θ*'s option was chosen (a show check: the way shown was optimal)
+score                 float    confidence score, -7..7 (the chosen option's rating, negated if wrong);
+                               NaN for a show check
+regret                float    a show check: the way's regret under θ* (θ*'s units); NaN for a choice
 ====================  =======  ==========================================================
 
 Output of :func:`learning_curves` -- one row per (condition, check_number), in :data:`CURVE_COLUMNS`:
 ``n`` participants who answered that check, ``n_correct``, ``p_correct`` = n_correct / n with its 95 %
 Wilson interval (``ci_low``, ``ci_high``; statsmodels ``proportion_confint``), ``mean_score`` and its
 standard error ``se_score`` (SD with ddof 1 over sqrt(n); empty for n = 1), and ``mean_examples``, the mean
-number of examples seen before that check.
+number of examples seen before that check.  A show study's checks ask to show the way:
+:func:`show_learning_curves` gives the same per check number with the share of optimal ways and the mean
+regret in their place (:data:`SHOW_CURVE_COLUMNS`).
 """
 from __future__ import annotations
 
@@ -31,9 +35,12 @@ from statsmodels.stats.proportion import proportion_confint
 
 from .conditions import canonicalize
 
-CHECK_COLUMNS = ["participant_id", "condition", "check_number", "loop_index", "examples_before", "correct", "score"]
+CHECK_COLUMNS = ["participant_id", "condition", "check_number", "loop_index", "examples_before", "correct", "score",
+                 "regret"]
 CURVE_COLUMNS = ["condition", "check_number", "n", "n_correct", "p_correct", "ci_low", "ci_high", "mean_score",
                  "se_score", "mean_examples"]
+SHOW_CURVE_COLUMNS = ["condition", "check_number", "n", "n_optimal", "p_optimal", "ci_low", "ci_high", "mean_regret",
+                      "se_regret", "mean_examples"]
 CHANCE = 0.25  # a check question has four options: a guess picks θ*'s one in four times
 CI_METHOD = "wilson"
 
@@ -65,6 +72,17 @@ def learning_curves(checks: pd.DataFrame | None, participant_ids=None, alpha: fl
     out["check_number"] = out["check_number"].astype(int)
     out[["n", "n_correct"]] = out[["n", "n_correct"]].astype(int)
     return out[CURVE_COLUMNS]
+
+
+def show_learning_curves(checks: pd.DataFrame | None, participant_ids=None, alpha: float = 0.05) -> pd.DataFrame:
+    """The learning curves of a show study's checks, as :func:`learning_curves` (the same counting, the
+    same Wilson interval): ``n_optimal`` and ``p_optimal`` the participants whose way was optimal at check k,
+    ``mean_regret`` and ``se_regret`` their regret's mean and standard error (:data:`SHOW_CURVE_COLUMNS`)."""
+    if checks is None or not len(checks):
+        return pd.DataFrame(columns=SHOW_CURVE_COLUMNS)
+    curves = learning_curves(checks.assign(score=checks["regret"]), participant_ids, alpha)
+    return curves.rename(columns={"n_correct": "n_optimal", "p_correct": "p_optimal", "mean_score": "mean_regret",
+                                  "se_score": "se_regret"})[SHOW_CURVE_COLUMNS]
 
 
 def number_checks(checks: pd.DataFrame) -> pd.DataFrame:

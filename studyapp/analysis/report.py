@@ -22,7 +22,7 @@ from .. import status as ST
 from . import figures as FIG
 from . import report_show as RS
 from . import stats as S
-from .formatting import anova_rows, cell, num, participant_groups, pval, pval_apa, welch_lines, welch_rows
+from .formatting import anova_item, cell, num, participant_groups, pval, pval_apa, welch_lines, welch_rows
 from .shown import ShowAnalysis
 
 
@@ -37,19 +37,7 @@ def context(analysis: S.Analysis, title: str = "Study analysis", figures: dict |
                      "n_examples": int(analysis.examples_per_cluster.loc[c].sum())
                      if c in analysis.examples_per_cluster.index else ""}
                     for c, r in summ.iterrows()]
-    anovas = []
-    for a in analysis.anovas:
-        item = {"name": a.name, "ok": a.ok, "message": a.message, "note": a.note, "n": a.n,
-                "cells": [{"a": r[a.factors[0]], "b": r[a.factors[1]], "n": int(r["n"]), "mean": num(r["mean"]),
-                           "sd": num(r["sd"])} for _, r in a.cells.iterrows()] if a.cells is not None else [],
-                "factors": a.factors}
-        if a.ok:
-            item["type2"] = anova_rows(a.type2)
-            item["type3"] = anova_rows(a.type3)
-            item["apa"] = [(typ, "; ".join(f"{r['effect']}: {r['apa']}, partial η² = {r['eta']}"
-                                           for r in rows if r["apa"]))
-                           for typ, rows in (("type II", item["type2"]), ("type III", item["type3"]))]
-        anovas.append(item)
+    anovas = [anova_item(a) for a in analysis.anovas]
     welch = welch_rows(analysis.welch)
     cors = [{"name": c.name, "level": c.level, "n": c.n, "r": num(c.r), "p": pval(c.p),
              "ci": f"[{num(c.ci_low)}, {num(c.ci_high)}]" if c.ok else "", "ok": c.ok, "message": c.message}

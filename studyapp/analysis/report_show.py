@@ -3,7 +3,8 @@
 The same files as a choice study's report (report.py, which hands a ShowAnalysis here), with each table
 carrying its measure: ``participants.csv`` (regret_<i>, optimal_<i>, mean_regret, share_optimal),
 ``answers.csv``, ``conditions.csv``, ``anova.csv`` and ``welch.csv`` (a ``measure`` column), ``by_test.csv``
-and ``by_level.csv`` (each condition's answers per test and per difficulty level), and
+and ``by_level.csv`` (each condition's answers per test and per difficulty level), ``learning_curves.csv``
+(closed-loop conditions' checks, where any was answered), and
 ``index.html`` (``templates/studyapp/analysis/show_report.html``).  No figures: the choice report's figures
 are of confidence scores.
 """
@@ -17,7 +18,7 @@ from django.template.loader import render_to_string
 
 from .. import status as ST
 from . import stats as S
-from .formatting import anova_rows, cell, num, participant_groups, pval_apa, welch_lines, welch_rows
+from .formatting import anova_item, anova_rows, cell, num, participant_groups, pval_apa, welch_lines, welch_rows
 from .shown import ShowAnalysis
 
 # a share is a fraction of tests: more digits than a regret's mean would need to tell conditions apart
@@ -45,7 +46,8 @@ def measure_context(m, approx_star: str) -> dict:
                       "cells": [{"condition": S.label(r["condition"], approx_star), "n": int(r["n"]),
                                  "mean": num(r["mean"], digits), "sd": num(r["sd"], digits)}
                                 for _, r in a.cells.iterrows()]},
-            "welch": welch_rows(m.welch, digits)}
+            "welch": welch_rows(m.welch, digits),
+            "factorial": [anova_item(f, digits) for f in m.factorial]}
     if a.ok:
         rows = anova_rows(a.type2)
         item["anova"]["rows"] = rows
@@ -71,7 +73,12 @@ def context(analysis: ShowAnalysis, title: str = "Study analysis") -> dict:
             "participant_rows": [[cell(r[c]) for c in cols] + [bool(r["excluded"])] for _, r in p[cols].iterrows()],
             "headline": headline(analysis),
             "by_test": summary_rows(analysis.by_test, analysis.approx_star),
-            "by_level": summary_rows(analysis.by_level, analysis.approx_star)}
+            "by_level": summary_rows(analysis.by_level, analysis.approx_star),
+            "learning": [{"condition": S.label(r["condition"], analysis.approx_star),
+                          "check": int(r["check_number"]), "n": int(r["n"]), "n_optimal": int(r["n_optimal"]),
+                          "p_optimal": num(r["p_optimal"], 2), "ci": f"[{num(r['ci_low'], 2)}, {num(r['ci_high'], 2)}]",
+                          "mean_regret": num(r["mean_regret"], 2), "se_regret": num(r["se_regret"], 2),
+                          "examples": num(r["mean_examples"], 1)} for _, r in analysis.learning.iterrows()]}
 
 
 def render_fragment(analysis: ShowAnalysis, title: str = "Study analysis") -> str:
@@ -98,7 +105,19 @@ def headline(analysis: ShowAnalysis) -> list[str]:
                          f"p {pval_apa(r['p'])}")
         else:
             lines.append(a.message)
+        for f in m.factorial:
+            if f.ok:
+                effects = "; ".join(f"{effect} F({r['df']:.0f}, {f.type2.loc['Residual', 'df']:.0f}) = {r['F']:.2f}, "
+                                    f"p {pval_apa(r['p'])}" for effect, r in f.type2.drop(index="Residual").iterrows())
+                lines.append(f"{f.name} of the {m.name} (type II): {effects}")
+            else:
+                lines.append(f.message)
         lines += welch_lines(m.welch, digits=3, tag=f" ({m.name})")
+    for cond, curve in analysis.learning.groupby("condition", sort=False):
+        lines.append(f"Learning curve {cond} (showed an optimal way at check k): " + "; ".join(
+            f"{int(r['check_number'])}: {int(r['n_optimal'])}/{int(r['n'])} = {r['p_optimal']:.2f} "
+            f"[{r['ci_low']:.2f}, {r['ci_high']:.2f}], mean regret {r['mean_regret']:.2f}"
+            for _, r in curve.iterrows()))
     return lines
 
 
@@ -119,12 +138,20 @@ def write_csvs(analysis: ShowAnalysis, out: Path) -> list[Path]:
         else:
             anova.append(pd.DataFrame([{"measure": m.name, "effect": "", "note": a.message}]))
         anova.append(_with_measure(a.cells, m).assign(type="cell counts"))
+        for f in m.factorial:  # the paper's designs, type II and III, each row naming its ANOVA
+            if f.ok:
+                anova += [_with_measure(t.reset_index(), m).assign(anova=f.name, type=typ)
+                          for typ, t in (("type II", f.type2), ("type III", f.type3))]
+            else:
+                anova.append(pd.DataFrame([{"measure": m.name, "anova": f.name, "effect": "", "note": f.message}]))
     tables = {"participants.csv": analysis.participants, "answers.csv": analysis.answers,
               "conditions.csv": pd.concat([_with_measure(m.summary.reset_index(), m) for m in analysis.measures],
                                           ignore_index=True),
               "welch.csv": pd.concat([_with_measure(m.welch, m) for m in analysis.measures], ignore_index=True),
               "anova.csv": pd.concat(anova, ignore_index=True),
               "by_test.csv": analysis.by_test, "by_level.csv": analysis.by_level}
+    if len(analysis.learning):
+        tables["learning_curves.csv"] = analysis.learning
     written = []
     for name, df in tables.items():
         df.to_csv(out / name, index=False)

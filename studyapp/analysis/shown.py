@@ -3,14 +3,15 @@ would go, and the way shown is scored under θ* (its regret: θ*'s optimal rewar
 θ*'s units; optimal when that is 0).
 
 Each participant has two measures over the tests they answered: their mean regret and their share of
-optimal ways.  Per test and per difficulty level (where the tests are graded), each condition's answers are
-summarised too (:func:`by_test`, :func:`by_level`): how many, their mean regret and SD, their share of
-optimal ways.  Each is analysed as a choice study's confidence score is compared between conditions: per
-condition n, mean, SD and SE (tables.condition_summary), a one-way ANOVA across the study's conditions
-(anova.oneway_anova) and Welch's t-tests of the planned and named pairs, Holm-adjusted within the measure
-(comparisons.welch_tests).  What only makes sense for choices among options (confidence scores, the option
-chosen, fits of learner models to choices, the pilot's predicted choices) is not computed; the report says so
-in one line each (SKIPPED).
+optimal ways.  Each is analysed as a choice study's confidence score is: per condition n, mean, SD and SE
+(tables.condition_summary), a one-way ANOVA across the study's conditions (anova.oneway_anova), the paper's
+factorial ANOVAs where the study has their conditions (anova.paper_anovas: distance x determinism, coverage
+x model) and Welch's t-tests of the planned and named pairs, Holm-adjusted within the measure
+(comparisons.welch_tests).  Per test and per difficulty level (where the tests are graded), each
+condition's answers are summarised too (:func:`by_test`, :func:`by_level`): how many, their mean regret and
+SD, their share of optimal ways.  What only makes sense for choices among options (confidence scores, the
+option chosen, fits of learner models to choices, the pilot's predicted choices) is not computed; the
+report says so in one line each (SKIPPED).
 
 Pure functions over pandas DataFrames, as :mod:`studyapp.analysis.stats`; the input tables are its
 ``participants`` and ``training`` and, for the answers, one row per (participant, test) with
@@ -23,9 +24,10 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from .anova import AnovaResult, oneway_anova
+from .anova import AnovaResult, oneway_anova, paper_anovas
 from .comparisons import check_approx_star, comparison_family, default_comparisons, welch_tests
 from .conditions import APPROX_STAR_DEFAULT, PAPER_CONDITIONS, canonicalize
+from .learning import SHOW_CURVE_COLUMNS, show_learning_curves
 from .tables import ParticipantCounts, condition_summary, included, participant_table
 
 # (column of the participants table, its name in words): the dependent measures, in the report's order.
@@ -33,7 +35,7 @@ MEASURES = (("mean_regret", "mean regret (θ*'s units, 0 = optimal)"),
             ("share_optimal", "share of optimal ways"))
 # One line each on the report: what a choice study's analysis has and a show study's cannot.
 SKIPPED = (
-    "Confidence scores, their factorial ANOVAs and correlations: not computed, as a show test has no options "
+    "Confidence scores and their correlations: not computed, as a show test has no options "
     "to rate; the measures above take their place.",
     "The option chosen and accuracy by test difficulty: not computed, as a show test asks for a way, not a "
     "choice among options.",
@@ -45,13 +47,15 @@ SKIPPED = (
 
 @dataclass
 class Measure:
-    """One dependent measure's results: per-condition summary, one-way ANOVA, Welch's t-tests."""
+    """One dependent measure's results: per-condition summary, one-way ANOVA, the paper's factorial
+    ANOVAs (those whose conditions the study has), Welch's t-tests."""
 
     column: str
     name: str
     summary: pd.DataFrame
     anova: AnovaResult
     welch: pd.DataFrame
+    factorial: list[AnovaResult] = field(default_factory=list)
 
 
 @dataclass
@@ -63,6 +67,8 @@ class ShowAnalysis(ParticipantCounts):
     approx_star: str = APPROX_STAR_DEFAULT
     by_test: pd.DataFrame = field(default_factory=pd.DataFrame)
     by_level: pd.DataFrame = field(default_factory=pd.DataFrame)
+    # closed-loop conditions' learning curves (learning.SHOW_CURVE_COLUMNS); no rows when no check was answered
+    learning: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=SHOW_CURVE_COLUMNS))
     skipped: tuple[str, ...] = field(default=SKIPPED)
 
 
@@ -139,11 +145,12 @@ def _conditions(names) -> list[str]:
 
 def analyze_show(participants: pd.DataFrame, answers: pd.DataFrame, training: pd.DataFrame,
                  comparisons=None, extra_comparisons=(), approx_star: str = APPROX_STAR_DEFAULT,
-                 conditions=(), cluster_names=()) -> ShowAnalysis:
+                 conditions=(), cluster_names=(), checks=None) -> ShowAnalysis:
     """The analysis of a show study's answers, as stats.analyze's arguments: ``extra_comparisons`` join the
     planned pairs (those the study has both conditions of) in each measure's Holm family; ``conditions``: the
     study's (canonical), which the one-way ANOVA expects even before they have participants or examples;
-    ``cluster_names``: the domain's, naming each test's cluster in the per-test summary.  A
+    ``cluster_names``: the domain's, naming each test's cluster in the per-test summary; ``checks``: the
+    closed-loop check answers (learning.py's input), whose curves count the included participants only.  A
     ConditionError for an approx* that is no approximate model or comparisons that are not distinct pairs of
     its conditions."""
     participants, training = canonicalize(participants), canonicalize(training)
@@ -159,8 +166,10 @@ def analyze_show(participants: pd.DataFrame, answers: pd.DataFrame, training: pd
         anova = oneway_anova(table, column, conditions, name=f"one-way ANOVA of the {name} across conditions")
         welch, notes = welch_tests(table, comps, approx_star, dv=column)
         measures.append(Measure(column=column, name=name, anova=anova, welch=welch,
-                                summary=condition_summary(table, order=PAPER_CONDITIONS, dv=column)))
+                                summary=condition_summary(table, order=PAPER_CONDITIONS, dv=column),
+                                factorial=paper_anovas(table, conditions, approx_star, dv=column)))
         messages += ([anova.message] if not anova.ok else []) + [f"{name}: {note}" for note in notes]
     return ShowAnalysis(participants=table, answers=answers, measures=measures, messages=messages,
                         approx_star=approx_star, by_test=by_test(table, answers, cluster_names, conditions),
-                        by_level=by_level(table, answers, conditions))
+                        by_level=by_level(table, answers, conditions),
+                        learning=show_learning_curves(checks, included(table)["participant_id"]))

@@ -161,3 +161,24 @@ def test_analyze_counts_the_included_participants_and_writes_the_csv_only_with_c
     assert "learning" in figures and R.FIG.to_bytes(figures.pop("learning")).startswith(b"\x89PNG")
     for fig in figures.values():
         plt.close(fig)
+
+
+def test_show_learning_curves_by_hand():
+    """A show study's checks: p1 showed an optimal way at both checks, p2 a way of regret 2 then an optimal
+    one, p3 one of regret 1.5; p4 is excluded."""
+    checks = L.number_checks(CHECKS.assign(
+        correct=[True, True, True, False, False, True, False], score=np.nan,
+        regret=[0.0, 0.0, 0.0, 2.0, 1.5, 0.0, 9.0]))
+    curves = L.show_learning_curves(checks, participant_ids=["p1", "p2", "p3"])
+    assert list(curves.columns) == L.SHOW_CURVE_COLUMNS
+    first, second = (curves.iloc[i] for i in range(2))
+    # check 1: p1 0, p2 2.0 (its loop_index 1), p3 1.5: one optimal of three, mean regret 3.5 / 3
+    assert (first["check_number"], first["n"], first["n_optimal"]) == (1, 3, 1)
+    assert first["p_optimal"] == pytest.approx(1 / 3) and first["mean_regret"] == pytest.approx(3.5 / 3)
+    # SD of (0, 2, 1.5) with ddof 1: squared deviations about 7/6 sum to 13/6, over 2; SE = SD / sqrt(3)
+    assert first["se_regret"] == pytest.approx(math.sqrt(13 / 6 / 2) / math.sqrt(3))
+    # check 2: p1 0 and p2 0
+    assert (second["n"], second["n_optimal"], second["mean_regret"], second["se_regret"]) == (2, 2, 0.0, 0.0)
+    low, high = proportion_confint(1, 3, alpha=0.05, method="wilson")
+    assert (first["ci_low"], first["ci_high"]) == (pytest.approx(low), pytest.approx(high))
+    assert L.show_learning_curves(None).columns.tolist() == L.SHOW_CURVE_COLUMNS

@@ -1,11 +1,13 @@
 """A show study (each test asks the participant to move the robot): its exports carry the moves, regret and
 optimality of each way shown, and its analysis compares each participant's mean regret and share of optimal
-ways between conditions (one-way ANOVA, Welch's t-tests), checked against SciPy on the same numbers."""
+ways between conditions (one-way ANOVA, the paper's factorial ANOVAs, Welch's t-tests), checked against SciPy and
+hand-worked numbers, with per-test, per-level summaries and closed-loop learning curves."""
 import csv
 import io
 from datetime import timedelta
 
 import numpy as np
+import pandas as pd
 import pytest
 from django.core.management import call_command
 from django.utils import timezone
@@ -15,9 +17,12 @@ from studyapp import assignment, exports
 from studyapp.analysis import data as D
 from studyapp.analysis import modelfit as MF
 from studyapp.analysis import report as R
-from studyapp.analysis.shown import MEASURES, ShowAnalysis
+from studyapp.analysis import report_show as RS
+from studyapp.analysis.shown import MEASURES, ShowAnalysis, analyze_show
 from studyapp.analysis.simulate import run_participant
-from studyapp.models import Answer, Condition, Participant, StepKind, Study
+from studyapp.analysis.stats import DETERMINISM
+from studyapp.models import Answer, Condition, LoopStep, Participant, StepKind, Study
+from tests.studyapp.test_analysis_stats import check_anova, hand_anova
 
 pytestmark = pytest.mark.django_db
 
@@ -241,3 +246,66 @@ def test_each_conditions_answers_per_test_and_per_level_as_worked_by_hand(show_s
     assert {p.name for p in written["csv"]} >= {"by_test.csv", "by_level.csv"}
     page = written["html"].read_text()
     assert 'id="table-by-test"' in page and 'id="table-by-level"' in page
+
+
+# Mean regrets' design for the paper's distance x determinism ANOVA: each participant's regrets in two tests
+# (unbalanced, n = 3, 4, 2, 3 and 2 det-strategy participants for the additive model)
+APPROX_REGRETS = {
+    "det-reward": [[0, 1.5], [2.0, 0], [0.5, 0.5]],
+    "det-euclidean": [[0, 0], [1.0, 0], [0, 0.5], [3.0, 1.0]],
+    "prob-reward": [[2.5, 4.0], [1.0, 3.5]],
+    "prob-euclidean": [[0.5, 2.0], [4.0, 0], [1.5, 1.5]],
+    "det-strategy": [[0, 2.0], [1.0, 1.0]],
+}
+
+
+def _show_frames(regrets: dict):
+    P, A = [], []
+    for cond, people in regrets.items():
+        for i, ways in enumerate(people):
+            pid = f"{cond}#{i}"
+            P.append({"participant_id": pid, "condition": cond, "attention_ok": True})
+            A += [{"participant_id": pid, "test_index": t, "test_cluster": t, "test_difficulty": None,
+                   "optimal": r == 0, "regret": float(r)} for t, r in enumerate(ways)]
+    T = pd.DataFrame([{"condition": c, "position": 0, "cluster": 0} for c in regrets])
+    return pd.DataFrame(P), pd.DataFrame(A), T
+
+
+def test_the_papers_factorial_anovas_of_each_show_measure_by_hand():
+    analysis = analyze_show(*_show_frames(APPROX_REGRETS), conditions=list(APPROX_REGRETS))
+    for m in analysis.measures:
+        per = {c: [np.mean(w) if m.column == "mean_regret" else np.mean([r == 0 for r in w]) for w in people]
+               for c, people in APPROX_REGRETS.items()}
+        square = ["det-reward", "det-euclidean", "prob-reward", "prob-euclidean"]
+        additive, full = m.factorial
+        for anova, conds, interaction in ((full, square, True), (additive, [*square, "det-strategy"], False)):
+            y = np.array([v for c in conds for v in per[c]])
+            a = np.array([c.split("-")[1] for c in conds for _ in per[c]])  # distance
+            b = np.array([DETERMINISM[c.split("-")[0]] for c in conds for _ in per[c]])  # determinism
+            names = {"a": "distance", "b": "determinism", **({"ab": "distance x determinism"} if interaction else {})}
+            check_anova(anova, hand_anova(y, a, b, interaction=interaction), names)
+    page = RS.render_fragment(analysis)
+    assert page.count('class="anova" id="anova-mean_regret-') == 2
+    assert page.count('class="anova" id="anova-share_optimal-') == 2
+    assert any("distance x determinism" in line and "mean regret" in line for line in RS.headline(analysis))
+
+
+def test_a_show_studys_closed_loop_checks_give_its_learning_curves(show_study, tmp_path):
+    """Check answers stored as the flow stores a shown check (kind CHECK, item = its loop step, optimal and
+    regret), with the examples before them: the report's learning curves count the included participants."""
+    for pid, regrets in (("exact-0", [2.0, 0.0]), ("exact-1", [0.0, 0.0]), ("careless", [9.0, 9.0])):
+        p = Participant.objects.get(study=show_study, platform_pid=pid)
+        for k, regret in enumerate(regrets):
+            LoopStep.objects.create(participant=p, index=2 * k, kind=LoopStep.EXAMPLE, env_id=5)
+            LoopStep.objects.create(participant=p, index=2 * k + 1, kind=LoopStep.CHECK, env_id=6, question=k)
+            _answer(p, 40 + k, StepKind.CHECK, 2 * k + 1, {"env_id": 6, "moves": ["exit"]}, correct=regret == 0,
+                    regret=regret)
+    analysis = D.analyze_study(show_study)
+    curve = analysis.learning.set_index("check_number")
+    assert list(curve["condition"]) == ["exact", "exact"]  # careless is excluded
+    assert (curve.loc[1, "n"], curve.loc[1, "n_optimal"], curve.loc[1, "mean_regret"]) == (2, 1, 1.0)
+    assert (curve.loc[2, "n_optimal"], curve.loc[2, "mean_examples"]) == (2, 2.0)
+    written = R.write_report(analysis, tmp_path)
+    assert "learning_curves.csv" in {p.name for p in written["csv"]}
+    assert 'id="table-learning"' in written["html"].read_text()
+    assert any(line.startswith("Learning curve exact") for line in R.headline(analysis))
