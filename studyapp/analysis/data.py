@@ -161,9 +161,11 @@ def analyze_study(study: Study, include_incomplete: bool = False, extra_comparis
     star = study_approx_star(names, approx_star)
     participants, answers, training = frames(study, include_incomplete)
     if study.test_kind == Study.SHOW:
+        domain = study_domain(study)  # its score_shown gave each regret under its θ*
         return SH.analyze_show(participants, answers, training, extra_comparisons=extra_comparisons,
-                               approx_star=star, conditions=names, cluster_names=study_domain(study).cluster_names,
-                               checks=checks_frame(study, include_incomplete))
+                               approx_star=star, conditions=names, cluster_names=domain.cluster_names,
+                               checks=checks_frame(study, include_incomplete),
+                               theta_star_l1=float(sum(abs(float(w)) for w in domain.theta_star)))
     return S.analyze(participants, answers, training, extra_comparisons=extra_comparisons, approx_star=star,
                      checks=checks_frame(study, include_incomplete), clusters=S.Clusters.of(study_domain(study)))
 

@@ -72,6 +72,7 @@ def context(analysis: ShowAnalysis, title: str = "Study analysis") -> dict:
             "skipped": list(analysis.skipped), "participant_columns": cols,
             "participant_rows": [[cell(r[c]) for c in cols] + [bool(r["excluded"])] for _, r in p[cols].iterrows()],
             "headline": headline(analysis),
+            "theta_star_l1": None if analysis.theta_star_l1 is None else f"{analysis.theta_star_l1:g}",
             "by_test": summary_rows(analysis.by_test, analysis.approx_star),
             "by_level": summary_rows(analysis.by_level, analysis.approx_star),
             "learning": [{"condition": S.label(r["condition"], analysis.approx_star),

@@ -67,6 +67,9 @@ class ShowAnalysis(ParticipantCounts):
     approx_star: str = APPROX_STAR_DEFAULT
     by_test: pd.DataFrame = field(default_factory=pd.DataFrame)
     by_level: pd.DataFrame = field(default_factory=pd.DataFrame)
+    # θ*'s L1 norm, where the domain's regrets are in θ*'s raw units: dividing by it gives Lee, Admoni &
+    # Simmons' units (θ* scaled to an L1 norm of 1); None where unknown
+    theta_star_l1: float | None = None
     # closed-loop conditions' learning curves (learning.SHOW_CURVE_COLUMNS); no rows when no check was answered
     learning: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=SHOW_CURVE_COLUMNS))
     skipped: tuple[str, ...] = field(default=SKIPPED)
@@ -145,12 +148,13 @@ def _conditions(names) -> list[str]:
 
 def analyze_show(participants: pd.DataFrame, answers: pd.DataFrame, training: pd.DataFrame,
                  comparisons=None, extra_comparisons=(), approx_star: str = APPROX_STAR_DEFAULT,
-                 conditions=(), cluster_names=(), checks=None) -> ShowAnalysis:
+                 conditions=(), cluster_names=(), checks=None, theta_star_l1: float | None = None) -> ShowAnalysis:
     """The analysis of a show study's answers, as stats.analyze's arguments: ``extra_comparisons`` join the
     planned pairs (those the study has both conditions of) in each measure's Holm family; ``conditions``: the
     study's (canonical), which the one-way ANOVA expects even before they have participants or examples;
     ``cluster_names``: the domain's, naming each test's cluster in the per-test summary; ``checks``: the
-    closed-loop check answers (learning.py's input), whose curves count the included participants only.  A
+    closed-loop check answers (learning.py's input), whose curves count the included participants only;
+    ``theta_star_l1``: θ*'s L1 norm, which the report names for regrets in θ*-over-its-L1-norm units.  A
     ConditionError for an approx* that is no approximate model or comparisons that are not distinct pairs of
     its conditions."""
     participants, training = canonicalize(participants), canonicalize(training)
@@ -172,4 +176,5 @@ def analyze_show(participants: pd.DataFrame, answers: pd.DataFrame, training: pd
     return ShowAnalysis(participants=table, answers=answers, measures=measures, messages=messages,
                         approx_star=approx_star, by_test=by_test(table, answers, cluster_names, conditions),
                         by_level=by_level(table, answers, conditions),
-                        learning=show_learning_curves(checks, included(table)["participant_id"]))
+                        learning=show_learning_curves(checks, included(table)["participant_id"]),
+                        theta_star_l1=theta_star_l1)

@@ -17,6 +17,8 @@ from django.http import QueryDict
 from django.urls import reverse
 
 from studyapp import closedloop, flow
+from studyapp.analysis.data import analyze_study
+from studyapp.analysis.report import render_fragment
 from studyapp.assignment import assign
 from studyapp.exports import long_csv
 from studyapp.models import Answer, Participant, StepKind, Study
@@ -202,6 +204,10 @@ def test_a_study_of_each_shipped_world_runs_end_to_end_from_its_teach_output(nam
         tests = list(Answer.objects.filter(participant=p, kind=StepKind.TEST).order_by("item"))
         assert [a.data["env_id"] for a in tests] == [t["env_id"] for t in study.test_set]
         assert all(a.correct and a.regret == pytest.approx(0, abs=1e-9) for a in tests)
+        # the report names θ*'s L1 norm, for regrets in Lee et al.'s units (their params.py: θ* / ‖θ*‖₁)
+        analysis = analyze_study(study)
+        assert analysis.theta_star_l1 == pytest.approx({"taxi": 30, "two-goal": 18.75, "skateboard": 10.3}[name])
+        assert f"‖θ*‖₁ = {analysis.theta_star_l1:g}" in render_fragment(analysis)
 
 
 LOOP = {"model": "prob-euclidean", "value": 1.0, "lapse": 0.2, "max_examples": 3, "check_every": 1}
