@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from teaching.core.domain import domain_names
+from teaching.core.domain import domain_names, get_domain
 from teaching.domains import WORLDS
 from teaching.domains._grid.filedomain import world_domain
 from tests.teaching.domains.worlds import brute
@@ -24,6 +24,8 @@ POOL_SIZE = {"taxi": 10 * (9 + 1), "two-goal": 25 - 2, "skateboard": 22 * (22 + 
 
 def test_the_three_worlds_are_registered_by_default():
     assert set(NAMES) <= set(domain_names())
+    for name in NAMES:  # the registered domain is the shipped file's
+        assert get_domain(name).fingerprint() == world_domain(WORLDS / f"{name}.toml").fingerprint()
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -46,7 +48,7 @@ def test_every_start_is_planned_and_theta_stars_way_scores_regret_0(name):
     """Every state of the widest pool (no optional cell on: it holds every other variant's starts), planned
     in that variant and with every optional cell on, within max_moves; θ*'s best reward from each equals the
     brute force's, and θ*'s own way, shown, scores regret 0."""
-    domain = world_domain(WORLDS / f"{name}.toml")
+    domain = get_domain(name)
     world = domain.world
     for variant in (0, world.n_variants - 1):
         starts = domain.pools[variant]
@@ -95,7 +97,7 @@ WAYS = [
 
 @pytest.mark.parametrize("name, variant, start, star_way, worse", WAYS, ids=[w[0] for w in WAYS])
 def test_worse_ways_score_the_regret_a_brute_force_gives(name, variant, start, star_way, worse):
-    domain = world_domain(WORLDS / f"{name}.toml")
+    domain = get_domain(name)
     world = domain.world
     env = domain.environment_id(variant, start)
     _, start_state = domain.environment(env)
@@ -119,10 +121,10 @@ def test_worse_ways_score_the_regret_a_brute_force_gives(name, variant, start, s
 
 @pytest.mark.parametrize("name", NAMES)
 def test_a_preset_of_a_reachable_pool_gets_the_environments_it_names_with_a_share_per_class(name):
-    domain = world_domain(WORLDS / f"{name}.toml")
+    domain = get_domain(name)
     ids = domain.stratified_sample(48, seed=4)
     assert len(ids) == len(set(ids.tolist())) == 48 and np.all(np.diff(ids) > 0)
-    assert np.array_equal(ids, world_domain(WORLDS / f"{name}.toml").stratified_sample(48, seed=4))  # seeded
+    assert np.array_equal(ids, domain.stratified_sample(48, seed=4))  # seeded
     classes = domain.environment_class(ids)
     # 24 of each class where the class has 24 members; two-goal has no "other" environment (from every start
     # both goals are somebody's best), so its 48 are all of the one class
