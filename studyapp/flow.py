@@ -192,8 +192,16 @@ def record(participant: Participant, step_index: int, post) -> Participant:
         finished = locked.position < len(steps) and steps[locked.position].kind == StepKind.DONE
         if finished:
             locked.completed_at = now
-            locked.completion_code = outcomes.code_for(locked, status.EXCLUDED if locked.excluded else status.COMPLETE)
-            locked.bonus = bonuses.compute(locked)  # once, from the answers stored under this lock
+            # a code pays: never for a participant who answered no test question (a study whose build gave it
+            # none takes no one, Study.running_problems; this holds whatever a study's tests became since)
+            if Answer.objects.filter(participant=locked, kind=StepKind.TEST).exists():
+                locked.completion_code = outcomes.code_for(locked, status.EXCLUDED if locked.excluded
+                                                           else status.COMPLETE)
+                locked.bonus = bonuses.compute(locked)  # once, from the answers stored under this lock
+            else:
+                locked.completion_code, locked.bonus = "", None
+                logger.warning("participant %s finished study %r without a test answer: no code, no bonus",
+                               locked.pk, locked.study.slug)
         # Only what an answer changes: writing every column re-encoded the participant's JSON (option orders,
         # session ids) at each answer.  The row was read under this lock, so the other columns are as stored.
         locked.save(update_fields=["position", "last_seen_at", "excluded", "completed_at", "completion_code",

@@ -135,8 +135,26 @@ class Study(models.Model):
     def time_limit(self) -> timedelta | None:
         return timedelta(minutes=self.time_limit_minutes) if self.time_limit_minutes else None
 
+    def running_problems(self) -> list[str]:
+        """Why this study cannot run on this server now, open or not (empty: it can): its robot is not
+        registered here, or it has no test question (its build did not finish).  Cheap, and never raises:
+        every participant page asks it first."""
+        from teaching.api import domain_names  # noqa: PLC0415 (numpy and the domains load when needed)
+
+        if self.domain not in domain_names():
+            return [f"Its robot '{self.domain}' is not registered on this server (registered: "
+                    f"{', '.join(domain_names())}): start the site, workers and commands with the setting that "
+                    "registers it (a world file: TEACHING_WORLDS, docs/gridworlds.md)."]
+        if not self.test_set:
+            return ["It has no test questions: its build did not finish (its job page says why), and a "
+                    "participant would answer nothing. Build it again."]
+        return []
+
     def opening_problems(self) -> list[str]:
         """Why this study may not accept participants yet (empty: it may)."""
+        running = self.running_problems()
+        if running:
+            return running
         if (self.source or {}).get("kind") != "table":  # e.g. an early version's synthesised placeholder
             return ["Its trajectories do not come from a trajectory table, so they say nothing about "
                     "theta*: rebuild the study from a table (create_study or the study designer)."]

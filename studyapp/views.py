@@ -1,6 +1,7 @@
 """Participant views: entry link, the current step, answers, completion."""
 from __future__ import annotations
 
+import logging
 from functools import wraps
 from urllib.parse import urlsplit
 
@@ -20,6 +21,8 @@ from .i18n import domain_text, in_study_language, participant_texts
 from .models import LoopStep, Participant, StepKind, Study
 from .scenes import instructions, scene_context
 from .trajectories import drawn_scene, study_domain
+
+logger = logging.getLogger(__name__)
 
 MTURK_PREVIEW = "ASSIGNMENT_ID_NOT_AVAILABLE"
 MTURK_HOSTS = {"www.mturk.com", "workersandbox.mturk.com"}
@@ -51,6 +54,27 @@ def participant_page(view):
         return response
 
     return xframe_options_exempt(never_cache(wrapped))
+
+
+def runnable_study(view):
+    """A participant page of a study that cannot run on this server (Study.running_problems: its robot is
+    not registered here, or its build never gave it test questions) is one clear page in the study's
+    language, 503, and writes nothing: no participant row, no answer.  The researchers read why on the
+    dashboard."""
+    @wraps(view)
+    def wrapped(request, *args, **kwargs):
+        study = Study.objects.filter(slug=kwargs["slug"]).first()
+        problems = study.running_problems() if study is not None else []
+        if problems:
+            logger.warning("study %r cannot run: %s", study.slug, problems[0])
+            message = gettext("This study is not available right now. Please come back later, or return it "
+                              "if you were recruited for it; the researchers can see why on their dashboard.")
+            if security.wants_json(request):
+                return JsonResponse({"ok": False, "error": message}, status=503)
+            return render(request, "studyapp/unavailable.html", {"study": study, "message": message}, status=503)
+        return view(request, *args, **kwargs)
+
+    return wrapped
 
 
 def mturk_submit_base(raw: str) -> str:
@@ -103,6 +127,7 @@ def _platform_ids(request):
 @in_study_language
 @require_GET
 @security.rate_limit("RATE_LIMIT_ENTRY", by="ip")
+@runnable_study
 def entry(request, slug):
     study = get_object_or_404(Study, slug=slug)
     if request.GET.get("assignmentId") == MTURK_PREVIEW:
@@ -141,6 +166,7 @@ def _participant(slug: str, token: str) -> Participant:
 @participant_page
 @in_study_language
 @require_GET
+@runnable_study
 def step(request, slug, token):
     participant = _participant(slug, token)
     Participant.objects.filter(pk=participant.pk).update(last_seen_at=timezone.now())
@@ -318,6 +344,7 @@ def completion_target(participant: Participant) -> dict:
 @security.rate_limit("RATE_LIMIT_ANSWER_IP", by="ip")
 @security.rate_limit("RATE_LIMIT_ANSWER", by="token")
 @security.framed_csrf_protect
+@runnable_study
 def answer(request, slug, token, step_index):
     if request.POST.get("consent") == "no":
         declined = _decline(request, slug, token, step_index)
