@@ -56,25 +56,20 @@ def participant_page(view):
     return xframe_options_exempt(never_cache(wrapped))
 
 
-def runnable_study(view):
-    """A participant page of a study that cannot run on this server (Study.running_problems: its robot is
-    not registered here, or its build never gave it test questions) is one clear page in the study's
-    language, 503, and writes nothing: no participant row, no answer.  The researchers read why on the
-    dashboard."""
-    @wraps(view)
-    def wrapped(request, *args, **kwargs):
-        study = Study.objects.filter(slug=kwargs["slug"]).first()
-        problems = study.running_problems() if study is not None else []
-        if problems:
-            logger.warning("study %r cannot run: %s", study.slug, problems[0])
-            message = gettext("This study is not available right now. Please come back later, or return it "
-                              "if you were recruited for it; the researchers can see why on their dashboard.")
-            if security.wants_json(request):
-                return JsonResponse({"ok": False, "error": message}, status=503)
-            return render(request, "studyapp/unavailable.html", {"study": study, "message": message}, status=503)
-        return view(request, *args, **kwargs)
-
-    return wrapped
+def _unavailable(request, study: Study):
+    """The page of a study that cannot run on this server (Study.running_problems: its robot is not
+    registered here, or its build never gave it test questions), or None when it can run.  Every participant
+    view asks it with the study it has already read, before writing anything: the participant reads one
+    clear page in the study's language (503), the researchers read why on the dashboard."""
+    problems = study.running_problems()
+    if not problems:
+        return None
+    logger.warning("study %r cannot run: %s", study.slug, problems[0])
+    message = gettext("This study is not available right now. Please come back later, or return it "
+                      "if you were recruited for it; the researchers can see why on their dashboard.")
+    if security.wants_json(request):
+        return JsonResponse({"ok": False, "error": message}, status=503)
+    return render(request, "studyapp/unavailable.html", {"study": study, "message": message}, status=503)
 
 
 def mturk_submit_base(raw: str) -> str:
@@ -127,9 +122,11 @@ def _platform_ids(request):
 @in_study_language
 @require_GET
 @security.rate_limit("RATE_LIMIT_ENTRY", by="ip")
-@runnable_study
 def entry(request, slug):
     study = get_object_or_404(Study, slug=slug)
+    unavailable = _unavailable(request, study)
+    if unavailable is not None:
+        return unavailable
     if request.GET.get("assignmentId") == MTURK_PREVIEW:
         return render(request, "studyapp/mturk_preview.html",
                       {"study": study, "summary": participant_texts(study_domain(study)).summary})
@@ -166,9 +163,11 @@ def _participant(slug: str, token: str) -> Participant:
 @participant_page
 @in_study_language
 @require_GET
-@runnable_study
 def step(request, slug, token):
     participant = _participant(slug, token)
+    unavailable = _unavailable(request, participant.study)
+    if unavailable is not None:
+        return unavailable
     Participant.objects.filter(pk=participant.pk).update(last_seen_at=timezone.now())
     if outcomes.check_time(participant):  # returned, timed out or screened out: the page of that outcome
         return render(request, "studyapp/ended.html", ended_context(participant))
@@ -344,13 +343,15 @@ def completion_target(participant: Participant) -> dict:
 @security.rate_limit("RATE_LIMIT_ANSWER_IP", by="ip")
 @security.rate_limit("RATE_LIMIT_ANSWER", by="token")
 @security.framed_csrf_protect
-@runnable_study
 def answer(request, slug, token, step_index):
     if request.POST.get("consent") == "no":
         declined = _decline(request, slug, token, step_index)
         if declined is not None:
             return declined
     participant = _participant(slug, token)
+    unavailable = _unavailable(request, participant.study)
+    if unavailable is not None:
+        return unavailable
     if "consent" in request.POST:
         refused = _refuse_device(request, participant, step_index)
         if refused is not None:
@@ -400,6 +401,9 @@ def _decline(request, slug, token, step_index):
     The browser's session remembers the (random, now meaningless) token, so a double click shows the
     same page instead of "unknown link"; no row refers to it any more."""
     study = get_object_or_404(Study, slug=slug)
+    unavailable = _unavailable(request, study)
+    if unavailable is not None:
+        return unavailable
     participant = Participant.objects.filter(token=token, study=study).first()
     if participant is None:
         if request.session.get(f"declined:{study.slug}") != token:
