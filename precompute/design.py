@@ -43,7 +43,7 @@ from teaching.api import (
     make_model,
 )
 
-from . import designquiz
+from . import designquiz, supply
 from .jobs import table_preset, tables_dir
 from .schemafields import param_field_name, schema_field, selector_param_fields
 
@@ -299,8 +299,25 @@ class StudyDesignForm(forms.Form):
         elif not data.get("conditions") and not data.get("loop_name") and "conditions" not in self.errors:
             self.add_error("conditions", "Choose at least one condition, or give a hand-picked or closed-loop one.")
         self._check_language(data)
+        self._check_tests(data)
         self._check_job(data)
         return data
+
+    TEST_FIELDS = ("table", "test_kind", "test_difficulty", "min_regret", "min_distance")
+
+    def _check_tests(self, data: dict) -> None:
+        """What the build's last step would refuse about the tests, said under its field before any job
+        starts: a robot that cannot be shown the way, or a kind and difficulty no environment of the table can
+        hold (precompute/supply.py).  Training may still use the last environments of a level; the build then
+        says so on its job page."""
+        domain = next((t["domain"] for t in self.tables if t["path"] == data.get("table")), None)
+        if domain is None or any(f in self.errors for f in self.TEST_FIELDS):
+            return
+        field, why = supply.problem(data["table"], domain, data.get("test_kind") or Study.CHOOSE,
+                                    data.get("test_difficulty") or None, data.get("min_regret"),
+                                    data.get("min_distance"))
+        if why:
+            self.add_error(field, why)
 
     def _check_language(self, data: dict) -> None:
         """A language the table's robot has texts without a translation in, said under the language (the

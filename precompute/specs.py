@@ -32,6 +32,11 @@ from dataclasses import MISSING, asdict, dataclass, field, fields
 SPEC_VERSION = 5
 
 
+class BuildRefused(ValueError):
+    """What only the build could find out about a study, said on its job page in one line with what to
+    change (no traceback: the code did what it should)."""
+
+
 class SpecFormatError(ValueError):
     """A stored job spec this code cannot read: unknown or missing keys, or a newer version."""
 

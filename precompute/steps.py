@@ -28,12 +28,12 @@ from studyapp.studies import (
     store_pilot,
 )
 from studyapp.trajectories import show_tests_from_table, test_set_from_table, training_from_table
-from teaching.api import MIN_REGRET, TrajectoryTable, select_show_tests, select_test_set
+from teaching.api import MIN_REGRET, TestSetError, TrajectoryTable, select_show_tests, select_test_set
 
 from . import work
 from .models import Part
 from .sequences import condition_sequence, pilot_matrix
-from .specs import StudyJobSpec
+from .specs import BuildRefused, StudyJobSpec
 
 log = logging.getLogger(__name__)
 
@@ -118,14 +118,20 @@ def finish_study(job_id, spec: StudyJobSpec, study: Study, conditions: list[Cond
     {name: stored data}, {name: what their settings came from})."""
     table = _table(spec)
     training = [c.env_ids for c in conditions]
-    if spec.test_kind == Study.SHOW:  # the way, not options: nothing for the pilot to predict in the tests
-        tests = select_show_tests(table, training, seed=spec.seed, difficulty=spec.test_difficulty,
-                                  min_regret=spec.test_set_thresholds.get("min_regret", MIN_REGRET))
-        test_set = show_tests_from_table(table, tests)
-    else:
-        tests = select_test_set(table, training, seed=spec.seed, difficulty=spec.test_difficulty,
-                                **spec.test_set_thresholds)
-        test_set = test_set_from_table(table, tests)
+    try:
+        if spec.test_kind == Study.SHOW:  # the way, not options: nothing for the pilot to predict in the tests
+            tests = select_show_tests(table, training, seed=spec.seed, difficulty=spec.test_difficulty,
+                                      min_regret=spec.test_set_thresholds.get("min_regret", MIN_REGRET))
+            test_set = show_tests_from_table(table, tests)
+        else:
+            tests = select_test_set(table, training, seed=spec.seed, difficulty=spec.test_difficulty,
+                                    **spec.test_set_thresholds)
+            test_set = test_set_from_table(table, tests)
+    except TestSetError as exc:
+        # the designer counted the environments before training; the conditions' examples took the last ones
+        raise BuildRefused(f"No test set could be drawn from the environments the conditions do not train on "
+                           f"({exc}). Choose another difficulty (the designer counts each level), lower the minimum "
+                           "θ*-regret or distance, or fewer conditions, and build again.") from None
     settings, from_fit = closed_loop_settings(spec)
     loops = prepare_closed_loops(table, study.slug, settings, tests)  # their checks apart from the tests
     predicted = None if spec.test_kind == Study.SHOW else tests

@@ -40,7 +40,7 @@ from studyapp.models import Condition, Study
 
 from .models import Job, Part
 from .procs import host_id
-from .specs import StudyJobSpec
+from .specs import BuildRefused, StudyJobSpec
 
 log = logging.getLogger(__name__)
 
@@ -107,11 +107,13 @@ def finish_job(job_id, result=None, result_path=""):
     log.info("precompute: job %s succeeded%s", job_id, f" -> {result_path}" if result_path else "")
 
 
-def fail_job(job_id, exc, detail="", where=""):
+def fail_job(job_id, exc, detail="", where="", in_words=False):
+    """Mark the job failed with `exc`, its class named unless `in_words` (a refusal the researcher acts on)."""
     if job_id is None:
         return
-    Job.objects.filter(pk=job_id).update(status=Job.FAILED, finished_at=timezone.now(),
-                                         error=f"{where}{type(exc).__name__}: {exc}", error_detail=detail)
+    error = str(exc) if in_words else f"{where}{type(exc).__name__}: {exc}"
+    Job.objects.filter(pk=job_id).update(status=Job.FAILED, finished_at=timezone.now(), error=error,
+                                         error_detail=detail)
     log.warning("precompute: job %s failed: %s%s: %s", job_id, where, type(exc).__name__, exc)
 
 
@@ -148,8 +150,10 @@ class JobTask(Task):
     def on_failure(self, exc, task_id, args, kwargs, einfo):
         arguments = task_arguments(self, args, kwargs)
         job_id = arguments.get("job_id")
+        in_words = isinstance(exc, BuildRefused)  # the researcher's to change, not the code's
+        detail = "" if in_words else str(einfo) if einfo else traceback.format_exc()
         try:
-            fail_job(job_id, exc, str(einfo) if einfo else traceback.format_exc(), _where(self.name, arguments))
+            fail_job(job_id, exc, detail, _where(self.name, arguments), in_words=in_words)
         except Exception:  # the failure must still reach the result backend
             log.exception("could not record the failure of job %s", job_id)
 

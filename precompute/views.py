@@ -13,9 +13,10 @@ from django.utils import timezone
 from django.views.decorators.http import require_POST
 
 from studyapp.access import researcher_required
+from studyapp.models import Study
 from teaching.api import TableError
 
-from . import designlayout, jobs
+from . import designlayout, jobs, supply
 from .design import StudyDesignForm, TableBuildForm, built_tables, tables_dir
 from .models import Job
 from .specs import SpecFormatError
@@ -95,6 +96,27 @@ def design(request):
             return launch_and_follow(request, job, f"Building study {d['slug']!r} on the workers: when this job "
                                      "is done, preview its conditions on the study's page, then open it.")
     return render(request, "precompute/design.html", design_context(form=form, tables=tables))
+
+
+@researcher_required
+def design_supply(request):
+    """How many environments of a published table could hold each test, per difficulty level (JSON, for the
+    designer's page beside the test fields): ?table=PATH&kind=choose|show[&min_regret=X&min_distance=Y]."""
+    path = request.GET.get("table", "")
+    if path not in {t["path"] for t in built_tables()}:
+        return JsonResponse({"error": "Not a table the designer lists."}, status=404)
+    kind = request.GET.get("kind") or Study.CHOOSE
+    try:
+        thresholds = [float(v) if v.strip() else None for v in
+                      (request.GET.get("min_regret", ""), request.GET.get("min_distance", ""))]
+        if kind not in (Study.CHOOSE, Study.SHOW) or any(v is not None and not v >= 0 for v in thresholds):
+            raise ValueError
+    except ValueError:
+        return JsonResponse({"error": "Give a test kind (choose or show) and thresholds of 0 or more."}, status=400)
+    try:
+        return JsonResponse(supply.counts(path, kind, *thresholds))
+    except (TableError, OSError, ValueError) as exc:
+        return JsonResponse({"error": f"Cannot read this table: {exc}"}, status=400)
 
 
 def design_context(**ctx) -> dict:

@@ -137,7 +137,8 @@ class Study(models.Model):
 
     def running_problems(self) -> list[str]:
         """Why this study cannot run on this server now, open or not (empty: it can): its robot is not
-        registered here, or it has no test question (its build did not finish).  Cheap, and never raises:
+        registered here, it has no test question (its build did not finish), or the data a closed-loop condition
+        reads, built from its table, is gone.  Cheap (one small query), and never raises:
         every participant page asks it first."""
         from teaching.api import domain_names  # noqa: PLC0415 (numpy and the domains load when needed)
 
@@ -148,7 +149,20 @@ class Study(models.Model):
         if not self.test_set:
             return ["It has no test questions: its build did not finish (its job page says why), and a "
                     "participant would answer nothing. Build it again."]
-        return []
+        return self._missing_packs()
+
+    def _missing_packs(self) -> list[str]:
+        """A closed-loop condition decides each participant's next example from data its build wrote beside
+        the table (studyapp/closedloop.py): where that directory is gone, its participants could not go on."""
+        from pathlib import Path  # noqa: PLC0415
+
+        out = []
+        for name, data in self.conditions.filter(closed_loop__isnull=False).values_list("name", "closed_loop"):
+            pack = (data or {}).get("pack")
+            if pack and not Path(pack).is_dir():
+                out.append(f"The data of its closed-loop condition '{name}', built from its table, is missing "
+                           f"({pack}): build the study again.")
+        return out
 
     def opening_problems(self) -> list[str]:
         """Why this study may not accept participants yet (empty: it may)."""

@@ -106,3 +106,81 @@ if (questions && tableSelect) {
     shown = tableSelect.value;
   });
 }
+
+// Beside the test fields: how many environments of the chosen table could hold each test cluster's test, in
+// all and per difficulty, before training takes its examples (precompute/supply.py). Asked again when the
+// table, the kind or a threshold changes; the answer for a large table takes some seconds the first time.
+const supplyBox = form && form.querySelector("[data-test-supply]");
+let supplyAsked = "";
+let supplyData = null;
+
+function supplyParagraph(text, className) {
+  const p = document.createElement("p");
+  p.textContent = text;
+  if (className) p.className = className;
+  return p;
+}
+
+async function showSupply() {
+  const params = new URLSearchParams({ table: value("table"), kind: value("test_kind") || "choose",
+    min_regret: value("min_regret"), min_distance: value("min_distance") });
+  const asked = params.toString();
+  if (!value("table")) return;
+  if (asked === supplyAsked) {
+    if (supplyData) renderSupply(supplyData); // the difficulty changed: its line only
+    return;
+  }
+  supplyAsked = asked;
+  supplyData = null;
+  supplyBox.replaceChildren(supplyParagraph("Counting the environments that could hold each test…"));
+  let data;
+  try {
+    const response = await fetch(`${supplyBox.dataset.testSupply}?${asked}`, { headers: { Accept: "application/json" } });
+    data = await response.json();
+  } catch (error) {
+    data = { error: "The counts could not be fetched; \"Build\" checks them in any case." };
+  }
+  if (asked !== supplyAsked) return; // another choice was made meanwhile
+  if (data.error) {
+    supplyBox.replaceChildren(supplyParagraph(data.error, "error"));
+    return;
+  }
+  supplyData = data;
+  renderSupply(data);
+}
+
+function renderSupply(data) {
+  const head = document.createElement("tr");
+  for (const text of ["Test of", "Any difficulty", "Low", "Medium", "High"]) {
+    const th = document.createElement("th");
+    th.textContent = text;
+    head.append(th);
+  }
+  const rows = data.clusters.map((name, i) => {
+    const tr = document.createElement("tr");
+    for (const text of [name, data.hosts[i], data.by_level.low[i], data.by_level.medium[i], data.by_level.high[i]]) {
+      const td = document.createElement("td");
+      td.textContent = String(text);
+      if (text === 0) td.className = "none";
+      tr.append(td);
+    }
+    return tr;
+  });
+  const table = document.createElement("table");
+  table.className = "data";
+  table.append(document.createElement("thead"), document.createElement("tbody"));
+  table.tHead.append(head);
+  table.tBodies[0].append(...rows);
+  const needs = data.kind === "show" ? "A show test set needs one strategy with an environment"
+    : "A choice test set needs an environment for every row";
+  const said = [supplyParagraph(`Environments of this table that could hold each test, before training takes its `
+    + `examples. ${needs}; training may still use the last ones of a level, and the build then says so.`)];
+  const chosen = value("test_difficulty") || "none";
+  if (data.problems[chosen]) said.push(supplyParagraph(data.problems[chosen], "error"));
+  supplyBox.replaceChildren(...said, table);
+}
+
+if (supplyBox) {
+  form.addEventListener("change", showSupply);
+  showSupply();
+}

@@ -48,7 +48,10 @@ def slice_size(normals: np.ndarray) -> float:
 def environment_sizes(table, rows) -> np.ndarray:
     """(E,) :func:`slice_size` of the BEC of each table row in ``rows`` (E,), θ* the table's."""
     signs = bec.weight_signs(table.theta_star)
-    return np.array([slice_size(bec.half_spaces(table.features[m], signs, table.theta_star_index)) for m in rows])
+    for m in (int(m) for m in rows):
+        if ("bec size", m) not in table.memo:  # each level, and the designer's counts, grade the same rows
+            table.memo["bec size", m] = slice_size(bec.half_spaces(table.features[m], signs, table.theta_star_index))
+    return np.array([table.memo["bec size", int(m)] for m in rows])
 
 
 def difficulty_levels(size: np.ndarray) -> tuple[np.ndarray, tuple[float, float]]:

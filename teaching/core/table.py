@@ -74,6 +74,13 @@ class TrajectoryTable:
         """{environment id: its table row}, built once per table (a KeyError names an id not in it)."""
         return {int(e): i for i, e in enumerate(np.asarray(self.env_ids))}
 
+    @cached_property
+    def memo(self) -> dict:
+        """Values computed from this table alone, kept while the object lives (its arrays do not change once
+        loaded): {(what, *arguments): value}.  A test set's candidate environments are asked for by each
+        difficulty level and by the designer's counts; each is worked out once."""
+        return {}
+
     @property
     def env_class(self) -> np.ndarray:
         """(M,) int8 class of each environment (index into the domain's class_names)."""

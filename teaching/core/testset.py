@@ -196,11 +196,13 @@ def _hosts(table, eligible: dict[int, np.ndarray], seed: int, min_regret, min_di
     hosts = {}
     for c, cand in eligible.items():
         hosts[c] = {}
-        for m in cand:
-            if _may_host_a_test(table, int(m), c, min_regret):
-                drawn = _exact_draw(table, int(m), c, np.random.default_rng([seed, int(m)]), min_regret, min_distance)
-                if drawn is not None:
-                    hosts[c][int(m)] = drawn
+        for m in (int(m) for m in cand):
+            key = ("test host", m, c, seed, min_regret, min_distance)
+            if key not in table.memo:
+                table.memo[key] = (_exact_draw(table, m, c, np.random.default_rng([seed, m]), min_regret, min_distance)
+                                   if _may_host_a_test(table, m, c, min_regret) else None)
+            if table.memo[key] is not None:
+                hosts[c][m] = table.memo[key]
     return hosts
 
 

@@ -86,6 +86,25 @@ def test_build_study_subset_closed(inprocess_worker, transactional_db, table_pat
 
 
 @pytest.mark.slow
+def test_a_test_set_only_the_build_finds_impossible_is_said_in_one_line_without_a_traceback(
+        inprocess_worker, transactional_db, table_path, staff_client):
+    """What the designer cannot know before the conditions are selected (here: a θ*-regret no option has) is
+    said on the job page as what to change, not as an exception; the study stays closed and cannot open."""
+    job = create_study_job(table_path, slug="unbuildable", conditions=["exact"], open_when_done=False,
+                           test_set_thresholds={"min_regret": 1e9})
+    job = jobs.wait(job, progress=False, timeout=180)
+    assert job.status == Job.FAILED and job.error_detail == ""
+    assert job.error.startswith("No test set could be drawn from the environments the conditions do not train on (")
+    assert job.error.endswith("Choose another difficulty (the designer counts each level), lower the minimum "
+                              "θ*-regret or distance, or fewer conditions, and build again.")
+    assert "\n" not in job.error and "TestSetError" not in job.error
+    page = staff_client.get(job.get_absolute_url()).content.decode()
+    assert "No test set could be drawn" in page and "Traceback" not in page
+    study = Study.objects.get(slug="unbuildable")
+    assert not study.is_open and study.running_problems()
+
+
+@pytest.mark.slow
 def test_a_study_job_of_a_shipped_world_asks_to_show_the_way(inprocess_worker, transactional_db, tmp_path_factory):
     with shipped("taxi") as domain:
         table = tiny_table(tmp_path_factory, domain)

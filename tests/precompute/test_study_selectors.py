@@ -78,7 +78,8 @@ def test_the_designer_offers_every_selector_with_its_parameters_in_the_condition
     form = StudyDesignForm({"table": str(tiny_table), "slug": "designed", "target_per_condition": "20",
                             "recruitment": "link", "approx_star": "det-euclidean", "seed": "0", "min_regret": "0.001",
                             "estimated_minutes": "15", "conditions": ["exact", "scot", "bec-scaffold", "highlights"],
-                            "bec_scaffold_k": "1", "highlights_k": "3", "test_difficulty": "medium"}, tables=tables)
+                            "min_distance": "0.1",
+                            "bec_scaffold_k": "1", "highlights_k": "3", "test_difficulty": "high"}, tables=tables)
     names = list(form.fields)
     assert {"scot", "bec-scaffold", "highlights"} <= {v for v, _ in form.fields["conditions"].choices}
     params = {"bec_scaffold_k": ("bec-scaffold", "k"), "bec_scaffold_levels": ("bec-scaffold", "levels"),
@@ -91,7 +92,7 @@ def test_the_designer_offers_every_selector_with_its_parameters_in_the_condition
     assert names.index("test_difficulty") == names.index("min_distance") + 1
     assert form.is_valid(), form.errors
     job = form.cleaned_data["job"]
-    assert job["test_difficulty"] == "medium"
+    assert job["test_difficulty"] == "high"  # the tiny table has no medium test of every cluster
     assert job["conditions"][1:] == [{"name": "scot", "selector": "scot", "params": {}},
                                      {"name": "bec-scaffold", "selector": "bec-scaffold", "params": {"k": 1}},
                                      {"name": "highlights", "selector": "highlights", "params": {"k": 3}}]

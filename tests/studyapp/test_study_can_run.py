@@ -1,7 +1,10 @@
-"""A study opens only when it can run: a study whose build gave it no test question, or whose robot is not
-registered on this server, says why on its dashboard and cannot be opened; a participant link to it, new
-or returning, answers one clear page in the study's language (503) and writes nothing; and a participant
-who answered no test question is never given a completion code or a bonus."""
+"""A study opens only when it can run: a study whose build gave it no test question, whose closed loop lost
+the data built from its table, or whose robot is not registered on this server, says why on its dashboard
+and cannot be opened; a participant link to it, new or returning, answers one clear page in the study's
+language (503) and writes nothing; and a participant who answered no test question is never given a
+completion code or a bonus."""
+import shutil
+
 import pytest
 from django.urls import reverse
 
@@ -80,3 +83,21 @@ def flow_participant(study) -> Participant:
     p = assign(study, Participant.ANONYMOUS, "")
     assert flow.steps_for(p)
     return p
+
+
+def test_a_closed_loop_study_whose_decision_data_is_gone_cannot_run(closed_loop_study, staff_client, client):
+    """The files a closed-loop condition decides with are built from the table beside it; with them gone
+    (the table's directory cleaned up, another machine's disk) no participant may start."""
+    study = closed_loop_study
+    assert study.running_problems() == []
+    pack = study.conditions.get(name="closed-loop").closed_loop["pack"]
+    shutil.rmtree(pack)
+    [problem] = study.running_problems()
+    assert "closed-loop condition 'closed-loop'" in problem and pack in problem
+    page = staff_client.get(reverse("dashboard_study", args=[study.slug])).content.decode()
+    assert "Cannot open: The data of its closed-loop condition" in page
+    Study.objects.filter(pk=study.pk).update(is_open=True)
+    before = _counts()
+    response = client.get(reverse("entry", args=[study.slug]), PROLIFIC)
+    assert response.status_code == 503 and UNAVAILABLE in response.content.decode()
+    assert _counts() == before
