@@ -299,8 +299,8 @@ class StudyDesignForm(forms.Form):
         elif not data.get("conditions") and not data.get("loop_name") and "conditions" not in self.errors:
             self.add_error("conditions", "Choose at least one condition, or give a hand-picked or closed-loop one.")
         self._check_language(data)
-        self._check_tests(data)
         self._check_job(data)
+        self._check_tests(data)
         return data
 
     TEST_FIELDS = ("table", "test_kind", "test_difficulty", "min_regret", "min_distance")
@@ -309,7 +309,7 @@ class StudyDesignForm(forms.Form):
         """What the build's last step would refuse about the tests, said under its field before any job
         starts: a robot that cannot be shown the way, or a kind and difficulty no environment of the table can
         hold (precompute/supply.py).  Training may still use the last environments of a level; the build then
-        says so on its job page."""
+        says so on its job page.  After the schema's checks: the values are known to be the schema's."""
         domain = next((t["domain"] for t in self.tables if t["path"] == data.get("table")), None)
         if domain is None or any(f in self.errors for f in self.TEST_FIELDS):
             return
@@ -318,6 +318,7 @@ class StudyDesignForm(forms.Form):
                                     data.get("min_distance"))
         if why:
             self.add_error(field, why)
+            data.pop("job", None)
 
     def _check_language(self, data: dict) -> None:
         """A language the table's robot has texts without a translation in, said under the language (the

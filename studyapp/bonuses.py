@@ -72,6 +72,26 @@ def participant_label(study: Study, value) -> str:
     return gettext("{symbol}{amount}").format(symbol=symbol, amount=number).strip()
 
 
+def rule_text(study: Study) -> str:
+    """The bonus rule as the consent page says it, in the participant's language, every amount through
+    :func:`participant_label`; "" when the study offers none.  E.g. "£0.10 for each test question you answer
+    correctly, at most £1.00 in all, on top of the payment."."""
+    if not offers_bonus(study):
+        return ""
+    parts = []
+    if _money(study.bonus_per_correct) > 0:
+        parts.append(gettext("{amount} for each test question you answer correctly").format(
+            amount=participant_label(study, study.bonus_per_correct)))
+    if _money(study.bonus_per_point) > 0:
+        parts.append(gettext("{amount} for each point of the confidence you give your test answers (a wrong "
+                             "answer's confidence counts against you)").format(
+            amount=participant_label(study, study.bonus_per_point)))
+    rule = gettext("{first} and {second}").format(first=parts[0], second=parts[1]) if len(parts) == 2 else parts[0]
+    if _money(study.bonus_cap) > 0:
+        rule = gettext("{rule}, at most {cap} in all").format(rule=rule, cap=participant_label(study, study.bonus_cap))
+    return gettext("{rule}, on top of the payment.").format(rule=rule)
+
+
 def _paid(study: Study):
     """The participants the bulk-bonus files pay, in id order: bonus above 0 and complete (studyapp.status:
     finished, not excluded, no outcome; a participant who returned the study after finishing is not paid)."""

@@ -10,6 +10,7 @@ from __future__ import annotations
 import hashlib
 import secrets
 from datetime import timedelta
+from decimal import Decimal
 
 from django.core.exceptions import ValidationError
 from django.db import models
@@ -241,6 +242,9 @@ class Study(models.Model):
                  self.ethics_reference]
         if self.time_limit_minutes:  # appended only when set: a study without one keeps its version
             shown.append(f"limit {self.time_limit_minutes}")
+        if self.bonus_per_correct or self.bonus_per_point:  # likewise: the bonus rule the page states
+            rates = (Decimal(str(v or 0)) for v in (self.bonus_per_correct, self.bonus_per_point, self.bonus_cap))
+            shown.append("bonus " + " ".join(f"{v:.2f}" for v in rates) + f" {self.bonus_currency}")
         return hashlib.sha256("\x1f".join(shown).encode()).hexdigest()[:12]
 
     def consent_paragraphs(self) -> list[str]:

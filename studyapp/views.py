@@ -209,8 +209,10 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
     loop = participant.condition.closed_loop
     if loop:  # closed loop: examples are chosen as the participant goes, up to a most
         ctx["total_training"] = gettext("up to {n}").format(n=loop["settings"]["max_examples"])
-    if current.kind == StepKind.CONSENT and participant.study.has_device_rules:
-        ctx["device_rules"] = devices.rules(participant.study)
+    if current.kind == StepKind.CONSENT:
+        ctx["bonus_rule"] = bonuses.rule_text(participant.study)  # what they are paid for, before they agree
+        if participant.study.has_device_rules:
+            ctx["device_rules"] = devices.rules(participant.study)
     if current.kind in (StepKind.INSTRUCTIONS, StepKind.COMPREHENSION, StepKind.TRAINING, StepKind.FEEDBACK,
                         StepKind.TEST, StepKind.CHECK):
         ctx.update(scene_context(participant.study))  # the domain's scene module, palette, legend, texts

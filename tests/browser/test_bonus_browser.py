@@ -1,6 +1,7 @@
 """In Debian's Chromium: a Prolific participant of a study that pays a performance bonus finishes on the
 demographics page and reads their bonus, with their code, on the completion page; a reload shows the same.
-Screenshot: test-output/done_with_bonus.png."""
+The consent page states the rule before anyone agrees, in English and in German.  Screenshots:
+test-output/done_with_bonus.png, consent_with_bonus_en.png, consent_with_bonus_de.png."""
 from __future__ import annotations
 
 from decimal import Decimal
@@ -36,4 +37,23 @@ def test_the_completion_page_shows_the_bonus_earned(make_study, live_server, sta
     page.goto(f"{live_server.url}/s/bonus/p/{p.token}/")
     expect(page.locator("#bonus")).to_contain_text(f"£{earned:.2f}")
     assert Participant.objects.get(pk=p.pk).bonus == earned
+    assert not errors, errors
+
+
+@pytest.mark.parametrize("language, says", [
+    ("en", "£0.25 for each test question you answer correctly, at most £1.00 in all, on top of the payment."),
+    ("de", "0,25\u00a0£ für jede Testfrage, die Sie richtig beantworten, insgesamt höchstens 1,00\u00a0£, "
+           "zusätzlich zur Bezahlung."),
+])
+def test_the_consent_page_states_the_bonus_rule(make_study, live_server, browser, language, says):
+    make_study(slug=f"bonus-{language}", recruitment="prolific", completion_code="DONE2026", bonus_per_correct=0.25,
+               bonus_cap=1.0, language=language, payment="£2.50, paid through Prolific", estimated_minutes=12)
+    page = browser.new_context(viewport={"width": 1280, "height": 800}).new_page()
+    errors = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.goto(f"{live_server.url}/s/bonus-{language}/?PROLIFIC_PID=bonus0000000000000000000{language}"
+              "&STUDY_ID=S&SESSION_ID=X")
+    expect(page.locator("[data-bonus-rule]")).to_have_text(says)
+    OUT.mkdir(exist_ok=True)
+    page.screenshot(path=str(OUT / f"consent_with_bonus_{language}.png"), full_page=True)
     assert not errors, errors

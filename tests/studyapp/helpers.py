@@ -45,5 +45,5 @@ def design_form(table, **fields):
     tables = [t for t in built_tables(table.parent) if t["path"] == str(table)]
     post = {"table": str(table), "slug": "designed", "target_per_condition": "20", "recruitment": "link",
             "approx_star": "det-euclidean", "seed": "0", "min_regret": "0.001", "estimated_minutes": "15",
-            "conditions": ["exact"], **fields}
+            "conditions": ["exact"], "min_distance": "0.1", **fields}  # the tiny table's tests (TINY_TEST_SET)
     return StudyDesignForm(post, tables=tables)

@@ -4,6 +4,8 @@ equal to a count made by hand from what each simulated participant chose."""
 from __future__ import annotations
 
 import csv
+import hashlib
+import html
 import io
 from decimal import Decimal
 from fractions import Fraction
@@ -152,3 +154,32 @@ def test_a_participant_reads_the_amount_in_the_studys_language(paying):
     with translation.override("en"):
         assert bonuses.participant_label(paying, Decimal("1.2")) == "£1.20"
     assert bonuses.label(paying, Decimal("1.2")) == "£1.20"  # the researchers' pages and the files
+
+
+def test_the_consent_page_states_the_bonus_rule_before_anyone_agrees(paying, study, client):
+    """What a participant is paid for, in the study's language, every amount formatted the one way the
+    completion page formats it (bonuses.participant_label); a study without a bonus says nothing of one."""
+    rule = ("£0.10 for each test question you answer correctly and £0.02 for each point of the confidence you give "
+            "your test answers (a wrong answer's confidence counts against you), at most £0.75 in all, on top of "
+            "the payment.")
+    page = html.unescape(client.get(step_url(assign(paying, Participant.PROLIFIC, "reader"))).content.decode())
+    assert f"<dd data-bonus-rule>{rule}</dd>" in page
+    paying.language = "de"
+    paying.save(update_fields=["language"])
+    page = html.unescape(client.get(step_url(assign(paying, Participant.PROLIFIC, "leser"))).content.decode())
+    assert ("0,10\u00a0£ für jede Testfrage, die Sie richtig beantworten und 0,02\u00a0£ für jeden Punkt der "
+            "Sicherheit") in page and "insgesamt höchstens 0,75\u00a0£, zusätzlich zur Bezahlung." in page
+    plain = client.get(step_url(assign(study, Participant.PROLIFIC, "plain"))).content.decode()
+    assert "data-bonus-rule" not in plain and bonuses.rule_text(study) == ""
+
+
+def test_the_consent_version_names_the_bonus_rule_and_keeps_a_study_without_one(paying, study):
+    """A changed rate is a changed consent page; a study without a bonus keeps the version it had."""
+    shown = [*study.consent_paragraphs(), str(study.estimated_minutes), study.payment, study.contact,
+             study.ethics_reference]
+    assert study.consent_version() == hashlib.sha256("\x1f".join(shown).encode()).hexdigest()[:12]
+    before = paying.consent_version()
+    paying.bonus_per_correct = Decimal("0.20")
+    paying.save(update_fields=["bonus_per_correct"])
+    paying.refresh_from_db()
+    assert paying.consent_version() != before

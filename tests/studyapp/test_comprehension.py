@@ -203,7 +203,8 @@ def test_a_spec_refuses_bad_settings_in_one_line(tiny_table, change, message):
 
 DESIGN = {"slug": "designed", "name": "Designed", "conditions": ["exact"], "target_per_condition": "20",
           "recruitment": "link", "approx_star": "det-euclidean", "seed": "0", "min_regret": "0.001",
-          "estimated_minutes": "15", "comprehension_check": "on", "comprehension_attempts": "3"}
+          "estimated_minutes": "15", "comprehension_check": "on", "comprehension_attempts": "3",
+          "min_distance": "0.1"}  # the tiny table has a test of every cluster at 0.1 (TINY_TEST_SET)
 
 
 @pytest.fixture

@@ -69,7 +69,7 @@ def test_the_designer_refuses_a_hand_picked_alias(tiny_table):
     tables = [t for t in built_tables(tiny_table.parent) if t["path"] == str(tiny_table)]
     base = {"table": str(tiny_table), "slug": "designed", "conditions": ["exact", "det-euclidean"],
             "target_per_condition": "20", "recruitment": "link", "approx_star": "det-euclidean", "seed": "0",
-            "min_regret": "0.001", "min_distance": "0.5", "estimated_minutes": "15", "hand_picked_env_ids": "500"}
+            "min_regret": "0.001", "min_distance": "0.1", "estimated_minutes": "15", "hand_picked_env_ids": "500"}
     form = StudyDesignForm(dict(base, hand_picked_name="det_euclid"), tables=tables)
     assert not form.is_valid()
     assert form.errors["hand_picked_name"] == [

@@ -115,7 +115,7 @@ def test_the_designer_sets_the_device_rules(db, tiny_table, devices, min_width, 
     tables = [t for t in built_tables(tiny_table.parent) if t["path"] == str(tiny_table)]
     data = {"table": str(tiny_table), "slug": "designed", "target_per_condition": "20", "recruitment": "link",
             "approx_star": "det-euclidean", "seed": "0", "min_regret": "0.001", "estimated_minutes": "15",
-            "conditions": ["exact"]}
+            "conditions": ["exact"], "min_distance": "0.1"}  # the tiny table's tests (TINY_TEST_SET)
     if devices or min_width:
         data.update(devices=devices, min_screen_width=min_width)
     form = StudyDesignForm(data, tables=tables)

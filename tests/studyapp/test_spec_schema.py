@@ -28,7 +28,8 @@ pytestmark = pytest.mark.django_db
 ROOT = Path(__file__).resolve().parents[2]
 
 FORM = {"slug": "designed", "conditions": ["random"], "target_per_condition": "20", "recruitment": "link",
-        "approx_star": "det-euclidean", "seed": "0", "min_regret": "0.001", "estimated_minutes": "15"}
+        "approx_star": "det-euclidean", "seed": "0", "min_regret": "0.001", "estimated_minutes": "15",
+        "min_distance": "0.1"}  # the tiny table has a test of every cluster at 0.1 (TINY_TEST_SET)
 LONG_CODE = "C" * 65
 
 # (what is wrong, the spec's change, the job's arguments, the form's data, the form's field, the message);
