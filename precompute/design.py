@@ -21,6 +21,7 @@ from studyapp.specschema import (
     CONDITION_FIELDS,
     JOB_FIELDS,
     OUTCOME_FIELDS,
+    PLAN_FIELDS,
     STUDY_FIELDS,
     TEXT_FIELDS,
     THRESHOLD_FIELDS,
@@ -208,9 +209,10 @@ class StudyDesignForm(forms.Form):
                                                        label="Smallest screen width (px)")
         # How a participant's study may end early, and each outcome's code (studyapp/outcomes.py).
         self.fields.update({k: schema_field(STUDY_FIELDS[k], required=False)
-                            for k in (*OUTCOME_FIELDS, *BONUS_FIELDS, "language")})
+                            for k in (*OUTCOME_FIELDS, *BONUS_FIELDS, *PLAN_FIELDS, "language")})
         self.fields["language"].label = "Participants' language"
         self.fields["time_limit_minutes"].label = "Time limit (minutes)"
+        self.fields["duration_tolerance_minutes"].label = "Conditions' durations may differ by (minutes)"
         self.fields["devices"] = forms.ChoiceField(
             choices=DEVICE_CHOICES, required=False, label="Devices that may take part",
             help_text="Phones and tablets are told on the consent page that they cannot take part, and keep no "
@@ -350,7 +352,8 @@ class StudyDesignForm(forms.Form):
                 "closed_loop": data["closed_loop"], "closed_loop_fit": data["closed_loop_fit"],
                 "completion_code": (data.get("completion_code") or "").strip(), "recruitment": data.get("recruitment"),
                 **{k: data.get(k) for k in TEXT_FIELDS},
-                **{k: data[k] for k in (*OUTCOME_FIELDS, *BONUS_FIELDS, "language") if data.get(k) not in (None, "")},
+                **{k: data[k] for k in (*OUTCOME_FIELDS, *BONUS_FIELDS, *PLAN_FIELDS, "language")
+                   if data.get(k) not in (None, "")},
                 **device_arguments(data), **designquiz.arguments(data)}
 
     def _check_job(self, data: dict) -> None:

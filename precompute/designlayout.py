@@ -65,7 +65,8 @@ SECTIONS = (
     Section("participants", "Participants and payment",
             "How many participants each condition needs, where they come from, what they are told they earn, and "
             "which devices may take part.",
-            (Group(("target_per_condition", "recruitment", "completion_code", "estimated_minutes", "payment")),
+            (Group(("target_per_condition", "recruitment", "completion_code", "estimated_minutes",
+                    "duration_tolerance_minutes", "payment")),
              Group(("devices", "min_screen_width"), "Devices that may take part"),
              Group(BONUS_FIELDS, "A performance bonus", folded=True, opened_by=BONUS_FIELDS[:3]),
              Group(OUTCOME_FIELDS, "Time limit and a code for each way of ending", folded=True,

@@ -92,6 +92,17 @@ def rule_text(study: Study) -> str:
     return gettext("{rule}, on top of the payment.").format(rule=rule)
 
 
+def researcher_rule(study: Study) -> str:
+    """The bonus rule for the researchers' pages, e.g. "£0.10 per correct test, at most £1.00"; "" if none."""
+    if not offers_bonus(study):
+        return ""
+    parts = [f"{label(study, rate)} per {what}" for rate, what in ((study.bonus_per_correct, "correct test"),
+                                                                  (study.bonus_per_point, "confidence point"))
+             if _money(rate) > 0]
+    cap = f", at most {label(study, study.bonus_cap)}" if _money(study.bonus_cap) > 0 else ""
+    return " + ".join(parts) + cap
+
+
 def _paid(study: Study):
     """The participants the bulk-bonus files pay, in id order: bonus above 0 and complete (studyapp.status:
     finished, not excluded, no outcome; a participant who returned the study after finishing is not paid)."""

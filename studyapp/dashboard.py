@@ -9,7 +9,7 @@ from django.shortcuts import get_object_or_404, redirect, render
 from django.utils import timezone
 from django.views.decorators.http import require_POST
 
-from . import bonuses, exports, outcomes, privacy, status
+from . import bonuses, durations, exports, outcomes, privacy, status
 from .access import researcher_required
 from .assignment import counted_filter, preview_participant
 from .models import Answer, Condition, Participant, Study
@@ -73,6 +73,9 @@ def detail(request, slug):
     ctx.update(link=link, prolific_link=link + "?PROLIFIC_PID={{%PROLIFIC_PID%}}&STUDY_ID={{%STUDY_ID%}}"
                "&SESSION_ID={{%SESSION_ID%}}")
     ctx.update(pilot_context(study, request.GET))  # the simulated pilot: ideal users and the power table
+    found = durations.estimates(study)  # what each condition's participants go through, before anyone does
+    ctx.update(experience=found, experience_warnings=durations.warnings(study, found),
+               bonus_rule_researcher=bonuses.researcher_rule(study))
     return render(request, "studyapp/dashboard/detail.html", ctx)
 
 

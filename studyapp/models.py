@@ -88,6 +88,9 @@ class Study(models.Model):
     consent_text = models.TextField(
         blank=True, help_text="The approved consent text (paragraphs separated by blank lines); blank: the default.")
     estimated_minutes = models.PositiveIntegerField(default=15, help_text="Shown on the consent page.")
+    duration_tolerance_minutes = models.PositiveIntegerField(
+        default=5, help_text="How far apart, in minutes, the conditions' estimated durations may lie before the "
+                             "study's page warns: a condition that takes longer is a confound.")
     payment = models.CharField(max_length=300, blank=True, help_text="e.g. '£2.50, paid through Prolific'.")
     contact = models.CharField(max_length=300, blank=True, help_text="Who answers questions: name and email.")
     ethics_reference = models.CharField(max_length=200, blank=True, help_text="The approval's reference.")

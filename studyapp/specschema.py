@@ -30,7 +30,7 @@ from .models import Condition, Study
 from .specrules import Field, SpecError
 
 __all__ = ["BONUS_FIELDS", "COMPREHENSION_FIELDS", "CONDITION_FIELDS", "DEVICE_FIELDS", "JOB_FIELDS", "OUTCOME_FIELDS",
-           "SPEC_FIELDS", "STUDY_FIELDS", "TEXT_FIELDS", "THRESHOLD_FIELDS", "Field", "SpecError",
+           "PLAN_FIELDS", "SPEC_FIELDS", "STUDY_FIELDS", "TEXT_FIELDS", "THRESHOLD_FIELDS", "Field", "SpecError",
            "check_condition_names", "check_job", "check_spec", "check_study", "job_problems"]
 
 # The per-study texts of the consent page (models.Study holds their defaults, lengths and help).
@@ -38,6 +38,8 @@ TEXT_FIELDS = ("consent_text", "estimated_minutes", "payment", "contact", "ethic
 DEVICE_FIELDS = ("min_screen_width", "allow_phones", "allow_tablets")  # who may take part (studyapp/devices.py)
 # How a participant's study may end early, and the code each way of ending gives (studyapp/outcomes.py).
 OUTCOME_FIELDS = ("time_limit_minutes", "excluded_code", "screened_out_code", "timed_out_code")
+# How long the conditions may differ in their estimated durations (studyapp/durations.py).
+PLAN_FIELDS = ("duration_tolerance_minutes",)
 # A performance bonus (studyapp/bonuses.py): its rates, cap and currency.
 BONUS_FIELDS = ("bonus_per_correct", "bonus_per_point", "bonus_cap", "bonus_currency")
 MAX_BONUS = 100  # in the study's currency, per participant: more is a typing slip
@@ -143,6 +145,7 @@ STUDY_FIELDS: dict[str, Field] = {f.name: f for f in (
     _column("completion_code", default="", help="Prolific's completion code (required for Prolific)."),
     _column("consent_text"),
     _column("estimated_minutes", rules.whole, minimum=1),
+    _column("duration_tolerance_minutes", rules.whole, minimum=0, maximum=MAX_TIME_LIMIT),
     _column("min_screen_width", rules.whole, minimum=0, maximum=10000,
             help="Smallest screen width (CSS pixels) a participant may take part on; 0: any (a laptop: 1024)."),
     _column("allow_phones", rules.boolean, help="Phones may take part."),

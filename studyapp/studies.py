@@ -52,7 +52,15 @@ from teaching.api import (
 from . import closedloop, specschema, trajectories
 from .i18n import language_problem
 from .models import Condition, Study
-from .specschema import BONUS_FIELDS, COMPREHENSION_FIELDS, DEVICE_FIELDS, OUTCOME_FIELDS, TEXT_FIELDS, SpecError
+from .specschema import (
+    BONUS_FIELDS,
+    COMPREHENSION_FIELDS,
+    DEVICE_FIELDS,
+    OUTCOME_FIELDS,
+    PLAN_FIELDS,
+    TEXT_FIELDS,
+    SpecError,
+)
 
 # The paper's nine conditions (Secs. "User Study" and "User Study on Coverage"), spelled as the
 # teaching selectors name them so a study built from either source reads the same.
@@ -301,7 +309,7 @@ def build_study(spec: dict, replace: bool = False) -> Study:
                           target_per_condition=spec["target_per_condition"],
                           completion_code=spec["completion_code"], recruitment=spec["recruitment"],
                           **{k: spec[k] for k in (*TEXT_FIELDS, *DEVICE_FIELDS, *OUTCOME_FIELDS, *BONUS_FIELDS,
-                                                  *COMPREHENSION_FIELDS, "language") if k in spec})
+                                                  *PLAN_FIELDS, *COMPREHENSION_FIELDS, "language") if k in spec})
         targets = {c["name"]: c.get("target") for c in conditions}
         for c in study.conditions.all():
             if isinstance(training[c.name], dict):

@@ -49,6 +49,15 @@ function bonusText() {
   return `${parts.join(" + ")}${cap} (${value("bonus_currency") || "GBP"})`;
 }
 
+function comprehensionText() {
+  const box = form.elements.namedItem("comprehension_check");
+  if (!box || !box.checked) return "none";
+  const questions = value("comprehension_questions").split(/\n\s*\n/).filter((q) => q.trim()).length;
+  const attempts = value("comprehension_attempts") || "3";
+  return `${questions} question${questions === 1 ? "" : "s"} after the instructions, ${attempts} attempt`
+    + `${attempts === "1" ? "" : "s"} (then screened out)`;
+}
+
 function entries() {
   const conditions = tickedConditions();
   const target = parseInt(value("target_per_condition"), 10);
@@ -56,8 +65,11 @@ function entries() {
     ? `${target} per condition × ${conditions.length} = ${(target * conditions.length).toLocaleString("en")} participants`
     : "give the participants per condition and at least one condition";
   const code = value("completion_code");
-  const tests = [chosenText("test_difficulty") || "any difficulty", `θ*-regret ≥ ${value("min_regret") || "the default"}`];
-  if (value("min_distance")) tests.push(`options ≥ ${value("min_distance")} apart`);
+  const tests = [chosenText("test_kind") || "choose the robot's way among four",
+    value("test_difficulty") && value("test_difficulty") !== "none" ? `${value("test_difficulty")} difficulty`
+      : "any difficulty",
+    `θ*-regret ≥ ${value("min_regret") || "the default"}`];
+  if (value("min_distance") && value("test_kind") !== "show") tests.push(`options ≥ ${value("min_distance")} apart`);
   return [
     ["Table", chosenText("table") || "none chosen"],
     ["Study", `${value("name") || "(no name)"} — /s/${value("slug") || "…"}/`],
@@ -68,6 +80,9 @@ function entries() {
     ["Payment and time", `${value("payment") || "no payment given"}, about ${value("estimated_minutes") || "?"} minutes`
       + (parseInt(value("time_limit_minutes"), 10) > 0 ? `, at most ${value("time_limit_minutes")} (then timed out)` : "")],
     ["Codes when ending early", outcomeCodes()],
+    ["Comprehension check", comprehensionText()],
+    ["Devices", `${chosenText("devices") || "any device"}`
+      + (parseInt(value("min_screen_width"), 10) > 0 ? `, screens at least ${value("min_screen_width")} px wide` : "")],
     ["Bonus", bonusText()],
     ["Participants' language", chosenText("language") || "English"],
   ];

@@ -66,6 +66,10 @@ def test_a_study_of_the_fields_teachers_from_designer_to_analysis(inprocess_work
     assert [c.name for c in study.conditions.all()] == list(CONDITIONS)
     assert {t["difficulty"] for t in study.test_set} == {"medium"}
     page.goto(f"{live_server.url}/dashboard/{SLUG}/")
+    experience = page.locator("#experience")  # what each condition's participants go through, before opening
+    expect(experience.locator("tbody tr")).to_have_count(len(CONDITIONS))
+    expect(experience).to_contain_text("of medium difficulty")
+    experience.screenshot(path=str(OUT / "field_teachers_experience.png"))
     predicted = page.locator("#predicted-scores")
     assert [r.locator("th, td").first.inner_text() for r in predicted.locator("tbody tr").all()] == list(CONDITIONS)
     page.locator("#pilot").screenshot(path=str(OUT / "field_teachers_pilot.png"))
