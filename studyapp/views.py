@@ -244,6 +244,7 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
         ctx["scene"] = drawn_scene(test, robot=False, domain=domain)  # never θ*'s way
         rules = domain.show_rules(test["env_id"])
         ctx["rules"] = {**rules, "object": domain_text(domain, rules["object"])}  # the page says its name
+        ctx["endings"] = show_endings(ctx["scene"], ctx["rules"])
     elif current.kind in (StepKind.TEST, StepKind.CHECK):
         test = flow.question_of(participant, current.kind, current.item)
         shown = flow.option_letters(participant, current.item, current.kind)
@@ -265,6 +266,20 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
         if participant.bonus is not None and bonuses.offers_bonus(participant.study) and not participant.excluded:
             ctx["bonus"] = bonuses.participant_label(participant.study, participant.bonus)
     return ctx
+
+
+def show_endings(scene: dict, rules: dict) -> list[str]:
+    """What ends the way on a show page, in the participant's language, one sentence each: what "finished"
+    means there (a square marked G, the object put down on D, the "Stop here" button)."""
+    out = []
+    if scene["world"].get("goals"):
+        out.append(gettext("it reaches a square marked G"))
+    if rules.get("deliver"):
+        out.append(gettext("it puts the {object} down on the square marked D").format(
+            object=rules["object"] or gettext("object")))
+    if rules.get("exit"):
+        out.append(gettext("you press “Stop here”: the robot stays where it is"))
+    return out
 
 
 def caption_of(domain, payload: dict) -> tuple[str, str] | None:

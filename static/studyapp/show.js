@@ -18,6 +18,7 @@ const field = form.querySelector('input[name="moves"]');
 const submit = form.querySelector('button[type="submit"]');
 const hint = form.querySelector("[data-hint]");
 const status = document.querySelector("[data-status]");
+const why = document.querySelector("[data-why]");
 const memory = stepMemory(form);
 
 // (d_col, d_row) on screen, row 0 at the top
@@ -73,7 +74,7 @@ function render() {
   const state = replay(moves);
   const scene = new Scene(canvas, env, state.rows);
   canvas.scene = scene;  // for the browser tests
-  scene.drawFrame(scene.duration);
+  if (scene.drawShown) scene.drawShown(); else scene.drawFrame(scene.duration);
   field.value = moves.join(" ");
   for (const button of document.querySelectorAll("[data-move]")) {
     button.disabled = Boolean(state.ended) || moves.length >= rules.max_actions
@@ -94,9 +95,22 @@ function render() {
   memory.save({ moves });
 }
 
+// Why `move` does nothing from `state` (a sentence for the participant), or "" when it can be made.
+function refusal(state, move) {
+  if (state.ended) return gettext("The robot has finished: undo a step to change the way.");
+  if (moves.length >= rules.max_actions) return gettext("That is as many steps as a way may have: undo some.");
+  if (after(state.at, state.place, move)) return "";
+  if (STEPS[move]) return gettext("The robot cannot go there: a wall or the edge of the grid.");
+  if (move === "pickup") return gettext("There is nothing to pick up where the robot is.");
+  if (move === "drop") return gettext("The robot is not holding anything to put down.");
+  return gettext("That move is not possible here.");
+}
+
 function act(move) {
   const state = replay(moves);
-  if (state.ended || moves.length >= rules.max_actions || !after(state.at, state.place, move)) return false;
+  const no = refusal(state, move);
+  why.textContent = no;
+  if (no) return false;
   moves.push(move);
   render();
   return true;
@@ -109,8 +123,12 @@ function undo() {
 for (const button of document.querySelectorAll("[data-move]")) {
   button.addEventListener("click", () => act(button.dataset.move));
 }
-document.querySelector('[data-action="undo"]').addEventListener("click", undo);
-document.querySelector('[data-action="restart"]').addEventListener("click", () => { moves = []; render(); });
+document.querySelector('[data-action="undo"]').addEventListener("click", () => { why.textContent = ""; undo(); });
+document.querySelector('[data-action="restart"]').addEventListener("click", () => {
+  why.textContent = "";
+  moves = [];
+  render();
+});
 
 const KEYS = { ArrowRight: "right", ArrowUp: "up", ArrowDown: "down", ArrowLeft: "left" };
 document.addEventListener("keydown", (event) => {
@@ -133,7 +151,9 @@ canvas.addEventListener("click", (event) => {
   const { at } = replay(moves);
   const step = Object.entries(STEPS).find(([, d]) => cell[0] === at[0] + d[0] && cell[1] === at[1] + d[1]);
   if (step) act(step[0]);
-  else if (same(cell, at)) act("pickup") || act("drop");
+  else if (same(cell, at)) {
+    if (!act("pickup") && !act("drop")) why.textContent = gettext("There is nothing to pick up or put down here.");
+  } else why.textContent = gettext("Tap a square right next to the robot (not across a corner) to move it there.");
 });
 
 if (typeof ResizeObserver !== "undefined") new ResizeObserver(() => render()).observe(canvas);

@@ -40,12 +40,14 @@ from .i18n import gettext_noop as _
 @dataclass(frozen=True)
 class LegendEntry:
     """One swatch of a page's legend: its label and the palette colours of its fill, edge and
-    (optionally) hatch, so the swatch looks like what the canvas draws."""
+    (optionally) hatch, so the swatch looks like what the canvas draws; or a letter the canvas writes on a
+    cell, shown as that letter."""
 
     label: str
     fill: str
     edge: str
     hatch: str = ""
+    letter: str = ""  # a letter the canvas writes on a cell (S, G, D): the swatch is that letter instead
 
 
 @dataclass(frozen=True)

@@ -96,7 +96,8 @@ def test_a_german_taxi_studys_pages_show_the_files_german_and_none_of_its_englis
                          r"ist bei \[\d+, \d+\] nicht möglich\)", refused), refused
         with translation.override("de"):
             texts = participant_texts(domain)
-        assert texts.title == "Erweitertes Taxi" and [e.label for e in texts.legend][2:] == ["Fahrgast", "Maut"]
+        assert texts.title == "Erweitertes Taxi" and [e.label for e in texts.legend][2:] == [
+            "Fahrgast", "Maut", "hier startet der Roboter", "Ziel für: Fahrgast"]  # the letters' legend last
 
 
 def test_an_english_taxi_studys_pages_stay_english(client, taxi_teach):

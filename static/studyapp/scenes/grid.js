@@ -9,7 +9,7 @@
 // (drawPath) and what it adds to the robot, a light disc with a dark outline (drawRobot, disc).  The player (../player.js) uses only the members of Scene:
 // duration, mode, t, boxes, lastFrame, resize(), drawFrame(t), drawTrail(), redraw().
 
-import { gettext, interpolate } from "../i18n.js";
+import { gettext, interpolate, ngettext } from "../i18n.js";
 import { Layout, tag } from "../labels.js";
 import { colors } from "../palette.js";
 
@@ -202,6 +202,16 @@ export class GridScene {
     const robot = this.draw(k);
     this.label(interpolate(gettext("move %(k)s of %(n)s"), { k: Math.min(n, Math.ceil(k - 1e-9)), n }, true));
     this.lastFrame = { robot };
+  }
+
+  // A way a participant is showing (the show page): the whole path so far, labelled by its steps.
+  drawShown() {
+    this.t = this.duration;
+    this.begin();
+    const n = this.robot.length - 1;
+    this.lastFrame = { robot: this.draw(n) };
+    this.label(n ? interpolate(ngettext("the way so far: %(n)s move", "the way so far: %(n)s moves", n), { n }, true)
+      : gettext("the robot at its start"));
   }
 
   // Still view of the whole path, the robot at its end.

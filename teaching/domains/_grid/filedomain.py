@@ -82,6 +82,8 @@ class FileGridDomain(GridDomain):
         # filled with, so that the web side can look the marked text up and fill in the translation
         self.formatted_texts = {text.format(title=world.title): (text, {"title": world.title})
                                 for text in (SUMMARY, CONSENT, WATCH_FIRST)}
+        if world.obj and world.destination is not None:  # the legend's D names the object
+            self.formatted_texts[DESTINATION.format(object=world.obj)] = (DESTINATION, {"object": world.obj})
         # the file's own texts in other languages ([translations.<language>]): they are the researcher's, so
         # they travel with the file rather than in the project's catalogs
         self.translations = world.translations
@@ -278,6 +280,7 @@ class FileGridDomain(GridDomain):
 SUMMARY = _("you watch a robot act in a small grid world ({title}) and answer questions about what it prefers")
 CONSENT = _("This is a research study about how people understand what a robot in a grid world ({title}) "
             "prefers. Taking part is voluntary.")
+DESTINATION = _("destination of the {object}")
 WATCH_FIRST = _("Examples of a robot moving in a small grid world ({title})")
 # A translation may leave out the English plural endings ({training_plural}, {tests_plural}), which the format
 # check of the catalog would refuse:
@@ -301,10 +304,21 @@ def _texts(world: World) -> ParticipantTexts:
         question=t.get("question", _("Which of these matches the robot's preferences?")),
         legend=(LegendEntry("the robot", "robot", "robot-edge"), LegendEntry("wall", "wall", "wall"),
                 *((LegendEntry(world.obj, "object", "object"),) if world.obj else ()),
-                *(LegendEntry(k.label, f"cell-{k.name}", f"cell-{k.name}") for k in world.kinds.values())),
+                *(LegendEntry(k.label, f"cell-{k.name}", f"cell-{k.name}") for k in world.kinds.values()),
+                *_letters(world)),
         title=t.get("title", world.title),
         comprehension=tuple(ComprehensionQuestion(q, choices, right) for q, choices, right in t["comprehension"])
         if "comprehension" in t else _comprehension(world))
+
+
+def _letters(world: World) -> tuple[LegendEntry, ...]:
+    """The letters the page's canvas writes on cells (static/studyapp/scenes/world.js drawMarks)."""
+    out = [LegendEntry(_("where the robot starts"), "free", "free", letter="S")]
+    if any(f.counts == "reach" for f in world.features):
+        out.append(LegendEntry(_("a goal: reaching it ends the way"), "free", "free", letter="G"))
+    if world.destination is not None:
+        out.append(LegendEntry(DESTINATION.format(object=world.obj or _("object")), "free", "free", letter="D"))
+    return tuple(out)
 
 
 def _comprehension(world: World) -> tuple[ComprehensionQuestion, ...]:
