@@ -213,6 +213,8 @@ class StudyDesignForm(forms.Form):
         self.fields["language"].label = "Participants' language"
         self.fields["time_limit_minutes"].label = "Time limit (minutes)"
         self.fields["duration_tolerance_minutes"].label = "Conditions' durations may differ by (minutes)"
+        self.fields["keep_trails"].label = "Keep each test option's path drawn after it played"
+        self.fields["keep_trails"].initial = True
         self.fields["devices"] = forms.ChoiceField(
             choices=DEVICE_CHOICES, required=False, label="Devices that may take part",
             help_text="Phones and tablets are told on the consent page that they cannot take part, and keep no "

@@ -68,6 +68,7 @@ SECTIONS = (
             (Group(("target_per_condition", "recruitment", "completion_code", "estimated_minutes",
                     "duration_tolerance_minutes", "payment")),
              Group(("devices", "min_screen_width"), "Devices that may take part"),
+             Group(("keep_trails",), "What the test pages show"),
              Group(BONUS_FIELDS, "A performance bonus", folded=True, opened_by=BONUS_FIELDS[:3]),
              Group(OUTCOME_FIELDS, "Time limit and a code for each way of ending", folded=True,
                    opened_by=OUTCOME_FIELDS))),

@@ -88,6 +88,9 @@ class Study(models.Model):
     consent_text = models.TextField(
         blank=True, help_text="The approved consent text (paragraphs separated by blank lines); blank: the default.")
     estimated_minutes = models.PositiveIntegerField(default=15, help_text="Shown on the consent page.")
+    keep_trails = models.BooleanField(
+        default=True, help_text="At the end of a test option's animation its whole path stays drawn (its Trail button "
+                                "on), so that the options can be compared at a glance.")
     duration_tolerance_minutes = models.PositiveIntegerField(
         default=5, help_text="How far apart, in minutes, the conditions' estimated durations may lie before the "
                              "study's page warns: a condition that takes longer is a confound.")

@@ -38,8 +38,9 @@ TEXT_FIELDS = ("consent_text", "estimated_minutes", "payment", "contact", "ethic
 DEVICE_FIELDS = ("min_screen_width", "allow_phones", "allow_tablets")  # who may take part (studyapp/devices.py)
 # How a participant's study may end early, and the code each way of ending gives (studyapp/outcomes.py).
 OUTCOME_FIELDS = ("time_limit_minutes", "excluded_code", "screened_out_code", "timed_out_code")
-# How long the conditions may differ in their estimated durations (studyapp/durations.py).
-PLAN_FIELDS = ("duration_tolerance_minutes",)
+# How long the conditions may differ in their estimated durations (studyapp/durations.py), and whether a
+# test option's path stays drawn after it played.
+PLAN_FIELDS = ("duration_tolerance_minutes", "keep_trails")
 # A performance bonus (studyapp/bonuses.py): its rates, cap and currency.
 BONUS_FIELDS = ("bonus_per_correct", "bonus_per_point", "bonus_cap", "bonus_currency")
 MAX_BONUS = 100  # in the study's currency, per participant: more is a typing slip
@@ -146,6 +147,7 @@ STUDY_FIELDS: dict[str, Field] = {f.name: f for f in (
     _column("consent_text"),
     _column("estimated_minutes", rules.whole, minimum=1),
     _column("duration_tolerance_minutes", rules.whole, minimum=0, maximum=MAX_TIME_LIMIT),
+    _column("keep_trails", rules.boolean, says="keep_trails"),
     _column("min_screen_width", rules.whole, minimum=0, maximum=10000,
             help="Smallest screen width (CSS pixels) a participant may take part on; 0: any (a laptop: 1024)."),
     _column("allow_phones", rules.boolean, help="Phones may take part."),

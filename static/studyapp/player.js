@@ -99,8 +99,9 @@ function replayText(label, option) {
   return label;
 }
 
-// Wire a .scene element's Play / Show trail buttons to a Player (Scene: sceneClass()'s).
-export function mountScene(Scene, root, env, robot, onPlayed) {
+// Wire a .scene element's Play / Show trail buttons to a Player (Scene: sceneClass()'s).  trailAfter: once an
+// animation has played to its end, its whole path stays drawn (the Trail button on), as the study asks.
+export function mountScene(Scene, root, env, robot, onPlayed, { trailAfter = false } = {}) {
   const canvas = root.querySelector("canvas");
   const playBtn = root.querySelector('[data-action="play"]');
   const trailBtn = root.querySelector('[data-action="trail"]');
@@ -114,6 +115,7 @@ export function mountScene(Scene, root, env, robot, onPlayed) {
     onState: (state) => {
       root.dataset.state = state;
       if (state !== "playing") playBtn.textContent = replayLabel;
+      if (state === "ended" && trailAfter) showTrail(true);
     },
   });
   // the page's label, in English or already in the study's language
@@ -124,12 +126,12 @@ export function mountScene(Scene, root, env, robot, onPlayed) {
     trailBtn.textContent = trailText(false);
     player.play();
   });
-  trailBtn.addEventListener("click", () => {
-    const on = trailBtn.getAttribute("aria-pressed") !== "true";
+  function showTrail(on) {
     trailBtn.setAttribute("aria-pressed", String(on));
     trailBtn.textContent = trailText(on);
     player.showTrail(on);
-  });
+  }
+  trailBtn.addEventListener("click", () => showTrail(trailBtn.getAttribute("aria-pressed") !== "true"));
   // pause and resume: a click on the animation, or Space / Enter on it (it is in the tab order)
   canvas.tabIndex = 0;
   canvas.title = gettext("Click (or press Space) to pause or resume the animation");

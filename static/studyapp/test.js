@@ -52,7 +52,7 @@ const players = options.map((section) => {
     markPlayed(section);
     remember();
     update();
-  });
+  }, { trailAfter: "keepTrails" in form.dataset });
 });
 
 // all four at once: the same moments side by side, as the buttons would start them
@@ -69,6 +69,37 @@ for (const [name, value] of saved.checked || []) {
 for (const section of options) {
   if ((saved.played || []).includes(letter(section))) markPlayed(section);
 }
+
+// On a phone whose options stand one above another, the answer panel is a screen or more below the first
+// option: each option's rating row moves under its own animation, in reach of what it rates.  The inputs are
+// the same ones, so the form posts the same answer; a wider screen puts them back in the panel.
+const ratingsPanel = form.querySelector("fieldset.ratings");
+const phone = window.matchMedia("(max-width: 480px)");
+function placeRatings() {
+  const formWidth = form.getBoundingClientRect().width;
+  const stacked = phone.matches && options.every((o) => o.getBoundingClientRect().width > 0.7 * formWidth);
+  for (const section of options) {
+    const row = form.querySelector(`.rating[data-option="${letter(section)}"]`);
+    const ask = section.querySelector(".rating-ask");
+    if (stacked && row.parentElement !== section) {
+      if (!ask) {
+        const p = document.createElement("p");
+        p.className = "rating-ask";
+        p.setAttribute("aria-hidden", "true");  // the row's own label says it to a screen reader
+        p.textContent = row.getAttribute("aria-label");  // "How well does option B match? 1 = …", translated
+        section.append(p);
+      }
+      section.append(row);
+    } else if (!stacked && row.parentElement === section) {
+      ask?.remove();
+      ratingsPanel.append(row);
+    }
+  }
+  ratingsPanel.hidden = stacked;
+  form.classList.toggle("ratings-by-option", stacked);
+}
+phone.addEventListener("change", placeRatings);
+placeRatings();
 
 form.addEventListener("change", () => { remember(); update(); });
 // forget this step only once the server has it: a failed save keeps it for a reload

@@ -57,9 +57,14 @@ def test_four_options_compared_without_scrolling_and_44px_targets(on_a_test, liv
     assert all(abs(c[0] - ref) < 0.5 for c in canvases), (ref, canvases)
     # one above another, each below the one before it (a road strip per option: scenes/driving.css)
     assert all(b[2] >= a[3] for a, b in zip(canvases, canvases[1:], strict=False)), canvases
+    in_option = page.eval_on_selector_all(".option", "els => els.map(e => !!e.querySelector('.rating'))")
     if name == "phone":  # each strip nearly the screen's width, under its row of controls
         assert all(c[0] >= width - 30 for c in canvases), canvases
+        assert in_option == [True] * 4  # each option's rating row under it, in reach of what it rates
+        rows, strips = sizes(page, ".option .rating"), canvases
+        assert all(0 <= row[2] - strip[3] < 80 for row, strip in zip(rows, strips, strict=True)), (rows, strips)
     else:  # the laptop: the whole question, down to its Next button, above the fold, every option whole
+        assert in_option == [False] * 4  # the ratings stay together in the answer panel
         assert sizes(page, "#test-form button[type=submit]")[0][3] <= height
         assert all(c[3] <= height for c in canvases), canvases
         assert all(c[0] >= 600 for c in canvases)
@@ -67,6 +72,9 @@ def test_four_options_compared_without_scrolling_and_44px_targets(on_a_test, liv
     page.locator("[data-action=play-all]").click()
     page.clock.run_for(5600)
     expect(page.locator("section.played")).to_have_count(4)
+    # each option keeps its whole path drawn once played (the study's keep_trails, on by default)
+    expect(page.locator('.option [data-action="trail"][aria-pressed="true"]')).to_have_count(4)
+    assert page.eval_on_selector_all(".option canvas", "cs => cs.map(c => c.scene.mode)") == ["trail"] * 4
     # "✓ played" never covers the canvas (its goal arrow, its labels): it sits beside or above it
     assert all(badge[0] > 0 for badge in sizes(page, ".played-flag"))
     covered = page.eval_on_selector_all(".option", """els => els.filter(el => {
@@ -80,6 +88,22 @@ def test_four_options_compared_without_scrolling_and_44px_targets(on_a_test, liv
     expect(page.locator("#test-form button[type=submit]")).to_be_enabled()
     OUT.mkdir(exist_ok=True)
     page.screenshot(path=str(OUT / f"test_page_{name}_{width}x{height}.png"))
+    assert not errors, errors
+
+
+def test_a_study_may_leave_the_last_frame_instead(on_a_test, live_server, browser):
+    """keep_trails off: an option that played shows its last frame, as the paper's videos ended; its Trail
+    button still shows the path on demand."""
+    type(on_a_test.study).objects.filter(pk=on_a_test.study_id).update(keep_trails=False)
+    page, errors = open_on_fake_clock(browser, f"{live_server.url}{on_a_test.get_absolute_url()}",
+                                      viewport={"width": 1280, "height": 800})
+    page.locator("[data-action=play-all]").click()
+    page.clock.run_for(5600)
+    expect(page.locator("section.played")).to_have_count(4)
+    assert page.eval_on_selector_all(".option canvas", "cs => cs.map(c => c.scene.mode)") == ["frame"] * 4
+    expect(page.locator('.option [data-action="trail"][aria-pressed="true"]')).to_have_count(0)
+    page.locator('.option[data-option="A"] [data-action="trail"]').click()
+    assert page.eval_on_selector(".option canvas", "c => c.scene.mode") == "trail"
     assert not errors, errors
 
 
