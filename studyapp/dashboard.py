@@ -12,7 +12,7 @@ from django.views.decorators.http import require_POST
 from . import bonuses, durations, exports, outcomes, privacy, status
 from .access import researcher_required
 from .assignment import counted_filter, preview_participant
-from .models import Answer, Condition, Participant, Study
+from .models import Answer, ComprehensionAttempt, Condition, Participant, Study
 from .pilot import pilot_context
 
 REFRESH_SECONDS = 5
@@ -54,9 +54,38 @@ def index(request):
     return render(request, "studyapp/dashboard/index.html", {"studies": studies})
 
 
+RECENT = 15  # lines of recent activity
+
+
+def recent_activity(study) -> list[dict]:
+    """The study's latest answers and comprehension attempts (a failed attempt writes no answer), newest
+    first: {"at", "participant", "what"} each, "what" in words (a shown way: its moves and θ*-regret)."""
+    real = ~Q(participant__platform=Participant.PREVIEW)
+    answers = (Answer.objects.filter(real, participant__study=study)
+               .select_related("participant", "participant__condition").order_by("-created_at")[:RECENT])
+    attempts = (ComprehensionAttempt.objects.filter(real, participant__study=study)
+                .select_related("participant", "participant__condition").order_by("-created_at")[:RECENT])
+    out = []
+    for a in answers:
+        what = f"{a.kind}{'' if a.item is None else f' {a.item + 1}'}"
+        if isinstance(a.data, dict) and "moves" in a.data:
+            shown = a.data["moves"]
+            moves = len(shown) if isinstance(shown, list) else len(str(shown).split())
+            what += f", a way of {moves} move{'s' if moves != 1 else ''}"
+            if a.regret is not None:
+                what += f", θ*-regret {a.regret:.3g}"
+        elif a.confidence_score is not None:
+            what += f", score {a.confidence_score}"
+        out.append({"at": a.created_at, "participant": a.participant, "what": what})
+    for c in attempts:
+        missed = f", missed {len(c.missed)}" if not c.passed else ""
+        out.append({"at": c.created_at, "participant": c.participant,
+                    "what": f"comprehension attempt {c.number}: {'passed' if c.passed else 'failed'}{missed}"})
+    return sorted(out, key=lambda e: e["at"], reverse=True)[:RECENT]
+
+
 def _progress_context(request, study):
-    recent = (Answer.objects.filter(participant__study=study).exclude(participant__platform=Participant.PREVIEW)
-              .select_related("participant", "participant__condition").order_by("-created_at")[:15])
+    recent = recent_activity(study)
     stats = condition_stats(study)
     totals = {k: sum(r[k] for r in stats) for k in ("target", "started", "completed", "excluded", "active",
                                                     "abandoned", *ENDED_COLUMNS)}

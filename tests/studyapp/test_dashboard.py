@@ -9,7 +9,7 @@ from django.urls import reverse
 from django.utils import timezone
 
 from studyapp import assignment
-from studyapp.models import Answer, Participant, StepKind, Study
+from studyapp.models import Answer, ComprehensionAttempt, Participant, StepKind, Study
 
 pytestmark = pytest.mark.django_db
 
@@ -118,3 +118,18 @@ def test_admin_pages(admin_client, study, complete, model):
     obj = {"study": study, "condition": p.condition, "participant": p, "answer": Answer.objects.first()}[model]
     assert admin_client.get(reverse(f"admin:studyapp_{model}_changelist")).status_code == 200
     assert admin_client.get(reverse(f"admin:studyapp_{model}_change", args=[obj.pk])).status_code == 200
+
+
+def test_recent_activity_names_comprehension_attempts_and_shown_ways(study, staff_client):
+    """A failed comprehension attempt writes no answer, and a shown way has no score: both are said."""
+    p = assignment.assign(study, "prolific", "activity-1")
+    start = timezone.now()
+    ComprehensionAttempt.objects.create(participant=p, number=1, missed=[0, 2], passed=False, created_at=start)
+    ComprehensionAttempt.objects.create(participant=p, number=2, passed=True, created_at=start + timedelta(seconds=1))
+    Answer.objects.create(participant=p, step=5, kind="test", item=0, data={"moves": ["up", "up", "right"]},
+                          correct=False, regret=0.25, created_at=start + timedelta(seconds=2))
+    page = staff_client.get(reverse("dashboard_progress", args=[study.slug])).content.decode()
+    lines = page[page.index('<ul class="activity">'):].split("</li>")[:3]
+    assert "test 1, a way of 3 moves, θ*-regret 0.25" in lines[0]
+    assert "comprehension attempt 2: passed" in lines[1]
+    assert "comprehension attempt 1: failed, missed 2" in lines[2]
