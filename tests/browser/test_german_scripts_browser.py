@@ -64,11 +64,11 @@ def test_a_german_studys_scripts_speak_german(transactional_db, make_study, live
     texts = page.evaluate("window.canvasTexts")
     assert any(t.startswith(("Zug ", "t = ")) for t in texts), texts  # the move (or time) label
     trail.click()
-    expect(trail).to_have_text("Spur ausblenden")
-    assert page.evaluate("window.canvasTexts").pop().startswith("Spur: "), page.evaluate("window.canvasTexts")
+    expect(trail).to_have_text("Verlauf ausblenden")
+    assert page.evaluate("window.canvasTexts").pop().startswith("Verlauf: "), page.evaluate("window.canvasTexts")
     page.screenshot(path=str(OUT / "german_training.png"), full_page=True)
     trail.click()
-    expect(trail).to_have_text("Spur zeigen")  # the page's own label (django.po), which the script toggles
+    expect(trail).to_have_text("Verlauf zeigen")  # the page's own label (django.po), which the script toggles
 
     # the connection drops as the answer is sent: the banner says so in German; back online, it goes
     banner, heading = page.locator("[data-save-banner]"), page.locator("h1").inner_text()
