@@ -163,11 +163,18 @@ def test_the_taxi_picks_up_and_delivers_its_passenger_by_the_buttons_and_by_a_ta
             page.on("pageerror", lambda exc: errors.append(str(exc)))
             pid = f"taxi-{device}-0000000000000000000"
             page.goto(f"{live_server.url}/s/{study.slug}/?PROLIFIC_PID={pid}&STUDY_ID=S&SESSION_ID=X")
-            participant = complete_flow(Participant.objects.get(platform_pid=pid), stop_before=StepKind.TEST)
+            # one scale for the world: an example's grid is drawn as wide as the show page's
+            participant = complete_flow(Participant.objects.get(platform_pid=pid), stop_before=StepKind.TRAINING)
+            page.goto(f"{live_server.url}{participant.get_absolute_url()}")
+            ready(page)
+            trained = page.locator(".scene.card canvas").bounding_box()["width"]
+            participant = complete_flow(participant, stop_before=StepKind.TEST)
             for _ in range(j):  # the earlier show tests, answered with θ*'s way
                 participant = _answer_show(participant, domain)
             page.goto(f"{live_server.url}{participant.get_absolute_url()}")
             ready(page)
+            shown_width = page.locator("[data-show-scene] canvas").bounding_box()["width"]
+            assert abs(trained - shown_width) < 1, (device, trained, shown_width)
             col, row = test["world"]["start"]
             for move in best:
                 if move in STEP and device == "laptop":
