@@ -213,8 +213,12 @@ class StudyDesignForm(forms.Form):
         self.fields["language"].label = "Participants' language"
         self.fields["time_limit_minutes"].label = "Time limit (minutes)"
         self.fields["duration_tolerance_minutes"].label = "Conditions' durations may differ by (minutes)"
-        self.fields["keep_trails"].label = "Keep each test option's path drawn after it played"
-        self.fields["keep_trails"].initial = True
+        # a tick box (the schema's boolean would be a text field); unticked, the browser sends nothing: False
+        self.fields["keep_trails"] = forms.BooleanField(
+            required=False, initial=True, label="Keep each test option's path drawn after it played",
+            help_text=STUDY_FIELDS["keep_trails"].help)
+        self.fields["payment_amount"].label = "Payment for taking part (amount, optional)"
+        self.fields["bonus_currency"].label = "Currency (of the payment and the bonus)"
         self.fields["devices"] = forms.ChoiceField(
             choices=DEVICE_CHOICES, required=False, label="Devices that may take part",
             help_text="Phones and tablets are told on the consent page that they cannot take part, and keep no "

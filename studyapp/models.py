@@ -68,7 +68,8 @@ class Study(models.Model):
         max_digits=7, decimal_places=2, default=0, help_text="The most bonus one participant can earn; 0: no cap.")
     CURRENCIES = [("GBP", "£ (GBP)"), ("USD", "$ (USD)"), ("EUR", "€ (EUR)")]
     bonus_currency = models.CharField(max_length=3, choices=CURRENCIES, default="GBP",
-                                      help_text="The currency of the bonus (the recruiting platform's).")
+                                      help_text="The study's currency, of its payment and its bonus (the recruiting "
+                                                "platform's).")
     LANGUAGES = [("en", "English"), ("de", "Deutsch (German)")]
     language = models.CharField(
         max_length=8, choices=LANGUAGES, default="en",
@@ -95,6 +96,10 @@ class Study(models.Model):
         default=5, help_text="How far apart, in minutes, the conditions' estimated durations may lie before the "
                              "study's page warns: a condition that takes longer is a confound.")
     payment = models.CharField(max_length=300, blank=True, help_text="e.g. '£2.50, paid through Prolific'.")
+    payment_amount = models.DecimalField(
+        max_digits=7, decimal_places=2, null=True, blank=True,
+        help_text="What taking part pays, in the study's currency: the consent page writes it as the participant's "
+                  "language writes money, the payment text after it; blank: the payment text alone.")
     contact = models.CharField(max_length=300, blank=True, help_text="Who answers questions: name and email.")
     ethics_reference = models.CharField(max_length=200, blank=True, help_text="The approval's reference.")
     CHOOSE, SHOW = "choose", "show"
@@ -248,6 +253,8 @@ class Study(models.Model):
                  self.ethics_reference]
         if self.time_limit_minutes:  # appended only when set: a study without one keeps its version
             shown.append(f"limit {self.time_limit_minutes}")
+        if self.payment_amount is not None:  # likewise: an amount the page writes
+            shown.append(f"pay {Decimal(str(self.payment_amount)):.2f} {self.bonus_currency}")
         if self.bonus_per_correct or self.bonus_per_point:  # likewise: the bonus rule the page states
             rates = (Decimal(str(v or 0)) for v in (self.bonus_per_correct, self.bonus_per_point, self.bonus_cap))
             shown.append("bonus " + " ".join(f"{v:.2f}" for v in rates) + f" {self.bonus_currency}")

@@ -34,7 +34,7 @@ __all__ = ["BONUS_FIELDS", "COMPREHENSION_FIELDS", "CONDITION_FIELDS", "DEVICE_F
            "check_condition_names", "check_job", "check_spec", "check_study", "job_problems"]
 
 # The per-study texts of the consent page (models.Study holds their defaults, lengths and help).
-TEXT_FIELDS = ("consent_text", "estimated_minutes", "payment", "contact", "ethics_reference")
+TEXT_FIELDS = ("consent_text", "estimated_minutes", "payment", "payment_amount", "contact", "ethics_reference")
 DEVICE_FIELDS = ("min_screen_width", "allow_phones", "allow_tablets")  # who may take part (studyapp/devices.py)
 # How a participant's study may end early, and the code each way of ending gives (studyapp/outcomes.py).
 OUTCOME_FIELDS = ("time_limit_minutes", "excluded_code", "screened_out_code", "timed_out_code")
@@ -44,6 +44,7 @@ PLAN_FIELDS = ("duration_tolerance_minutes", "keep_trails")
 # A performance bonus (studyapp/bonuses.py): its rates, cap and currency.
 BONUS_FIELDS = ("bonus_per_correct", "bonus_per_point", "bonus_cap", "bonus_currency")
 MAX_BONUS = 100  # in the study's currency, per participant: more is a typing slip
+MAX_PAYMENT = 10_000  # likewise, for taking part
 MAX_TIME_LIMIT = 24 * 60  # minutes: a longer limit is a typing slip (Prolific's own maximum is shorter)
 # The comprehension check after the instructions (studyapp/comprehension.py).
 COMPREHENSION_FIELDS = ("comprehension_check", "comprehension_questions", "comprehension_attempts")
@@ -162,6 +163,7 @@ STUDY_FIELDS: dict[str, Field] = {f.name: f for f in (
     _column("screened_out_code"),
     _column("timed_out_code"),
     _column("payment"),
+    _column("payment_amount", rules.number, minimum=0, maximum=MAX_PAYMENT),
     _column("contact"),
     _column("ethics_reference"),
     _column("comprehension_check", rules.boolean, says="the comprehension check",

@@ -211,6 +211,8 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
         ctx["total_training"] = gettext("up to {n}").format(n=loop["settings"]["max_examples"])
     if current.kind == StepKind.CONSENT:
         ctx["bonus_rule"] = bonuses.rule_text(participant.study)  # what they are paid for, before they agree
+        if participant.study.payment_amount is not None:  # money written one way on every page
+            ctx["payment_amount"] = bonuses.participant_label(participant.study, participant.study.payment_amount)
         if participant.study.has_device_rules:
             ctx["device_rules"] = devices.rules(participant.study)
     if current.kind in (StepKind.INSTRUCTIONS, StepKind.COMPREHENSION, StepKind.TRAINING, StepKind.FEEDBACK,

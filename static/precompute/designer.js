@@ -77,7 +77,8 @@ function entries() {
     ["Tests", tests.join("; ")],
     ["Participants", people],
     ["Recruitment", `${chosenText("recruitment")}${code ? `, completion code ${code}` : ""}`],
-    ["Payment and time", `${value("payment") || "no payment given"}, about ${value("estimated_minutes") || "?"} minutes`
+    ["Payment and time", `${[value("payment_amount") && `${value("payment_amount")} (${value("bonus_currency") || "GBP"})`,
+      value("payment")].filter(Boolean).join(", ") || "no payment given"}, about ${value("estimated_minutes") || "?"} minutes`
       + (parseInt(value("time_limit_minutes"), 10) > 0 ? `, at most ${value("time_limit_minutes")} (then timed out)` : "")],
     ["Codes when ending early", outcomeCodes()],
     ["Comprehension check", comprehensionText()],

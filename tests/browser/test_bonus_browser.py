@@ -40,20 +40,24 @@ def test_the_completion_page_shows_the_bonus_earned(make_study, live_server, sta
     assert not errors, errors
 
 
-@pytest.mark.parametrize("language, says", [
-    ("en", "£0.25 for each test question you answer correctly, at most £1.00 in all, on top of the payment."),
-    ("de", "0,25\u00a0£ für jede Testfrage, die Sie richtig beantworten, insgesamt höchstens 1,00\u00a0£, "
-           "zusätzlich zur Bezahlung."),
+@pytest.mark.parametrize("language, how, paid, says", [
+    ("en", "paid through Prolific", "£2.50 (paid through Prolific)",
+     "£0.25 for each test question you answer correctly, at most £1.00 in all, on top of the payment."),
+    ("de", "über Prolific", "2,50\u00a0£ (über Prolific)",
+     "0,25\u00a0£ für jede Testfrage, die Sie richtig beantworten, insgesamt höchstens 1,00\u00a0£, "
+     "zusätzlich zur Bezahlung."),
 ])
-def test_the_consent_page_states_the_bonus_rule(make_study, live_server, browser, language, says):
+def test_the_consent_page_states_the_bonus_rule(make_study, live_server, browser, language, how, paid, says):
+    """Every amount on the page written one way, the language's (bonuses.participant_label)."""
     make_study(slug=f"bonus-{language}", recruitment="prolific", completion_code="DONE2026", bonus_per_correct=0.25,
-               bonus_cap=1.0, language=language, payment="£2.50, paid through Prolific", estimated_minutes=12)
+               bonus_cap=1.0, language=language, payment=how, payment_amount=2.5, estimated_minutes=12)
     page = browser.new_context(viewport={"width": 1280, "height": 800}).new_page()
     errors = []
     page.on("pageerror", lambda e: errors.append(str(e)))
     page.goto(f"{live_server.url}/s/bonus-{language}/?PROLIFIC_PID=bonus0000000000000000000{language}"
               "&STUDY_ID=S&SESSION_ID=X")
     expect(page.locator("[data-bonus-rule]")).to_have_text(says)
+    expect(page.locator("[data-payment]")).to_have_text(paid)
     OUT.mkdir(exist_ok=True)
     page.screenshot(path=str(OUT / f"consent_with_bonus_{language}.png"), full_page=True)
     assert not errors, errors

@@ -174,12 +174,17 @@ def test_the_consent_page_states_the_bonus_rule_before_anyone_agrees(paying, stu
 
 
 def test_the_consent_version_names_the_bonus_rule_and_keeps_a_study_without_one(paying, study):
-    """A changed rate is a changed consent page; a study without a bonus keeps the version it had."""
+    """A changed rate or payment is a changed consent page; a study without either keeps the version it had."""
     shown = [*study.consent_paragraphs(), str(study.estimated_minutes), study.payment, study.contact,
              study.ethics_reference]
     assert study.consent_version() == hashlib.sha256("\x1f".join(shown).encode()).hexdigest()[:12]
     before = paying.consent_version()
     paying.bonus_per_correct = Decimal("0.20")
     paying.save(update_fields=["bonus_per_correct"])
+    paying.refresh_from_db()
+    assert paying.consent_version() != before
+    before = paying.consent_version()
+    paying.payment_amount = Decimal("2.50")  # an amount the page now writes
+    paying.save(update_fields=["payment_amount"])
     paying.refresh_from_db()
     assert paying.consent_version() != before

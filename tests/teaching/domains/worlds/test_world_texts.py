@@ -59,7 +59,10 @@ def test_a_files_texts_questions_and_translations_are_the_domains(tmp_path):
         "What does the robot fetch?": "Was holt der Roboter?"}}
     texts = domain.texts
     assert texts.summary == "you watch a robot fetch a key"
-    assert [e.label for e in texts.legend][-2:] == ["a puddle", "sand"]
+    assert [e.label for e in texts.legend if not e.letter][-2:] == ["a puddle", "sand"]
+    # then the letters the canvas writes: the start, and the key to reach (no object, so no destination)
+    assert [(e.letter, e.label) for e in texts.legend if e.letter] == [
+        ("S", "where the robot starts"), ("G", "a goal: reaching it ends the way")]
     # the file's questions replace the default ones; right: 1-based in the file, 0-based in the domain
     assert [(q.text, q.choices, q.right) for q in texts.comprehension] == [
         ("What does the robot fetch?", ("A key", "A ball", "A cup"), (0,)),
