@@ -209,7 +209,7 @@ class StudyDesignForm(forms.Form):
                                                        label="Smallest screen width (px)")
         # How a participant's study may end early, and each outcome's code (studyapp/outcomes.py).
         self.fields.update({k: schema_field(STUDY_FIELDS[k], required=False)
-                            for k in (*OUTCOME_FIELDS, *BONUS_FIELDS, *PLAN_FIELDS, "language")})
+                            for k in (*OUTCOME_FIELDS, *BONUS_FIELDS, *PLAN_FIELDS, "language") if k != "keep_trails"})
         self.fields["language"].label = "Participants' language"
         self.fields["time_limit_minutes"].label = "Time limit (minutes)"
         self.fields["duration_tolerance_minutes"].label = "Conditions' durations may differ by (minutes)"

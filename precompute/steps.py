@@ -28,7 +28,14 @@ from studyapp.studies import (
     store_pilot,
 )
 from studyapp.trajectories import show_tests_from_table, test_set_from_table, training_from_table
-from teaching.api import MIN_REGRET, TestSetError, TrajectoryTable, select_show_tests, select_test_set
+from teaching.api import (
+    MIN_REGRET,
+    ClosedLoopError,
+    TestSetError,
+    TrajectoryTable,
+    select_show_tests,
+    select_test_set,
+)
 
 from . import work
 from .models import Part
@@ -112,6 +119,18 @@ def closed_loop_settings(spec: StudyJobSpec) -> tuple[dict, dict]:
     return settings, notes
 
 
+def closed_loop_refusal(exc: ClosedLoopError) -> str:
+    """One line for the job page: why a closed-loop condition could not be prepared, and what to change."""
+    why = str(exc).rstrip(".")
+    if why.startswith("cannot write"):
+        change = ("The server's data folder (VAR_DIR) must be writable by the worker, with room to spare; "
+                  "ask whoever runs the server, then build again.")
+    else:
+        change = ("Lower the test set's thresholds, choose another difficulty or test kind, or build the study "
+                  "without a closed-loop condition.")
+    return f"A closed-loop condition could not be prepared: {why}. {change}"
+
+
 def finish_study(job_id, spec: StudyJobSpec, study: Study, conditions: list[Condition]) -> tuple[list, dict, dict]:
     """The test set (disjoint from every condition's training), the closed loops' checks and the
     simulated pilot, stored with the study, which opens if the job asks.  Returns (tests, loops
@@ -133,7 +152,10 @@ def finish_study(job_id, spec: StudyJobSpec, study: Study, conditions: list[Cond
                            f"({exc}). Choose another difficulty (the designer counts each level), lower the minimum "
                            "θ*-regret or distance, or fewer conditions, and build again.") from None
     settings, from_fit = closed_loop_settings(spec)
-    loops = prepare_closed_loops(table, study.slug, settings, tests)  # their checks apart from the tests
+    try:
+        loops = prepare_closed_loops(table, study.slug, settings, tests)  # their checks apart from the tests
+    except ClosedLoopError as exc:  # the designer checked the settings; the checks and the pack need the tests
+        raise BuildRefused(closed_loop_refusal(exc)) from None
     predicted = None if spec.test_kind == Study.SHOW else tests
     store_pilot(study, study_pilot(table, conditions, spec, job_id, predicted, loops))
     if loops:

@@ -21,6 +21,7 @@ from teaching.api import (
     clusters_without_a_test,
     get_domain,
     supply_of_tests,
+    ungraded_problem,
 )
 
 CACHE_SECONDS = 7 * 24 * 3600  # a table's answer never changes: its content hash is in the key
@@ -72,14 +73,9 @@ def problem(path: str, domain: str, kind: str, difficulty: str | None, min_regre
                                                   else min_regret, min_distance=min_distance)
                 if key:
                     cache.set(key, missing, CACHE_SECONDS)
-            lacking = (missing if kind != Study.SHOW or len(missing) == len(get_domain(domain).test_clusters)
-                       else [])
-            if not lacking:
-                return "", ""
-            said = ", ".join(f"'{name}'" for name in lacking)
-            what = "a show test of any strategy" if kind == Study.SHOW else f"a test of {said}"
-            return ("min_regret", f"No environment of this table can hold {what} at these thresholds: lower the "
-                                  "minimum θ*-regret or distance, or choose another table.")
+            clusters = [get_domain(domain).cluster_names[c] for c in get_domain(domain).test_clusters]
+            why = ungraded_problem(kind, clusters, missing)
+            return ("min_regret", _sentence(why)) if why else ("", "")
         why = counts(path, kind, min_regret, min_distance)["problems"][difficulty]
     except (TableError, OSError, ValueError) as exc:
         return "table", f"Cannot read this table: {exc}"

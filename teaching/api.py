@@ -138,7 +138,8 @@ Learners and selection (DESIGN §5-6)
     supply_of_tests(table, kind="choose", training_env_ids=(), min_regret=, min_distance=)  TestSupply: per
                              test cluster, how many environments could hold its test, at any difficulty
                              and per level (.counts(d), .feasible(d), .problem(d): one line, .describe());
-                             clusters_without_a_test(table, kind): the clusters none can (quick)
+                             clusters_without_a_test(table, kind): the clusters none can (quick);
+                             ungraded_problem(kind, clusters, missing): why those cannot (one line)
     TEST_KINDS               ("choose", "show"): what a test asks; TeachOutput.test_kind, one per output;
                              is_show(test) whether a test's dict asks to show the way (its "kind" is SHOW)
 
@@ -203,7 +204,7 @@ from .core.simulate import (
 from .core.table import TableError, TrajectoryTable
 from .core.teachout import TEST_KINDS, TeachOutput, TeachOutputError, read_teach
 from .core.testset import MIN_REGRET, TestSetError, select_test_set
-from .core.testsupply import TestSupply, clusters_without_a_test, supply_of_tests
+from .core.testsupply import TestSupply, clusters_without_a_test, supply_of_tests, ungraded_problem
 from .domains.driving.domain import DOMAIN as _DRIVING
 from .domains.driving.environments import (
                     CLASS_NAMES,
@@ -242,4 +243,5 @@ __all__ = [
     "check_params", "get_selector", "parse_selector", "selector_names", "DIFFICULTIES",
     "MIN_SHARE", "SHOW", "TEST_KINDS", "is_show", "select_show_tests",
     "TestSetError", "TestSupply", "clusters_without_a_test", "supply_of_tests",
+    "ungraded_problem",
 ]

@@ -61,21 +61,14 @@ class TestSupply:
         """Why no test set of ``difficulty`` can be drawn, in one line ("" when one can)."""
         if self.feasible(difficulty):
             return ""
-        counts = self.counts(difficulty)
-        of = "" if difficulty in (None, ANY) else f" of {difficulty} difficulty"
-        empty = [name for name, n in zip(self.clusters, counts, strict=True) if not n]
-        if self.kind == CHOOSE:
-            said = ", ".join(f"'{name}'" for name in empty)
-            lacking = f"no environment of this table can hold a test{of} of {said}"
-        else:
-            lacking = f"no environment of this table can hold a show test{of} of any strategy"
+        empty = [name for name, n in zip(self.clusters, self.counts(difficulty), strict=True) if not n]
+        if difficulty in (None, ANY):
+            return _lacking(self.kind, empty, "") + " at these thresholds: lower the minimum θ*-regret or " \
+                "distance, or choose another table."
         better = [d for d in DIFFICULTIES if d != difficulty and self.feasible(d)]
-        if difficulty not in (None, ANY):
-            instead = (f"choose {' or '.join(better)}, or none" if better else "choose none") if self.feasible() \
-                else "lower the minimum θ*-regret or distance"
-        else:
-            instead = "lower the minimum θ*-regret or distance, or choose another table"
-        return f"{lacking}: {instead}."
+        instead = (f"choose {' or '.join(better)}, or none" if better else "choose none") if self.feasible() \
+            else "lower the minimum θ*-regret or distance"
+        return f"{_lacking(self.kind, empty, f' of {difficulty} difficulty')}: {instead}."
 
     def describe(self) -> list[str]:
         """One line per cluster: how many environments each level (and any) offers, e.g.
@@ -88,6 +81,20 @@ class TestSupply:
         return {"kind": self.kind, "clusters": list(self.clusters), "hosts": list(self.hosts),
                 "by_level": {d: list(v) for d, v in self.by_level.items()},
                 "feasible": {d: self.feasible(d) for d in (ANY, *DIFFICULTIES)}}
+
+
+def _lacking(kind: str, empty: list[str], of: str) -> str:
+    if kind == CHOOSE:
+        said = ", ".join(f"'{name}'" for name in empty)
+        return f"no environment of this table can hold a test{of} of {said}"
+    return f"no environment of this table can hold a show test{of} of any strategy"
+
+
+def ungraded_problem(kind: str, clusters: list[str], missing: list[str]) -> str:
+    """:meth:`TestSupply.problem` of an ungraded test set, from :func:`clusters_without_a_test`'s answer
+    alone (``clusters``: every test cluster's name)."""
+    hosts = tuple(0 if name in missing else 1 for name in clusters)
+    return TestSupply(kind, tuple(clusters), hosts, {}).problem(ANY)
 
 
 def supply_of_tests(table, kind: str = CHOOSE, training_env_ids: list[list[int]] = (), *,

@@ -12,10 +12,12 @@ from django.core.management import CommandError, call_command
 
 from precompute import jobs
 from precompute.models import Job
+from precompute.steps import closed_loop_refusal
 from precompute.study import StudyJobError, create_study_job, parse_closed_loop
 from studyapp import closedloop
 from studyapp.analysis.simulate import run_participant
 from studyapp.models import Participant, Study
+from teaching.api import ClosedLoopError, TrajectoryTable, select_checks
 from tests.conftest import TINY_TEST_SET
 
 LOOP = "loop:model=prob-euclidean,value=1,max_examples=4,check_every=2,feedback=yes"
@@ -77,6 +79,43 @@ def test_a_study_of_one_closed_loop_condition_alone(inprocess_worker, transactio
     study = Study.objects.get(slug="only-loop")
     assert [c.name for c in study.conditions.all()] == ["solo"] and study.is_open
     assert study.conditions.get().closed_loop["settings"]["max_examples"] == 3
+
+
+@pytest.mark.slow
+def test_a_closed_loop_condition_the_build_cannot_prepare_is_said_in_one_line(inprocess_worker, transactional_db,
+                                                                              tiny_table, settings, tmp_path,
+                                                                              staff_client):
+    """The last task writes each closed-loop condition's pack under VAR_DIR; where it cannot (here a file
+    stands where its folder goes), the job page says so in one line with what to change, not as an
+    exception, and the study stays closed."""
+    settings.VAR_DIR = tmp_path
+    (tmp_path / "closedloop").write_text("not a folder")
+    job = create_study_job(tiny_table, "unwritable-loop", open_when_done=True,
+                           closed_loop={"loop": {"max_examples": 3}}, test_set_thresholds=TINY_TEST_SET)
+    job = jobs.wait(job, progress=False, timeout=240)
+    assert job.status == Job.FAILED and job.error_detail == ""
+    assert job.error.startswith("A closed-loop condition could not be prepared: cannot write a closed-loop "
+                                f"condition to {tmp_path / 'closedloop'}/unwritable-loop--loop--")
+    assert job.error.endswith("The server's data folder (VAR_DIR) must be writable by the worker, with room to "
+                              "spare; ask whoever runs the server, then build again.")
+    assert "\n" not in job.error and "ClosedLoopError" not in job.error
+    page = staff_client.get(job.get_absolute_url()).content.decode()
+    assert "A closed-loop condition could not be prepared" in page and "Traceback" not in page
+    study = Study.objects.get(slug="unwritable-loop")
+    assert not study.is_open and study.running_problems()
+
+
+def test_a_table_that_leaves_no_check_question_is_refused_with_what_to_change(tiny_table):
+    """Checks come from the environments the final tests leave over: none left, the refusal names the
+    settings that would leave some."""
+    table = TrajectoryTable.load(tiny_table)
+    every_environment = [{"env_id": int(e)} for e in table.env_ids]
+    with pytest.raises(ClosedLoopError) as caught:
+        select_checks(table, every_environment)
+    assert closed_loop_refusal(caught.value) == (
+        "A closed-loop condition could not be prepared: no environment left over from the final tests can be a "
+        "check question. Lower the test set's thresholds, choose another difficulty or test kind, or build the "
+        "study without a closed-loop condition.")
 
 
 @pytest.mark.parametrize("text, settings", [
