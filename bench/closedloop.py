@@ -4,7 +4,7 @@ simulated learners of every model, and how long one decision takes.
     .venv/bin/python bench/closedloop.py --table var/tables/demo [--participants 200] \\
         [--json docs/bench_closedloop.json] [--update-doc docs/results.md]
 
-The design is a study built on --table with seed 0 (teaching.teach's nine conditions, select_test_set's
+The design is a study built on --table with seed 0 (python -m teaching teach's nine conditions, select_test_set's
 final tests); the closed loop's check questions are select_checks' (apart from the final tests).  The robot
 assumes approx* (det-euclidean at the τ the paper's rule picks) with a lapse rate of 0.1 and may show as
 many examples as approx*'s open-loop sequence has, a check after every 2, with and without feedback.

@@ -1,4 +1,4 @@
-"""Write docs/results.md from a trajectory table and the outputs of `python -m teaching.teach`.
+"""Write docs/results.md from a trajectory table and the outputs of `python -m teaching teach`.
 
     .venv/bin/python scripts/results_report.py --table var/tables/demo --teach var/teaching/demo \
         --out docs/results.md [--figures docs/figures] [--planner-precision TEXT] \
@@ -72,10 +72,10 @@ def load_inputs(table_dir, teach_dir):
         raise ReportError(str(exc)) from None
     teach_dir, data = Path(teach_dir), {}
     if not teach_dir.is_dir():
-        raise ReportError(f"no teach outputs at {teach_dir} (run python -m teaching.teach first)")
+        raise ReportError(f"no teach outputs at {teach_dir} (run python -m teaching teach first)")
     missing = [n for n in TEACH_FILES + FIGURES if not (teach_dir / n).is_file()]
     if missing:
-        raise ReportError(f"{teach_dir} lacks {', '.join(missing)} (run python -m teaching.teach first)")
+        raise ReportError(f"{teach_dir} lacks {', '.join(missing)} (run python -m teaching teach first)")
     for name in TEACH_FILES:
         try:
             data[name.split(".")[0]] = json.loads((teach_dir / name).read_text())
@@ -358,7 +358,7 @@ def commands_of(table_dir, teach_dir) -> list[str]:
         argv += ["--tests", "show"]
     argv += [a for label, c in seq["conditions"].items() if "selector" in c for a in ("--selector", label)]
     return [f".venv/bin/python -m teaching build --preset {preset} --out {table_dir}",
-            ".venv/bin/python -m teaching.teach " + shlex.join(argv)]
+            ".venv/bin/python -m teaching teach " + shlex.join(argv)]
 
 
 def build_report(args) -> str:

@@ -4,7 +4,7 @@
   examples, for each of the paper's simulated learners.  The study job computes it on the worker
   when it freezes the test set (precompute/sequences.py::pilot_matrix, teach.py's own matrix) and
   stores it as small JSON in ``study.source["pilot"]``.  A study made by `create_study` from
-  `python -m teaching.teach` output takes the rows of its conditions from that output's
+  `python -m teaching teach` output takes the rows of its conditions from that output's
   matrix.json (studies.spec_from_teach).
 * What participants who learn by each learner model would score in each condition:
   the study job stores, with the matrix, each model's P(option) in every test after each condition's

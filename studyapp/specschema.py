@@ -327,7 +327,7 @@ def check_spec(spec) -> dict:
     defaults filled in."""
     if not isinstance(spec, dict):
         raise SpecError(f"a study spec is a JSON object, not a {type(spec).__name__} "
-                        "(for the output of `python -m teaching.teach`, give its directory)")
+                        "(for the output of `python -m teaching teach`, give its directory)")
     out, found = _problems(spec, {**STUDY_FIELDS, **SPEC_FIELDS})
     _study_rules(out, found)
     _raise_first(found)

@@ -20,7 +20,7 @@ as produced by ``teaching.core.testset.select_test_set``).  A spec without a tab
 refused: nothing else could say what theta* does.  ``table_spec`` runs the whole
 pipeline (selection and test set) on a table, for the demo and the tests.
 
-``spec_from_teach`` turns the output directory of ``python -m teaching.teach``
+``spec_from_teach`` turns the output directory of ``python -m teaching teach``
 (sequences.json + test_set.json) into the table, conditions and test set of a
 spec; ``table_hash`` then makes sure the table is the one the sequences were
 selected on.  Every malformed spec is a ``SpecError`` with a one-line message.
@@ -75,7 +75,7 @@ SCENE_VIEW_KEY = "scene_view"  # study.source["scene_view"]: the one scale, stor
 
 
 def spec_from_teach(teach_dir, table=None) -> dict:
-    """The table, conditions and test set of a spec from `python -m teaching.teach`'s output
+    """The table, conditions and test set of a spec from `python -m teaching teach`'s output
     (read by teaching's one reader of it, teaching.api.read_teach).
 
     teach_dir: its output directory (or the sequences.json in it).  `table` overrides the table

@@ -1,8 +1,9 @@
 """Command line: ``python -m teaching build --preset demo --out var/tables/demo``.
 
-Sub-commands:
+Sub-commands (installed as a package, ``teaching`` is the same command):
   build   build (or resume) a trajectory table from a preset, with a progress bar
   info    print a table's identity and a summary (strategy counts, d_reward check)
+  teach   teaching sequences, test set, ideal-user matrix and figures of a table (teaching/teach.py)
   sheet   draw every training example and test option of a teach output as one PNG
   check-domain  check a domain's contracts (plan_chunk's arrays, d_reward, labels, page keys, palette,
                 test-set feasibility): exit 0 when all pass, 1 when one fails, 2 for bad arguments
@@ -22,6 +23,9 @@ from .core.checkdomain import CHECKS, DEFAULT_ENVS, check_domain, default_preset
 from .core.domain import domain_names, get_domain
 from .core.table import TableError, TrajectoryTable
 from .core.testset import MIN_REGRET
+from .teach import DESCRIPTION as TEACH_DESCRIPTION
+from .teach import add_arguments as add_teach_arguments
+from .teach import command as teach_command
 
 
 def summary(table: TrajectoryTable) -> str:
@@ -84,7 +88,8 @@ def _features_by_domain() -> str:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m teaching", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m teaching", description="Trajectory tables and teaching: "
+                                     "build, info, teach, sheet and check-domain.")
     sub = parser.add_subparsers(dest="command", required=True)
     b = sub.add_parser("build", help="build or resume a trajectory table")
     b.add_argument("--preset", required=True, help=f"one of: {', '.join(PRESETS)}")
@@ -99,9 +104,11 @@ def main(argv=None) -> int:
                         "preset builds fastest with one per core; the table is the same either way")
     i = sub.add_parser("info", help="summarise a table")
     i.add_argument("path")
+    add_teach_arguments(sub.add_parser("teach", help="teaching sequences, test set and ideal-user matrix of a table",
+                                       description=TEACH_DESCRIPTION))
     s = sub.add_parser("sheet", help="contact sheet: every training example and test option, one PNG")
     s.add_argument("--table", required=True, help="trajectory table directory")
-    s.add_argument("--teach", required=True, help="output directory of python -m teaching.teach")
+    s.add_argument("--teach", required=True, help="output directory of python -m teaching teach")
     s.add_argument("--out", required=True, help="PNG file to write")
     s.add_argument("--columns", type=int, default=5, help="panels per row before a sequence wraps")
     s.add_argument("--dpi", type=int, default=140)
@@ -118,9 +125,9 @@ def main(argv=None) -> int:
     c.add_argument("--preset", help="one of the domain's presets (default: its second-smallest, the demo size)")
     c.add_argument("--envs", type=int, default=DEFAULT_ENVS,
                    help=f"environments sampled from the preset for the checks (default {DEFAULT_ENVS})")
-    c.add_argument("--min-regret", type=float, default=MIN_REGRET, help="the test set's (as python -m teaching.teach)")
+    c.add_argument("--min-regret", type=float, default=MIN_REGRET, help="the test set's (as python -m teaching teach)")
     c.add_argument("--min-option-distance", type=float, default=None,
-                   help="the test set's (as python -m teaching.teach; default: the domain's). A tiny preset's few θ "
+                   help="the test set's (as python -m teaching teach; default: the domain's). A tiny preset's few θ "
                         "rarely give options the default distance apart: the app's tests use 0.1 on them.")
     args = parser.parse_args(argv)
     try:
@@ -157,6 +164,8 @@ def main(argv=None) -> int:
             print(f"drew {n} panels -> {args.out}")
         elif args.command == "check-domain":
             return check_domain_command(args)
+        elif args.command == "teach":
+            return teach_command(args)
         else:
             print(summary(TrajectoryTable.load(args.path)))
     except (ValueError, TableError) as exc:

@@ -1,6 +1,6 @@
 """Command line: teaching sequences, test set and ideal-user analysis for one table.
 
-    python -m teaching.teach --table var/tables/demo --out var/teaching/demo
+    python -m teaching teach --table var/tables/demo --out var/teaching/demo
 
 writes to --out (the format: teaching/core/teachout.py, which also reads it):
     sequences.json             every condition's environment ids, P(θ*) curve, chosen τ/λ and sweeps
@@ -50,8 +50,11 @@ class InputError(ValueError):
     """Bad command-line input: reported in one line, exit status 2."""
 
 
-def parse_args(argv=None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(prog="python -m teaching.teach", description=__doc__.split("\n\n")[0])
+DESCRIPTION = __doc__.split("\n\n")[0].removeprefix("Command line: ")
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """The teach command's options, on `python -m teaching teach`'s sub-parser."""
     p.add_argument("--table", required=True, help="trajectory table directory")
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--seed", type=int, default=0)
@@ -74,6 +77,11 @@ def parse_args(argv=None) -> argparse.Namespace:
                         "participant to move the robot, scored by its regret under θ* (docs/teaching.md, "
                         "'Show-the-way tests')")
     p.add_argument("--no-progress", action="store_true")
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(prog="python -m teaching teach", description=DESCRIPTION)
+    add_arguments(p)
     return p.parse_args(argv)
 
 
@@ -197,8 +205,8 @@ def _seq_json(seq, ids) -> dict:
             "added_for_coverage": [int(i) for i in ids[seq.added_for_coverage]]}
 
 
-def main(argv=None) -> int:
-    args = parse_args(argv)
+def command(args: argparse.Namespace) -> int:
+    """`python -m teaching teach`: run, then exit status 0, or 2 with one line for bad input."""
     try:
         run(args)
     except InputError as exc:
@@ -208,5 +216,9 @@ def main(argv=None) -> int:
     return 0
 
 
-if __name__ == "__main__":
+def main(argv=None) -> int:
+    return command(parse_args(argv))
+
+
+if __name__ == "__main__":  # the older spelling, `python -m teaching teach`, which saved outputs still quote
     sys.exit(main())

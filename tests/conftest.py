@@ -271,11 +271,11 @@ def gridworld_tiny_table(tmp_path_factory):
 
 @pytest.fixture(scope="session")
 def gridworld_teach(gridworld_table, tmp_path_factory):
-    """`python -m teaching.teach` on the gridworld table."""
+    """`python -m teaching teach` on the gridworld table."""
     return built_once(tmp_path_factory, "gridworld-teach", _teach(gridworld_table))
 
 
 @pytest.fixture(scope="session")
 def demo_teach(demo_table, tmp_path_factory):
-    """`python -m teaching.teach` run on the demo table: sequences.json, test_set.json, ..."""
+    """`python -m teaching teach` run on the demo table: sequences.json, test_set.json, ..."""
     return built_once(tmp_path_factory, "demo-teach", _teach(demo_table))

@@ -48,7 +48,7 @@ def cluster_name(domain, c: int) -> str:
 
 
 def load_teach(*, teach_dir, table) -> tuple[dict[str, list[int]], list[dict] | None, str | None]:
-    """Read and check ``teach_dir`` (the output of ``python -m teaching.teach``, teaching.core.teachout)
+    """Read and check ``teach_dir`` (the output of ``python -m teaching teach``, teaching.core.teachout)
     against ``table``.
 
     Returns (conditions: name -> environment ids in showing order, tests: test_set.json's list or

@@ -1,4 +1,4 @@
-"""The teach output on disk: the one writer and the one reader of what ``python -m teaching.teach`` writes.
+"""The teach output on disk: the one writer and the one reader of what ``python -m teaching teach`` writes.
 
     sequences.json             every condition's environment ids (and P(θ*) curve, chosen τ/λ, sweeps),
                                with the table it was selected on: {"table": {"path", "content_hash", ...}}
@@ -67,7 +67,7 @@ def _read_json(path: Path):
         return json.loads(path.read_text())
     except FileNotFoundError:
         raise TeachOutputError(f"no teach output at {path.parent}: {path.name} is missing (run python -m "
-                               f"teaching.teach --table TABLE --out {path.parent})") from None
+                               f"teaching teach --table TABLE --out {path.parent})") from None
     except (OSError, ValueError) as exc:
         raise TeachOutputError(f"{path} is unreadable or not valid JSON: {exc}") from None
 
@@ -81,7 +81,7 @@ def read_teach(teach_dir) -> TeachOutput:
     sequences = _read_json(teach_dir / "sequences.json")
     if not (isinstance(sequences, dict) and isinstance(sequences.get("conditions"), dict)
             and isinstance(sequences.get("table", {}), dict)):
-        raise TeachOutputError(f"{teach_dir / 'sequences.json'} is not an output of `python -m teaching.teach` "
+        raise TeachOutputError(f"{teach_dir / 'sequences.json'} is not an output of `python -m teaching teach` "
                                "(no 'conditions')")
     conditions = {}
     for name, c in sequences["conditions"].items():

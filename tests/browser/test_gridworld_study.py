@@ -1,5 +1,5 @@
 """The gridworld through the whole platform: its table (built for real) -> `python -m
-teaching.teach` -> `manage.py create_study` from that output -> a participant completes the study in
+teaching teach` -> `manage.py create_study` from that output -> a participant completes the study in
 Debian's Chromium (training animations and the four test options drawn by scenes/gridworld.js,
 screenshots in test-output/ to look at) -> `manage.py analyze`.  A driving study lives in the same
 database and the dashboard lists both, each with its domain.

@@ -223,7 +223,7 @@ def test_setup_demo_rebuilds_after_the_table_changes_but_never_under_participant
     assert "already has participants" in out.getvalue()
 
 
-# --- from the output of `python -m teaching.teach` ----------------------------------------------
+# --- from the output of `python -m teaching teach` ----------------------------------------------
 @pytest.mark.slow
 def test_create_study_from_the_teach_output(demo_table, demo_teach, staff_client):
     sequences = json.loads((demo_teach / "sequences.json").read_text())

@@ -50,7 +50,7 @@ def test_every_section_and_identity(inputs, generated):
     assert meta["content_hash"] in text and meta["world"] in text
     for cond in CONDITIONS:
         assert f"| {cond} |" in text, cond
-    assert "python -m teaching.teach --table" in text and "scripts/results_report.py" in text
+    assert "python -m teaching teach --table" in text and "scripts/results_report.py" in text
     assert "quoted verbatim: 42 %" in text
     assert "has not been rebuilt" in text  # no paper table given
     for png in ("sim_users.png", "examples_shown.png"):
@@ -61,7 +61,7 @@ def test_every_section_and_identity(inputs, generated):
 def test_the_header_names_the_teach_command_with_its_selectors(inputs, generated):
     _, text = generated
     header = text.split("```")[1]
-    assert (f"python -m teaching.teach --table {inputs / 'table'} --out {inputs / 'teach'} "
+    assert (f"python -m teaching teach --table {inputs / 'table'} --out {inputs / 'teach'} "
             "--selector scot --selector highlights:k=3\n") in header
 
 

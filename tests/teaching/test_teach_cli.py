@@ -89,8 +89,27 @@ def test_empty_environment_set(tmp_path, capsys):
     assert code == 2 and "no environments" in err
 
 
-def test_missing_table_and_real_entry_point(tmp_path):
-    proc = subprocess.run([sys.executable, "-m", "teaching.teach", "--table", str(tmp_path / "nope"),
+@pytest.mark.parametrize("entry", [["teaching", "teach"], ["teaching.teach"]])
+def test_missing_table_and_real_entry_point(tmp_path, entry):
+    """`python -m teaching teach`, and the older spelling saved outputs still quote."""
+    proc = subprocess.run([sys.executable, "-m", *entry, "--table", str(tmp_path / "nope"),
                            "--out", str(tmp_path / "o")], capture_output=True, text=True)
     assert proc.returncode == 2
     assert "no trajectory table" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_the_one_command_writes_what_the_module_wrote(saved, tmp_path, capsys):
+    """`python -m teaching teach` is the teach command itself: the same files, byte for byte, as the older
+    `python -m teaching.teach`; and `python -m teaching --help` names every sub-command."""
+    from teaching.__main__ import main as one_command  # noqa: PLC0415 (the module under test)
+
+    argv = ["--table", str(saved), "--no-progress", "--selector", "scot"]
+    assert main([*argv, "--out", str(tmp_path / "module")]) == 0
+    assert one_command(["teach", *argv, "--out", str(tmp_path / "command")]) == 0
+    written = sorted(p.name for p in (tmp_path / "module").iterdir())
+    assert written == sorted(p.name for p in (tmp_path / "command").iterdir()) and "sequences.json" in written
+    for name in written:
+        assert (tmp_path / "module" / name).read_bytes() == (tmp_path / "command" / name).read_bytes(), name
+    proc = subprocess.run([sys.executable, "-m", "teaching", "--help"], capture_output=True, text=True)
+    assert proc.returncode == 0
+    assert all(sub in proc.stdout for sub in ("build", "info", "teach", "sheet", "check-domain"))

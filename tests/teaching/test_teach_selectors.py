@@ -1,4 +1,4 @@
-"""python -m teaching.teach --selector: named selectors join the conditions of the teach output (its
+"""python -m teaching teach --selector: named selectors join the conditions of the teach output (its
 sequences.json, the extended ideal-user matrix, the cluster grids, the pilot's predictions), and a bad
 name or parameter is one line from the argument parser (exit 2)."""
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """Create a study from a JSON spec (studyapp/studies.py has the format), or from the output
-directory of `python -m teaching.teach` (its sequences.json and test_set.json):
+directory of `python -m teaching teach` (its sequences.json and test_set.json):
 
     python manage.py create_study spec.json
     python manage.py create_study var/teaching/demo --slug pilot-1 --completion-code C1ABCDEF
@@ -32,10 +32,10 @@ def read_spec(path: Path, table=None) -> dict:
 
 class Command(BaseCommand):
     help = ("Create a study from a JSON spec (conditions + env_ids, optional table and test set) or from "
-            "the output directory of `python -m teaching.teach`.")
+            "the output directory of `python -m teaching teach`.")
 
     def add_arguments(self, parser):
-        parser.add_argument("spec", type=Path, help="JSON spec, or a `python -m teaching.teach` output directory")
+        parser.add_argument("spec", type=Path, help="JSON spec, or a `python -m teaching teach` output directory")
         parser.add_argument("--slug", help="the study's URL name (required for a teach output)")
         parser.add_argument("--name", help="title shown to researchers")
         parser.add_argument("--table", help="trajectory table (default: the one the teach output names)")

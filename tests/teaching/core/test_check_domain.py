@@ -147,6 +147,13 @@ def test_a_scene_on_a_base_module_reads_the_colours_of_both(grid, tmp_path):
     assert any("'baz-qux'" in line for line in lines) and any("'foo-bar'" in line for line in lines)
 
 
+def test_an_installed_core_without_the_web_pages_says_the_palette_was_not_checked(grid, tmp_path):
+    """`pip install .` brings the core, not static/: the palette check says it could not look, and names no
+    scene the researcher should write."""
+    result = check_palette(grid, tmp_path / "site-packages" / "static" / "studyapp")
+    assert result.ok and result.summary.startswith("not checked: the web pages' scene files")
+
+
 def test_the_command_exits_0_when_every_check_passes():
     proc = subprocess.run(
         [sys.executable, "-m", "teaching", "check-domain", "gridworld", "--preset", tiny(get_domain("gridworld")).name,
