@@ -69,6 +69,10 @@ lint: venv
 # collects the tests once: Python may write bytecode here (unset PYTHONDONTWRITEBYTECODE, which this
 # machine sets), so the project's modules and pytest's rewritten test modules are compiled once, not in
 # every pytest process, server and subprocess of the suite.
+# Each xdist worker runs Numba's kernels and BLAS on one thread: three workers beside the services' run on
+# two cores are already more processes than cores, and a second thread per worker only competed with the
+# others (docs/decisions.md, "One thread per worker"); the tables' bytes do not depend on the thread count,
+# and the prebuilt tables the tests compare with were built on every core.
 # pytest exit 5 means "no tests collected": that is a failure here, never a pass.
 SERVICES_LOG = var/test-services.log
 test: venv browser-deps serve-deps messages
@@ -76,7 +80,7 @@ test: venv browser-deps serve-deps messages
 	unset PYTHONDONTWRITEBYTECODE; export TEST_BUILDS_DIR=$$(mktemp -d /tmp/test-builds.XXXXXX); \
 	$(PY) -m tests.prebuild || exit 1; \
 	$(PY) -m pytest -p no:cacheprovider -m "postgres or redis" > $(SERVICES_LOG) 2>&1 & svc=$$!; \
-	$(PY) -m pytest -n 3 --dist worksteal -m "not (postgres or redis)"; a=$$?; \
+	NUMBA_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -n 3 --dist worksteal -m "not (postgres or redis)"; a=$$?; \
 	echo "--- the shared-services tests ($(SERVICES_LOG)) ---"; wait $$svc; b=$$?; cat $(SERVICES_LOG); \
 	rm -rf "$$TEST_BUILDS_DIR"; \
 	for rc in $$a $$b; do if [ $$rc -eq 5 ]; then echo "pytest collected no tests" >&2; exit 1; fi; done; \

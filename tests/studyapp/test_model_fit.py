@@ -97,10 +97,10 @@ def test_bad_input_gives_one_line(demo_table, tiny_table):
     with pytest.raises(CommandError, match="no study 'nope'"):
         run("nope")
     one = make_study(demo_table, "fit-one", {"exact": [int(e) for e in study.conditions.get(name="exact").env_ids]})
-    simulate(one, n_per_condition=10, seed=1, learner=SimulatedLearner("det-euclidean", 1.0, 0.1))
+    simulate(one, n_per_condition=3, seed=1, learner=SimulatedLearner("det-euclidean", 1.0, 0.1))
     with pytest.raises(CommandError, match="one condition"):
         run(one.slug)
-    simulate(study, n_per_condition=12, seed=4, learner=SimulatedLearner("det-euclidean", 1.0, 1.0))
+    simulate(study, n_per_condition=5, seed=4, learner=SimulatedLearner("det-euclidean", 1.0, 1.0))  # guessers
     with pytest.raises(CommandError, match="better than guessing"):
         run(study.slug)
     with pytest.raises(CommandError, match="unknown learner model 'bogus'"):
@@ -149,7 +149,7 @@ def test_tied_models_are_reported_tied_in_the_command_the_csv_and_the_panel(demo
     from django.urls import reverse  # noqa: PLC0415
 
     study = make_study(demo_table, "fit-ties")
-    simulate(study, n_per_condition=12, seed=2, learner=SimulatedLearner("exact", None, 0.1))
+    simulate(study, n_per_condition=6, seed=2, learner=SimulatedLearner("exact", None, 0.1))
     out = run(study.slug, "--csv", str(tmp_path / "m.csv"), "--figure", str(tmp_path / "m.png"))
     rows = list(csv.DictReader((tmp_path / "m.csv").open()))
     top = [r for r in rows if r["rank"] == "1"]
@@ -204,7 +204,7 @@ def test_a_study_with_the_hierarchical_condition_is_analysed_and_fitted(demo_tab
     whole = teach(table)
     sequences = {c: [int(ids[e]) for e in whole.sequences[c].envs] for c in ("exact", "random", "hierarchical")}
     study = make_study(demo_table, "fit-hier", sequences=sequences)
-    simulate(study, n_per_condition=30, seed=7,
+    simulate(study, n_per_condition=20, seed=7,
              learner=SimulatedLearner("hierarchical", whole.models["hierarchical"].value, 0.1))
     out = io.StringIO()
     call_command("analyze", study.slug, "--out", str(tmp_path / "report"), stdout=out)
