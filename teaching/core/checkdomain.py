@@ -218,9 +218,11 @@ def check_page_keys(domain, out, env_ids) -> Result:
     return Result("page_keys", (), f"{', '.join(keys)} in every scene_payload of {len(env_ids)} environments")
 
 
-def check_palette(domain, static: Path = STATIC) -> Result:
-    if not static.is_dir():  # the core installed as a package, without the web pages it would check
-        return Result("palette", (), f"not checked: the web pages' scene files ({static}) come with a clone of the "
+def check_palette(domain, static: Path | tuple[Path, ...] = STATIC) -> Result:
+    """static: as scene_colours takes it (a folder, or several searched in order)."""
+    roots = (static,) if isinstance(static, (str, Path)) else tuple(static)
+    if not any(Path(r).is_dir() for r in roots):  # the core installed as a package, without the web pages
+        return Result("palette", (), f"not checked: the web pages' scene files ({roots[0]}) come with a clone of the "
                                      "repository, not with the installed core")
     palette = set(domain.palette)
     at = where(domain, "palette")

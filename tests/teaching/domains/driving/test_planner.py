@@ -124,12 +124,14 @@ def test_cross_theta_every_theta_has_the_best_stored_trajectory_in_its_environme
 
 
 def test_planner_matches_the_eight_start_scipy_reference(chunk):
+    """Eight pairs of the chunk, θ*'s among them: a spot check in every run; bench/planner.py and
+    docs/benchmarks.md hold 1,000 random pairs of the paper table against the hard-constraint reference."""
     table, _ = chunk
     rng = np.random.default_rng(11)
-    pairs = [(int(m), int(n)) for m, n in zip(rng.integers(0, M_ENVS, 12), rng.integers(0, N_THETAS, 12), strict=True)]
+    pairs = [(int(m), int(n)) for m, n in zip(rng.integers(0, M_ENVS, 8), rng.integers(0, N_THETAS, 8), strict=True)]
     pairs[0] = (0, 0)  # theta* is always among them
     gaps = reference_gap(table, pairs, n_jobs=1)  # in this process: test_reference runs the spawned workers
-    assert gaps.shape == (12,)
+    assert gaps.shape == (8,)
     assert gaps.max() <= 1e-3, list(zip(pairs, gaps, strict=True))
 
 
@@ -425,9 +427,14 @@ def test_euclidean_distance_by_hand():
 
 @pytest.mark.slow
 def test_theta_star_uses_both_strategies_in_every_informative_class():
+    """On every third environment of the informative classes (2,358 of 7,072: their shares within half a
+    point of the whole set's, at a third of its planning).  The whole set, planned once: merging 45.1 % ahead,
+    47.3 % behind, 7.6 % neither; braking 70.9 % stay, 24.2 % change, 4.9 % neither; tailgating 24.6 %
+    change, 71.3 % stay, 4.1 % neither; the sample: 45.3 / 47.2 / 7.5, 71.2 / 24.1 / 4.8, 24.8 / 71.5 / 3.7."""
     envs = get_environments()
-    ids = np.flatnonzero(environment_class(envs) < 3)
-    assert len(ids) == 3536 + 1768 + 1768
+    informative = np.flatnonzero(environment_class(envs) < 3)
+    assert len(informative) == 3536 + 1768 + 1768
+    ids = informative[::3]
     out = plan_chunk(ids, THETA_STAR[None], default_normalisers())
     labels = out["strategy"][:, 0]
     cls = environment_class(get_environments(ids))
