@@ -39,19 +39,21 @@ def _load(path: str):
     return TrajectoryTable.load(path, verify=False)  # the designer lists published tables; the job verifies
 
 
+def _cached(key: str | None, compute):
+    """compute(), kept in Django's cache under ``key`` (None: a table without a content hash, not kept)."""
+    return compute() if key is None else cache.get_or_set(key, compute, CACHE_SECONDS)
+
+
 def counts(path: str, kind: str, min_regret: float | None = None, min_distance: float | None = None) -> dict:
     """teaching's TestSupply of the table at ``path`` as JSON-able data (TestSupply.as_dict, with ``lines``:
     its describe()), cached; TableError or OSError when the table cannot be read."""
     min_regret = MIN_REGRET if min_regret is None else min_regret
-    key = _key(path, "counts", kind, min_regret, min_distance)
-    found = cache.get(key) if key else None
-    if found is None:
+
+    def compute() -> dict:
         supply = supply_of_tests(_load(path), kind, min_regret=min_regret, min_distance=min_distance)
-        found = {**supply.as_dict(), "lines": supply.describe(), "problems": {
+        return {**supply.as_dict(), "lines": supply.describe(), "problems": {
             d: _sentence(supply.problem(d)) for d in supply.as_dict()["feasible"]}}
-        if key:
-            cache.set(key, found, CACHE_SECONDS)
-    return found
+    return _cached(_key(path, "counts", kind, min_regret, min_distance), compute)
 
 
 def problem(path: str, domain: str, kind: str, difficulty: str | None, min_regret: float | None = None,
@@ -59,22 +61,18 @@ def problem(path: str, domain: str, kind: str, difficulty: str | None, min_regre
     """(field, why in one line) when the build's last step could not draw these tests on the table at
     ``path`` whatever the conditions train on; ("", "") when it can (training may still use the last
     environments of a level: the build says so).  ``domain``: the table's robot."""
+    robot = get_domain(domain)
     if kind == Study.SHOW:
-        why = cannot_show(get_domain(domain))
+        why = cannot_show(robot)
         if why:
             return "test_kind", f"This table's robot cannot be shown the way: {why}."
     try:
         if difficulty in (None, "", "none"):
             # quick: each cluster's first host answers it (the counts are for the page, in the background)
-            key = _key(path, "missing", kind, min_regret, min_distance)
-            missing = cache.get(key) if key else None
-            if missing is None:
-                missing = clusters_without_a_test(_load(path), kind, min_regret=MIN_REGRET if min_regret is None
-                                                  else min_regret, min_distance=min_distance)
-                if key:
-                    cache.set(key, missing, CACHE_SECONDS)
-            clusters = [get_domain(domain).cluster_names[c] for c in get_domain(domain).test_clusters]
-            why = ungraded_problem(kind, clusters, missing)
+            missing = _cached(_key(path, "missing", kind, min_regret, min_distance), lambda: clusters_without_a_test(
+                _load(path), kind, min_regret=MIN_REGRET if min_regret is None else min_regret,
+                min_distance=min_distance))
+            why = ungraded_problem(kind, [robot.cluster_names[c] for c in robot.test_clusters], missing)
             return ("min_regret", _sentence(why)) if why else ("", "")
         why = counts(path, kind, min_regret, min_distance)["problems"][difficulty]
     except (TableError, OSError, ValueError) as exc:

@@ -45,11 +45,9 @@ class Estimate:
     closed_loop: bool = False
 
 
-def _test_seconds(study: Study) -> float:
-    seconds = 0.0
-    for test in study.test_set:
-        seconds += TEST_S[study.test_kind] + sum(animation_seconds(o) for o in test.get("options", ()))
-    return seconds
+def _question_seconds(study: Study, question: dict) -> float:
+    """A test or check question: answering it, and watching each of its options' animations once."""
+    return TEST_S[study.test_kind] + sum(animation_seconds(o) for o in question.get("options", ()))
 
 
 def estimates(study: Study) -> list[Estimate]:
@@ -60,7 +58,7 @@ def estimates(study: Study) -> list[Estimate]:
             n_questions = len(questions_of(study))  # its own, else its robot's
         except (KeyError, ValueError):
             n_questions = 0  # a robot not registered here: the page says so, and the study cannot run
-    fixed = PAGES_S + COMPREHENSION_QUESTION_S * n_questions + _test_seconds(study)
+    fixed = PAGES_S + COMPREHENSION_QUESTION_S * n_questions + sum(_question_seconds(study, t) for t in study.test_set)
     conditions = list(study.conditions.all())
     shown = [animation_seconds(p) for c in conditions if not c.closed_loop for p in c.training]
     typical = sum(shown) / len(shown) if shown else 0.0
@@ -69,8 +67,7 @@ def estimates(study: Study) -> list[Estimate]:
         if c.closed_loop:
             n, checks = c.closed_loop["settings"]["max_examples"], max_checks(c.closed_loop)
             watched = n * typical
-            check_s = checks * (TEST_S[study.test_kind] + FEEDBACK_S + sum(
-                animation_seconds(o) for t in c.closed_loop["checks"][:checks] for o in t.get("options", ())))
+            check_s = sum(_question_seconds(study, t) + FEEDBACK_S for t in c.closed_loop["checks"][:checks])
         else:
             n, checks, watched, check_s = len(c.training), 0, sum(animation_seconds(p) for p in c.training), 0.0
         seconds = fixed + n * EXAMPLE_S + watched + check_s

@@ -11,6 +11,7 @@ import hashlib
 import secrets
 from datetime import timedelta
 from decimal import Decimal
+from pathlib import Path
 
 from django.core.exceptions import ValidationError
 from django.db import models
@@ -166,8 +167,6 @@ class Study(models.Model):
     def _missing_packs(self) -> list[str]:
         """A closed-loop condition decides each participant's next example from data its build wrote beside
         the table (studyapp/closedloop.py): where that directory is gone, its participants could not go on."""
-        from pathlib import Path  # noqa: PLC0415
-
         out = []
         for name, data in self.conditions.filter(closed_loop__isnull=False).values_list("name", "closed_loop"):
             pack = (data or {}).get("pack")

@@ -40,7 +40,7 @@ def legend(domain: Domain) -> list[dict]:
         if entry.hatch:
             style += (f" background-image: repeating-linear-gradient(-45deg, transparent 0 3px, "
                       f"var(--scene-{entry.hatch}) 3px 5px);")
-        out.append({"label": entry.label, "style": style, "letter": getattr(entry, "letter", "")})
+        out.append({"label": entry.label, "style": style, "letter": entry.letter})
     return out
 
 

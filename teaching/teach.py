@@ -220,5 +220,5 @@ def main(argv=None) -> int:
     return command(parse_args(argv))
 
 
-if __name__ == "__main__":  # the older spelling, `python -m teaching teach`, which saved outputs still quote
+if __name__ == "__main__":  # the older spelling, `python -m teaching.teach`, which saved outputs still quote
     sys.exit(main())

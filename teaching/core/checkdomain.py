@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from .rewards import reward
-from .scenecolours import STATIC, scene_colours
+from .scenecolours import STATIC, scene_colours, static_roots
 from .showtests import MIN_SHARE, eligible_rows
 from .table import TrajectoryTable
 from .testset import MIN_REGRET, select_test_set
@@ -220,8 +220,8 @@ def check_page_keys(domain, out, env_ids) -> Result:
 
 def check_palette(domain, static: Path | tuple[Path, ...] = STATIC) -> Result:
     """static: as scene_colours takes it (a folder, or several searched in order)."""
-    roots = (static,) if isinstance(static, (str, Path)) else tuple(static)
-    if not any(Path(r).is_dir() for r in roots):  # the core installed as a package, without the web pages
+    roots = static_roots(static)
+    if not any(r.is_dir() for r in roots):  # the core installed as a package, without the web pages
         return Result("palette", (), f"not checked: the web pages' scene files ({roots[0]}) come with a clone of the "
                                      "repository, not with the installed core")
     palette = set(domain.palette)

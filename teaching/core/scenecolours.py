@@ -95,13 +95,18 @@ def _names(js: str, argument: str) -> list[str] | None:
     return None
 
 
+def static_roots(static: Path | tuple[Path, ...]) -> list[Path]:
+    """The folders a page's static files are searched in, in order: ``static`` itself, or each of several."""
+    return [Path(r) for r in ((static,) if isinstance(static, (str, Path)) else static)]
+
+
 def scene_colours(name: str, static: Path | tuple[Path, ...] = STATIC) -> SceneColours:
     """The palette names scenes/<name>.js and scenes/<name>.css read (missing files are reported).
 
     static: the folder the page serves as /static/studyapp/, or several searched in order, as Django's
     static files finders search them (the first that has a file gives it): a test's own scene beside the
     project's."""
-    roots = [Path(r) for r in ((static,) if isinstance(static, (str, Path)) else static)]
+    roots = static_roots(static)
     static = roots[0]
     out = SceneColours()
 
