@@ -96,10 +96,10 @@ def domain_text(domain, text: str) -> str:
     is translated and filled in with its values, each translated alike."""
     if not text:
         return text
-    own = getattr(domain, "translations", {}).get(_language(), {})
+    own = domain.translations.get(_language(), {})
     if text in own:
         return own[text]
-    formatted = getattr(domain, "formatted_texts", {})
+    formatted = domain.formatted_texts
     if text in formatted:
         template, values = formatted[text]
         return gettext(template).format(**{k: domain_text(domain, v) for k, v in values.items()})
@@ -119,8 +119,8 @@ def untranslated_texts(domain, language: str) -> list[str]:
     a text filled in from the domain's data, the text it was filled from, and each value filled in)."""
     if language == SOURCE_LANGUAGE:
         return []
-    own = getattr(domain, "translations", {}).get(language, {})
-    formatted = getattr(domain, "formatted_texts", {})
+    own = domain.translations.get(language, {})
+    formatted = domain.formatted_texts
     missing = []
 
     def look(text: str) -> str:
@@ -150,7 +150,7 @@ def language_problem(domain, language: str) -> str:
     name = translation.get_language_info(language)["name"]  # in English: a researcher reads it
     shown = ", ".join(repr(t if len(t) <= 60 else t[:57] + "...") for t in missing[:8])
     more = f" and {len(missing) - 8} more" if len(missing) > 8 else ""
-    source = getattr(domain, "translations_source", "")
+    source = domain.translations_source
     where = (f"add them under [translations.{language}] in the world file {source} (docs/gridworlds.md)" if source
              else f"add them to locale/{language}/LC_MESSAGES/django.po (docs/study.md, \"Languages\")")
     return (f"a study in {name} needs every text of the robot {domain.name!r} in {name}, and these have no "

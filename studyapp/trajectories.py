@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from teaching.api import SHOW, Domain, get_domain, is_show
+from teaching.api import SHOW, Domain, get_domain, is_show, shows_the_way
 
 
 def study_domain(study) -> Domain:
@@ -125,7 +125,7 @@ GRADED_KEYS = ("difficulty", "bec_size", "bec_tertiles", "graded")
 def cannot_show(domain: Domain) -> str | None:
     """Why `domain` can have no "show the way" tests (one line), or None: it must replay and score a way
     a participant shows (``Domain.score_shown``)."""
-    if callable(getattr(domain, "score_shown", None)):
+    if shows_the_way(domain):
         return None
     return (f"the {domain.name} domain cannot replay and score a way a participant shows, so it has no 'show the "
             "way' tests (grid worlds from a file have them)")

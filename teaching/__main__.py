@@ -5,8 +5,8 @@ Sub-commands (installed as a package, ``teaching`` is the same command):
   info    print a table's identity and a summary (strategy counts, d_reward check)
   teach   teaching sequences, test set, ideal-user matrix and figures of a table (teaching/teach.py)
   sheet   draw every training example and test option of a teach output as one PNG
-  check-domain  check a domain's contracts (plan_chunk's arrays, d_reward, labels, page keys, palette,
-                test-set feasibility): exit 0 when all pass, 1 when one fails, 2 for bad arguments
+  check-domain  check a domain's contracts (its members, plan_chunk's arrays, d_reward, labels, page keys,
+                palette, test-set feasibility): exit 0 when all pass, 1 when one fails, 2 for bad arguments
 """
 from __future__ import annotations
 
@@ -50,16 +50,17 @@ def summary(table: TrajectoryTable) -> str:
 def check_domain_command(args) -> int:
     """Run check-domain; 0 when every check passes, 1 when one fails (bad arguments raise ValueError)."""
     domain = get_domain(args.name)
-    presets = {p.name: p for p in domain.presets}
+    presets = {p.name: p for p in domain.presets} if hasattr(domain, "presets") else {}  # else: the members check says
     if args.preset is not None and args.preset not in presets:
         raise ValueError(f"unknown preset {args.preset!r} for domain {domain.name}; choose one of {', '.join(presets)}")
     if args.envs < 1:
         raise ValueError(f"--envs must be at least 1, got {args.envs}")
     if args.min_option_distance is not None and not args.min_option_distance >= 0:
         raise ValueError(f"--min-option-distance must be >= 0, got {args.min_option_distance}")
-    preset = presets[args.preset] if args.preset else default_preset(domain)
-    print(f"check-domain {domain.name}, preset {preset.name} ({preset.n_envs:,} environments × {preset.n_thetas} θ), "
-          f"a sample of {min(args.envs, preset.n_envs):,} environments", flush=True)
+    preset = presets[args.preset] if args.preset else default_preset(domain) if presets else None
+    print(f"check-domain {domain.name}, " + (
+        f"preset {preset.name} ({preset.n_envs:,} environments × {preset.n_thetas} θ), a sample of "
+        f"{min(args.envs, preset.n_envs):,} environments" if preset else "no presets"), flush=True)
     start, results = time.time(), []
     for result in check_domain(domain, preset, n_envs=args.envs, min_regret=args.min_regret,
                                min_distance=args.min_option_distance,
@@ -68,9 +69,10 @@ def check_domain_command(args) -> int:
         lines = [f"FAIL  {result.check}: {f}" for f in result.failures] or [f"ok    {result.check}: {result.summary}"]
         print("\n".join(lines), flush=True)
     done = {r.check for r in results}
+    needs = "every member of the interface" if not results[0].ok else "plan_chunk's arrays in their shapes and dtypes"
     for check in CHECKS:
         if check not in done:
-            print(f"skip  {check}: needs plan_chunk's arrays in their shapes and dtypes")
+            print(f"skip  {check}: needs {needs}")
     failed = [r.check for r in results if not r.ok]
     took = f"{time.time() - start:.1f} s"
     if failed or len(done) < len(CHECKS):
@@ -114,8 +116,9 @@ def main(argv=None) -> int:
     s.add_argument("--dpi", type=int, default=140)
     c = sub.add_parser(
         "check-domain", help="check a domain's contracts before building and teaching on it",
-        description="Check a domain against the contracts the core and the study's pages rely on: plan_chunk's "
-                    "shapes and dtypes, d_reward >= 0 (each θ's own trajectory the best under θ), labels in range, "
+        description="Check a domain against the contracts the core and the study's pages rely on: every member "
+                    "of the interface's parts (teaching/core/domain.py), plan_chunk's shapes and dtypes, d_reward "
+                    ">= 0 (each θ's own trajectory the best under θ), labels in range, "
                     "page_keys against scene_payload, the palette against the colours its scene reads, and each "
                     "test cluster's test-set feasibility on the preset. Plans a small sample of the preset's "
                     f"environments (--envs, default {DEFAULT_ENVS}: seconds); the test-set search plans more of the "

@@ -30,8 +30,10 @@ Strategies (what a trajectory does; the paper's coverage clusters)
                              v ft/s, steer rad] -> (n,) or (n, N) int8 cluster (8: no strategy)
 
 Domains (teaching.core.domain)
-    Domain                   the interface a robot implements (names, classes, clusters, features,
-                             planning, and the study's pages: scene payloads, palette, texts);
+    Domain                   the interface a robot implements, in three declared parts: WorldPart
+                             (names, classes, clusters, features, θ*), PlannerPart (planning, the
+                             stored encoding, states) and PagesPart (scene payloads, palette, texts);
+                             shows_the_way(domain): whether it has the optional ShowWayPart;
                              get_domain(name=None) the registered one (None: default),
                              domain_names() every registered name, default_domain_name()
     ParticipantTexts, LegendEntry  what a domain's pages tell participants
@@ -185,7 +187,15 @@ from .core.closedloop_pack import Pack, load_pack, write_pack
 from .core.closedloop_pilot import loop_pilot
 from .core.conditions import build_sequences, condition_params, condition_sequence
 from .core.difficulty import DIFFICULTIES
-from .core.domain import Domain, LegendEntry, ParticipantTexts, default_domain_name, domain_names, get_domain
+from .core.domain import (
+    Domain,
+    LegendEntry,
+    ParticipantTexts,
+    default_domain_name,
+    domain_names,
+    get_domain,
+    shows_the_way,
+)
 from .core.evaluation import USER_NAMES, study_matrix
 from .core.fitting import TIE_TOLERANCE, Answers, Comparison, FitError, Question, compare_models, questions_of
 from .core.i18n import TranslatableError
@@ -224,7 +234,7 @@ __all__ = [
     "ALL_CONDITIONS", "APPROX_STAR", "CLASS_NAMES", "CLUSTER_NAMES", "CONDITIONS", "GOAL_NAMES", "MIN_OPTION_DISTANCE",
     "MIN_REGRET",
     "Domain", "LegendEntry", "ParticipantTexts", "TranslatableError", "default_domain_name", "domain_names",
-    "get_domain",
+    "get_domain", "shows_the_way",
     "MODEL_NAMES", "N_CLUSTERS", "USER_NAMES",
     "N_ENVIRONMENTS", "PRESETS", "SAMPLERS", "WORLD", "Preset", "SelectionSettings", "TableError",
     "TrajectoryTable", "assemble", "build_chunk", "build_sequences", "check_writable", "chunk_key", "chunk_path",

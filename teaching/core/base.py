@@ -57,6 +57,8 @@ class BaseDomain:
     translations: Mapping[str, Mapping[str, str]] = MappingProxyType({})
     # where those translations are written, for a message asking for the missing ones ("": the catalogs)
     translations_source: str = ""
+    # a text filled in from the domain's data -> (its marked template, the values): none, every text is fixed
+    formatted_texts: Mapping[str, tuple[str, Mapping[str, str]]] = MappingProxyType({})
 
     @property
     def code_roots(self) -> tuple[Path, ...]:

@@ -50,7 +50,7 @@ def code_fingerprint(domain: str | None = None, roots: tuple[Path, ...] | None =
     too.  `roots` replaces the packages (tests)."""
     if roots is None:
         d = get_domain(domain)
-        roots = (CORE_DIR, *map(Path, getattr(d, "code_roots", (d.code_root,))))
+        roots = (CORE_DIR, *map(Path, d.code_roots))
     h = hashlib.sha256()
     for root in map(Path, roots):
         for path in source_files(root):

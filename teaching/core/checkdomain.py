@@ -3,6 +3,9 @@
 Each check plans what it needs itself (no table is built or read) and reports either one summary
 line or one line per failure, each saying what is wrong, where, and what to do:
 
+* **members**: every member of the interface's three parts (teaching.core.domain: WorldPart, PlannerPart,
+  PagesPart) and all or none of the optional ShowWayPart, one line per missing member naming it and its
+  part; the other checks need them, so they run only when this passes;
 * **plan_chunk**: the four arrays' shapes and dtypes (Domain.plan_chunk), finite values, and each
   θ*-trajectory's distance to itself 0;
 * **d_reward**: every θ's own trajectory is at least as good under θ as every other θ's in that
@@ -31,13 +34,15 @@ from pathlib import Path
 
 import numpy as np
 
+from .base import BaseDomain
+from .domain import OPTIONAL_PARTS, REQUIRED_PARTS, missing_members, part_members, shows_the_way
 from .rewards import reward
 from .scenecolours import STATIC, scene_colours, static_roots
 from .showtests import MIN_SHARE, eligible_rows
 from .table import TrajectoryTable
 from .testset import MIN_REGRET, select_test_set
 
-CHECKS = ("plan_chunk", "d_reward", "labels", "page_keys", "palette", "test set")
+CHECKS = ("members", "plan_chunk", "d_reward", "labels", "page_keys", "palette", "test set")
 DEFAULT_ENVS = 48  # planned for the checks but the test set's search: seconds for either built-in domain
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -81,6 +86,24 @@ def expected_arrays(domain, n: int, n_thetas: int) -> dict:
     return {"controls": ((n, n_thetas, *domain.trajectory_shape), np.dtype(domain.trajectory_dtype)),
             "features": ((n, n_thetas, d), np.dtype(np.float64)),
             "strategy": ((n, n_thetas), np.dtype(np.int8)), "d_euclid": ((n, n_thetas), np.dtype(np.float32))}
+
+
+def check_members(domain) -> Result:
+    """Every member of each required part, and all or none of an optional one: one line per missing member."""
+    name = getattr(domain, "name", type(domain).__name__)
+    fails = []
+    for part, lacks in missing_members(domain).items():
+        role = part.__doc__.split(":")[0].split(".")[0].strip()
+        for member in lacks:
+            default = ("subclass teaching.core.base.BaseDomain, which gives it, or "
+                       if hasattr(BaseDomain, member) else "")
+            fails.append(f"domain {name!r} ({type(domain).__name__}) lacks '{member}' of {part.__name__} ({role}): "
+                         f"{default}define it as teaching/core/domain.py {part.__name__} declares it")
+    if fails:
+        return Result("members", tuple(fails))
+    parts = ", ".join(f"{p.__name__} ({len(part_members(p))})" for p in REQUIRED_PARTS)
+    optional = ", ".join(f"{p.__name__} {'too' if shows_the_way(domain) else 'not'}" for p in OPTIONAL_PARTS)
+    return Result("members", (), f"every member of {parts} is there; the optional {optional}")
 
 
 def check_arrays(domain, out, env_ids: np.ndarray, n_thetas: int) -> Result:
@@ -284,7 +307,7 @@ def check_test_set(domain, preset, order, first, thetas, normalisers, min_regret
     (``score_shown``) may test a cluster by asking to show the way (teaching.core.showtests) where no
     environment has four options to choose among."""
     distance = domain.min_option_distance if min_distance is None else min_distance
-    shows = callable(getattr(domain, "score_shown", None))
+    shows = shows_the_way(domain)
     found, found_show, shown, done = {}, {}, {c: 0 for c in domain.test_clusters}, 0
     out = first
     while True:
@@ -335,6 +358,10 @@ def check_domain(domain, preset=None, n_envs: int = DEFAULT_ENVS, min_regret: fl
     yielding each Result as it is done.  n_envs: the sample the checks but the test set's plan, a seeded
     draw from the preset's environments; the test set's search goes on from there."""
     log = log or (lambda _: None)
+    members = check_members(domain)
+    yield members
+    if not members.ok:
+        return
     preset = default_preset(domain) if preset is None else preset
     thetas, normalisers = preset.thetas(), np.asarray(domain.default_normalisers(), np.float64)
     ids = (np.arange(domain.n_environments) if preset.n_envs >= domain.n_environments

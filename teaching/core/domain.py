@@ -104,10 +104,16 @@ class ParticipantTexts:
     comprehension: tuple[ComprehensionQuestion, ...] = GENERIC_COMPREHENSION
 
 
+# --- the interface, in three declared parts and an optional fourth ------------------------------
+# A newcomer reads here what a domain must provide; teaching.core.checkdomain refuses a domain that lacks a
+# member of a part, naming it.  Every member the project uses is declared in one part (a test scans the
+# code for others); only shows_the_way probes for the optional part.
+
+
 @runtime_checkable
-class Domain(Protocol):
-    """A robot and its world, as the teaching core uses them.  Shapes: n environments,
-    N objectives, D features, C clusters."""
+class WorldPart(Protocol):
+    """The numbers the core needs about the robot's world: its environments, their classes, the
+    strategies (clusters), the features and θ*.  Shapes: D features, C clusters."""
 
     name: str  # registry key; stored in every table's meta.json
     n_environments: int  # environment ids are 0 .. n_environments - 1
@@ -121,26 +127,6 @@ class Domain(Protocol):
     vocabulary: frozenset[str]
     theta_star: np.ndarray  # (D,) the default objective the robot teaches
     min_option_distance: float  # test options at least this far apart by default (euclidean_distance's units)
-    trajectory_shape: tuple[int, ...]  # one stored trajectory's encoding, per (environment, θ)
-    trajectory_dtype: np.dtype
-    code_root: Path  # the package whose source decides a table's bytes (with teaching/core)
-    # optional: code_roots, every package besides the core that decides them (code_root first), for a
-    # domain built on shared code outside its package (teaching.core.base.BaseDomain gives it)
-    presets: tuple  # its teaching.core.build.Preset objects (names unique across domains)
-    # --- the study's pages (docs/domains.md "The web side") ---
-    texts: ParticipantTexts
-    palette: Mapping[str, str]  # colour name -> CSS colour: the page's --scene-<name>, the canvas, the sheet
-    page_keys: tuple[str, ...]  # what a participant's page may carry of a stored scene payload
-    # the scene that draws it: static/studyapp/scenes/<scene>.js and .css (its name, unless domains
-    # share one, as every grid world from a file shares "world")
-    scene: str
-    # optional: translations, language -> one of its texts -> its translation, for texts no catalog of the web
-    # side holds (a domain's data, written by a researcher), and translations_source, where they are written
-    # (teaching.core.base.BaseDomain's defaults: none, every text in the catalogs)
-
-    def fingerprint(self) -> str:
-        """16 hex digits over the world's constants: a table built under others is refused."""
-        ...
 
     def parse_theta_star(self, values) -> tuple[float, ...]:
         """θ* from D numbers (a sequence or "v1,v2,..."), checked for this domain's signs and
@@ -153,6 +139,25 @@ class Domain(Protocol):
 
     def stratified_sample(self, n: int, seed: int = 0) -> np.ndarray:
         """(n,) sorted int64 ids: a seeded sample with a share for every class."""
+        ...
+
+
+@runtime_checkable
+class PlannerPart(Protocol):
+    """How a table of optimal trajectories is built and read back: the planner, the stored encoding,
+    the states the Euclidean learner compares, and what decides a table's bytes.  Shapes: n
+    environments, N objectives, D features, T+1 states of S numbers."""
+
+    trajectory_shape: tuple[int, ...]  # one stored trajectory's encoding, per (environment, θ)
+    trajectory_dtype: np.dtype
+    code_root: Path  # the package whose source decides a table's bytes (with teaching/core)
+    # code_root first, then every shared package outside it whose source also decides them (BaseDomain:
+    # code_root and extra_code_roots); the code fingerprint covers them all
+    code_roots: tuple[Path, ...]
+    presets: tuple  # its teaching.core.build.Preset objects (names unique across domains)
+
+    def fingerprint(self) -> str:
+        """16 hex digits over the world's constants: a table built under others is refused."""
         ...
 
     def default_normalisers(self) -> np.ndarray:
@@ -174,14 +179,33 @@ class Domain(Protocol):
         """Stored encodings (..., *trajectory_shape) -> states (..., T+1, S) float64."""
         ...
 
-    def render_sheet(self, *, table, conditions: dict, tests: list | None, out, no_tests: str | None, caption: str,
-                     columns: int, dpi: int) -> int:
-        """Draw the contact sheet (teaching.core.sheet: rows, layout) of these examples and tests to
-        the PNG `out`; returns the panels drawn."""
+    def euclidean_distance(self, states_a: np.ndarray, states_b: np.ndarray) -> np.ndarray:
+        """(..., T+1, S) x (..., T+1, S) -> (...) the Euclidean learner's distance, in scaled
+        state units, broadcast over the leading axes."""
         ...
 
+
+@runtime_checkable
+class PagesPart(Protocol):
+    """What people see of the robot: the study's pages (docs/domains.md "The web side": the scene that
+    draws an environment, its texts and colours) and the researcher's contact sheet."""
+
+    texts: ParticipantTexts
+    palette: Mapping[str, str]  # colour name -> CSS colour: the page's --scene-<name>, the canvas, the sheet
+    page_keys: tuple[str, ...]  # what a participant's page may carry of a stored scene payload
+    # the scene that draws it: static/studyapp/scenes/<scene>.js and .css (its name, unless domains
+    # share one, as every grid world from a file shares "world")
+    scene: str
+    # language -> one of its texts -> its translation, for texts no catalog of the web side holds (a
+    # domain's data, written by a researcher); BaseDomain: none, every text is in the catalogs
+    translations: Mapping[str, Mapping[str, str]]
+    translations_source: str  # where those translations are written, for a message asking for more ("")
+    # a text filled in from the domain's data -> (the marked template, {name: value}), so that the web side
+    # translates the template and fills it in (BaseDomain: none)
+    formatted_texts: Mapping[str, tuple[str, Mapping[str, str]]]
+
     def scene_payload(self, env_id: int) -> dict:
-        """JSON of environment `env_id` that static/studyapp/scenes/<name>.js draws (with page_keys
+        """JSON of environment `env_id` that static/studyapp/scenes/<scene>.js draws (with page_keys
         among its keys; other keys are for researchers only and never reach a participant's page)."""
         ...
 
@@ -203,10 +227,63 @@ class Domain(Protocol):
         scale, say, so the same motion looks the same in training and at test; {} if none."""
         ...
 
-    def euclidean_distance(self, states_a: np.ndarray, states_b: np.ndarray) -> np.ndarray:
-        """(..., T+1, S) x (..., T+1, S) -> (...) the Euclidean learner's distance, in scaled
-        state units, broadcast over the leading axes."""
+    def render_sheet(self, *, table, conditions: dict, tests: list | None, out, no_tests: str | None, caption: str,
+                     columns: int, dpi: int) -> int:
+        """Draw the contact sheet (teaching.core.sheet: rows, layout) of these examples and tests to
+        the PNG `out`; returns the panels drawn."""
         ...
+
+
+@runtime_checkable
+class Domain(WorldPart, PlannerPart, PagesPart, Protocol):
+    """A robot and its world, as the teaching core and the study's pages use them: the three parts
+    above, every member required (teaching.core.base.BaseDomain gives the defaults)."""
+
+
+@runtime_checkable
+class ShowWayPart(Protocol):
+    """Optional: a domain whose participants can *show* the robot's way (teaching.core.showtests: a
+    "show the way" test, scored under θ*).  A domain has all of it or none of it."""
+
+    def score_shown(self, env_id: int, actions) -> dict:
+        """A way a participant showed in environment `env_id` (the scene's action names) replayed and
+        scored under θ*: at least counts, reward, optimum, regret (≥ 0, θ*'s units), regret_normalised,
+        optimal and its rows as path_rows gives them.  ValueError (one line) for a way the world does not
+        allow, whoever sends it."""
+        ...
+
+    def show_rules(self, env_id: int) -> dict:
+        """What the "show the way" page needs to offer exactly the actions the world allows there
+        (JSON: blocked cells, how a way ends, at most how many actions, the object's name)."""
+        ...
+
+
+REQUIRED_PARTS = (WorldPart, PlannerPart, PagesPart)
+OPTIONAL_PARTS = (ShowWayPart,)
+
+
+def part_members(part: type) -> tuple[str, ...]:
+    """The members `part` declares itself (its data members, then its methods), in order."""
+    own = vars(part)
+    methods = (k for k, v in own.items() if not k.startswith("_") and callable(v))
+    return (*own.get("__annotations__", {}), *methods)
+
+
+def missing_members(domain) -> dict[type, tuple[str, ...]]:
+    """part -> the members of it `domain` lacks, for each required part that lacks any, and for an optional
+    part the domain has some but not all of."""
+    out = {}
+    for part in (*REQUIRED_PARTS, *OPTIONAL_PARTS):
+        names = part_members(part)
+        lacks = tuple(n for n in names if not hasattr(domain, n))
+        if lacks and (part in REQUIRED_PARTS or len(lacks) < len(names)):
+            out[part] = lacks
+    return out
+
+
+def shows_the_way(domain) -> bool:
+    """Whether `domain` has the optional ShowWayPart: participants can show its way."""
+    return all(callable(getattr(domain, n, None)) for n in part_members(ShowWayPart))
 
 
 def parse_cost_weights(values, n: int) -> tuple[float, ...]:

@@ -1,5 +1,6 @@
-"""check-domain: every registered domain passes it, and each of five mistakes seeded into a real domain
-(the gridworld, wrapped with one member altered) fails exactly one check with one line naming it."""
+"""check-domain: every registered domain passes it; each of five mistakes seeded into a real domain
+(the gridworld, wrapped with one member altered) fails exactly one check with one line naming it; and a
+domain lacking any member of a declared part is refused with the member's name."""
 from __future__ import annotations
 
 import os
@@ -13,7 +14,7 @@ import pytest
 from teaching.__main__ import main
 from teaching.core import domain as registry
 from teaching.core.checkdomain import CHECKS, check_domain, check_palette
-from teaching.core.domain import domain_names, get_domain
+from teaching.core.domain import REQUIRED_PARTS, ShowWayPart, domain_names, get_domain, part_members
 from teaching.core.rewards import reward
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -28,6 +29,11 @@ def tiny(domain):
 
 def results(domain) -> dict:
     return {r.check: r for r in check_domain(domain, tiny(domain), min_distance=TINY_DISTANCE)}
+
+
+def members_result(domain):
+    """check_domain on a domain that may lack its presets: every result, by check."""
+    return {r.check: r for r in check_domain(domain)}
 
 
 def failures(domain) -> list[tuple[str, str]]:
@@ -46,6 +52,19 @@ class Altered:
         return getattr(self._inner, name)
 
 
+class Lacking(Altered):
+    """A real domain with some members gone, as if its author had not written them."""
+
+    def __init__(self, inner, *lacks):
+        super().__init__(inner)
+        self._lacks = frozenset(lacks)
+
+    def __getattr__(self, name):
+        if name in self._lacks:
+            raise AttributeError(name)
+        return getattr(self._inner, name)
+
+
 @pytest.fixture(scope="module")
 def grid():
     return get_domain("gridworld")
@@ -56,6 +75,25 @@ def test_every_registered_domain_passes(name):
     found = results(get_domain(name))
     assert tuple(found) == CHECKS
     assert all(r.ok and r.summary for r in found.values()), [f for r in found.values() for f in r.failures]
+
+
+@pytest.mark.parametrize("part, member", [(part, m) for part in REQUIRED_PARTS for m in part_members(part)],
+                         ids=lambda v: v if isinstance(v, str) else v.__name__)
+def test_a_domain_lacking_a_member_of_a_part_is_refused_with_its_name(grid, part, member):
+    found = members_result(Lacking(grid, member))
+    assert list(found) == ["members"]  # nothing else runs on a domain that cannot answer it
+    [line] = found["members"].failures
+    assert f"lacks '{member}' of {part.__name__}" in line
+    assert f"domain {'Lacking' if member == 'name' else 'gridworld'!r} (Lacking)" in line
+    assert "teaching/core/domain.py" in line
+
+
+def test_the_optional_part_is_all_or_nothing():
+    taxi = get_domain("taxi")
+    assert members_result(Lacking(taxi, "score_shown", "show_rules"))["members"].summary.endswith("ShowWayPart not")
+    [line] = members_result(Lacking(taxi, "show_rules"))["members"].failures
+    assert "lacks 'show_rules' of ShowWayPart" in line
+    assert part_members(ShowWayPart) == ("score_shown", "show_rules")
 
 
 def test_a_wrong_dtype(grid):
@@ -69,7 +107,7 @@ def test_a_wrong_dtype(grid):
     assert "'d_euclid' is float64, expected float32" in line and "astype(np.float32)" in line
     assert "test_check_domain.py" in line  # where the faulty plan_chunk is defined
     # the checks that read the arrays are skipped, not failed on arrays they cannot trust
-    assert set(found) == {"plan_chunk", "palette"}
+    assert set(found) == {"members", "plan_chunk", "palette"}
 
 
 def test_a_negative_d_reward(grid):
@@ -161,7 +199,7 @@ def test_the_command_exits_0_when_every_check_passes():
         cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)}, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, (proc.stdout, proc.stderr)
     assert [line.split(":")[0] for line in proc.stdout.splitlines()[1:-1]] == [f"ok    {c}" for c in CHECKS]
-    assert "gridworld: all 6 checks pass" in proc.stdout
+    assert f"gridworld: all {len(CHECKS)} checks pass" in proc.stdout
     assert "planning 48 of the 48 environments" in proc.stderr  # progress goes to stderr
 
 
@@ -172,7 +210,18 @@ def test_the_command_exits_1_with_one_line_per_failure(grid, monkeypatch, capsys
                  "--min-option-distance", str(TINY_DISTANCE)]) == 1
     out = capsys.readouterr().out
     assert [line[:20] for line in out.splitlines() if line.startswith("FAIL")] == ["FAIL  palette: stati"] * 2
-    assert "gridworld: 1 of 6 checks fail (palette)" in out
+    assert f"gridworld: 1 of {len(CHECKS)} checks fail (palette)" in out
+
+
+def test_the_command_names_each_missing_member_and_skips_the_rest(grid, monkeypatch, capsys):
+    monkeypatch.setitem(registry._LOADED, "gridworld", Lacking(grid, "caption", "trajectory_dtype"))
+    assert main(["check-domain", "gridworld"]) == 1
+    out = capsys.readouterr().out
+    fails = [line for line in out.splitlines() if line.startswith("FAIL")]
+    assert len(fails) == 2 and "'trajectory_dtype' of PlannerPart" in fails[0] and "'caption' of PagesPart" in fails[1]
+    assert "subclass teaching.core.base.BaseDomain, which gives it" in fails[1]  # BaseDomain has a caption
+    assert "skip  plan_chunk: needs every member of the interface" in out
+    assert f"1 of {len(CHECKS)} checks fail (members), {len(CHECKS) - 1} skipped" in out
 
 
 @pytest.mark.parametrize("argv, needle", [
