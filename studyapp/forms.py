@@ -1,4 +1,4 @@
-"""One form per step kind: what each step of the participant's flow accepts (studyapp.flow).
+"""One form per step kind: what each step of the participant's flow accepts (its page, studyapp.pages, names it).
 
 The pages are written by hand (templates/studyapp/step_<kind>.html), so these forms only validate:
 `StepForm.answer()` gives the JSON stored in Answer.data, `first_error()` the one message the
@@ -13,10 +13,8 @@ from django.utils.text import format_lazy
 from django.utils.translation import gettext
 from django.utils.translation import gettext_lazy as _
 
-from .comprehension import ComprehensionForm
 from .i18n import participant_texts, translated_error
 from .inputs import OneValue, WholeNumberField
-from .models import StepKind
 from .trajectories import study_domain
 
 GENDER_CHOICES = [
@@ -211,17 +209,3 @@ class ShowForm(StepForm):
 
     def answer(self) -> dict:
         return {"env_id": self.test["env_id"], "moves": self.cleaned_data["moves"]}
-
-
-# Every kind that takes an answer; DONE takes none.  TestForm also needs the option letters.
-STEP_FORMS: dict[StepKind, type[StepForm]] = {
-    StepKind.CONSENT: ConsentForm,
-    StepKind.INSTRUCTIONS: InstructionsForm,
-    StepKind.COMPREHENSION: ComprehensionForm,  # its questions are the study's (studyapp/comprehension.py)
-    StepKind.TRAINING: TrainingForm,
-    StepKind.CHECK: TestForm,  # a closed-loop check question is answered as a test is
-    StepKind.FEEDBACK: TrainingForm,  # and its feedback watched as an example is
-    StepKind.TEST: TestForm,
-    StepKind.ATTENTION: AttentionForm,
-    StepKind.DEMOGRAPHICS: DemographicsForm,
-}

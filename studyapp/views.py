@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import logging
 from functools import wraps
-from urllib.parse import urlsplit
 
 from django.http import Http404, JsonResponse
 from django.shortcuts import get_object_or_404, redirect, render
@@ -15,17 +14,18 @@ from django.views.decorators.clickjacking import xframe_options_exempt
 from django.views.decorators.csrf import csrf_exempt
 from django.views.decorators.http import require_GET, require_POST
 
-from . import bonuses, closedloop, comprehension, devices, flow, forms, outcomes, security, status
+from . import devices, flow, outcomes, security, status
 from .assignment import StudyClosed, assign
-from .i18n import domain_text, in_study_language, participant_texts
-from .models import LoopStep, Participant, StepKind, Study
-from .scenes import instructions, scene_context
-from .trajectories import drawn_scene, study_domain
+from .i18n import in_study_language, participant_texts
+from .models import Participant, Study
+from .pages import page_for
+from .platforms import MTURK_HOSTS, completion_target, mturk_submit_base
+from .scenes import scene_context
+from .trajectories import study_domain
 
 logger = logging.getLogger(__name__)
 
 MTURK_PREVIEW = "ASSIGNMENT_ID_NOT_AVAILABLE"
-MTURK_HOSTS = {"www.mturk.com", "workersandbox.mturk.com"}
 ID_MAX = 100
 SUBMIT_TO_MAX = Participant._meta.get_field("turk_submit_to").max_length
 
@@ -70,28 +70,6 @@ def _unavailable(request, study: Study):
     if security.wants_json(request):
         return JsonResponse({"ok": False, "error": message}, status=503)
     return render(request, "studyapp/unavailable.html", {"study": study, "message": message}, status=503)
-
-
-def mturk_submit_base(raw: str) -> str:
-    """The MTurk site a worker's answers go back to, from the link's `turkSubmitTo`: exactly
-    "https://www.mturk.com" or "https://workersandbox.mturk.com", rebuilt from the allowlist (the
-    page's form posts there), or "" when absent; anything else raises ValueError.
-
-    Checking only `urlparse(x).hostname` let `javascript://www.mturk.com/%0A...` (script on this
-    site) and `https://evil.example\\@www.mturk.com/` (a browser posts to evil.example) through:
-    browsers parse URLs by the WHATWG rules, which strip tabs and newlines and read backslashes as
-    slashes.  So: printable ASCII without backslashes only, https only, no user, password, port,
-    path, query or fragment, and the stored value is the allowlisted one, never the raw input."""
-    if not raw:
-        return ""
-    if any(not 0x21 <= ord(c) <= 0x7E or c == "\\" for c in raw):
-        raise ValueError(gettext("turkSubmitTo must be a plain https://www.mturk.com address"))
-    parts = urlsplit(raw)
-    host = parts.netloc.lower()
-    if (parts.scheme.lower() != "https" or host not in MTURK_HOSTS or parts.path not in ("", "/")
-            or parts.query or parts.fragment):
-        raise ValueError(gettext("turkSubmitTo must be https://www.mturk.com or https://workersandbox.mturk.com"))
-    return f"https://{host}"
 
 
 def _session_key(study: Study) -> str:
@@ -172,144 +150,32 @@ def step(request, slug, token):
     if outcomes.check_time(participant):  # returned, timed out or screened out: the page of that outcome
         return render(request, "studyapp/ended.html", ended_context(participant))
     current = flow.current_step(participant)
+    page = page_for(participant.study, current.kind)
     ctx = step_context(participant, current)
     if request.GET.get("moved"):
         ctx["notice"] = gettext(flow.MOVED_ON)
     # a failed comprehension check: the instructions again, its questions only when asked for
     ctx["reviewing"] = bool(ctx.get("missed_questions")) and not request.GET.get("questions")
-    return render(request, f"studyapp/step_{template_kind(participant, current)}.html", ctx)
-
-
-def template_kind(participant: Participant, current: flow.Step) -> str:
-    """The step's template: its kind's, but "show" for a test or check that asks to show the way."""
-    if current.kind in (StepKind.TEST, StepKind.CHECK) and participant.study.test_kind == Study.SHOW:
-        return "show"
-    return current.kind
-
-
-# Closed-loop conditions (studyapp.closedloop) add to the domain's instructions.
-CHECK_INSTRUCTIONS = _("Between the examples you will sometimes answer a check question, just like the questions "
-                       "at the end. Your answers decide which example you see next; they do not count towards "
-                       "your score.")
-# appended to CHECK_INSTRUCTIONS after a space (kept out of the catalog's text, so no translator loses it)
-FEEDBACK_INSTRUCTIONS = _("After each check question you will see the right answer: what really happens there.")
+    return page.render(request, ctx)
 
 
 def step_context(participant: Participant, current: flow.Step) -> dict:
-    steps = flow.steps_for(participant)
+    """What the step's page is given: what every page shows (the study, the progress bar, the numbers of
+    examples and tests) and what its kind's page adds (studyapp.pages)."""
+    page = page_for(participant.study, current.kind)
     ctx = {
         "study": participant.study, "participant": participant, "step": current,
-        "progress": round(100 * current.index / max(planned_steps(participant, steps) - 1, current.index, 1)),
+        "progress": round(100 * current.index / max(flow.planned_steps(participant) - 1, current.index, 1)),
         "total_training": len(participant.condition.training),
         "total_tests": len(participant.study.test_set),
     }
-    # The page gets what it draws and nothing else (drawn_scene): no theta, cluster or option
-    # index, and no reference trajectory, so its source cannot tell theta*'s option apart.
-    domain = study_domain(participant.study)
     loop = participant.condition.closed_loop
     if loop:  # closed loop: examples are chosen as the participant goes, up to a most
         ctx["total_training"] = gettext("up to {n}").format(n=loop["settings"]["max_examples"])
-    if current.kind == StepKind.CONSENT:
-        ctx["bonus_rule"] = bonuses.rule_text(participant.study)  # what they are paid for, before they agree
-        if participant.study.payment_amount is not None:  # money written one way on every page
-            ctx["payment_amount"] = bonuses.participant_label(participant.study, participant.study.payment_amount)
-        if participant.study.has_device_rules:
-            ctx["device_rules"] = devices.rules(participant.study)
-    if current.kind in (StepKind.INSTRUCTIONS, StepKind.COMPREHENSION, StepKind.TRAINING, StepKind.FEEDBACK,
-                        StepKind.TEST, StepKind.CHECK):
+    if page.draws_robot:
         ctx.update(scene_context(participant.study))  # the domain's scene module, palette, legend, texts
-    if current.kind == StepKind.COMPREHENSION:  # its page shows the instructions again after a failed attempt
-        ctx.update(comprehension.page_context(participant))
-    if current.kind in (StepKind.INSTRUCTIONS, StepKind.COMPREHENSION):
-        ctx["instructions"] = instructions(participant.study, ctx["total_training"], ctx["total_tests"])
-        if loop and loop["settings"]["check_every"]:
-            ctx["instructions"].append(str(CHECK_INSTRUCTIONS) + (" " + str(FEEDBACK_INSTRUCTIONS)
-                                                                  if loop["settings"]["feedback"] else ""))
-    elif current.kind in (StepKind.TRAINING, StepKind.FEEDBACK):
-        if loop:
-            shown = [s.payload for s in participant.loop_steps.filter(index__lte=current.item, kind=LoopStep.EXAMPLE)]
-            payload = participant.loop_steps.get(index=current.item).payload
-            training, item = shown, len(shown) - 1
-        else:
-            training, item = participant.condition.training, current.item
-            payload = training[item]
-        ctx["caption"] = caption_of(domain, payload)
-        ctx["env"] = drawn_scene(payload, robot=True, domain=domain)
-        ctx["number"] = item + 1
-        if current.kind == StepKind.TRAINING:
-            ctx["seen_before"] = repeated_example(training, item)
-    elif current.kind in (StepKind.TEST, StepKind.CHECK) and participant.study.test_kind == Study.SHOW:
-        test = flow.question_of(participant, current.kind, current.item)
-        ctx["number"] = (participant.loop_steps.filter(index__lte=current.item, kind=LoopStep.CHECK).count()
-                         if current.kind == StepKind.CHECK else current.item + 1)
-        ctx["caption"] = caption_of(domain, test)
-        ctx["scene"] = drawn_scene(test, robot=False, domain=domain)  # never θ*'s way
-        rules = domain.show_rules(test["env_id"])
-        ctx["rules"] = {**rules, "object": domain_text(domain, rules["object"])}  # the page says its name
-        ctx["endings"] = show_endings(ctx["scene"], ctx["rules"])
-    elif current.kind in (StepKind.TEST, StepKind.CHECK):
-        test = flow.question_of(participant, current.kind, current.item)
-        shown = flow.option_letters(participant, current.item, current.kind)
-        ctx["number"] = (participant.loop_steps.filter(index__lte=current.item, kind=LoopStep.CHECK).count()
-                         if current.kind == StepKind.CHECK else current.item + 1)
-        ctx["caption"] = caption_of(domain, test)
-        ctx["scene"] = drawn_scene(test, robot=False, domain=domain)
-        ctx["options"] = [letter for letter, _ in shown]
-        ctx["option_robots"] = {letter: test["options"][k]["robot"] for letter, k in shown}
-        ctx["ratings"] = range(forms.RATING_MIN, forms.RATING_MAX + 1)
-    elif current.kind == StepKind.ATTENTION:
-        texts = participant_texts(domain)
-        ctx["question"], ctx["choices"] = texts.attention_question, texts.attention_choices
-    elif current.kind == StepKind.DEMOGRAPHICS:
-        ctx["genders"] = [(key, str(label)) for key, label in forms.GENDER_CHOICES]
-        ctx["age_min"], ctx["age_max"] = forms.AGE_MIN, forms.AGE_MAX
-    elif current.kind == StepKind.DONE:
-        ctx.update(completion_target(participant))
-        if participant.bonus is not None and bonuses.offers_bonus(participant.study) and not participant.excluded:
-            ctx["bonus"] = bonuses.participant_label(participant.study, participant.bonus)
+    ctx.update(page.context(participant, current, ctx))
     return ctx
-
-
-def show_endings(scene: dict, rules: dict) -> list[str]:
-    """What ends the way on a show page, in the participant's language, one sentence each: what "finished"
-    means there (a square marked G, the object put down on D, the "Stop here" button)."""
-    out = []
-    if scene["world"].get("goals"):
-        out.append(gettext("it reaches a square marked G"))
-    if rules.get("deliver"):
-        out.append(gettext("it puts the {object} down on the square marked D").format(
-            object=rules["object"] or gettext("object")))
-    if rules.get("exit"):
-        out.append(gettext("you press “Stop here”: the robot stays where it is"))
-    return out
-
-
-def caption_of(domain, payload: dict) -> tuple[str, str] | None:
-    """The domain's caption above a canvas (what to look for, and its value there), in the participant's
-    language: both parts are English texts the domain marks for the catalog."""
-    caption = domain.caption(payload)
-    return tuple(gettext(part) for part in caption) if caption else caption
-
-
-def planned_steps(participant: Participant, steps: list[flow.Step]) -> int:
-    """How many steps the participant's flow has: a closed loop that is not done yet decides its steps as
-    it goes, so the progress bar counts the most it may still show (examples, checks and feedback)."""
-    loop = participant.condition.closed_loop
-    if not loop or steps[-1].kind == StepKind.DONE:
-        return len(steps)
-    s = loop["settings"]
-    n_loop = s["max_examples"] + closedloop.max_checks(loop) * (2 if s["feedback"] else 1)
-    before = 3 if participant.study.comprehension_check else 2  # consent, instructions (and the comprehension check)
-    return before + n_loop + len(participant.study.test_set) + 3  # ...; attention, demographics, done
-
-
-def repeated_example(training: list[dict], item: int) -> int | None:
-    """The number (1-based) of the last earlier example showing the same environment as example `item`,
-    or None.  A sequence may repeat an environment on purpose (prob-reward shows two environments ten
-    times); without a word on the page a repeat looks like a glitch.  Only the number reaches the page."""
-    env_id = training[item].get("env_id")
-    earlier = [i for i in range(item) if env_id is not None and training[i].get("env_id") == env_id]
-    return earlier[-1] + 1 if earlier else None
 
 
 ENDED_PAGES = {  # outcome: (title, what happened), as the participant reads them
@@ -331,25 +197,6 @@ def ended_context(participant: Participant) -> dict:
     if ctx["code"]:
         ctx.update(completion_target(participant))
     return ctx
-
-
-def completion_target(participant: Participant) -> dict:
-    """Where a finished or ended participant is sent back to, with their code (only once every answer is
-    stored, or their outcome set): Prolific's completion address with the code, or MTurk's submit form."""
-    study, code = participant.study, participant.completion_code
-    if (participant.completed_at is None and not participant.outcome) or not code:
-        return {}
-    if participant.platform == Participant.PROLIFIC:
-        return {"redirect_url": study.prolific_completion_url.format(code=code)}
-    if participant.platform == Participant.MTURK and participant.platform_session_id:
-        try:  # checked again: a row stored before the allowlist may hold anything
-            site = mturk_submit_base(participant.turk_submit_to)
-        except ValueError:
-            site = ""
-        base = site + "/mturk/externalSubmit" if site else study.mturk_submit_url
-        return {"mturk_form": {"action": base, "assignmentId": participant.platform_session_id,
-                               "completion_code": code}}
-    return {}
 
 
 # csrf_exempt only hands the CSRF check from the global middleware to framed_csrf_protect: inside

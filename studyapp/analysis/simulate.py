@@ -25,7 +25,7 @@ from teaching.api import AnswerModel, SimulatedLearner, draw_answers
 
 from .. import assignment, closedloop, flow, studies
 from ..models import LoopStep, StepKind
-from ..trajectories import study_domain
+from ..pages import page_for
 from .modelfit import study_design
 
 EFFECT = {"coverage-approx*": 0.95, "det-euclid": 0.95, "det-euclidean": 0.95}
@@ -88,6 +88,27 @@ def _bot_answer(options, rng, p_star: float) -> tuple[int, list[int]]:
     return choice, ratings
 
 
+class Simulated:
+    """One simulated participant's state as the pages ask it (studyapp.pages: each page's ``simulate``):
+    the random generator, whether they pay attention, and how they choose a question's option."""
+
+    def __init__(self, participant, rng, attentive: bool, p_star: float, learner: StudyLearner | None):
+        self.rng, self.attentive, self.p_star, self.learner = rng, attentive, p_star, learner
+        loop = bool(participant.condition.closed_loop)
+        self.learned = learner.answers(participant.condition.name, attentive, rng) if learner and not loop else None
+
+    def choose(self, participant, step, options) -> tuple[int, list[int]]:
+        """(option index, ratings) of the answer to a test or check question with these options."""
+        if self.learner and step.kind == StepKind.CHECK:
+            return self.learner.check_answer(participant, step.item, self.attentive, self.rng)
+        if self.learner:
+            if self.learned is None:  # a closed loop: what it showed is known once the tests begin
+                self.learned = self.learner.answers(participant.condition.name, self.attentive, self.rng,
+                                                    shown=self.learner.shown(participant))
+            return int(self.learned[0][step.item]), [int(r) for r in self.learned[1][step.item]]
+        return _bot_answer(options, self.rng, self.p_star)
+
+
 def run_participant(study, rng, attentive: bool = True, effect: dict | None = None, base: float = BASE,
                     learner: StudyLearner | None = None):
     """One simulated participant from arrival to completion; returns it.  With `learner`, its tests are
@@ -98,42 +119,13 @@ def run_participant(study, rng, attentive: bool = True, effect: dict | None = No
                          "and its tests ask for a way")
     p = assignment.assign(study)
     p_star = (EFFECT if effect is None else effect).get(p.condition.name, base)
-    if not attentive:
-        p_star = 1 - p_star
-    loop = bool(p.condition.closed_loop)
-    learned = learner.answers(p.condition.name, attentive, rng) if learner and not loop else None
+    sim = Simulated(p, rng, attentive, p_star if attentive else 1 - p_star, learner)
     while True:  # step by step: a closed-loop condition decides its next step once the last is answered
         step = flow.current_step(p)
-        if step.kind == StepKind.CONSENT:
-            data = post(consent="yes")
-        elif step.kind == StepKind.INSTRUCTIONS:
-            data = post(ack="1")
-        elif step.kind in (StepKind.TRAINING, StepKind.FEEDBACK):
-            data = post(played="1")
-        elif step.kind in (StepKind.TEST, StepKind.CHECK):
-            options = flow.question_of(p, step.kind, step.item)["options"]
-            if learner and step.kind == StepKind.CHECK:
-                choice, ratings = learner.check_answer(p, step.item, attentive, rng)
-            elif learner:
-                if learned is None:  # a closed loop: what it showed is known once the tests begin
-                    learned = learner.answers(p.condition.name, attentive, rng, shown=learner.shown(p))
-                choice, ratings = int(learned[0][step.item]), [int(r) for r in learned[1][step.item]]
-            else:
-                choice, ratings = _bot_answer(options, rng, p_star)
-            letter = dict((k, a) for a, k in flow.option_letters(p, step.item, step.kind))  # the page posts letters
-            data = post(choice=letter[choice], played=list(letter.values()),
-                        **{f"rating_{letter[k]}": r for k, r in enumerate(ratings)})
-        elif step.kind == StepKind.ATTENTION:
-            texts = study_domain(study).texts  # right: exactly the correct answers; wrong: one more ticked
-            right = sorted(texts.attention_correct)
-            wrong = right + [next(v for v, _ in texts.attention_choices if v not in texts.attention_correct)]
-            data = post(goals=right if attentive else wrong)
-        elif step.kind == StepKind.DEMOGRAPHICS:
-            data = post(age=int(rng.integers(20, 60)), gender="female")
-        else:
-            break
-        p = flow.record(p, step.index, data)
-    return p
+        fields = page_for(study, step.kind).simulate(sim, p, step)
+        if fields is None:
+            return p
+        p = flow.record(p, step.index, post(**fields))
 
 
 def simulate(study, n_per_condition: int = 9, seed: int = 1, fail_every: int = 7, effect: dict | None = None,

@@ -8,7 +8,6 @@ from django.http import QueryDict
 
 from studyapp import flow
 from studyapp.forms import (
-    STEP_FORMS,
     AttentionForm,
     ConsentForm,
     DemographicsForm,
@@ -17,6 +16,7 @@ from studyapp.forms import (
     TrainingForm,
 )
 from studyapp.models import Answer, StepKind
+from studyapp.pages import PAGES, SHOW_PAGES
 from teaching.api import domain_names, get_domain
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -42,7 +42,8 @@ def test_stored_kind_strings_never_change():
         "consent", "instructions", "comprehension", "training", "check", "feedback", "test", "attention",
         "demographics", "done"]
     assert Answer._meta.get_field("kind").choices == StepKind.choices
-    assert set(STEP_FORMS) == set(StepKind) - {StepKind.DONE}
+    assert set(PAGES) == set(StepKind) and set(SHOW_PAGES) == {StepKind.TEST, StepKind.CHECK}
+    assert [k for k, page in PAGES.items() if page.form is None] == [StepKind.DONE]  # the one page taking no answer
 
 
 def test_step_kinds_come_only_from_step_kind():
