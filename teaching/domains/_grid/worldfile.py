@@ -17,7 +17,10 @@ from pathlib import Path
 import numpy as np
 
 from .cells import shortest_moves
-from .worldtexts import check_texts, check_translations, did_you_mean
+from .worldschema import WorldFileError, _Reader, check_shape, did_you_mean
+from .worldtexts import check_texts, check_translations
+
+__all__ = ["HELD", "MOVES", "World", "WorldFileError", "load_world", "parse_world"]
 
 MOVES = ((0, 1), (-1, 0), (1, 0), (0, -1))  # (d_row, d_col): right, up, down, left, the tie order
 HELD = "held"  # an object's place in a start state when the robot starts holding it
@@ -28,26 +31,8 @@ ACTIONS = ("pickup", "drop")  # actions besides the moves that a "moves" feature
 _OPS = {"=": np.equal, "==": np.equal, "!=": np.not_equal, ">": np.greater, ">=": np.greater_equal,
         "<": np.less, "<=": np.less_equal}
 _CONDITION = re.compile(r"^\s*([A-Za-z_][\w-]*)\s*(==|!=|>=|<=|=|>|<)\s*(-?\d+)\s*$")
-# Every field a world file may give, by the table it sits in (docs/gridworlds.md, "The file, field by
-# field"): any other is refused with a "did you mean", so that a typo ("max_move") is never ignored.  A
-# start's table also takes the object's name (starts[i].<object>).
-FIELDS = {
-    "": ("name", "title", "width", "height", "max_moves", "exit", "cells", "fixed", "optional", "object",
-         "starts", "start_pool", "features", "theta_star", "classes", "other", "tests", "min_option_distance",
-         "presets", "texts", "translations"),
-    "cells": ("colour", "label", "passable"),
-    "fixed": ("at", "kind"),
-    "object": ("name", "at", "destination"),
-    "starts": ("at",),
-    "features": ("name", "counts", "cell", "at", "holding", "also"),
-    "classes": ("name", "strategies"),
-    "strategies": ("name", "when"),
-    "presets": ("environments", "thetas"),
-}
-
-
-class WorldFileError(ValueError):
-    """A world file that cannot be used (one line: the file, the field, what is wrong)."""
+MAX_CELLS = 127  # a cell and whether the object is held fit one int16 code (GridDomain's encoding)
+DEFAULT_PRESETS = {"tiny": {"environments": 48, "thetas": 24}}
 
 
 @dataclass(frozen=True)
@@ -168,46 +153,6 @@ class World:
         return np.isin(kinds, list(closed))
 
 
-class _Reader:
-    """Field access with the one-line errors: every message names the file and the field."""
-
-    def __init__(self, name: str):
-        self.name = name
-
-    def fail(self, where: str, what: str):
-        raise WorldFileError(f"{self.name}: {where}: {what}")
-
-    def get(self, table: dict, key: str, where: str, kind, default=...):
-        if key not in table:
-            if default is ...:
-                self.fail(f"{where}{key}", "missing")
-            return default
-        value = table[key]
-        if kind is float and isinstance(value, int) and not isinstance(value, bool):
-            value = float(value)
-        if not isinstance(value, kind) or (kind in (int, float) and isinstance(value, bool)):
-            self.fail(f"{where}{key}", f"expected {getattr(kind, '__name__', kind)}, got {repr(value)[:80]}")
-        if kind is float and not math.isfinite(value):
-            self.fail(f"{where}{key}", f"{value}: expected a finite number")
-        return value
-
-    def table(self, value, where: str, fields) -> dict:
-        """`value` checked to be a table whose keys are all among `fields`."""
-        if not isinstance(value, dict):
-            self.fail(where, f"expected a table {{ {', '.join(fields)} }}, got {repr(value)[:80]}")
-        for key in value:
-            if key not in fields:
-                self.fail(f"{where}.{key}" if where else key,
-                          f"not a field of {'a world file' if not where else 'this table'} "
-                          f"(one of {', '.join(fields)}){did_you_mean(key, fields)}")
-        return value
-
-    def tables(self, raw: dict, key: str, fields, default=...) -> list[dict]:
-        """raw[key] checked to be a list of tables whose keys are all among `fields`."""
-        items = self.get(raw, key, "", list, default)
-        return [self.table(item, f"{key}[{i}]", fields) for i, item in enumerate(items)]
-
-
 def load_world(path) -> World:
     """Parse and check the world file at `path`; WorldFileError (one line) on any mistake."""
     path = Path(path)
@@ -229,87 +174,83 @@ def load_world(path) -> World:
 
 
 def parse_world(raw: dict, source: str = "world") -> World:
-    """A world from the file's parsed TOML (a dict); `source` names it in error messages."""
+    """A world from the file's parsed TOML (a dict); `source` names it in error messages.  Its fields' shapes
+    are the schema's (worldschema); each step below checks what one field says of another."""
     r = _Reader(source)
-    r.table(raw, "", FIELDS[""])
-    name = r.get(raw, "name", "", str)
-    if not re.fullmatch(r"[a-z][a-z0-9-]*", name):
-        r.fail("name", f"{name!r} is not a lower-case name (letters, digits, '-')")
-    width, height = r.get(raw, "width", "", int), r.get(raw, "height", "", int)
-    if not (1 <= width and 1 <= height and width * height <= 127):
-        r.fail("width", f"a grid of {width} x {height} cells: it must have 1 to 127 cells")
-    max_moves = r.get(raw, "max_moves", "", int)
-    if not 1 <= max_moves <= 200:
-        r.fail("max_moves", f"{max_moves}: must lie in 1..200")
+    check_shape(raw, r)
+    grid = _Grid(r, raw["width"], raw["height"])
+    kinds = {k: CellKind(k, spec["colour"], spec.get("label", k), spec.get("passable", True))
+             for k, spec in raw.get("cells", {}).items()}
+    fixed = {grid.cell(item["at"], f"fixed[{i}].at"): _kind_of(r, item, f"fixed[{i}]", kinds)
+             for i, item in enumerate(raw.get("fixed", []))}
+    optional = tuple((grid.cell(item["at"], f"optional[{i}].at"), _kind_of(r, item, f"optional[{i}]", kinds))
+                     for i, item in enumerate(raw.get("optional", [])))
+    spec = raw.get("object", {})
+    obj = spec.get("name")
+    obj_at = grid.cell(spec["at"], "object.at") if obj else None
+    destination = grid.cell(spec["destination"], "object.destination") if "destination" in spec else None
+    features = tuple(_feature(r, item, i, grid, kinds, obj, destination) for i, item in enumerate(raw["features"]))
+    theta = _theta(r, raw["theta_star"], features, raw.get("exit", False))
+    classes = _classes(r, raw["classes"], [f.name for f in features])
+    world = World(name=raw["name"], title=raw.get("title", raw["name"]), width=grid.width, height=grid.height,
+                  max_moves=raw["max_moves"], kinds=kinds, fixed=fixed, optional=optional, obj=obj, obj_at=obj_at,
+                  destination=destination, starts=_starts(r, raw["starts"], grid, obj, obj_at),
+                  exit=raw.get("exit", False), features=features, theta_star=theta, classes=classes,
+                  other=raw.get("other", "other"), tests=_tests(r, raw, classes), presets=_presets(raw),
+                  min_option_distance=_distance(r, raw), start_pool=raw.get("start_pool", "listed"),
+                  texts=check_texts(r, raw.get("texts", {})), source=source)
+    _check_reachable(world, r)
+    translations = check_translations(r, raw.get("translations", {}), world.participant_texts,
+                                      world.texts.get("instructions", ()))
+    return replace(world, translations=translations) if translations else world
 
-    def cell(value, where) -> tuple[int, int]:
-        if not (isinstance(value, list) and len(value) == 2
-                and all(isinstance(v, int) and not isinstance(v, bool) for v in value)):
-            r.fail(where, f"a cell is [x, y], got {repr(value)[:80]}")
+
+class _Grid:
+    """The grid's size, and a file's [x, y] cells (1-based, y up) read as (row, col) inside it."""
+
+    def __init__(self, r: _Reader, width: int, height: int):
+        if width * height > MAX_CELLS:
+            r.fail("width", f"a grid of {width} x {height} cells: it must have 1 to {MAX_CELLS} cells")
+        self.r, self.width, self.height = r, width, height
+
+    def cell(self, value, where: str) -> tuple[int, int]:
         x, y = value
-        if not (1 <= x <= width and 1 <= y <= height):
-            r.fail(where, f"cell [{x}, {y}] lies outside the {width} x {height} grid")
-        return height - y, x - 1  # (row, col), row 0 at the top
+        if not (x <= self.width and y <= self.height):
+            self.r.fail(where, f"cell [{x}, {y}] lies outside the {self.width} x {self.height} grid")
+        return self.height - y, x - 1  # (row, col), row 0 at the top
 
-    kinds = {}
-    for kname, spec in r.get(raw, "cells", "", dict, {}).items():
-        where = f"cells.{kname}."
-        if kname == "wall" or not re.fullmatch(r"[a-z]+(-[a-z]+)*", kname):
-            r.fail(f"cells.{kname}", "a kind is named in lower-case words joined by '-', and not 'wall' (built in)")
-        r.table(spec, f"cells.{kname}", FIELDS["cells"])
-        colour = r.get(spec, "colour", where, str)
-        if not re.fullmatch(r"#[0-9a-fA-F]{6}", colour):
-            r.fail(where + "colour", f"{colour!r} is not a colour written #rrggbb")
-        kinds[kname] = CellKind(kname, colour, r.get(spec, "label", where, str, kname),
-                                r.get(spec, "passable", where, bool, True))
 
-    def kind_of(item, where):
-        value = r.get(item, "kind", where + ".", str, "wall")
-        if value != "wall" and value not in kinds:
-            r.fail(where + ".kind", f"unknown cell kind {value!r} (declared: wall, {', '.join(kinds) or 'none'})")
-        return value
+def _kind_of(r: _Reader, item: dict, where: str, kinds: dict) -> str:
+    value = item.get("kind", "wall")
+    if value != "wall" and value not in kinds:
+        r.fail(where + ".kind", f"unknown cell kind {value!r} (declared: wall, {', '.join(kinds) or 'none'})")
+    return value
 
-    fixed = {}
-    for i, item in enumerate(r.tables(raw, "fixed", FIELDS["fixed"], [])):
-        fixed[cell(item.get("at"), f"fixed[{i}].at")] = kind_of(item, f"fixed[{i}]")
-    optional = tuple((cell(item.get("at"), f"optional[{i}].at"), kind_of(item, f"optional[{i}]"))
-                     for i, item in enumerate(r.tables(raw, "optional", FIELDS["fixed"], [])))
-    if len(optional) > 12:
-        r.fail("optional", f"{len(optional)} optional cells: at most 12 (4,096 variants)")
 
-    obj = obj_at = destination = None
-    if "object" in raw:
-        spec = r.table(raw["object"], "object", FIELDS["object"])
-        obj = r.get(spec, "name", "object.", str)
-        if obj in FIELDS["starts"]:
-            r.fail("object.name", f"{obj!r} is a start's own field: name the object otherwise")
-        obj_at = cell(spec.get("at"), "object.at")
-        destination = cell(spec["destination"], "object.destination") if "destination" in spec else None
-
+def _starts(r: _Reader, items: list, grid: _Grid, obj: str | None, obj_at) -> tuple:
+    """(robot cell, object cell | HELD | None) of each start; the object's field is named as the object."""
     starts = []
-    for i, item in enumerate(r.tables(raw, "starts", (*FIELDS["starts"], *([obj] if obj else [])))):
-        at = cell(item.get("at"), f"starts[{i}].at")
+    for i, item in enumerate(items):
+        fields = ("at", *([obj] if obj else []))
+        for key in item:
+            if key not in fields:
+                r.fail(f"starts[{i}].{key}", f"not a field of this table (one of {', '.join(fields)})"
+                       f"{did_you_mean(key, fields)}")
         place = None
         if obj is not None:
             value = item.get(obj, "at")
-            place = HELD if value == HELD else obj_at if value == "at" else cell(value, f"starts[{i}].{obj}")
-        starts.append((at, place))
-    if not starts:
-        r.fail("starts", "at least one start is needed")
-    start_pool = r.get(raw, "start_pool", "", str, "listed")
-    if start_pool not in START_POOLS:
-        r.fail("start_pool", f"{start_pool!r}: one of {', '.join(START_POOLS)}{did_you_mean(start_pool, START_POOLS)}")
+            place = HELD if value == HELD else obj_at if value == "at" else grid.cell(value, f"starts[{i}].{obj}")
+        starts.append((grid.cell(item["at"], f"starts[{i}].at"), place))
+    return tuple(starts)
 
-    features = tuple(_feature(r, item, i, cell, kinds, obj, destination)
-                     for i, item in enumerate(r.tables(raw, "features", FIELDS["features"])))
+
+def _theta(r: _Reader, theta: list, features: tuple, exit_: bool) -> tuple[float, ...]:
+    """θ*: one finite weight with a sign per feature, rewards only where a feature ends the episode."""
     names = [f.name for f in features]
-    if len(set(names)) != len(names) or not names:
-        r.fail("features", f"feature names must be present and distinct, got {names}")
-    theta = r.get(raw, "theta_star", "", list)
-    if len(theta) != len(features) or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                                              for v in theta):
-        r.fail("theta_star", f"needs one number per feature ({len(features)}), got {repr(theta)[:80]}")
-    theta = tuple(float(v) for v in theta)
+    if len(set(names)) != len(names):
+        r.fail("features", f"feature names must be distinct, got {names}")
+    if len(theta) != len(features):
+        r.fail("theta_star", f"needs one number per feature ({len(features)}), got {_short(theta)}")
     for f, w in zip(features, theta, strict=True):
         if not math.isfinite(w):
             r.fail("theta_star", f"the weight of {f.name!r} is {w}: every weight must be a finite number")
@@ -318,56 +259,54 @@ def parse_world(raw: dict, source: str = "world") -> World:
         if not f.terminal and w > 0:
             r.fail("theta_star", f"the weight of {f.name!r} is positive: a count that can grow without end "
                    "would make the reward unbounded (only 'reach' and 'deliver' features may be rewards)")
-    if not any(f.terminal for f in features) and not raw.get("exit", False):
+    if not any(f.terminal for f in features) and not exit_:
         r.fail("features", "no feature ends an episode ('reach' or 'deliver') and exit is off: no trajectory ends")
+    return tuple(float(v) for v in theta)
 
-    classes, seen = [], {}
-    for i, item in enumerate(r.tables(raw, "classes", FIELDS["classes"])):
-        cname = r.get(item, "name", f"classes[{i}].", str)
+
+def _short(value) -> str:
+    return repr(value)[:80]
+
+
+def _classes(r: _Reader, items: list, names: list[str]) -> tuple[WorldClass, ...]:
+    """Each class's strategies, their conditions read as (feature index, op, value)."""
+    classes = []
+    for i, item in enumerate(items):
         strategies = []
-        for j, s in enumerate(r.get(item, "strategies", f"classes[{i}].", list)):
-            where = f"classes[{i}].strategies[{j}]"
-            r.table(s, where, FIELDS["strategies"])
-            sname = r.get(s, "name", where + ".", str)
+        for j, s in enumerate(item["strategies"]):
             conds = []
-            for part in r.get(s, "when", where + ".", str).split(" and "):
+            for part in s["when"].split(" and "):
                 m = _CONDITION.match(part)
                 if not m or m[1] not in names:
-                    r.fail(where + ".when", f"{part.strip()!r} is not 'feature op number' over {', '.join(names)}")
+                    r.fail(f"classes[{i}].strategies[{j}].when",
+                           f"{part.strip()!r} is not 'feature op number' over {', '.join(names)}")
                 conds.append((names.index(m[1]), m[2], int(m[3])))
-            strategies.append(Strategy(sname, tuple(conds)))
-            seen[sname] = True
-        if len(strategies) < 2:
-            r.fail(f"classes[{i}].strategies", "a class needs at least two strategies to contrast")
-        classes.append(WorldClass(cname, tuple(strategies)))
-    tests = tuple(r.get(raw, "tests", "", list, list(seen)))
-    for t in tests:
-        if not isinstance(t, str) or t not in seen:
-            r.fail("tests", f"{repr(t)[:80]} is not a strategy of a class")
+            strategies.append(Strategy(s["name"], tuple(conds)))
+        classes.append(WorldClass(item["name"], tuple(strategies)))
+    return tuple(classes)
 
-    presets = {}
-    for suffix, spec in r.get(raw, "presets", "", dict, {"tiny": {"environments": 48, "thetas": 24}}).items():
-        r.table(spec, f"presets.{suffix}", FIELDS["presets"])
-        envs = spec.get("environments", "all")
-        if not (envs == "all" or (isinstance(envs, int) and not isinstance(envs, bool) and envs > 0)):
-            r.fail(f"presets.{suffix}.environments", f"a positive number or \"all\", got {repr(envs)[:80]}")
-        thetas = r.get(spec, "thetas", f"presets.{suffix}.", int)
-        if thetas < 2:
-            r.fail(f"presets.{suffix}.thetas", f"{thetas}: a table needs θ* and at least one other θ")
-        presets[suffix] = (None if envs == "all" else envs, thetas)
-    min_option_distance = r.get(raw, "min_option_distance", "", float, 0.3)
-    if min_option_distance < 0:
-        r.fail("min_option_distance", f"{min_option_distance}: a distance is 0 or more")
-    texts = check_texts(r, r.get(raw, "texts", "", dict, {}))
-    world = World(name=name, title=r.get(raw, "title", "", str, name), width=width, height=height,
-                  max_moves=max_moves, kinds=kinds, fixed=fixed, optional=optional, obj=obj, obj_at=obj_at,
-                  destination=destination, starts=tuple(starts), exit=r.get(raw, "exit", "", bool, False),
-                  features=features, theta_star=theta, classes=tuple(classes),
-                  other=r.get(raw, "other", "", str, "other"), tests=tests, presets=presets,
-                  min_option_distance=min_option_distance, start_pool=start_pool, texts=texts, source=source)
-    _check_reachable(world, r)
-    translations = check_translations(r, r.get(raw, "translations", "", dict, {}), world)
-    return replace(world, translations=translations) if translations else world
+
+def _tests(r: _Reader, raw: dict, classes: tuple) -> tuple[str, ...]:
+    """The strategies the test set covers (default: every one), each a strategy of a class."""
+    seen = [s.name for c in classes for s in c.strategies]
+    tests = tuple(raw.get("tests", dict.fromkeys(seen)))
+    for t in tests:
+        if t not in seen:
+            r.fail("tests", f"{t!r} is not a strategy of a class{did_you_mean(t, seen)}")
+    return tests
+
+
+def _presets(raw: dict) -> dict[str, tuple[int | None, int]]:
+    """suffix -> (environments, None for all; thetas)."""
+    return {suffix: (None if spec.get("environments", "all") == "all" else spec["environments"], spec["thetas"])
+            for suffix, spec in raw.get("presets", DEFAULT_PRESETS).items()}
+
+
+def _distance(r: _Reader, raw: dict) -> float:
+    distance = float(raw.get("min_option_distance", 0.3))
+    if not math.isfinite(distance):
+        r.fail("min_option_distance", f"{distance}: expected a finite number")
+    return distance
 
 
 def _check_reachable(w: World, r: _Reader) -> None:
@@ -381,24 +320,21 @@ def _check_reachable(w: World, r: _Reader) -> None:
             r.fail(where, f"cell [{cell[1] + 1}, {w.height - cell[0]}] cannot be reached from any start")
 
 
-def _feature(r: _Reader, item: dict, i: int, cell, kinds, obj, destination) -> Feature:
-    where = f"features[{i}]."
-    name, counts = r.get(item, "name", where, str), r.get(item, "counts", where, str)
-    if counts not in COUNTS:
-        r.fail(where + "counts", f"{counts!r}: one of {', '.join(COUNTS)}")
-    kind = at = None
-    if counts == "enter":
-        kind = r.get(item, "cell", where, str)
-        if kind not in kinds:
-            r.fail(where + "cell", f"unknown cell kind {kind!r} (declared: {', '.join(kinds) or 'none'})")
-    if counts == "reach":
-        at = cell(item.get("at"), where + "at")
+def _feature(r: _Reader, item: dict, i: int, grid: _Grid, kinds: dict, obj, destination) -> Feature:
+    """One feature: what it counts, and the field that count needs."""
+    where, counts = f"features[{i}].", item["counts"]
+    kind = item.get("cell") if counts == "enter" else None
+    if counts == "enter" and kind not in kinds:
+        r.fail(where + "cell", f"unknown cell kind {kind!r} (declared: {', '.join(kinds) or 'none'})")
+    if counts == "reach" and "at" not in item:
+        r.fail(where + "at", "missing: a 'reach' feature ends the episode at a cell")
     if counts == "deliver" and destination is None:
         r.fail(where + "counts", "'deliver' needs an object with a destination ([object] destination)")
-    holding = r.get(item, "holding", where, bool, None)
+    holding = item.get("holding")
     if holding is not None and obj is None:
         r.fail(where + "holding", "the world has no object to hold")
-    also = tuple(r.get(item, "also", where, list, []))
-    if any(a not in ACTIONS for a in also) or (also and counts != "moves"):
+    also = tuple(item.get("also", ()))
+    if also and counts != "moves":
         r.fail(where + "also", f"{list(also)}: only a 'moves' feature may also count {', '.join(ACTIONS)}")
-    return Feature(name, counts, kind, at, holding, also)
+    at = grid.cell(item["at"], where + "at") if counts == "reach" else None
+    return Feature(item["name"], counts, kind, at, holding, also)

@@ -200,7 +200,7 @@ def test_a_world_file_named_in_teaching_worlds_is_built_and_checked_from_the_com
     with key_room.registered():
         assert TrajectoryTable.load(tmp_path / "table").n_envs == 96
     checked = run("check-domain", "key-room")
-    assert checked.returncode == 0 and "key-room: all 6 checks pass" in checked.stdout, checked.stdout + checked.stderr
+    assert checked.returncode == 0 and "key-room: all 7 checks pass" in checked.stdout, checked.stdout + checked.stderr
 
 
 def test_a_world_file_with_a_mistake_is_left_out_with_its_one_line(tmp_path):

@@ -77,7 +77,7 @@ def test_a_files_texts_questions_and_translations_are_the_domains(tmp_path):
 
 
 @pytest.mark.parametrize("extra, message", [
-    ('\n[texts]\nsumary = "x"\n', "world.toml: texts.sumary: not a text a world file gives (one of summary, consent, "
+    ('\n[texts]\nsumary = "x"\n', "world.toml: texts.sumary: not a field of this table (one of summary, consent, "
      "instructions, attention_question, watch, question, title, comprehension); did you mean 'summary'?"),
     ('\n[texts]\nsummary = 3\n', "world.toml: texts.summary: expected a non-empty text, got 3"),
     ('\n[texts]\nwatch = "  "\n', "world.toml: texts.watch: expected a non-empty text, got '  '"),
@@ -87,10 +87,10 @@ def test_a_files_texts_questions_and_translations_are_the_domains(tmp_path):
      "around what is filled in per participant: {n_training}, {n_tests}, {training_plural}, {tests_plural} "
      "(write {{ for a brace)"),
     ('\n[texts]\ncomprehension = [{ question = "Q?", choices = ["a"], right = [1] }]\n',
-     "world.toml: texts.comprehension[0].choices: a question needs 2 to 8 choices, not 1"),
+     "world.toml: texts.comprehension[0].choices: 1 given, at least 2 needed (2 to 8 choices, in the order shown)"),
     ('\n[texts]\ncomprehension = [{ question = "Q?", choices = ["a", "b"], right = [] }]\n',
-     "world.toml: texts.comprehension[0].right: no right choice: give the positions of the right ones, "
-     "e.g. right = [1]"),
+     "world.toml: texts.comprehension[0].right: expected the positions of the right choices, e.g. right = [1], "
+     "got []"),
     ('\n[texts]\ncomprehension = [{ question = "Q?", choices = ["a", "b"], right = [0] }]\n',
      "world.toml: texts.comprehension[0].right: 0 is not a choice's position (1 to 2, in the order listed)"),
     ('\n[texts]\ncomprehension = [{ question = "Q?", choices = ["a", "b"], right = [3] }]\n',
@@ -98,17 +98,17 @@ def test_a_files_texts_questions_and_translations_are_the_domains(tmp_path):
     ('\n[texts]\ncomprehension = [{ question = "Q?", choices = ["a", "b"], right = [2, 1] }]\n',
      "world.toml: texts.comprehension[0].right: every choice is right, so the question checks nothing"),
     ('\n[texts]\ncomprehension = [{ question = "Q?", choices = ["a", "b"], right = [1], answer = [1] }]\n',
-     "world.toml: texts.comprehension[0].answer: not one of question, choices, right"),
+     "world.toml: texts.comprehension[0].answer: not a field of this table (one of question, choices, right)"),
     ('\n[texts]\ncomprehension = [{ choices = ["a", "b"], right = [1] }]\n',
      "world.toml: texts.comprehension[0].question: missing"),
     ('\n[translations.DE]\n"sand" = "Sand"\n',
-     "world.toml: translations.DE: 'DE' is not a language's two-letter code in lower case (e.g. de)"),
-    ('\n[translations.de]\n"sant" = "Sand"\n', 'world.toml: translations.de."sant": not one of the file\'s own '
+     "world.toml: translations.DE: expected a language's two-letter code in lower case (e.g. de), got 'DE'"),
+    ('\n[translations.de]\n"sant" = "Sand"\n', 'world.toml: translations.de.sant: not one of the file\'s own '
      "participant texts (its title, cell labels, object name and [texts], written exactly); did you mean 'sand'?"),
     ('\n[translations.de]\n"fetch the key" = "den Schlüssel holen"\n', 'world.toml: translations.de."fetch the key": '
      "not one of the file's own participant texts (its title, cell labels, object name and [texts], written exactly)"),
-    ('\n[translations.de]\n"sand" = ""\n', "world.toml: translations.de.\"sand\": expected a non-empty text, got ''"),
-    ('\n[translations.de]\n"sand" = 3\n', "world.toml: translations.de.\"sand\": expected a non-empty text, got 3"),
+    ('\n[translations.de]\n"sand" = ""\n', "world.toml: translations.de.sand: expected a non-empty text, got ''"),
+    ('\n[translations.de]\n"sand" = 3\n', "world.toml: translations.de.sand: expected a non-empty text, got 3"),
     ('\n[texts]\ninstructions = ["{n_tests} questions."]\n[translations.de]\n"{n_tests} questions." = '
      '"{n_training} Fragen."\n', 'world.toml: translations.de."{n_tests} questions.": braces only around what the '
      "English paragraph fills in ({n_tests}; {{ for a brace)"),
