@@ -17,6 +17,7 @@ READ_FIRST = {
     "step_context": "studyapp/views.py",  # what every participant page is given
     "run_participant": "studyapp/analysis/simulate.py",  # a simulated participant's walk
     "steps_for": "studyapp/flow.py",  # the participant's steps
+    "parse_world": "teaching/domains/_grid/worldfile.py",  # what a world file becomes
 }
 
 

@@ -53,3 +53,7 @@ def test_the_core_installs_and_runs_without_django(tmp_path, tiny_table):
     worlds = _run([python, "-c", "from teaching.domains import WORLDS; print(sorted(p.name for p in "
                    "WORLDS.glob('*.toml')))"], cwd=outside)
     assert worlds.stdout.strip() == "['skateboard.toml', 'taxi.toml', 'two-goal.toml']", worlds.stderr
+    # and is checked against its schema, package data too
+    taxi = _run([python, "-c", "import teaching.domains; from teaching.core.domain import get_domain; "
+                 "print(get_domain('taxi').n_environments)"], cwd=outside)
+    assert taxi.returncode == 0 and taxi.stdout.strip() == "25600", taxi.stderr
