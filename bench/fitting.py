@@ -30,8 +30,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench.doc_section import rewrite_section
+from teaching.core.answers import questions_of
 from teaching.core.conditions import teach
-from teaching.core.fitting import fit_models, questions_of
+from teaching.core.fitting import fit_models
 from teaching.core.learners import Distances
 from teaching.core.recovery import LAPSE_TOLERANCE, VALUE_TOLERANCE, model_recovery
 from teaching.core.selection import CONDITIONS, fitted_model

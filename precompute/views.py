@@ -17,10 +17,12 @@ from studyapp.models import Study
 from teaching.api import TableError
 
 from . import designlayout, jobs, supply
-from .design import StudyDesignForm, TableBuildForm, built_tables, tables_dir
+from .design import StudyDesignForm
+from .jobs import tables_dir
 from .models import Job
 from .specs import SpecFormatError
 from .study import StudyJobError, create_study_job
+from .tables import TableBuildForm, built_tables
 from .work import ChunkError
 
 REFRESH_SECONDS = 3

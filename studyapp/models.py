@@ -1,5 +1,8 @@
 """Study, condition, participant, answer (DESIGN §7).
 
+Longer than 400 lines because Django reads an app's models from one module, and each model keeps the
+rules about its own rows (a study's opening problems, a participant's consent version) beside its fields.
+
 A condition is frozen: its training environments (with the trajectories
 needed to draw them) are stored as JSON, and the study holds the test set
 shared by all of its conditions, so serving a study never needs the
@@ -198,7 +201,7 @@ class Study(models.Model):
         study checks it, but its language may be changed later (the admin) or its world file edited."""
         from teaching.api import get_domain  # noqa: PLC0415 (numpy and the domains load when needed)
 
-        from .i18n import language_problem  # noqa: PLC0415 (i18n reads this module's Study)
+        from .i18n import language_problem  # noqa: PLC0415 (teaching loads only when needed)
 
         return language_problem(get_domain(self.domain), self.language)
 

@@ -29,7 +29,7 @@ from django.template.loader import render_to_string
 from django.utils import translation
 from django.utils.translation import gettext, gettext_noop
 
-from .i18n import participant_language
+from .language import participant_language
 
 logger = logging.getLogger("studyapp.security")
 
@@ -64,7 +64,7 @@ def refuse(request, status: int, message: str, retry_after: int | None = None) -
 def refuse_before_view(request, status: int, message: str, **values) -> HttpResponse:
     """:func:`refuse` for what the middleware refuses before any view runs: `message` (an English msgid
     marked with gettext_noop, ``{name}`` placeholders filled from `values`) in the language of the study
-    whose participant page was asked for (studyapp.i18n.participant_language), else the site's."""
+    whose participant page was asked for (studyapp.language.participant_language), else the site's."""
     language = participant_language(request)
     with translation.override(language or translation.get_language()):
         return refuse(request, status, gettext(message).format(**values))

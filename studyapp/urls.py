@@ -1,13 +1,13 @@
 from django.urls import path, re_path
 
-from . import dashboard, i18n, stimuli, views
+from . import dashboard, language, stimuli, views
 from .analysis import views as analysis_views
 
 urlpatterns = [
     path("", views.home, name="home"),
     path("s/<slug:slug>/", views.entry, name="entry"),
     path("s/<slug:slug>/p/<str:token>/", views.step, name="step"),
-    path("s/<slug:slug>/jsi18n.js", i18n.javascript_catalog, name="jsi18n"),
+    path("s/<slug:slug>/jsi18n.js", language.javascript_catalog, name="jsi18n"),
     path("s/<slug:slug>/p/<str:token>/<int:step_index>/", views.answer, name="answer"),
     path("dashboard/", dashboard.index, name="dashboard"),
     path("dashboard/<slug:slug>/", dashboard.detail, name="dashboard_study"),

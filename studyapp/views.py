@@ -16,7 +16,8 @@ from django.views.decorators.http import require_GET, require_POST
 
 from . import devices, flow, outcomes, security, status
 from .assignment import StudyClosed, assign
-from .i18n import in_study_language, participant_texts
+from .i18n import participant_texts
+from .language import in_study_language
 from .models import Participant, Study
 from .pages import page_for
 from .platforms import MTURK_HOSTS, completion_target, mturk_submit_base

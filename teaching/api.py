@@ -154,19 +154,20 @@ Ideal users (the paper's simulated learners; teaching.core.evaluation)
 """
 from __future__ import annotations
 
+from .core.answers import Answers, FitError, Question, questions_of
 from .core.build import (
-                    PRESETS,
-                    Preset,
-                    assemble,
-                    build_chunk,
-                    check_writable,
-                    chunk_key,
-                    chunk_path,
-                    chunks_of,
-                    code_fingerprint,
-                    customised,
-                    get_preset,
-                    table_identity,
+    PRESETS,
+    Preset,
+    assemble,
+    build_chunk,
+    check_writable,
+    chunk_key,
+    chunk_path,
+    chunks_of,
+    code_fingerprint,
+    customised,
+    get_preset,
+    table_identity,
 )
 from .core.candidates import SAMPLERS
 from .core.choice import OptionDistances, choice_probabilities, option_choice
@@ -197,7 +198,7 @@ from .core.domain import (
     shows_the_way,
 )
 from .core.evaluation import USER_NAMES, study_matrix
-from .core.fitting import TIE_TOLERANCE, Answers, Comparison, FitError, Question, compare_models, questions_of
+from .core.fitting import TIE_TOLERANCE, Comparison, compare_models
 from .core.i18n import TranslatableError
 from .core.learners import MODEL_NAMES, has_hyperparameter, make_model, model_names, parse_hyperparameters
 from .core.selection import ALL_CONDITIONS, APPROX_STAR, CONDITIONS, SelectionSettings
@@ -217,12 +218,12 @@ from .core.testset import MIN_REGRET, TestSetError, select_test_set
 from .core.testsupply import TestSupply, clusters_without_a_test, supply_of_tests, ungraded_problem
 from .domains.driving.domain import DOMAIN as _DRIVING
 from .domains.driving.environments import (
-                    CLASS_NAMES,
-                    N_ENVIRONMENTS,
-                    environment_class,
-                    get_environments,
-                    other_car_states,
-                    stratified_sample,
+    CLASS_NAMES,
+    N_ENVIRONMENTS,
+    environment_class,
+    get_environments,
+    other_car_states,
+    stratified_sample,
 )
 from .domains.driving.features import default_normalisers
 from .domains.driving.strategies import CLUSTER_NAMES, N_CLUSTERS, strategy_labels

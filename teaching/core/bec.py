@@ -1,5 +1,9 @@
 """Behavioural equivalence classes (BEC): the weights under which θ*'s trajectories stay optimal.
 
+Longer than 400 lines because a BEC's exact region (its half-spaces, redundant ones removed by linear
+programs) and its size (a share of the sphere, sampled) share the private geometry below; split, each
+half would import the other's helpers.
+
 Brown & Niekum (2019): a demonstration ξ* in environment E holds the reward weights w for which
 w·(φ(ξ*) − φ(ξ)) ≥ 0 for every other trajectory ξ of E.  Here the other trajectories are the
 table's: the optimal trajectory of every candidate θ in E, a finite stand-in for "all

@@ -42,8 +42,8 @@ from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 
+from .answers import Question, questions_of
 from .choice import OptionDistances, option_choice
-from .fitting import Question, questions_of
 from .learners import Distances, LearnerModel, check_value, make_model, posterior
 from .selection import APPROX_STAR, IMPROVEMENT_RTOL, _candidate_p, showable
 from .showtests import is_show, select_show_tests

@@ -23,8 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .answers import Question
 from .closedloop import ClosedLoop, ClosedLoopError, ClosedLoopSpec
-from .fitting import Question
 
 PACK_VERSION = 1
 ARRAYS = ("lik", "check_lik", "eligible", "env_ids", "env_class", "star_cluster", "star_states")

@@ -15,8 +15,9 @@ from collections import Counter
 
 import numpy as np
 
+from .answers import questions_of
 from .closedloop import CHECK, ClosedLoop, run_learner
-from .fitting import choice_table, option_distances, questions_of
+from .fitting import choice_table, option_distances
 from .learners import Distances, LearnerModel, p_theta_star
 from .simulate import SimulatedLearner
 

@@ -9,16 +9,12 @@ grouped by what the likelihood reads of them (:func:`answer_classes`), so the co
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from .answers import Answers
 from .choice import OptionDistances
 from .learners import Deterministic, Distances
-
-if TYPE_CHECKING:
-    from .fitting import Answers
 
 
 def answer_classes(answers: Answers) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

@@ -13,7 +13,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .fitting import FitError, fit_models, tie_ranks
+from .answers import FitError
+from .fitting import fit_models, tie_ranks
 from .learners import Distances, model_names
 from .simulate import SimulatedLearner, simulate_answers
 

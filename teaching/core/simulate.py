@@ -14,8 +14,9 @@ from functools import lru_cache
 
 import numpy as np
 
+from .answers import Answers, questions_of
 from .choice import OptionDistances, log_choice_probabilities
-from .fitting import Answers, choice_table, option_distances, questions_of
+from .fitting import choice_table, option_distances
 from .learners import Distances, LearnerModel, check_value, log_posterior, make_model
 
 RATING_STEPS = 6  # a rating is 1 + Binomial(6, P(option)): 1 .. 7

@@ -196,7 +196,8 @@ def test_the_designer_builds_a_closed_loop_condition_with_its_model_from_a_fit(
 ])
 def test_the_designers_closed_loop_errors_are_said_under_their_fields(db, demo_table, settings, make_study,
                                                                       change, field, message):
-    from precompute.design import StudyDesignForm, built_tables  # noqa: PLC0415
+    from precompute.design import StudyDesignForm  # noqa: PLC0415
+    from precompute.tables import built_tables  # noqa: PLC0415
 
     settings.TABLES_DIR = demo_table.parent
     make_study(slug="fitted")

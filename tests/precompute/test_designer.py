@@ -10,9 +10,10 @@ import re
 import pytest
 
 from precompute import jobs
-from precompute.design import TUNABLE, StudyDesignForm, TableBuildForm, built_tables, fixed_field
+from precompute.design import TUNABLE, StudyDesignForm, fixed_field
 from precompute.designlayout import placed_fields
 from precompute.models import Job
+from precompute.tables import TableBuildForm, built_tables
 from studyapp.models import Study
 from teaching.api import TrajectoryTable, select_test_set, selector_names
 

@@ -8,8 +8,9 @@ import pytest
 from django.core.cache import cache
 from django.test import Client
 
-from precompute.design import StudyDesignForm, built_tables
+from precompute.design import StudyDesignForm
 from precompute.models import Job
+from precompute.tables import built_tables
 from studyapp.models import Study
 from teaching.api import TrajectoryTable, supply_of_tests
 

@@ -19,9 +19,9 @@ from precompute.study import create_study_job
 from studyapp.analysis.power import PAPER_EFFECTS, participants_needed
 from studyapp.models import Study
 from studyapp.studies import store_pilot
+from teaching.core.answers import Question
 from teaching.core.conditions import teach
 from teaching.core.evaluation import USER_NAMES, ideal_user_matrix
-from teaching.core.fitting import Question
 from teaching.core.learners import Distances
 from teaching.core.simulate import model_choices, predicted_scores
 from teaching.core.table import TrajectoryTable

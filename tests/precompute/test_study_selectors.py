@@ -8,9 +8,10 @@ import io
 import pytest
 from django.core.management import call_command
 
-from precompute.design import StudyDesignForm, built_tables
+from precompute.design import StudyDesignForm
 from precompute.management.commands.build_study import split_conditions
 from precompute.models import Job
+from precompute.tables import built_tables
 from studyapp.analysis.data import analyze_study
 from studyapp.analysis.simulate import simulate
 from studyapp.models import Study

@@ -40,7 +40,8 @@ def record(p, step, **fields):
 def design_form(table, **fields):
     """The study designer's form for `table` (a built table's directory) with a minimal valid post, `fields`
     added or replacing its values."""
-    from precompute.design import StudyDesignForm, built_tables  # noqa: PLC0415  (the designer's own imports)
+    from precompute.design import StudyDesignForm  # noqa: PLC0415  (the designer's own imports)
+    from precompute.tables import built_tables  # noqa: PLC0415
 
     tables = [t for t in built_tables(table.parent) if t["path"] == str(table)]
     post = {"table": str(table), "slug": "designed", "target_per_condition": "20", "recruitment": "link",

@@ -210,7 +210,8 @@ DESIGN = {"slug": "designed", "name": "Designed", "conditions": ["exact"], "targ
 @pytest.fixture
 def design(tiny_table):
     """A bound designer form on the tiny table (its robot's questions prefilled, as the page sends them)."""
-    from precompute.design import StudyDesignForm, built_tables  # noqa: PLC0415
+    from precompute.design import StudyDesignForm  # noqa: PLC0415
+    from precompute.tables import built_tables  # noqa: PLC0415
 
     tables = [t for t in built_tables(tiny_table.parent) if t["path"] == str(tiny_table)]
     text = StudyDesignForm(tables=tables).fields["comprehension_questions"].initial

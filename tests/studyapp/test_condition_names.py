@@ -16,8 +16,9 @@ import pytest
 from django.core.management import call_command
 from django.core.management.base import CommandError
 
-from precompute.design import StudyDesignForm, built_tables
+from precompute.design import StudyDesignForm
 from precompute.study import StudyJobError, create_study_job
+from precompute.tables import built_tables
 from studyapp import assignment
 from studyapp.analysis import data as D
 from studyapp.analysis import stats as S

@@ -6,7 +6,8 @@ from __future__ import annotations
 import pytest
 from django.test import Client
 
-from precompute.design import StudyDesignForm, built_tables
+from precompute.design import StudyDesignForm
+from precompute.tables import built_tables
 from studyapp import devices
 from studyapp.assignment import assign
 from studyapp.dashboard import condition_stats

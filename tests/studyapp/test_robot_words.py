@@ -79,7 +79,8 @@ def test_every_allowed_line_is_still_there():
 
 def test_the_designers_hints_name_every_domains_own_numbers(db):
     """What was the car's and the yard's numbers written into the help texts is each registered domain's."""
-    from precompute.design import StudyDesignForm, TableBuildForm  # noqa: PLC0415  (Django only here)
+    from precompute.design import StudyDesignForm  # noqa: PLC0415  (Django only here)
+    from precompute.tables import TableBuildForm  # noqa: PLC0415
     from teaching.api import domain_names, get_domain  # noqa: PLC0415
 
     distance = StudyDesignForm(tables=[]).fields["min_distance"].help_text

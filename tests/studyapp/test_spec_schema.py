@@ -14,9 +14,10 @@ import pytest
 from django.core.management import call_command
 from django.core.management.base import CommandError
 
-from precompute.design import StudyDesignForm, built_tables, schema_field
+from precompute.design import StudyDesignForm, schema_field
 from precompute.models import Job
 from precompute.study import StudyJobError, create_study_job
+from precompute.tables import built_tables
 from studyapp import specschema
 from studyapp.models import Study
 from studyapp.specschema import CONDITION_FIELDS, JOB_FIELDS, SPEC_FIELDS, STUDY_FIELDS, THRESHOLD_FIELDS

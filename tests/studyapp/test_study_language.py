@@ -1,4 +1,4 @@
-"""A study's language (Study.language, studyapp/i18n.py): its participants read it whatever their browser
+"""A study's language (Study.language, studyapp/language.py): its participants read it whatever their browser
 asks for, its researchers keep theirs, the JavaScript catalog speaks it, and an unknown language is refused
 in one line."""
 from __future__ import annotations

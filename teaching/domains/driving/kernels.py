@@ -1,6 +1,10 @@
 """Compiled (Numba) kernels: rollout, features, and the objective with its
 exact gradient and Hessian, for one trajectory at a time.
 
+Longer than 400 lines because the derivatives (the forward and backward passes) must sit beside the
+rollout and penalties they differentiate: Numba compiles and caches the kernels that call one another
+by module, and a change to one must recompile the others.
+
 Decision variables z (K, 2) lie in [-1, 1]; the controls are
 u_k = z_k * [steer_rate_max, accel_max], held for `steps_per_knot` steps.
 

@@ -1,5 +1,8 @@
 """Optimal trajectories xi_E^theta for many (environment, theta) at once (DESIGN §4).
 
+Longer than 400 lines because the steps below (anchors, warm starts, the cross-θ pass, settling) are one
+algorithm whose order decides a table's bytes; each step is its own function, read top to bottom.
+
 The objective theta . phi is non-convex (ahead of vs behind the other car), so
 a local optimiser alone is wrong.  For one chunk of environments:
 

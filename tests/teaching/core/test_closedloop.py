@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from teaching.core.answers import Question, questions_of
 from teaching.core.choice import choice_probabilities
 from teaching.core.closedloop import (
     CHECK,
@@ -36,7 +37,7 @@ from teaching.core.closedloop import (
 from teaching.core.closedloop_pack import load_pack, write_pack
 from teaching.core.closedloop_pilot import loop_pilot
 from teaching.core.evaluation import ideal_user_matrix
-from teaching.core.fitting import Question, choice_table, option_distances, questions_of
+from teaching.core.fitting import choice_table, option_distances
 from teaching.core.learners import Distances, make_model, model_names
 from teaching.core.selection import greedy, showable
 from teaching.core.simulate import SimulatedLearner

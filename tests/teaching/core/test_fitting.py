@@ -8,11 +8,9 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize, minimize_scalar
 
+from teaching.core.answers import Answers, FitError, Question
 from teaching.core.conditions import teach
 from teaching.core.fitting import (
-    Answers,
-    FitError,
-    Question,
     _answer_log_lik,
     choice_table,
     compare_models,

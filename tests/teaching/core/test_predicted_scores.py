@@ -3,8 +3,8 @@ the designer's pilot and power table, checked by hand and against participants d
 import numpy as np
 import pytest
 
+from teaching.core.answers import Question
 from teaching.core.conditions import teach
-from teaching.core.fitting import Question
 from teaching.core.learners import make_model
 from teaching.core.simulate import AnswerModel, SimulatedLearner, model_choices, predicted_scores
 from teaching.core.testset import select_test_set
