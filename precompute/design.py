@@ -11,7 +11,6 @@ from django.core.exceptions import NON_FIELD_ERRORS
 
 from studyapp import specrules, specschema
 from studyapp.analysis.conditions import aliased_pairs
-from studyapp.i18n import language_problem
 from studyapp.models import Participant, Study
 from studyapp.specschema import (
     BONUS_FIELDS,
@@ -250,7 +249,6 @@ class StudyDesignForm(forms.Form):
                 self._check_in_table(data["table"], ids)
         elif not data.get("conditions") and not data.get("loop_name") and "conditions" not in self.errors:
             self.add_error("conditions", "Choose at least one condition, or give a hand-picked or closed-loop one.")
-        self._check_language(data)
         self._check_job(data)
         self._check_tests(data)
         return data
@@ -272,15 +270,6 @@ class StudyDesignForm(forms.Form):
             self.add_error(field, why)
             data.pop("job", None)
 
-    def _check_language(self, data: dict) -> None:
-        """A language the table's robot has texts without a translation in, said under the language (the
-        study job would refuse it: studyapp.i18n.language_problem)."""
-        domain = next((t["domain"] for t in self.tables if t["path"] == data.get("table")), None)
-        if domain and data.get("language"):
-            problem = language_problem(get_domain(domain), data["language"])
-            if problem:
-                self.add_error("language", problem)
-
     def _selected(self, data: dict) -> list[dict]:
         """The ticked conditions as the job names them: each its selector, with the parameters filled in
         below it (an empty one: the selector's default)."""
@@ -291,9 +280,10 @@ class StudyDesignForm(forms.Form):
         return [{"name": c, "selector": c, "params": params.get(c, {})} for c in data.get("conditions") or []]
 
     def _job_arguments(self, data: dict) -> dict:
-        """create_study_job's arguments (but the table) from the cleaned data."""
+        """The study job's design (specschema's JOB_FIELDS and STUDY_FIELDS) from the cleaned data."""
         ids = data.get("hand_picked_env_ids")
         return {"slug": data.get("slug"), "name": data.get("name") or None, "seed": data.get("seed"),
+                "is_open": False,  # built closed: the researcher previews every condition, then opens it
                 "approx_star": data.get("approx_star"), "conditions": self._selected(data),
                 "test_difficulty": data.get("test_difficulty") or None, "test_kind": data.get("test_kind") or None,
                 "target_per_condition": data.get("target_per_condition"), "hyperparameters": data["hyperparameters"],
@@ -308,9 +298,9 @@ class StudyDesignForm(forms.Form):
 
     def _check_job(self, data: dict) -> None:
         """The job's arguments through the study spec's checks (studyapp/specschema.py), each problem under
-        its own field (unless one is said there already); data["job"]: the arguments, once all is well."""
-        args = self._job_arguments(data)
-        for problem in specschema.job_problems(args)[1]:
+        its own field (unless one is said there already); data["job"]: the CheckedStudy, once all is well."""
+        checked, problems = specschema.job_problems(self._job_arguments(data))
+        for problem in problems:
             place = self.SCHEMA_PLACES.get(problem.field, problem.field)
             if problem.field.startswith("conditions."):  # a selector's parameter: under its own field
                 place = param_field_name(*problem.field.split(".")[1:3])
@@ -322,7 +312,7 @@ class StudyDesignForm(forms.Form):
             if (place or NON_FIELD_ERRORS) not in self.errors:
                 self.add_error(place, message)
         if not self.errors:
-            data["job"] = {"table_path": data["table"], **args}
+            data["job"] = checked
 
     def _check_in_table(self, table_path: str, ids: list[int]) -> None:
         try:

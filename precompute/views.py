@@ -91,9 +91,11 @@ def design(request):
     if request.method == "POST" and form.is_valid():
         d = form.cleaned_data
         try:
-            job = create_study_job(**d["job"], open_when_done=False, start=False)
-        except (StudyJobError, TableError) as exc:
-            form.add_error(None, str(exc))
+            job = create_study_job(d["table"], d["job"], start=False)
+        except StudyJobError as exc:  # what only the table or the database says: under its field where it has one
+            form.add_error(exc.field if exc.field in form.fields else None, str(exc))
+        except TableError as exc:
+            form.add_error("table", str(exc))
         else:
             return launch_and_follow(request, job, f"Building study {d['slug']!r} on the workers: when this job "
                                      "is done, preview its conditions on the study's page, then open it.")

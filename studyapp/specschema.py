@@ -12,14 +12,19 @@ Three entry points make a study, and each goes through here:
   each problem is said under its own field in the words the other two use.
 
 So a rule (a target is a positive whole number, a condition name is a slug, the test set's
-thresholds are 0 or more) is written once, and changing it changes every entry point.  The rules of
+thresholds are 0 or more) is written once, and changing it changes every entry point.  Each route checks
+once: its check gives a :class:`CheckedStudy`, frozen, and everything downstream (studies.new_study,
+studies.build_study, precompute.study.create_study_job) takes that object and checks none of these rules
+again.  The rules of
 each kind of value are in studyapp/specrules.py; a problem is a SpecError, one line naming the field.
 What needs the table (its environment ids, its theta*) or the database (a slug taken, a study to fit)
 is checked where those are read.
 """
 from __future__ import annotations
 
-from dataclasses import replace
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from types import MappingProxyType
 
 from teaching.api import APPROX_STAR, CONDITIONS, DIFFICULTIES, MIN_REGRET, model_names, selector_names
 
@@ -30,8 +35,8 @@ from .models import Condition, Study
 from .specrules import Field, SpecError
 
 __all__ = ["BONUS_FIELDS", "COMPREHENSION_FIELDS", "CONDITION_FIELDS", "DEVICE_FIELDS", "JOB_FIELDS", "OUTCOME_FIELDS",
-           "PLAN_FIELDS", "SPEC_FIELDS", "STUDY_FIELDS", "TEXT_FIELDS", "THRESHOLD_FIELDS", "Field", "SpecError",
-           "check_condition_names", "check_job", "check_spec", "check_study", "job_problems"]
+           "PLAN_FIELDS", "SPEC_FIELDS", "STUDY_FIELDS", "TEXT_FIELDS", "THRESHOLD_FIELDS", "CheckedStudy", "Field",
+           "SpecError", "check_condition_names", "check_job", "check_spec", "job_problems"]
 
 # The per-study texts of the consent page (models.Study holds their defaults, lengths and help).
 TEXT_FIELDS = ("consent_text", "estimated_minutes", "payment", "payment_amount", "contact", "ethics_reference")
@@ -245,7 +250,50 @@ JOB_FIELDS: dict[str, Field] = {f.name: f for f in (
           choices=tuple(Study.TEST_KINDS)),
     Field("test_set_thresholds", rules.parts, "The test set's thresholds: min_regret and min_distance.",
           default={}, parts=tuple(THRESHOLD_FIELDS.values())),
+    SPEC_FIELDS["is_open"],
+    Field("replace", rules.boolean, "Rebuild a study of this slug that has no participants yet (else an existing "
+          "slug is refused).", default=False),
 )}
+
+
+# --- the checked study -----------------------------------------------------------------------------
+@dataclass(frozen=True)
+class CheckedStudy:
+    """A study's design as its route's check left it (check_spec: a JSON spec; check_job or job_problems: a
+    study job, from the command line or the designer): every declared field as stored, defaults filled in,
+    read-only.  Only those checks make one, so a function that takes one need not check again."""
+
+    values: Mapping[str, object]
+
+    def __post_init__(self):
+        object.__setattr__(self, "values", MappingProxyType(dict(self.values)))
+
+    def __getitem__(self, key: str):
+        return self.values[key]
+
+    def __contains__(self, key: str) -> bool:
+        return key in self.values
+
+    def get(self, key: str, default=None):
+        return self.values.get(key, default)
+
+    @property
+    def slug(self) -> str:
+        return self.values["slug"]
+
+    @property
+    def condition_names(self) -> list[str]:
+        """Every condition's name, in the study's order: a JSON spec's as listed; a job's selected ones, then
+        the hand-picked, then the closed-loop ones."""
+        named = [c["name"] for c in self.values["conditions"]]
+        if "table" in self.values:  # a JSON spec
+            return named
+        return named + list(self.values["hand_picked"]) + list(self.values["closed_loop"])
+
+    @property
+    def study_fields(self) -> dict:
+        """The Study's own columns this design sets (all but the slug and the title)."""
+        return {k: self.values[k] for k in STUDY_FIELDS if k not in ("slug", "name") and k in self.values}
 
 
 # --- checking --------------------------------------------------------------------------------------
@@ -313,17 +361,8 @@ def _study_rules(values: dict, found: list[SpecError]) -> None:
                                "instead", "bonus_per_point"))
 
 
-def check_study(fields: dict, conditions: list[str]) -> None:
-    """What studies.new_study stores: the study's fields given (and its slug), its conditions' names."""
-    out, found = _problems(fields, {k: f for k, f in STUDY_FIELDS.items() if k in fields or f.required})
-    _study_rules({"estimated_minutes": STUDY_FIELDS["estimated_minutes"].default, **out}, found)
-    _raise_first(found)
-    check_condition_names([(c, "conditions") for c in conditions], found)
-    _raise_first(found)
-
-
-def check_spec(spec) -> dict:
-    """A JSON spec, checked (its first problem raised), with its declared fields as stored and their
+def check_spec(spec) -> CheckedStudy:
+    """A JSON spec, checked (its first problem raised): the spec with its declared fields as stored and their
     defaults filled in."""
     if not isinstance(spec, dict):
         raise SpecError(f"a study spec is a JSON object, not a {type(spec).__name__} "
@@ -331,17 +370,17 @@ def check_spec(spec) -> dict:
     out, found = _problems(spec, {**STUDY_FIELDS, **SPEC_FIELDS})
     _study_rules(out, found)
     _raise_first(found)
-    return {**{k: v for k, v in spec.items() if v is not None}, **out}
+    return CheckedStudy({**{k: v for k, v in spec.items() if v is not None}, **out})
 
 
-def job_problems(args: dict) -> tuple[dict, list[SpecError]]:
-    """(the study job's arguments as stored, defaults filled in; every problem with them): each field's
-    own, then, if there are none, the first of the rules across fields (the conditions' names; a fit is
-    for a closed-loop condition)."""
+def job_problems(args: dict) -> tuple[CheckedStudy | None, list[SpecError]]:
+    """(the study job's arguments as stored, defaults filled in, or None when there are problems; every
+    problem with them): each field's own, then, if there are none, the first of the rules across fields (the
+    conditions' names; a fit is for a closed-loop condition)."""
     out, found = _problems(args, {**STUDY_FIELDS, **JOB_FIELDS})
     _study_rules(out, found)
     if found:
-        return out, found
+        return None, found
     if not out.get("conditions"):  # by default the paper's, unless the study has conditions of its own
         out["conditions"] = [] if out["hand_picked"] or out["closed_loop"] else \
             [{"name": c, "selector": c, "params": {}} for c in CONDITIONS]
@@ -352,11 +391,11 @@ def job_problems(args: dict) -> tuple[dict, list[SpecError]]:
     if stray and not found:
         found.append(SpecError(f"a fit is asked for {stray[0]!r}, which is not a closed-loop condition of this "
                                "study", "closed_loop_fit"))
-    return out, found
+    return (None if found else CheckedStudy(out)), found
 
 
-def check_job(args: dict) -> dict:
+def check_job(args: dict) -> CheckedStudy:
     """The study job's arguments, checked (the first problem raised), as stored, defaults filled in."""
-    out, found = job_problems(args)
+    checked, found = job_problems(args)
     _raise_first(found)
-    return out
+    return checked

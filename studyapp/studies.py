@@ -53,12 +53,6 @@ from . import closedloop, specschema, trajectories
 from .i18n import language_problem
 from .models import Condition, Study
 from .specschema import (
-    BONUS_FIELDS,
-    COMPREHENSION_FIELDS,
-    DEVICE_FIELDS,
-    OUTCOME_FIELDS,
-    PLAN_FIELDS,
-    TEXT_FIELDS,
     SpecError,
 )
 
@@ -186,33 +180,33 @@ def closed_loop_view(table, trainings, tests: list[dict], loops) -> dict:
 # --- the one way a study is made: create it, freeze each condition, freeze the test set ---------
 # create_study (a JSON spec or a teach output), the Celery study job (precompute/study.py) and the
 # demo all go through these three, so one set of rules holds everywhere.
-def new_study(*, slug: str, conditions: list[str], source: dict, name: str | None = None, replace: bool = False,
-              **fields) -> Study:
-    """Create the study closed, with its conditions named and not yet frozen.
+def new_study(checked: specschema.CheckedStudy, source: dict, replace: bool = False) -> Study:
+    """Create the study `checked` designs, closed, with its conditions named and not yet frozen.
 
-    `fields`: target_per_condition, completion_code, recruitment and the consent page's texts.
-    Refuses a bad slug, duplicate condition names, a language the domain's texts are not all in
-    (studyapp.i18n.language_problem), an existing study unless `replace`, and replacing a study that has
-    participants.
+    Refuses what only the table's robot and the database can say: a language the domain's texts are not all
+    in (studyapp.i18n.language_problem, said under "language"), an existing study unless `replace`, and
+    replacing a study that has participants.  Everything else was said when `checked` was made.
     """
-    specschema.check_study({"slug": slug, "name": name, **fields}, conditions)
+    if not isinstance(checked, specschema.CheckedStudy):
+        raise TypeError("new_study takes a CheckedStudy: check the design first (studyapp.specschema)")
+    slug, fields = checked.slug, checked.study_fields
     domain = source_domain(source)
     # a study whose participants would read some of its robot's texts in English is not the study designed:
     # refused here, where every study is made, rather than shown half translated
     problem = language_problem(get_domain(domain), fields.get("language") or Study.language.field.default)
     if problem:
-        raise SpecError(problem)
+        raise SpecError(problem, "language")
     with transaction.atomic():
         existing = Study.objects.select_for_update().filter(slug=slug).first()
         if existing and not replace:
-            raise SpecError(f"study {slug!r} exists; pass --replace to rebuild it")
+            raise SpecError(f"study {slug!r} exists; pass --replace to rebuild it", "slug")
         if existing and existing.participants.exists():
-            raise SpecError(f"study {slug!r} already has participants; refusing to replace it")
+            raise SpecError(f"study {slug!r} already has participants; refusing to replace it", "slug")
         if existing:
             existing.delete()
-        study = Study.objects.create(slug=slug, name=name or slug, source=source, is_open=False, test_set=[],
-                                     domain=domain, **fields)
-        for i, c in enumerate(conditions):
+        study = Study.objects.create(slug=slug, name=checked.get("name") or slug, source=source, is_open=False,
+                                     test_set=[], domain=domain, **fields)
+        for i, c in enumerate(checked.condition_names):
             Condition.objects.create(study=study, name=c, position=i, training=[])
     return study
 
@@ -304,12 +298,7 @@ def build_study(spec: dict, replace: bool = False) -> Study:
         return existing
     conditions, training, tests, source = _payloads(spec)
     with transaction.atomic():
-        study = new_study(slug=spec["slug"], name=spec.get("name"), conditions=[c["name"] for c in conditions],
-                          source=source, replace=replace,
-                          target_per_condition=spec["target_per_condition"],
-                          completion_code=spec["completion_code"], recruitment=spec["recruitment"],
-                          **{k: spec[k] for k in (*TEXT_FIELDS, *DEVICE_FIELDS, *OUTCOME_FIELDS, *BONUS_FIELDS,
-                                                  *PLAN_FIELDS, *COMPREHENSION_FIELDS, "language") if k in spec})
+        study = new_study(spec, source, replace=replace)
         targets = {c["name"]: c.get("target") for c in conditions}
         for c in study.conditions.all():
             if isinstance(training[c.name], dict):

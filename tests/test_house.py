@@ -23,6 +23,7 @@ READ_FIRST = {
     "run_participant": "studyapp/analysis/simulate.py",  # a simulated participant's walk
     "steps_for": "studyapp/flow.py",  # the participant's steps
     "parse_world": "teaching/domains/_grid/worldfile.py",  # what a world file becomes
+    "create_study_job": "precompute/study.py",  # a study job from a checked design
 }
 
 

@@ -17,6 +17,7 @@ from precompute.study import StudyJobError, create_study_job, parse_closed_loop
 from studyapp import closedloop
 from studyapp.analysis.simulate import run_participant
 from studyapp.models import Participant, Study
+from studyapp.specschema import SpecError, check_job
 from teaching.api import ClosedLoopError, TrajectoryTable, select_checks
 from tests.conftest import TINY_TEST_SET
 from tests.precompute.refusals import assert_refused_in_one_line
@@ -73,8 +74,8 @@ def test_build_study_prepares_a_closed_loop_condition_with_the_test_set(inproces
 def test_a_study_of_one_closed_loop_condition_alone(inprocess_worker, transactional_db, tiny_table, settings,
                                                     tmp_path):
     settings.VAR_DIR = tmp_path
-    job = create_study_job(tiny_table, "only-loop", closed_loop={"solo": {"check_every": 0, "max_examples": 3}},
-                           test_set_thresholds=TINY_TEST_SET)
+    job = create_study_job(tiny_table, check_job({"slug": "only-loop", "test_set_thresholds": TINY_TEST_SET,
+                                                 "closed_loop": {"solo": {"check_every": 0, "max_examples": 3}}}))
     job = jobs.wait(job, progress=False, timeout=240)
     assert job.status == Job.SUCCEEDED, job.error
     study = Study.objects.get(slug="only-loop")
@@ -91,8 +92,8 @@ def test_a_closed_loop_condition_the_build_cannot_prepare_is_said_in_one_line(in
     exception, and the study stays closed."""
     settings.VAR_DIR = tmp_path
     (tmp_path / "closedloop").write_text("not a folder")
-    job = create_study_job(tiny_table, "unwritable-loop", open_when_done=True,
-                           closed_loop={"loop": {"max_examples": 3}}, test_set_thresholds=TINY_TEST_SET)
+    job = create_study_job(tiny_table, check_job({"slug": "unwritable-loop", "test_set_thresholds": TINY_TEST_SET,
+                                                 "closed_loop": {"loop": {"max_examples": 3}}}))
     job = jobs.wait(job, progress=False, timeout=240)
     assert_refused_in_one_line(job, staff_client, "unwritable-loop", "ClosedLoopError",
                                "A closed-loop condition could not be prepared")
@@ -142,8 +143,8 @@ def test_parse_closed_loop_says_what_it_cannot_read(text, message):
     ({"cl": "det-reward"}, "closed-loop condition 'cl': 'closed_loop' must be an object of settings"),
 ])
 def test_bad_closed_loop_settings_are_refused_before_any_task(db, tiny_table, loops, message):
-    with pytest.raises(StudyJobError, match=message.replace("(", r"\(").replace("]", r"\]")):
-        create_study_job(tiny_table, "bad-loop", conditions=["random"], closed_loop=loops, start=False)
+    with pytest.raises(SpecError, match=message.replace("(", r"\(").replace("]", r"\]")):
+        check_job({"slug": "bad-loop", "conditions": ["random"], "closed_loop": loops})
     assert not Study.objects.filter(slug="bad-loop").exists()
 
 

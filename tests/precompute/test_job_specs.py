@@ -13,6 +13,7 @@ from precompute.specs import SPEC_VERSION, SpecFormatError, StudyJobSpec, TableJ
 from precompute.study import create_study_job
 from precompute.tasks import table_chunk, task_arguments
 from studyapp.models import Study
+from studyapp.specschema import check_job
 from teaching.domains.driving.synthetic import synthetic_table
 
 pytestmark = pytest.mark.slow
@@ -52,7 +53,7 @@ def test_a_table_job_stored_in_the_previous_format_is_retried_and_completes(inpr
 
 def test_a_study_job_stored_in_the_previous_format_is_retried_and_completes(inprocess_worker, transactional_db,
                                                                              synthetic, staff_client):
-    job = create_study_job(synthetic, "old-format", conditions=["exact", "random"], start=False)
+    job = create_study_job(synthetic, check_job({"slug": "old-format", "conditions": ["exact", "random"]}), start=False)
     study = Study.objects.get(slug="old-format")
     job.params = dict(STUDY_V1, study_id=study.pk, table=str(synthetic))  # as the old code wrote it
     job.save()

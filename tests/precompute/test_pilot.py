@@ -18,6 +18,7 @@ from precompute.models import Job
 from precompute.study import create_study_job
 from studyapp.analysis.power import PAPER_EFFECTS, participants_needed
 from studyapp.models import Study
+from studyapp.specschema import check_job
 from studyapp.studies import store_pilot
 from teaching.core.answers import Question
 from teaching.core.conditions import teach
@@ -35,9 +36,10 @@ def test_the_study_job_stores_the_ideal_user_matrix_of_its_conditions(inprocess_
                                                                        demo_table, staff_client):
     table = TrajectoryTable.load(demo_table)
     picked = [int(e) for e in table.env_ids[[7, 3, 250]]]
-    job = create_study_job(demo_table, "piloted", conditions=CONDITIONS, hyperparameters=FIXED,
-                           hand_picked={"mine": picked}, open_when_done=False, target_per_condition=30,
-                           test_set_thresholds={"min_distance": 0.25})  # options 0.5 apart: none left for one cluster
+    job = create_study_job(demo_table, check_job({
+        "slug": "piloted", "conditions": CONDITIONS, "hyperparameters": FIXED, "hand_picked": {"mine": picked},
+        # options 0.5 apart: none left for one cluster
+        "is_open": False, "target_per_condition": 30, "test_set_thresholds": {"min_distance": 0.25}}))
     job = jobs.wait(job, progress=False, timeout=300)
     assert job.status == Job.SUCCEEDED, job.error
     study = Study.objects.get(slug="piloted")

@@ -13,6 +13,7 @@ from precompute.sequences import condition_sequence
 from precompute.study import create_study_job
 from precompute.tasks import study_condition, study_finish
 from studyapp.models import Study
+from studyapp.specschema import check_job
 from teaching.core.conditions import build_sequences, teach
 from teaching.core.selection import ALL_CONDITIONS, CONDITIONS
 from teaching.core.showtests import select_show_tests
@@ -91,8 +92,8 @@ def test_a_test_set_only_the_build_finds_impossible_is_said_in_one_line_without_
         inprocess_worker, transactional_db, table_path, staff_client):
     """What the designer cannot know before the conditions are selected (here: a θ*-regret no option has) is
     said on the job page as what to change, not as an exception; the study stays closed and cannot open."""
-    job = create_study_job(table_path, slug="unbuildable", conditions=["exact"], open_when_done=False,
-                           test_set_thresholds={"min_regret": 1e9})
+    job = create_study_job(table_path, check_job({"slug": "unbuildable", "conditions": ["exact"], "is_open": False,
+                                                 "test_set_thresholds": {"min_regret": 1e9}}))
     job = jobs.wait(job, progress=False, timeout=180)
     assert_refused_in_one_line(job, staff_client, "unbuildable", "TestSetError", "No test set could be drawn")
     assert job.error.startswith("No test set could be drawn from the environments the conditions do not train on (")
@@ -153,7 +154,8 @@ def test_a_study_job_verifies_its_table_once(db, table_path, monkeypatch):
     """create_study_job hashes the table; its tasks only compare the hash it recorded."""
     real, hashed = teaching.core.table.content_hash, []
     monkeypatch.setattr(teaching.core.table, "content_hash", lambda *a: hashed.append(1) or real(*a))
-    job = create_study_job(table_path, "once", conditions=["exact", "random"], open_when_done=False, start=False)
+    job = create_study_job(table_path, check_job({"slug": "once", "conditions": ["exact", "random"], "is_open": False}),
+                           start=False)
     assert len(hashed) == 1
     assert job.params["content_hash"] == Study.objects.get(slug="once").source["content_hash"]
     for i, name in enumerate(job.params["conditions"]):
@@ -164,7 +166,7 @@ def test_a_study_job_verifies_its_table_once(db, table_path, monkeypatch):
 
 
 def test_a_study_task_refuses_a_table_other_than_the_verified_one(db, table_path):
-    job = create_study_job(table_path, "other", conditions=["exact"], start=False)
+    job = create_study_job(table_path, check_job({"slug": "other", "conditions": ["exact"]}), start=False)
     with pytest.raises(TableError, match="is not the one that was verified"):
         study_condition(job_id=job.pk, spec=dict(job.params, content_hash="0" * 64), name="exact", index=0)
 

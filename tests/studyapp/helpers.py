@@ -37,14 +37,18 @@ def record(p, step, **fields):
     return flow.record(p, step, q)
 
 
+def design_post(table, **fields) -> dict:
+    """A minimal valid post of the study designer for `table` (a built table's directory), `fields` added or
+    replacing its values."""
+    return {"table": str(table), "slug": "designed", "target_per_condition": "20", "recruitment": "link",
+            "approx_star": "det-euclidean", "seed": "0", "min_regret": "0.001", "estimated_minutes": "15",
+            "conditions": ["exact"], "min_distance": "0.1", **fields}  # the tiny table's tests (TINY_TEST_SET)
+
+
 def design_form(table, **fields):
-    """The study designer's form for `table` (a built table's directory) with a minimal valid post, `fields`
-    added or replacing its values."""
+    """The study designer's form for `table` with design_post's data."""
     from precompute.design import StudyDesignForm  # noqa: PLC0415  (the designer's own imports)
     from precompute.tables import built_tables  # noqa: PLC0415
 
     tables = [t for t in built_tables(table.parent) if t["path"] == str(table)]
-    post = {"table": str(table), "slug": "designed", "target_per_condition": "20", "recruitment": "link",
-            "approx_star": "det-euclidean", "seed": "0", "min_regret": "0.001", "estimated_minutes": "15",
-            "conditions": ["exact"], "min_distance": "0.1", **fields}  # the tiny table's tests (TINY_TEST_SET)
-    return StudyDesignForm(post, tables=tables)
+    return StudyDesignForm(design_post(table, **fields), tables=tables)

@@ -14,6 +14,7 @@ from studyapp import assignment
 from studyapp import trajectories as tj
 from studyapp.assignment import assign
 from studyapp.models import Condition, Participant, Study
+from studyapp.specschema import check_job
 from studyapp.studies import SpecError, freeze_condition, freeze_test_set, new_study, table_spec
 from teaching.api import TrajectoryTable, select_test_set
 from teaching.domains.driving.synthetic import synthetic_table
@@ -349,19 +350,19 @@ def test_a_study_with_participants_cannot_change_its_design(study, complete):
     with pytest.raises(SpecError, match="already has participants: its design can no longer change"):
         freeze_test_set(study, tests)
     with pytest.raises(SpecError, match="already has participants; refusing to replace it"):
-        new_study(slug=study.slug, conditions=["exact"], source={}, replace=True)
+        new_study(check_job({"slug": study.slug, "conditions": ["exact"]}), source={}, replace=True)
     study.refresh_from_db()
     assert study.test_set == tests and study.conditions.first().training == training
 
 
 def test_freezing_checks_the_design(db, tiny_table):
     table = TrajectoryTable.load(tiny_table)
-    s = new_study(slug="d1", conditions=["a", "b"], source={"kind": "table"})
+    s = new_study(check_job({"slug": "d1", "hand_picked": {"a": [500], "b": [1149]}}), source={"kind": "table"})
     assert not s.is_open and [c.name for c in s.conditions.all()] == ["a", "b"]
     with pytest.raises(SpecError, match="exists; pass --replace"):
-        new_study(slug="d1", conditions=["a"], source={})
-    with pytest.raises(SpecError, match="unique, non-empty"):
-        new_study(slug="d2", conditions=["a", "a"], source={})
+        new_study(check_job({"slug": "d1", "hand_picked": {"a": [500]}}), source={})
+    with pytest.raises(TypeError, match="takes a CheckedStudy"):  # a design no check has seen
+        new_study({"slug": "d2", "conditions": ["a", "a"]}, source={})
     a, b = s.conditions.all()
     with pytest.raises(SpecError, match="needs at least one training example"):
         freeze_condition(a, [])

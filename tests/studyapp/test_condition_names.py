@@ -17,13 +17,13 @@ from django.core.management import call_command
 from django.core.management.base import CommandError
 
 from precompute.design import StudyDesignForm
-from precompute.study import StudyJobError, create_study_job
 from precompute.tables import built_tables
 from studyapp import assignment
 from studyapp.analysis import data as D
 from studyapp.analysis import stats as S
 from studyapp.models import Condition, Study
-from studyapp.studies import SpecError, build_study, new_study, table_spec
+from studyapp.specschema import check_job
+from studyapp.studies import SpecError, build_study, table_spec
 from tests.conftest import TINY_TEST_SET
 from tests.studyapp.test_analysis_stats import COVERAGE_CELLS, by_hand_means, hand_holm, hand_welch, make_data
 
@@ -56,12 +56,11 @@ def test_build_study_and_create_study_refuse_aliases(tiny_table, tmp_path, seque
     assert not Study.objects.filter(slug="aliased").exists()
 
 
-def test_new_study_and_the_study_job_refuse_aliases(tiny_table):
+def test_the_study_jobs_check_refuses_aliases(tiny_table):
     with pytest.raises(SpecError, match=STRATEGY.replace("(", r"\(").replace(")", r"\)")):
-        new_study(slug="aliased", conditions=["det-strategy", "prob-strategy"], source={"kind": "table"})
-    with pytest.raises(StudyJobError) as caught:  # a hand-picked condition under another name of a selected one
-        create_study_job(tiny_table, "aliased", conditions=["det-euclidean"], hand_picked={"det-euclid": [500]},
-                         start=False)
+        check_job({"slug": "aliased", "conditions": ["det-strategy", "prob-strategy"]})
+    with pytest.raises(SpecError) as caught:  # a hand-picked condition under another name of a selected one
+        check_job({"slug": "aliased", "conditions": ["det-euclidean"], "hand_picked": {"det-euclid": [500]}})
     assert EUCLID in str(caught.value)
     assert not Study.objects.filter(slug="aliased").exists()
 

@@ -122,7 +122,7 @@ def test_the_designer_sets_the_device_rules(db, tiny_table, devices, min_width, 
     form = StudyDesignForm(data, tables=tables)
     assert form.is_valid(), form.errors
     job = form.cleaned_data["job"]
-    assert {k: job[k] for k in want} == want and ("min_screen_width" in job) == bool(min_width)
+    assert {k: job[k] for k in want} == want and job["min_screen_width"] == int(min_width or 0)  # 0: any width
     bad = StudyDesignForm({**data, "min_screen_width": "-3"}, tables=tables)
     assert not bad.is_valid() and "min_screen_width" in bad.errors
 

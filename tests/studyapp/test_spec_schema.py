@@ -20,7 +20,15 @@ from precompute.study import StudyJobError, create_study_job
 from precompute.tables import built_tables
 from studyapp import specschema
 from studyapp.models import Study
-from studyapp.specschema import CONDITION_FIELDS, JOB_FIELDS, SPEC_FIELDS, STUDY_FIELDS, THRESHOLD_FIELDS
+from studyapp.specschema import (
+    CONDITION_FIELDS,
+    JOB_FIELDS,
+    SPEC_FIELDS,
+    STUDY_FIELDS,
+    THRESHOLD_FIELDS,
+    SpecError,
+    check_job,
+)
 from studyapp.studies import build_study, table_spec
 from teaching.api import selector_names
 from tests.conftest import SMALL_SEQUENCES, TINY_TEST_SET
@@ -97,8 +105,10 @@ def spec_error(tiny_table, tmp_path, change: dict) -> str:
 
 
 def job_error(tiny_table, args: dict) -> str:
-    with pytest.raises(StudyJobError) as caught:
-        create_study_job(tiny_table, **{"slug": "bad", "conditions": ["random"], **args}, start=False)
+    """The study job's one line for these arguments: its check's (a field's own rule) or, past it, the
+    job's (what needs the table or the database)."""
+    with pytest.raises((SpecError, StudyJobError)) as caught:
+        create_study_job(tiny_table, check_job({"slug": "bad", "conditions": ["random"], **args}), start=False)
     return str(caught.value)
 
 
@@ -111,7 +121,8 @@ def form_errors(tiny_table, change: dict, field: str) -> list[str]:
 def test_the_unchanged_inputs_are_accepted(tiny_table):
     """The baseline each case below changes one thing of: every entry point takes it."""
     assert design_form(tiny_table, {}).is_valid()
-    assert create_study_job(tiny_table, "job-ok", conditions=["random"], start=False).params["slug"] == "job-ok"
+    assert create_study_job(tiny_table, check_job({"slug": "job-ok", "conditions": ["random"]}), start=False
+                            ).params["slug"] == "job-ok"
     assert build_study(spec(tiny_table, "spec-ok")).slug == "spec-ok"
 
 
@@ -186,16 +197,17 @@ def test_a_rule_changed_in_the_schema_changes_every_entry_point(tiny_table, tmp_
     assert schema_field(STUDY_FIELDS["target_per_condition"]).min_value == 5
 
 
-def test_the_designers_job_arguments_pass_the_jobs_own_check(tiny_table):
-    """What the designer hands the job is what create_study_job checks: the same function says yes."""
+def test_the_designer_hands_the_job_the_design_its_check_made(tiny_table):
+    """What the designer hands create_study_job is the CheckedStudy the job's own check made of its fields,
+    built closed, and the table it picked."""
     form = design_form(tiny_table, {"hand_picked_name": "mine", "hand_picked_env_ids": "500, 5780",
                                     "fixed_det_euclidean": "0.5", "min_distance": "0.1"})
     assert form.is_valid(), form.errors
-    args = dict(form.cleaned_data["job"])
-    assert args.pop("table_path") == str(tiny_table)
-    checked = specschema.check_job(args)
+    checked = form.cleaned_data["job"]
+    assert isinstance(checked, specschema.CheckedStudy) and form.cleaned_data["table"] == str(tiny_table)
     assert checked["hand_picked"] == {"mine": [500, 5780]} and checked["hyperparameters"] == {"det-euclidean": 0.5}
     assert checked["test_set_thresholds"] == {"min_regret": 0.001, "min_distance": 0.1}
+    assert checked["is_open"] is False and checked["replace"] is False
 
 
 def doc_section(heading: str) -> str:

@@ -13,6 +13,7 @@ import tomllib
 import pytest
 from django.utils import translation
 
+from precompute.models import Job
 from studyapp import flow
 from studyapp.assignment import assign
 from studyapp.comprehension import questions_of
@@ -26,7 +27,7 @@ from teaching.domains import WORLDS
 from teaching.domains._grid.filedomain import FileGridDomain
 from teaching.domains._grid.worldfile import parse_world
 from tests.studyapp.catalogs import catalog_pieces, english_pieces
-from tests.studyapp.helpers import design_form, step_url
+from tests.studyapp.helpers import design_post, step_url
 from tests.studyapp.test_german_pages import assert_german, visible_text, walk
 from tests.teaching.domains.worlds.shipped import NAMES, shipped, teach_show
 
@@ -119,7 +120,7 @@ def test_an_english_taxi_studys_pages_stay_english(client, taxi_teach):
                          r"\[\d+, \d+\]\)", visible_text(pages["test with a way into a wall"]))
 
 
-def test_a_german_study_of_a_world_without_german_is_refused_in_one_line(taxi_teach):
+def test_a_german_study_of_a_world_without_german_is_refused_in_one_line(taxi_teach, settings, staff_client):
     table_dir, teach_dir = taxi_teach
     without = TAXI[:TAXI.index("[translations.de]")]
     with taxi_from(without):
@@ -136,13 +137,16 @@ def test_a_german_study_of_a_world_without_german_is_refused_in_one_line(taxi_te
         Study.objects.filter(pk=english.pk).update(language="de")  # as the admin may, after creation
         english.refresh_from_db()
         assert english.opening_problems() == [message]  # so it is not opened in German
-        form = design_form(table_dir, language="de")
-        assert not form.is_valid()
-        assert form.errors["language"] == [message]
+        settings.TABLES_DIR = table_dir.parent  # the designer, which says it under the language
+        post = design_post(table_dir, language="de", test_kind="show")  # the taxi's tests show the way
+        page = staff_client.post("/precompute/design/", post)
+        assert page.status_code == 200 and page.context["form"].errors["language"] == [message]
+        assert not Job.objects.exists()
     with taxi_from(without + '[translations.de]\n"Augmented taxi" = "Erweitertes Taxi"\n"toll" = "Maut"\n'):
         assert untranslated_texts(get_domain("taxi"), "de") == ["passenger"]  # one left is one too many
     with shipped("taxi"):
-        assert "language" not in design_form(table_dir, language="de").errors
+        assert staff_client.post("/precompute/design/", post).status_code == 302
+    assert Study.objects.get(slug="designed").language == "de"
 
 
 @pytest.mark.parametrize("name", [*domain_names(), *NAMES])
@@ -172,3 +176,4 @@ def test_a_worlds_own_comprehension_questions_are_the_studys_in_its_language(cli
                 position=next(s.index for s in flow.steps_for(p) if s.kind == StepKind.COMPREHENSION))
             page = visible_text(client.get(step_url(p)).content.decode())
             assert all(text in page for text in want) and default not in page, page
+

@@ -20,7 +20,7 @@ from django.core.management.base import BaseCommand, CommandError
 
 from precompute import jobs
 from precompute.study import StudyJobError, create_study_job, parse_closed_loop
-from studyapp.specschema import JOB_FIELDS, STUDY_FIELDS
+from studyapp.specschema import JOB_FIELDS, STUDY_FIELDS, SpecError, check_job
 from teaching.api import CONDITIONS, TableError, parse_hyperparameters
 
 from ._waiting import wait_for_job
@@ -83,16 +83,16 @@ class Command(BaseCommand):
         except ValueError as exc:  # StudyJobError is one
             raise CommandError(str(exc)) from None
         conditions = split_conditions(opts["conditions"]) if opts["conditions"] else None
+        design = {"slug": opts["slug"], "name": opts["name"], "seed": opts["seed"], "approx_star": opts["approx_star"],
+                  "hyperparameters": hyper, "conditions": conditions, "is_open": not opts["closed"],
+                  "replace": opts["replace"], "target_per_condition": opts["target_per_condition"],
+                  "closed_loop": loops, "test_difficulty": opts["test_difficulty"], "test_kind": opts["test_kind"]}
         try:
-            job = create_study_job(table, opts["slug"], opts["name"], opts["seed"], opts["approx_star"], hyper,
-                                   conditions, open_when_done=not opts["closed"], replace=opts["replace"],
-                                   target_per_condition=opts["target_per_condition"], queue=opts["queue"],
-                                   closed_loop=loops, test_difficulty=opts["test_difficulty"],
-                                   test_kind=opts["test_kind"])
+            job = create_study_job(table, check_job(design), queue=opts["queue"])
         except TableError as exc:
             hint = " (build it first: manage.py precompute_table --preset NAME --wait)" if opts["preset"] else ""
             raise CommandError(f"{exc}{hint}") from None
-        except (StudyJobError, jobs.BrokerUnavailable) as exc:
+        except (SpecError, StudyJobError, jobs.BrokerUnavailable) as exc:
             raise CommandError(str(exc)) from None
         loops = f" + {len(loops)} closed-loop" if loops else ""
         self.stdout.write(f"job {job.pk}: study {opts['slug']!r}, {len(job.params['conditions'])} conditions{loops} "

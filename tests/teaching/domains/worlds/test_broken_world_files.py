@@ -71,7 +71,7 @@ def worlds(tmp_path_factory):
 
 
 EXPECTED = {**{name: line for name, (_, line) in BROKEN.items()},
-            "latin-1.toml": "line 4: byte 0xfc is not UTF-8 text (save the file as UTF-8)",
+            "latin-1.toml": "line 5: byte 0xfc is not UTF-8 text (save the file as UTF-8)",
             "dangling.toml": "cannot be read: No such file or directory"}
 
 
