@@ -5,7 +5,7 @@ PIP := .venv/bin/pip
 # every file on it), the first step of every `make test` from a fresh clone (docs/decisions.md, Dependencies)
 UV_VERSION := 0.13.9
 
-.PHONY: demo test lint venv browser-deps serve-deps messages table bench clean serve load
+.PHONY: demo test lint venv browser-deps serve-deps messages table bench clean serve load docs
 
 venv: .venv/.installed
 .venv/.installed: requirements.txt
@@ -85,6 +85,10 @@ test: venv browser-deps serve-deps messages
 	rm -rf "$$TEST_BUILDS_DIR"; \
 	for rc in $$a $$b; do if [ $$rc -eq 5 ]; then echo "pytest collected no tests" >&2; exit 1; fi; done; \
 	if [ $$a -ne 0 ]; then exit $$a; fi; exit $$b
+
+# The documentation as a site in site/ (strict: a broken link or anchor fails it); `.venv/bin/mkdocs serve` to read.
+docs: venv
+	.venv/bin/mkdocs build --strict
 
 bench: venv
 	$(PY) bench/planner.py
