@@ -278,10 +278,6 @@ class CheckedStudy:
         return self.values.get(key, default)
 
     @property
-    def slug(self) -> str:
-        return self.values["slug"]
-
-    @property
     def condition_names(self) -> list[str]:
         """Every condition's name, in the study's order: a JSON spec's as listed; a job's selected ones, then
         the hand-picked, then the closed-loop ones."""

@@ -189,7 +189,7 @@ def new_study(checked: specschema.CheckedStudy, source: dict, replace: bool = Fa
     """
     if not isinstance(checked, specschema.CheckedStudy):
         raise TypeError("new_study takes a CheckedStudy: check the design first (studyapp.specschema)")
-    slug, fields = checked.slug, checked.study_fields
+    slug, fields = checked["slug"], checked.study_fields
     domain = source_domain(source)
     # a study whose participants would read some of its robot's texts in English is not the study designed:
     # refused here, where every study is made, rather than shown half translated

@@ -13,7 +13,7 @@ from django.urls import reverse
 
 from studyapp import assignment, comprehension, exports, flow, privacy, status
 from studyapp.models import Answer, ComprehensionAttempt, Participant, StepKind
-from studyapp.specschema import SpecError, check_job, check_spec
+from studyapp.specschema import SpecError, check_spec
 from teaching.api import domain_names, get_domain
 
 pytestmark = pytest.mark.django_db
@@ -242,12 +242,11 @@ def test_the_designer_says_bad_comprehension_settings_in_one_line(design, change
 def test_the_designer_stores_the_robots_own_questions_empty_and_the_researchers_parsed(design, tiny_table):
     form = design()
     assert form.is_valid(), form.errors
-    job = form.cleaned_data["job"]
-    assert (job["comprehension_check"], job["comprehension_questions"], job["comprehension_attempts"]) == (True, "", 3)
+    job = form.cleaned_data["job"]  # the design as the job's check stored it: empty is the robot's own
+    assert (job["comprehension_check"], job["comprehension_questions"], job["comprehension_attempts"]) == (True, [], 3)
     own = design(comprehension_questions="Which?\n- no\n* yes", comprehension_attempts="2")
     assert own.is_valid(), own.errors
-    job = {k: v for k, v in own.cleaned_data["job"].items() if k != "table_path"}
-    stored = check_job(job)  # what the study job stores
+    stored = own.cleaned_data["job"]  # what the study job stores
     assert stored["comprehension_questions"] == [{"question": "Which?", "choices": ["no", "yes"], "right": [1]}]
     assert stored["comprehension_attempts"] == 2
     off = design(comprehension_check="", comprehension_questions="not a question at all\nb")

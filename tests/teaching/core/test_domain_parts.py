@@ -25,7 +25,7 @@ ROOT = Path(__file__).resolve().parents[3]
 # into itself, which is its business).
 USERS = ("teaching/core", "teaching/api.py", "teaching/teach.py", "teaching/__main__.py", "studyapp", "precompute")
 # Names a domain goes by in that code, and the calls that return one.
-DOMAIN_NAMES = frozenset({"domain", "robot", "checked"})
+DOMAIN_NAMES = frozenset({"domain", "robot"})
 DOMAIN_CALLS = frozenset({"get_domain", "study_domain"})
 DECLARED = frozenset(m for part in (*REQUIRED_PARTS, *OPTIONAL_PARTS) for m in part_members(part))
 
