@@ -18,7 +18,7 @@ from django.utils.translation import gettext, gettext_noop
 from . import bonuses, closedloop, outcomes, status
 from .models import Answer, LoopStep, Participant, StepKind
 from .pages import PAGE_SEQUENCE, PAGES, AnswerError, Step, option_letters, page_for, question_of
-from .pages.base import elsewhere
+from .pages.base import elsewhere, replayed
 
 logger = logging.getLogger(__name__)
 
@@ -104,13 +104,10 @@ def record(participant: Participant, step_index: int, post) -> Participant:
             return own
         # Only a step before the participant's position can hold an answer (the position moves on with each
         # answer stored, under this lock), so an answer to the current step needs no lookup.
-        stored = (Answer.objects.filter(participant=locked, step=step_index).first()
+        stored = (Answer.objects.filter(participant=locked, step=step_index).values_list("data", flat=True).first()
                   if step_index < locked.position else None)
-        if stored is not None:
-            if stored.data == data:
-                return locked  # idempotent repeat
-            raise AnswerError(gettext("This question was already answered; an answer cannot be changed."), status=409,
-                              moved=True)
+        if replayed(stored, data, gettext("This question was already answered; an answer cannot be changed.")):
+            return locked
         if step_index != locked.position:
             raise AnswerError(elsewhere(locked, step_index), status=409, moved=True)
         answer = Answer(participant=locked, step=step_index, kind=step.kind, item=step.item, data=data)

@@ -41,6 +41,17 @@ def elsewhere(participant, step_index: int) -> str:
                                                                            asked=step_index + 1)
 
 
+def replayed(stored, given, refusal: str) -> bool:
+    """Whether a post is one already stored: `stored` is what was stored for it (None: nothing yet).  True
+    when it is `given` again (a double click, a retried post: store nothing), AnswerError(`refusal`) when it
+    differs (a stored answer is never changed), False when nothing was stored."""
+    if stored is None:
+        return False
+    if stored == given:
+        return True
+    raise AnswerError(refusal, status=409, moved=True)
+
+
 class Page:
     """One kind of step.  A subclass sets `kind` (what Answer.kind stores and the exports carry: never
     change it) and overrides what differs from these defaults: shown once, a template named after its

@@ -10,7 +10,7 @@ from .. import bonuses, comprehension, devices, outcomes, status
 from ..forms import ConsentForm, InstructionsForm
 from ..models import Answer, ComprehensionAttempt, StepKind
 from ..scenes import instructions
-from .base import AnswerError, Page, add, elsewhere
+from .base import AnswerError, Page, add, elsewhere, replayed
 
 # Closed-loop conditions (studyapp.closedloop) add to the domain's instructions.
 CHECK_INSTRUCTIONS = _("Between the examples you will sometimes answer a check question, just like the questions "
@@ -89,12 +89,9 @@ def record_attempt(locked, step_index: int, data: dict):
     replay (a double click, a retried post), a no-op when its answers are the same, so nothing is counted
     twice; any other number is a page out of date."""
     number, answers = data["attempt"], data["answers"]
-    stored = locked.comprehension_attempts.filter(number=number).first()
-    if stored is not None:
-        if stored.answers == answers:
-            return locked  # idempotent repeat
-        raise AnswerError(gettext("These answers were already checked; please answer on the current page."), status=409,
-                          moved=True)
+    stored = locked.comprehension_attempts.filter(number=number).values_list("answers", flat=True).first()
+    if replayed(stored, answers, gettext("These answers were already checked; please answer on the current page.")):
+        return locked
     if step_index != locked.position:
         raise AnswerError(elsewhere(locked, step_index), status=409, moved=True)
     current = locked.comprehension_attempts.count() + 1
