@@ -6,7 +6,7 @@ export view, time and peak memory, the earlier whole-file exporter beside the st
 
 A fresh SQLite database in a temporary folder gets a study built by the real pipeline on the tiny
 trajectory table (built here, a few seconds), one participant per condition answers every step
-through studyapp.flow, and their answers are copied (bulk_create) to --participants participants.
+through studyapp.participant.flow, and their answers are copied (bulk_create) to --participants participants.
 Each export then runs in a child process of its own: a staff user's Django test client GETs
 /dashboard/SLUG/export/{wide,long}.csv and reads the response to the end (counting bytes and rows,
 keeping none); the child reports the seconds to the first byte and to the last, and its peak
@@ -54,9 +54,9 @@ def populate(folder: Path, n: int) -> dict:
     from django.http import QueryDict  # noqa: PLC0415
     from django.utils import timezone  # noqa: PLC0415
 
-    from studyapp import assignment, flow  # noqa: PLC0415
     from studyapp.models import Answer, Participant, StepKind, new_token  # noqa: PLC0415
-    from studyapp.studies import build_study, table_spec  # noqa: PLC0415
+    from studyapp.participant import assignment, flow  # noqa: PLC0415
+    from studyapp.researcher.studies import build_study, table_spec  # noqa: PLC0415
     from teaching.core.build import PRESETS, build_table  # noqa: PLC0415
 
     logging.getLogger("studyapp").setLevel(logging.WARNING)  # not a line per template participant
@@ -129,7 +129,7 @@ def measure(which: str, kind: str) -> dict:
     from django.test import Client  # noqa: PLC0415
     from django.urls import reverse  # noqa: PLC0415
 
-    from studyapp import exports  # noqa: PLC0415
+    from studyapp.data import exports  # noqa: PLC0415
 
     if which == "before":
         from tests.studyapp import exports_before  # noqa: PLC0415

@@ -11,12 +11,12 @@ after every 2 examples, feedback); --participants simulated participants (tests/
 fresh server each): 1.0, a quick but genuine participant's pauses, and 0.05, twenty times as fast, to see
 where the server saturates.  The bars hold for pace 1; the exit status is 0 when they do.  Figures:
 
-* decision time: every LoopStep's ``seconds`` (studyapp.closedloop._decide: reading the participant's steps
+* decision time: every LoopStep's ``seconds`` (studyapp.participant.closedloop._decide: reading the participant's steps
   and answers, ClosedLoop.decide, under the real concurrency of the run), p50 / p95 / max;
 * the HTTP latency of the step pages (where a decision is made, when one is due) and of the answer posts;
 * per gunicorn worker, from /proc/PID/smaps: resident and proportional set size (PSS: a page shared by n
   processes counts 1/n in each), the part of it private to that worker, and the pack's mapped files (the
-  read-only arrays every worker maps, studyapp.closedloop): their resident size and PSS.  Bars: decision
+  read-only arrays every worker maps, studyapp.participant.closedloop): their resident size and PSS.  Bars: decision
   p95 <= 150 ms; the pack's arrays shared, not copied (their PSS per worker below their resident size).
 
 The paper table takes about 25 minutes to build on an idle 2-core machine (docs/benchmarks.md);
@@ -52,7 +52,7 @@ LOOP_STUDY = """
 import json, os
 import django
 django.setup()
-from studyapp.studies import build_study, table_spec
+from studyapp.researcher.studies import build_study, table_spec
 spec = table_spec(os.environ["LOOP_TABLE"], slug="loop-bench", sequences={})
 spec["conditions"] = [{"name": "closed-loop", "closed_loop": json.loads(os.environ["LOOP_SETTINGS"])}]
 spec.update(name="Closed-loop latency", target_per_condition=100000, completion_code="LOOPBENCH")

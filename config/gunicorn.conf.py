@@ -91,8 +91,8 @@ def post_worker_init(worker):
     from django.template.loader import get_template  # noqa: PLC0415
     from django.urls import get_resolver  # noqa: PLC0415
 
-    from studyapp.closedloop import warm_packs  # noqa: PLC0415
     from studyapp.models import StepKind  # noqa: PLC0415
+    from studyapp.participant.closedloop import warm_packs  # noqa: PLC0415
 
     start = time.monotonic()
     get_resolver().url_patterns  # noqa: B018  (the access loads the URLconf)

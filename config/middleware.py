@@ -7,7 +7,7 @@ died under it).  A participant in the middle of the study must be told to wait
 and retry, and the participant page's save-retry loop (and any well-behaved
 client) keys on 503 + Retry-After; a 500 would read as "your answer was
 rejected".  Nothing is lost by answering 503: the answer transaction either
-committed (a retry is then an idempotent repeat, studyapp.flow.record) or it
+committed (a retry is then an idempotent repeat, studyapp.participant.flow.record) or it
 did not (the retry writes it).
 
 Two hooks, because Django converts an exception into a response at every
@@ -32,7 +32,7 @@ from django.http import HttpResponse, JsonResponse
 from django.utils.cache import add_never_cache_headers
 from django.views import defaults
 
-from studyapp.security import wants_json
+from studyapp.guards.security import wants_json
 
 logger = logging.getLogger("studyapp.availability")
 
@@ -91,7 +91,7 @@ def server_error(request, *args, **kwargs):
     return defaults.server_error(request, *args, **kwargs)
 
 
-# The participant pages (studyapp.views) set their own caching headers; every other view is a
+# The participant pages (studyapp.participant.views) set their own caching headers; every other view is a
 # researcher's (dashboard, exports, analysis, designer and jobs, login, logout, the admin).
 PARTICIPANT_URL_NAMES = frozenset({"home", "entry", "step", "answer"})
 

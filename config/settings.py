@@ -70,7 +70,7 @@ INSTALLED_APPS = [
 ]
 
 MIDDLEWARE = [
-    "studyapp.security.RequestLimitsMiddleware",  # body/field caps -> 413/400 (security section)
+    "studyapp.guards.security.RequestLimitsMiddleware",  # body/field caps -> 413/400 (security section)
     "django.middleware.security.SecurityMiddleware",
     "config.middleware.DatabaseUnavailableMiddleware",  # DB outage -> 503 + Retry-After
     "whitenoise.middleware.WhiteNoiseMiddleware",
@@ -177,7 +177,7 @@ AUTH_PASSWORD_VALIDATORS = [
     {"NAME": "django.contrib.auth.password_validation.CommonPasswordValidator"},
     {"NAME": "django.contrib.auth.password_validation.NumericPasswordValidator"},
 ]
-# Login throttling (django-axes; policy and page: studyapp/lockout.py): a user name is locked after
+# Login throttling (django-axes; policy and page: studyapp/guards/lockout.py): a user name is locked after
 # LOGIN_FAILURE_LIMIT wrong passwords from any address (staff accounts guard every export); an
 # address only after LOGIN_ADDRESS_FAILURE_LIMIT across all names, so one researcher's typos never
 # lock out the others behind the same address.  Each lock lasts LOGIN_COOLOFF_MINUTES from the
@@ -188,10 +188,10 @@ AUTHENTICATION_BACKENDS = ["axes.backends.AxesStandaloneBackend", "django.contri
 AXES_FAILURE_LIMIT = int(os.environ.get("LOGIN_FAILURE_LIMIT", "5"))
 LOGIN_ADDRESS_FAILURE_LIMIT = int(os.environ.get("LOGIN_ADDRESS_FAILURE_LIMIT", "50"))
 AXES_COOLOFF_TIME = timedelta(minutes=int(os.environ.get("LOGIN_COOLOFF_MINUTES", "15")))
-AXES_LOCKOUT_PARAMETERS = "studyapp.lockout.lockout_parameters"
-AXES_LOCKOUT_CALLABLE = "studyapp.lockout.lockout_response"
+AXES_LOCKOUT_PARAMETERS = "studyapp.guards.lockout.lockout_parameters"
+AXES_LOCKOUT_CALLABLE = "studyapp.guards.lockout.lockout_response"
 AXES_RESET_COOL_OFF_ON_FAILURE_DURING_LOCKOUT = False
-AXES_CLIENT_IP_CALLABLE = "studyapp.security.client_address"
+AXES_CLIENT_IP_CALLABLE = "studyapp.guards.security.client_address"
 AXES_RESET_ON_SUCCESS = True
 AXES_VERBOSE = False
 LOGIN_URL = "login"
@@ -268,7 +268,7 @@ DATABASES["default"]["CONN_HEALTH_CHECKS"] = True
 DB_OUTAGE_RETRY_AFTER = int(os.environ.get("DB_OUTAGE_RETRY_AFTER", "3"))
 
 # --- security -------------------------------------------------------------------
-# Rate limits, request-size caps and the cache they count in (studyapp/security.py;
+# Rate limits, request-size caps and the cache they count in (studyapp/guards/security.py;
 # policy in docs/decisions.md, "Security").
 #
 # * CACHE_URL            — "redis://127.0.0.1:6379/1" for Redis; default: this process's memory.

@@ -9,10 +9,10 @@ from __future__ import annotations
 from django import forms
 from django.core.exceptions import NON_FIELD_ERRORS
 
-from studyapp import specrules, specschema
-from studyapp.analysis.conditions import aliased_pairs
+from studyapp.conditions import aliased_pairs
 from studyapp.models import Participant, Study
-from studyapp.specschema import (
+from studyapp.researcher import specrules, specschema
+from studyapp.researcher.specschema import (
     BONUS_FIELDS,
     CONDITION_FIELDS,
     JOB_FIELDS,
@@ -56,7 +56,7 @@ DEVICE_CHOICES = [("", "any device"), ("no-phones", "computers and tablets, no p
 
 
 def device_arguments(data: dict) -> dict:
-    """The study's device fields from the designer's cleaned data (studyapp/devices.py)."""
+    """The study's device fields from the designer's cleaned data (studyapp/participant/devices.py)."""
     devices = data.get("devices") or ""
     out = {"allow_phones": devices == "", "allow_tablets": devices != "computers"}
     if data.get("min_screen_width") is not None:
@@ -146,11 +146,11 @@ class StudyDesignForm(forms.Form):
         self.fields.update({k: schema_field(STUDY_FIELDS[k], widget=forms.Textarea if k == "consent_text" else None)
                             for k in TEXT_FIELDS})
         self.fields.update(designquiz.fields(tables))  # the comprehension check after the instructions
-        # Who may take part: the device rules the consent page checks (studyapp/devices.py).  One choice, not
-        # two tick boxes: an unticked box is never sent, so a post without them would turn phones away.
+        # Who may take part: the device rules the consent page checks (studyapp/participant/devices.py).
+        # One choice, not two tick boxes: an unticked box is never sent, so a post without them would turn phones away.
         self.fields["min_screen_width"] = schema_field(STUDY_FIELDS["min_screen_width"], required=False,
                                                        label="Smallest screen width (px)")
-        # How a participant's study may end early, and each outcome's code (studyapp/outcomes.py).
+        # How a participant's study may end early, and each outcome's code (studyapp/participant/outcomes.py).
         self.fields.update({k: schema_field(STUDY_FIELDS[k], required=False)
                             for k in (*OUTCOME_FIELDS, *BONUS_FIELDS, *PLAN_FIELDS, "language") if k != "keep_trails"})
         self.fields["language"].label = "Participants' language"
@@ -297,7 +297,7 @@ class StudyDesignForm(forms.Form):
                 **device_arguments(data), **designquiz.arguments(data)}
 
     def _check_job(self, data: dict) -> None:
-        """The job's arguments through the study spec's checks (studyapp/specschema.py), each problem under
+        """The job's arguments through the study spec's checks (studyapp/researcher/specschema.py), each problem under
         its own field (unless one is said there already); data["job"]: the CheckedStudy, once all is well."""
         checked, problems = specschema.job_problems(self._job_arguments(data))
         for problem in problems:

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from studyapp.specschema import BONUS_FIELDS, COMPREHENSION_FIELDS, OUTCOME_FIELDS, TEXT_FIELDS
+from studyapp.researcher.specschema import BONUS_FIELDS, COMPREHENSION_FIELDS, OUTCOME_FIELDS, TEXT_FIELDS
 from teaching.api import get_selector
 
 

@@ -1,4 +1,4 @@
-"""The study designer's comprehension check (studyapp/comprehension.py): a tick box, the questions as text
+"""The study designer's comprehension check (studyapp/participant/comprehension.py): a tick box, the questions as text
 (one block per question, '* ' before a right choice, '- ' before a wrong one) and the attempts.
 
 The questions are prefilled with the chosen table's robot's own (designer.js swaps them when another
@@ -11,8 +11,8 @@ import json
 
 from django import forms
 
-from studyapp import comprehension
-from studyapp.specschema import STUDY_FIELDS
+from studyapp.participant import comprehension
+from studyapp.researcher.specschema import STUDY_FIELDS
 from teaching.api import domain_names, get_domain
 
 from .schemafields import schema_field

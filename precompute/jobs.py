@@ -31,7 +31,7 @@ log = logging.getLogger(__name__)
 
 def tables_dir() -> Path:
     """Where tables live: settings.TABLES_DIR ($TABLES_DIR, default $VAR_DIR/tables), the one
-    definition the commands, the designer and the demo (studyapp/studies.py) all read."""
+    definition the commands, the designer and the demo (studyapp/researcher/studies.py) all read."""
     return Path(settings.TABLES_DIR)
 
 

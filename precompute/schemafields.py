@@ -1,4 +1,4 @@
-"""The designer's form fields made from declarations: a study spec's field (studyapp/specschema.py) and a
+"""The designer's form fields made from declarations: a study spec's field (studyapp/researcher/specschema.py) and a
 registered selector's numeric parameters (teaching's selector registry).  Each field takes its bounds,
 choices, default and help from the declaration and only reads the text: the spec's schema judges the
 value in the form's clean(), in the words every other entry point uses, and the bounds stay on the
@@ -9,7 +9,7 @@ from __future__ import annotations
 from django import forms
 from django.core import validators
 
-from studyapp import specrules, specschema
+from studyapp.researcher import specrules, specschema
 from teaching.api import get_selector, selector_names
 
 
@@ -35,7 +35,7 @@ def _judged_by_schema(field: forms.Field) -> forms.Field:
 
 
 def schema_field(f: specschema.Field, **kwargs) -> forms.Field:
-    """The form field of a study spec's field `f` (studyapp/specschema.py): its bounds, choices, default
+    """The form field of a study spec's field `f` (studyapp/researcher/specschema.py): its bounds, choices, default
     and help are the schema's."""
     kwargs = {"help_text": f.help, "initial": f.default, "required": f.default not in (None, ""), **kwargs}
     if f.kind is specrules.whole:

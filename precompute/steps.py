@@ -16,9 +16,9 @@ import os
 import numba
 
 from studyapp.analysis.modelfit import ModelFitError, best_fit_settings
-from studyapp.closedloop import pack_of_data
 from studyapp.models import Condition, Study
-from studyapp.studies import (
+from studyapp.participant.closedloop import pack_of_data
+from studyapp.researcher.studies import (
     SCENE_VIEW_KEY,
     closed_loop_view,
     freeze_closed_loop,

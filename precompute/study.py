@@ -6,7 +6,7 @@ condition task freezes its training sequence on its Condition (the
 (P(θ*) curve, τ / λ, whether the hyperparameter rule held) on its job Part;
 the final task picks the test set, disjoint from every training sequence,
 stores it on the Study and opens the study (unless asked not to).  Creating
-and freezing go through studyapp/studies.py (new_study, freeze_condition,
+and freezing go through studyapp/researcher/studies.py (new_study, freeze_condition,
 freeze_test_set), the same functions `create_study` uses.
 """
 from __future__ import annotations
@@ -17,8 +17,8 @@ from pathlib import Path
 from django.db import transaction
 
 from studyapp.models import Study
-from studyapp.specschema import CheckedStudy
-from studyapp.studies import SpecError, new_study
+from studyapp.researcher.specschema import CheckedStudy
+from studyapp.researcher.studies import SpecError, new_study
 from studyapp.trajectories import cannot_show
 from teaching.api import ClosedLoopSpec, TrajectoryTable, condition_params
 
@@ -66,7 +66,7 @@ def create_study_job(table_path, checked: CheckedStudy, queue: str | None = None
                                          "test_set_thresholds")},
               "selectors": selectors, "test_difficulty": difficulty}
     with transaction.atomic():
-        try:  # what only the robot and the database can say (studyapp/studies.py)
+        try:  # what only the robot and the database can say (studyapp/researcher/studies.py)
             study = new_study(checked, source, replace=checked["replace"])
         except SpecError as exc:
             raise StudyJobError(str(exc), exc.field) from None

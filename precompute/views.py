@@ -12,7 +12,7 @@ from django.shortcuts import get_object_or_404, redirect, render
 from django.utils import timezone
 from django.views.decorators.http import require_POST
 
-from studyapp.access import researcher_required
+from studyapp.guards.access import researcher_required
 from studyapp.models import Study
 from teaching.api import TableError
 

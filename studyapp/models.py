@@ -51,7 +51,7 @@ class Study(models.Model):
     completion_code = models.CharField(
         max_length=64, blank=True,
         help_text="Prolific's study completion code; blank gives each participant their own code.")
-    # One code per way a participant's study can end (studyapp.outcomes): Prolific takes several, each with
+    # One code per way a participant's study can end (studyapp.participant.outcomes): Prolific takes several, each with
     # its own action (approve, review, pay a screen-out fee).  Blank: see outcomes.code_for.
     excluded_code = models.CharField(
         max_length=64, blank=True,
@@ -60,7 +60,8 @@ class Study(models.Model):
         max_length=64, blank=True, help_text="The code of a participant screened out (the comprehension check).")
     timed_out_code = models.CharField(
         max_length=64, blank=True, help_text="The code of a participant who ran out of time.")
-    # A performance bonus (studyapp.bonuses): per correct test and per point of total confidence score, capped.
+    # A performance bonus (studyapp.participant.bonuses): per correct test and per point of total confidence score,
+    # capped.
     bonus_per_correct = models.DecimalField(
         max_digits=7, decimal_places=3, default=0,
         help_text="Bonus per test answered correctly (the study's currency); 0: none.")
@@ -112,14 +113,15 @@ class Study(models.Model):
     test_kind = models.CharField(
         max_length=8, choices=TEST_KINDS, default=CHOOSE, editable=False,
         help_text="What every test asks: choose among options, or show the way; set when the study is built.")
-    # Which devices may take part (studyapp/devices.py): checked on the consent page, before a place is kept.
+    # Which devices may take part (studyapp/participant/devices.py): checked on the consent page, before a place is
+    # kept.
     min_screen_width = models.PositiveIntegerField(
         default=0, help_text="Smallest screen width (CSS pixels) a participant may take part on; 0: any.")
     allow_phones = models.BooleanField(default=True, help_text="Phones may take part.")
     allow_tablets = models.BooleanField(default=True, help_text="Tablets may take part.")
     device_refusals = models.PositiveIntegerField(
         default=0, editable=False, help_text="Arrivals turned away for their device (no place was kept for them).")
-    # The comprehension check after the instructions (studyapp/comprehension.py); off by default, so a study
+    # The comprehension check after the instructions (studyapp/participant/comprehension.py); off by default, so a study
     # without it keeps its steps' indices.
     comprehension_check = models.BooleanField(
         default=False, help_text="Ask questions about the instructions before the examples; screen out whoever "
@@ -169,7 +171,8 @@ class Study(models.Model):
 
     def _missing_packs(self) -> list[str]:
         """A closed-loop condition decides each participant's next example from data its build wrote beside
-        the table (studyapp/closedloop.py): where that directory is gone, its participants could not go on."""
+        the table (studyapp/participant/closedloop.py): where that directory is gone, its participants could not
+        go on."""
         out = []
         for name, data in self.conditions.filter(closed_loop__isnull=False).values_list("name", "closed_loop"):
             pack = (data or {}).get("pack")
@@ -207,8 +210,8 @@ class Study(models.Model):
 
     def aliased_conditions(self) -> str:
         """Which of this study's condition names are one condition ("" if none): creating a study
-        refuses that, but one stored before could have them (analysis/conditions.py)."""
-        from .analysis.conditions import ConditionError, check_distinct_conditions  # noqa: PLC0415 (pandas)
+        refuses that, but one stored before could have them (studyapp/conditions.py)."""
+        from .conditions import ConditionError, check_distinct_conditions  # noqa: PLC0415 (pandas)
 
         try:
             check_distinct_conditions(self.conditions.values_list("name", flat=True))
@@ -275,8 +278,8 @@ class Condition(models.Model):
     training = models.JSONField(default=list, help_text="Frozen training environments, in order.")
     closed_loop = models.JSONField(
         null=True, blank=True,
-        help_text="A closed-loop condition (studyapp.closedloop): its settings, the files its decisions are "
-                  "computed from and its check questions; empty for a fixed sequence.")
+        help_text="A closed-loop condition: its settings, the files its decisions are computed from and its check "
+                  "questions; empty for a fixed sequence.")
 
     class Meta:
         ordering = ["study", "position", "pk"]
@@ -324,7 +327,7 @@ class Participant(models.Model):
                                help_text="Returned, timed out or screened out; blank for everyone else.")
     ended_at = models.DateTimeField(null=True, blank=True, help_text="When the outcome was set.")
     bonus = models.DecimalField(max_digits=7, decimal_places=2, null=True, blank=True,
-                                help_text="The performance bonus earned (studyapp.bonuses), set once on finishing.")
+                                help_text="The performance bonus earned, set once on finishing.")
 
     class Meta:
         ordering = ["-started_at"]
@@ -355,7 +358,7 @@ class Participant(models.Model):
 
 
 class StepKind(models.TextChoices):
-    """The kinds of step in a participant's flow (studyapp.flow), in order.  The values are what
+    """The kinds of step in a participant's flow (studyapp.participant.flow), in order.  The values are what
     Answer.kind stores and the exports carry, and name the step's template (step_<kind>.html):
     never change one.  DONE is the completion page, which takes no answer."""
 
@@ -418,7 +421,7 @@ class ComprehensionAttempt(models.Model):
 
 
 class LoopStep(models.Model):
-    """One step of a participant's closed-loop teaching (studyapp.closedloop): decided once, from their
+    """One step of a participant's closed-loop teaching (studyapp.participant.closedloop): decided once, from their
     answers so far, stored, and served again on every reload, Back or second tab.  ``decision`` is
     teaching's Decision (what it was based on), ``payload`` what the page draws."""
 

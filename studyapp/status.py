@@ -9,7 +9,7 @@ No Django import: it works on plain values (a ``values()`` row, a DataFrame row)
 from __future__ import annotations
 
 COMPLETE, INCOMPLETE, EXCLUDED, DECLINED = "complete", "incomplete", "excluded", "declined"
-# Set on the participant's row when it happens (Participant.outcome, studyapp.outcomes); the values are
+# Set on the participant's row when it happens (Participant.outcome, studyapp.participant.outcomes); the values are
 # the row's own, so an export's status and its stored outcome read alike.
 RETURNED, TIMED_OUT, SCREENED_OUT = "returned", "timed_out", "screened_out"
 ENDED = (RETURNED, TIMED_OUT, SCREENED_OUT)
@@ -33,7 +33,7 @@ def participant_status(*, position: int, excluded: bool, completed: bool, outcom
 
     An outcome the row records (returned, timed out, screened out) is the status whatever else holds:
     a participant the platform says returned the study has withdrawn, finished or not.  Consent is step 0
-    of every flow (studyapp.flow.steps_for) and ``position`` moves past a step only when its answer is
+    of every flow (studyapp.participant.flow.steps_for) and ``position`` moves past a step only when its answer is
     stored, so ``position == 0`` means no consent was ever given.  Failing the attention check excludes
     a participant whether or not they went on to finish (as in the analysis, which drops every excluded
     participant)."""

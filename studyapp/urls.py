@@ -1,7 +1,9 @@
 from django.urls import path, re_path
 
-from . import dashboard, language, stimuli, views
+from . import language
 from .analysis import views as analysis_views
+from .participant import views
+from .researcher import dashboard, stimuli
 
 urlpatterns = [
     path("", views.home, name="home"),

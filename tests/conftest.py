@@ -56,8 +56,8 @@ TINY_TEST_SET = {"min_distance": 0.1}
 def _fresh_rate_limits():
     """Every test starts with fresh rate-limit counters (the limits stay on): the suite sends
     thousands of requests from 127.0.0.1 within minutes, which no participant does.  Only when
-    studyapp.security is loaded, so the teaching tests stay Django-free."""
-    security = sys.modules.get("studyapp.security")
+    studyapp.guards.security is loaded, so the teaching tests stay Django-free."""
+    security = sys.modules.get("studyapp.guards.security")
     if security is not None:
         security.reset_rate_limits()
 
@@ -106,7 +106,7 @@ def make_study(db, tiny_table):
     """Factory: a study on the tiny table with the given conditions (default: 3 short ones), its
     trajectories and test set from the real pipeline (studies.table_spec)."""
     # Django only in fixtures: the teaching tests stay Django-free
-    from studyapp.studies import build_study, table_spec  # noqa: PLC0415
+    from studyapp.researcher.studies import build_study, table_spec  # noqa: PLC0415
 
     def make(slug="s1", sequences=None, **extra):
         extra.setdefault("completion_code", "TEST2026")  # Prolific arrivals need one (views.entry)
@@ -132,15 +132,15 @@ def staff_client(client, django_user_model):
 def answer_payload(participant, step):
     """A valid POST body (dict of lists) for `step` of `participant` (theta*'s option chosen, rated 6)."""
     # Django only when called: the teaching tests stay Django-free
-    from studyapp.flow import option_letters, question_of  # noqa: PLC0415
     from studyapp.models import StepKind  # noqa: PLC0415
+    from studyapp.participant.flow import option_letters, question_of  # noqa: PLC0415
 
     if step.kind == StepKind.CONSENT:
         return {"consent": ["yes"]}
     if step.kind == StepKind.INSTRUCTIONS:
         return {"ack": ["1"]}
     if step.kind == StepKind.COMPREHENSION:  # every question's right choices, as the next attempt
-        from studyapp.comprehension import questions_of  # noqa: PLC0415
+        from studyapp.participant.comprehension import questions_of  # noqa: PLC0415
 
         body = {"attempt": [str(participant.comprehension_attempts.count() + 1)]}
         body.update({f"q{i}": [str(k) for k in q["right"]] for i, q in enumerate(questions_of(participant.study))})
@@ -183,8 +183,8 @@ def complete_flow(participant, choices=None, attentive=True, stop_before=None):
     # Django only in fixtures: the teaching tests stay Django-free
     from django.http import QueryDict  # noqa: PLC0415
 
-    from studyapp import flow  # noqa: PLC0415
     from studyapp.models import StepKind  # noqa: PLC0415
+    from studyapp.participant import flow  # noqa: PLC0415
 
     for step in flow.steps_for(participant)[:-1]:
         if stop_before and step.kind == stop_before:

@@ -19,9 +19,9 @@ ROOT = Path(__file__).resolve().parents[1]
 MOST = 10
 # function -> the module that holds it
 READ_FIRST = {
-    "step_context": "studyapp/views.py",  # what every participant page is given
+    "step_context": "studyapp/participant/views.py",  # what every participant page is given
     "run_participant": "studyapp/analysis/simulate.py",  # a simulated participant's walk
-    "steps_for": "studyapp/flow.py",  # the participant's steps
+    "steps_for": "studyapp/participant/flow.py",  # the participant's steps
     "parse_world": "teaching/domains/_grid/worldfile.py",  # what a world file becomes
     "create_study_job": "precompute/study.py",  # a study job from a checked design
 }
@@ -45,7 +45,7 @@ def test_the_functions_a_newcomer_reads_first_are_small(function, path):
 
 def test_the_count_finds_a_complex_function():
     """The check above is only as good as its count: the flow's recording is known to be above 5."""
-    assert "record" in too_complex("studyapp/flow.py", 5)
+    assert "record" in too_complex("studyapp/participant/flow.py", 5)
 
 
 def _module(path: Path, root: Path) -> str:
@@ -125,3 +125,59 @@ def test_a_module_longer_than_400_lines_says_why():
                    and f"Longer than {MOST_LINES} lines because" not in (ast.get_docstring(ast.parse(p.read_text()))
                                                                           or "")]
     assert unexplained == []
+
+
+# studyapp's rooms and the floor each stands on: a room imports only rooms on lower floors, so the
+# participant's pages never reach into the researcher's dashboard or the analysis, and the names of
+# conditions (studyapp/conditions.py, on the ground floor) serve the analysis, the assignment and the
+# designer alike.  Two rooms on one floor do not import each other.
+ROOM_FLOORS = {"base": 0, "guards": 1, "participant": 2, "data": 3, "analysis": 3, "researcher": 4,
+               "management": 5, "entry": 5}
+ROOMS = ("guards", "participant", "data", "analysis", "researcher")
+ENTRY = {"studyapp.urls", "studyapp.admin", "studyapp.apps"}
+
+
+def room_of(module: str) -> str:
+    """studyapp.<room>.… -> room; the app's entry points (URLs, admin) -> "entry"; the rest -> "base"."""
+    parts = module.split(".")
+    if len(parts) > 1 and parts[1] in (*ROOMS, "management"):
+        return parts[1]
+    return "entry" if module in ENTRY else "base"
+
+
+def upward_imports(graph: dict[str, set[str]], floors=ROOM_FLOORS) -> list[str]:
+    """Each import of a module in another room that does not stand on a lower floor."""
+    return sorted(f"{a} -> {b}" for a, targets in graph.items() for b in targets
+                  if room_of(a) != room_of(b) and floors[room_of(b)] >= floors[room_of(a)])
+
+
+def test_studyapp_is_in_rooms_each_importing_only_the_floors_below():
+    graph = import_graph(ROOT, ("studyapp",))
+    assert len({room_of(m) for m in graph}) == len(ROOM_FLOORS)  # every room has modules
+    assert upward_imports(graph) == []
+    top = sorted(p.name for p in (ROOT / "studyapp").glob("*.py"))
+    assert len(top) <= 12, top  # the ground floor holds what every room shares, not the rooms' own modules
+
+
+def test_each_room_says_in_one_line_what_it_holds():
+    for room in ROOMS:
+        doc = ast.get_docstring(ast.parse((ROOT / "studyapp" / room / "__init__.py").read_text()))
+        assert doc and "\n" not in doc.strip() and len(doc) > 40, room
+
+
+def test_the_names_of_conditions_stand_below_the_analysis():
+    graph = import_graph(ROOT)
+    assert not (ROOT / "studyapp/analysis/conditions.py").exists()
+    assert room_of("studyapp.conditions") == "base"
+    namers = [m for m, targets in graph.items() if "studyapp.conditions" in targets]
+    assert {"studyapp.participant.assignment", "studyapp.researcher.specschema", "precompute.design"} <= set(namers)
+    outside = {m for m, targets in graph.items() if any(t.startswith("studyapp.analysis") for t in targets)}
+    assert not outside & {"studyapp.participant.assignment", "studyapp.researcher.specschema", "studyapp.models"}
+
+
+def test_the_floor_check_finds_an_import_that_runs_up():
+    graph = {"studyapp.participant.flow": {"studyapp.models", "studyapp.researcher.dashboard"},
+             "studyapp.data.exports": {"studyapp.analysis.stats"}, "studyapp.models": set(),
+             "studyapp.researcher.dashboard": {"studyapp.participant.flow"}, "studyapp.analysis.stats": set()}
+    assert upward_imports(graph) == ["studyapp.data.exports -> studyapp.analysis.stats",
+                                     "studyapp.participant.flow -> studyapp.researcher.dashboard"]

@@ -1,4 +1,4 @@
-// The consent page of a study with device rules (studyapp/devices.py): what this screen is, sent with the
+// The consent page of a study with device rules (studyapp/participant/devices.py): what this screen is, sent with the
 // answer so the server can check it, and, when it may not take part, why, before the participant agrees.
 // The server checks again what is sent here and keeps no place for a device it refuses.
 import { readJSON } from "./player.js";
@@ -14,7 +14,7 @@ const device = phone ? "phone" : touch ? "tablet" : "computer";
 form.querySelector('input[name="screen_width"]').value = String(width);
 form.querySelector('input[name="device"]').value = device;
 
-// the server's own messages (studyapp/devices.py rules), so the page and a refusal say the same
+// the server's own messages (studyapp/participant/devices.py rules), so the page and a refusal say the same
 let problem = "";
 if (device === "phone" && !rules.phones) problem = rules.messages.phone;
 else if (device === "tablet" && !rules.tablets) problem = rules.messages.tablet;

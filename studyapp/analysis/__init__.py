@@ -1,4 +1,1 @@
-"""Analysis of the user study (DESIGN §8): statistics (stats), figures, HTML report, data loading.
-
-``stats``, ``figures`` and ``report`` do not import Django; ``data`` and ``views`` do.
-"""
+"""The analysis of a study's answers (DESIGN §8): statistics, figures, report, model fits, simulated participants."""

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from .conditions import (
+from ..conditions import (
     APPROX_CONDITIONS,
     APPROX_STAR_DEFAULT,
     COVERAGE_APPROX,

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from .conditions import MIN_PEARSON, Clusters, canonical, canonicalize, default_clusters
+from ..conditions import MIN_PEARSON, Clusters, canonical, canonicalize, default_clusters
 from .tables import _answers, included
 
 

@@ -23,8 +23,8 @@ from __future__ import annotations
 import pandas as pd
 from django.db.models import Count, Max, Q
 
-from .. import outcomes
 from ..models import Answer, Condition, LoopStep, Participant, StepKind, Study
+from ..participant import outcomes
 from ..status import RETURNED, SCREENED_OUT, TIMED_OUT, participant_status
 from ..trajectories import study_domain
 from . import learning as L

@@ -2,7 +2,7 @@
 
 Pure pandas and statsmodels, no Django: the curves can be computed (and tested) on any table of check
 answers.  A closed-loop condition asks each participant check questions between its examples
-(studyapp.closedloop); the k-th check a participant answered is their check number k.  The curve of a
+(studyapp.participant.closedloop); the k-th check a participant answered is their check number k.  The curve of a
 condition says, per check number, how often its participants chose θ*'s option by then.
 
 Input ``checks`` -- one row per check answer (:func:`studyapp.analysis.data.checks_frame`):
@@ -33,7 +33,7 @@ import numpy as np
 import pandas as pd
 from statsmodels.stats.proportion import proportion_confint
 
-from .conditions import canonicalize
+from ..conditions import canonicalize
 
 CHECK_COLUMNS = ["participant_id", "condition", "check_number", "loop_index", "examples_before", "correct", "score",
                  "regret"]

@@ -24,9 +24,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from ..conditions import APPROX_STAR_DEFAULT, PAPER_CONDITIONS, canonicalize
 from .anova import AnovaResult, oneway_anova, paper_anovas
 from .comparisons import check_approx_star, comparison_family, default_comparisons, welch_tests
-from .conditions import APPROX_STAR_DEFAULT, PAPER_CONDITIONS, canonicalize
 from .learning import SHOW_CURVE_COLUMNS, show_learning_curves
 from .tables import ParticipantCounts, condition_summary, included, participant_table
 

@@ -1,7 +1,7 @@
 """Simulated participants for a study, through the real assignment and flow (for tests, demos and pilots).
 
-Each simulated participant arrives through :func:`studyapp.assignment.assign` and answers every
-step with :func:`studyapp.flow.record`, so scores, exclusions and completion are exactly the app's.
+Each simulated participant arrives through :func:`studyapp.participant.assignment.assign` and answers every
+step with :func:`studyapp.participant.flow.record`, so scores, exclusions and completion are exactly the app's.
 Two kinds of participant answer the tests:
 
 * **learners** (``learner=SimulatedLearner(model, τ or λ, lapse)``): they learn from their condition's
@@ -23,22 +23,13 @@ from django.http import QueryDict
 
 from teaching.api import AnswerModel, SimulatedLearner, draw_answers
 
-from .. import assignment, closedloop, flow, studies
 from ..models import LoopStep, StepKind
-from ..pages import page_for
+from ..participant import assignment, closedloop, flow
+from ..participant.pages import page_for
 from .modelfit import study_design
 
 EFFECT = {"coverage-approx*": 0.95, "det-euclid": 0.95, "det-euclidean": 0.95}
 BASE = 0.35
-
-
-def make_study(table, slug: str = "synth", sequences: dict | None = None, name: str = "Synthetic study",
-               **test_set_kw):
-    """A study on the trajectory table at `table`: the paper's conditions selected on it (or the
-    given sequences) and its test set (``studies.table_spec``; `test_set_kw` its thresholds)."""
-    spec = studies.table_spec(table, slug=slug, sequences=sequences, **test_set_kw)
-    spec.update(name=name, target_per_condition=100)
-    return studies.build_study(spec)
 
 
 def post(**fields) -> QueryDict:
@@ -89,7 +80,7 @@ def _bot_answer(options, rng, p_star: float) -> tuple[int, list[int]]:
 
 
 class Simulated:
-    """One simulated participant's state as the pages ask it (studyapp.pages: each page's ``simulate``):
+    """One simulated participant's state as the pages ask it (studyapp.participant.pages: each page's ``simulate``):
     the random generator, whether they pay attention, and how they choose a question's option."""
 
     def __init__(self, participant, rng, attentive: bool, p_star: float, learner: StudyLearner | None):

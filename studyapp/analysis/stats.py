@@ -74,25 +74,7 @@ from dataclasses import dataclass, field
 
 import pandas as pd
 
-# The implementation lives in the modules below; this module stays the public entry point, so
-# ``from studyapp.analysis import stats as S; S.<name>`` keeps working for every name it had.
-from .anova import (
-    AnovaResult,
-    coverage_model_anova,
-    coverage_model_frame,
-    distance_determinism_anovas,
-    factorial_anova,
-    paper_anovas,
-)
-from .comparisons import (
-    APPROX_STAR_NAMES,
-    check_approx_star,
-    comparison_family,
-    default_comparisons,
-    welch,
-    welch_tests,
-)
-from .conditions import (
+from ..conditions import (
     ALIASES,
     APPROX_CONDITIONS,
     APPROX_STAR_DEFAULT,
@@ -112,6 +94,25 @@ from .conditions import (
     condition_factors,
     default_clusters,
     label,
+)
+
+# The implementation lives in the modules below; this module stays the public entry point, so
+# ``from studyapp.analysis import stats as S; S.<name>`` keeps working for every name it had.
+from .anova import (
+    AnovaResult,
+    coverage_model_anova,
+    coverage_model_frame,
+    distance_determinism_anovas,
+    factorial_anova,
+    paper_anovas,
+)
+from .comparisons import (
+    APPROX_STAR_NAMES,
+    check_approx_star,
+    comparison_family,
+    default_comparisons,
+    welch,
+    welch_tests,
 )
 from .correlations import (
     Correlation,

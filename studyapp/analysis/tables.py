@@ -9,7 +9,7 @@ import pandas as pd
 
 from teaching.api import DIFFICULTIES
 
-from .conditions import APPROX_STAR_DEFAULT, canonicalize, condition_factors
+from ..conditions import APPROX_STAR_DEFAULT, canonicalize, condition_factors
 
 
 def _answers(answers: pd.DataFrame) -> pd.DataFrame:

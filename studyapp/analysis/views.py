@@ -35,7 +35,7 @@ from django.utils.cache import get_conditional_response
 
 from teaching.api import TIE_TOLERANCE
 
-from ..access import researcher_required
+from ..guards.access import researcher_required
 from ..models import Study
 from . import data as D
 from . import figures as FIG
@@ -93,7 +93,7 @@ def render_report(study: Study, extra_comparisons=(), include_incomplete: bool =
 
 def _cached(call, *args):
     """The cache only saves work: when it is down (Redis restarting), the report is computed
-    afresh instead of failing, as the rate limits fail open (studyapp/security.py)."""
+    afresh instead of failing, as the rate limits fail open (studyapp/guards/security.py)."""
     try:
         return call(*args)
     except Exception as exc:  # any backend error (connection refused, timeout)

@@ -10,7 +10,7 @@
     matrix.json                the ideal-user matrix (a study's simulated pilot reads it)
     examples_per_cluster.json  the cluster grids
 
-The contact sheet (``teaching.core.sheet``) and a study spec (``studyapp.studies.spec_from_teach``) both
+The contact sheet (``teaching.core.sheet``) and a study spec (``studyapp.researcher.studies.spec_from_teach``) both
 read it through :func:`read_teach`, so a malformed output gives the same one-line error everywhere.
 """
 from __future__ import annotations

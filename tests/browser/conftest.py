@@ -7,7 +7,7 @@ import os
 import pytest
 from playwright.sync_api import expect, sync_playwright
 
-from studyapp.studies import build_study, demo_spec
+from studyapp.researcher.studies import build_study, demo_spec
 from teaching.core.table import TrajectoryTable
 from tests.studyapp.test_stimuli import real_spec
 

@@ -9,8 +9,8 @@ from decimal import Decimal
 import pytest
 from playwright.sync_api import expect
 
-from studyapp import flow
 from studyapp.models import Participant, StepKind
+from studyapp.participant import flow
 from tests.browser.grid_pages import OUT
 from tests.conftest import complete_flow
 

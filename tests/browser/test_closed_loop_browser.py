@@ -9,9 +9,9 @@ from pathlib import Path
 import pytest
 from playwright.sync_api import expect
 
-from studyapp import closedloop, flow
 from studyapp.models import LoopStep, Participant, StepKind
-from studyapp.studies import build_study, table_spec
+from studyapp.participant import closedloop, flow
+from studyapp.researcher.studies import build_study, table_spec
 from tests.browser.test_participant_flow import answer_test_by_keyboard, play_all, ready
 
 OUT = Path(__file__).resolve().parents[2] / "test-output"

@@ -10,9 +10,9 @@ from pathlib import Path
 import pytest
 from playwright.sync_api import expect
 
-from studyapp import comprehension
 from studyapp.models import Participant
-from studyapp.studies import build_study, table_spec
+from studyapp.participant import comprehension
+from studyapp.researcher.studies import build_study, table_spec
 from tests.conftest import SMALL_SEQUENCES, TINY_TEST_SET
 
 SHOTS = Path(os.environ.get("QUIZ_SHOTS", "/tmp/quiz-shots"))

@@ -11,8 +11,8 @@ import pytest
 from django.db import connections
 from playwright.sync_api import expect
 
-from studyapp.assignment import assign
 from studyapp.models import Participant
+from studyapp.participant.assignment import assign
 
 OUT = Path(__file__).resolve().parents[2] / "test-output"
 

@@ -10,7 +10,7 @@ from django.core.management import call_command
 from playwright.sync_api import expect
 
 from studyapp.models import Participant, Study
-from studyapp.studies import build_study, demo_spec
+from studyapp.researcher.studies import build_study, demo_spec
 from teaching.api import get_domain
 from tests.browser.grid_pages import OUT
 from tests.browser.test_participant_flow import play_all, ready

@@ -16,7 +16,7 @@ from playwright.sync_api import expect
 
 from studyapp.analysis.simulate import simulate
 from studyapp.models import Answer, Participant, Study
-from studyapp.studies import build_study, demo_spec
+from studyapp.researcher.studies import build_study, demo_spec
 from teaching.api import get_domain
 from tests.browser.test_participant_flow import h1, play_all, ready
 

@@ -11,7 +11,7 @@ from django.urls import reverse
 
 from studyapp.analysis.simulate import simulate
 from studyapp.models import Answer, StepKind
-from studyapp.studies import build_study, table_spec
+from studyapp.researcher.studies import build_study, table_spec
 from teaching.api import SimulatedLearner, TrajectoryTable
 
 OUT = Path(__file__).resolve().parents[2] / "test-output"

@@ -9,7 +9,8 @@ from pathlib import Path
 import pytest
 from django.urls import reverse
 
-from studyapp.analysis.simulate import make_study, simulate
+from studyapp.analysis.simulate import simulate
+from studyapp.researcher.studies import make_study
 from teaching.api import SimulatedLearner
 
 OUT = Path(__file__).resolve().parents[2] / "test-output"

@@ -17,9 +17,9 @@ import pytest
 from django.db import connections
 from playwright.sync_api import expect
 
-from studyapp import flow
 from studyapp.models import Answer, Participant
-from studyapp.studies import build_study, demo_spec
+from studyapp.participant import flow
+from studyapp.researcher.studies import build_study, demo_spec
 
 OUT = Path(__file__).resolve().parents[2] / "test-output"
 PID, STUDY_ID, SESSION_ID = "5f0c0ffee0000000000000ab", "st-1", "se-1"

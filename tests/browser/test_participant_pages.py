@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 from playwright.sync_api import expect
 
-from studyapp import flow
-from studyapp.assignment import assign
+from studyapp.participant import flow
+from studyapp.participant.assignment import assign
 from tests.browser.test_participant_flow import open_on_fake_clock
 from tests.conftest import complete_flow
 

@@ -8,8 +8,7 @@ from pathlib import Path
 import pytest
 
 from precompute.sequences import pilot_matrix
-from studyapp.analysis.simulate import make_study
-from studyapp.studies import store_pilot
+from studyapp.researcher.studies import make_study, store_pilot
 from teaching.api import TrajectoryTable
 
 OUT = Path(__file__).resolve().parents[2] / "test-output"

@@ -17,7 +17,8 @@ from django.db import connections
 from django.urls import reverse
 
 from studyapp.analysis import views as analysis_views
-from studyapp.analysis.simulate import make_study, run_participant, simulate
+from studyapp.analysis.simulate import run_participant, simulate
+from studyapp.researcher.studies import make_study
 from tests.conftest import PAPER_SEQUENCES, TINY_TEST_SET
 
 OUT = Path(__file__).resolve().parents[2] / "test-output"

@@ -13,7 +13,7 @@ import pytest
 from playwright.sync_api import expect
 
 from studyapp.models import Participant, StepKind, Study
-from studyapp.studies import build_study
+from studyapp.researcher.studies import build_study
 from teaching.core.build import build_table
 from teaching.core.domain import domain_names, get_domain
 from teaching.core.table import TrajectoryTable

@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 from PIL import Image
 
-from studyapp.assignment import assign
+from studyapp.participant.assignment import assign
 from studyapp.scenes import palette_css
 from teaching.domains.driving.domain import DOMAIN as DRIVING
 from tests.browser.test_scenes import stimuli_of

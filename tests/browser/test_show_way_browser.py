@@ -11,10 +11,10 @@ import io
 import pytest
 from playwright.sync_api import expect
 
-from studyapp import flow
-from studyapp.exports import long_csv
+from studyapp.data.exports import long_csv
 from studyapp.models import Answer, Participant, StepKind, Study
-from studyapp.studies import build_study, spec_from_teach
+from studyapp.participant import flow
+from studyapp.researcher.studies import build_study, spec_from_teach
 from tests.browser.grid_pages import OUT
 from tests.browser.test_participant_flow import ready
 from tests.conftest import complete_flow

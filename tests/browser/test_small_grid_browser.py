@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from studyapp.models import Study
-from studyapp.studies import build_study, spec_from_teach
+from studyapp.researcher.studies import build_study, spec_from_teach
 from tests.browser.grid_pages import walk_scene_pages
 from tests.teaching import small_grid_domain as small
 from tests.teaching.test_small_grid_domain import built_small_grid

@@ -24,9 +24,9 @@ from pathlib import Path
 import pytest
 from playwright.sync_api import expect
 
-from studyapp.assignment import assign
 from studyapp.models import Study
-from studyapp.studies import build_study, demo_spec
+from studyapp.participant.assignment import assign
+from studyapp.researcher.studies import build_study, demo_spec
 from studyapp.trajectories import drawn_scene
 from teaching.core.build import build_table
 from teaching.core.domain import get_domain

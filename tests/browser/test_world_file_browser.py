@@ -8,7 +8,7 @@ from __future__ import annotations
 import pytest
 
 from studyapp.models import Study
-from studyapp.studies import build_study, spec_from_teach
+from studyapp.researcher.studies import build_study, spec_from_teach
 from tests.browser.grid_pages import walk_scene_pages
 from tests.teaching.domains.worlds import key_room
 

@@ -40,7 +40,7 @@ FEW_WORKERS = 2
 BUILD_STUDY = """
 import django
 django.setup()
-from studyapp.studies import build_study, demo_spec
+from studyapp.researcher.studies import build_study, demo_spec
 study = build_study(demo_spec())
 print(study.slug, study.conditions.count(), len(study.test_set))
 """

@@ -14,10 +14,10 @@ from precompute import jobs
 from precompute.models import Job
 from precompute.steps import closed_loop_refusal
 from precompute.study import StudyJobError, create_study_job, parse_closed_loop
-from studyapp import closedloop
 from studyapp.analysis.simulate import run_participant
 from studyapp.models import Participant, Study
-from studyapp.specschema import SpecError, check_job
+from studyapp.participant import closedloop
+from studyapp.researcher.specschema import SpecError, check_job
 from teaching.api import ClosedLoopError, TrajectoryTable, select_checks
 from tests.conftest import TINY_TEST_SET
 from tests.precompute.refusals import assert_refused_in_one_line
@@ -167,7 +167,8 @@ def test_the_designer_builds_a_closed_loop_condition_with_its_model_from_a_fit(
         inprocess_worker, transactional_db, demo_table, settings, tmp_path, staff_client):
     """The fit's study is simulated with learners of det-euclidean (τ = 1, lapse 0.1): the loop takes that
     model, its τ and a lapse rate near 0.1 from it, in place of the form's det-euclidean defaults."""
-    from studyapp.analysis.simulate import make_study, simulate  # noqa: PLC0415
+    from studyapp.analysis.simulate import simulate  # noqa: PLC0415
+    from studyapp.researcher.studies import make_study  # noqa: PLC0415
     from teaching.api import SimulatedLearner  # noqa: PLC0415
 
     settings.VAR_DIR, settings.TABLES_DIR = tmp_path, demo_table.parent

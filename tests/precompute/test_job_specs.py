@@ -13,7 +13,7 @@ from precompute.specs import SPEC_VERSION, SpecFormatError, StudyJobSpec, TableJ
 from precompute.study import create_study_job
 from precompute.tasks import table_chunk, task_arguments
 from studyapp.models import Study
-from studyapp.specschema import check_job
+from studyapp.researcher.specschema import check_job
 from teaching.domains.driving.synthetic import synthetic_table
 
 pytestmark = pytest.mark.slow

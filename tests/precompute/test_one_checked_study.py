@@ -15,10 +15,10 @@ from django.core.management import call_command
 
 from precompute.models import Job
 from precompute.study import create_study_job
-from studyapp import specschema, studies
 from studyapp.models import Study
-from studyapp.specschema import CheckedStudy, check_job
-from studyapp.studies import table_spec
+from studyapp.researcher import specschema, studies
+from studyapp.researcher.specschema import CheckedStudy, check_job
+from studyapp.researcher.studies import table_spec
 from tests.conftest import SMALL_SEQUENCES, TINY_TEST_SET
 
 DESIGNER = {"slug": "designed", "target_per_condition": "20", "recruitment": "link", "approx_star": "det-euclidean",

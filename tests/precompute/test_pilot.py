@@ -18,8 +18,8 @@ from precompute.models import Job
 from precompute.study import create_study_job
 from studyapp.analysis.power import PAPER_EFFECTS, participants_needed
 from studyapp.models import Study
-from studyapp.specschema import check_job
-from studyapp.studies import store_pilot
+from studyapp.researcher.specschema import check_job
+from studyapp.researcher.studies import store_pilot
 from teaching.core.answers import Question
 from teaching.core.conditions import teach
 from teaching.core.evaluation import USER_NAMES, ideal_user_matrix

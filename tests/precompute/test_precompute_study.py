@@ -13,7 +13,7 @@ from precompute.sequences import condition_sequence
 from precompute.study import create_study_job
 from precompute.tasks import study_condition, study_finish
 from studyapp.models import Study
-from studyapp.specschema import check_job
+from studyapp.researcher.specschema import check_job
 from teaching.core.conditions import build_sequences, teach
 from teaching.core.selection import ALL_CONDITIONS, CONDITIONS
 from teaching.core.showtests import select_show_tests

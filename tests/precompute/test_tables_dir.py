@@ -10,7 +10,7 @@ from django.core.management import CommandError, call_command
 
 from precompute import jobs
 from precompute.models import Job
-from studyapp.studies import demo_table_path
+from studyapp.researcher.studies import demo_table_path
 
 TINY = ["--preset", "tiny", "--envs", "8", "--thetas", "8", "--chunk-size", "4"]
 

@@ -1,8 +1,8 @@
 """Fixtures of the study-app tests (tests/conftest.py has the project-wide ones)."""
 import pytest
 
-from studyapp import assignment
-from studyapp.studies import build_study, table_spec
+from studyapp.participant import assignment
+from studyapp.researcher.studies import build_study, table_spec
 from tests.conftest import SMALL_SEQUENCES, TINY_TEST_SET
 
 

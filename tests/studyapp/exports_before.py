@@ -1,11 +1,11 @@
-"""The exporter as it was before the exports were streamed (main at 3dada65, studyapp/exports.py), kept verbatim as the
-reference the streamed exports are compared with: an independent, object-at-a-time implementation
+"""The exporter as it was before the exports were streamed (main at 3dada65, studyapp/exports.py), kept verbatim as
+the reference the streamed exports are compared with: an independent, object-at-a-time implementation
 (select_related + prefetch), so a row the new code writes differently shows up in the tests."""
 import csv
 import io
 import json
 
-from studyapp.exports import LONG_COLUMNS, N_TESTS_WIDE, WIDE_COLUMNS
+from studyapp.data.exports import LONG_COLUMNS, N_TESTS_WIDE, WIDE_COLUMNS
 from studyapp.models import Answer, Participant, StepKind, Study
 
 # The columns the old files had: every one but those added since (how each participant's study ended).

@@ -5,8 +5,8 @@ import re
 from django.http import QueryDict
 from django.urls import reverse
 
-from studyapp import flow
 from studyapp.models import Answer, Participant
+from studyapp.participant import flow
 
 
 def snapshot():
@@ -30,7 +30,7 @@ def page_token(response) -> str:
 
 
 def record(p, step, **fields):
-    """Store an answer through studyapp.flow (no request), fields given as keyword arguments."""
+    """Store an answer through studyapp.participant.flow (no request), fields given as keyword arguments."""
     q = QueryDict(mutable=True)
     for k, v in fields.items():
         q.setlist(k, v if isinstance(v, list) else [v])

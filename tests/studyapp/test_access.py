@@ -10,8 +10,9 @@ from django.test import Client
 from django.urls import reverse
 
 from precompute.models import Job
-from studyapp import assignment, exports
+from studyapp.data import exports
 from studyapp.models import Answer, Participant, StepKind, Study
+from studyapp.participant import assignment
 from tests.studyapp.helpers import answer_url, record, snapshot, step_url
 
 pytestmark = pytest.mark.django_db

@@ -20,12 +20,13 @@ from django.core.management import call_command
 from django.core.management.base import CommandError
 from django.test import RequestFactory
 
-from studyapp import assignment
 from studyapp.analysis import data as D
 from studyapp.analysis import stats as S
 from studyapp.analysis import views as V
-from studyapp.analysis.simulate import make_study, run_participant, simulate
+from studyapp.analysis.simulate import run_participant, simulate
 from studyapp.models import Participant, StepKind
+from studyapp.participant import assignment
+from studyapp.researcher.studies import make_study
 from tests.conftest import PAPER_SEQUENCES, TINY_TEST_SET
 
 pytestmark = pytest.mark.django_db

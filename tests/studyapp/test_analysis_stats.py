@@ -15,7 +15,7 @@ import pytest
 from scipy import special
 
 from studyapp.analysis import stats as S
-from studyapp.analysis.conditions import negligible_spread
+from studyapp.conditions import negligible_spread
 
 TOL = 1e-6
 

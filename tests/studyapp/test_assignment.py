@@ -7,9 +7,9 @@ from django.db import IntegrityError, connection, transaction
 from django.test.utils import CaptureQueriesContext
 from django.utils import timezone
 
-from studyapp import assignment, flow
-from studyapp.dashboard import condition_stats
 from studyapp.models import Participant
+from studyapp.participant import assignment, flow
+from studyapp.researcher.dashboard import condition_stats
 
 pytestmark = pytest.mark.django_db
 

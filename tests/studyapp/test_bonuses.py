@@ -1,4 +1,4 @@
-"""Performance bonuses (studyapp/bonuses.py): computed once when a participant finishes, shown on the
+"""Performance bonuses (studyapp/participant/bonuses.py): computed once when a participant finishes, shown on the
 completion page, totalled on the dashboard and written as Prolific's bulk-bonus lines and an MTurk list,
 equal to a count made by hand from what each simulated participant chose."""
 from __future__ import annotations
@@ -14,10 +14,11 @@ import pytest
 from django.urls import reverse
 from django.utils import translation
 
-from studyapp import bonuses, flow, specschema
-from studyapp.assignment import assign
 from studyapp.models import Participant, StepKind
-from studyapp.specschema import SpecError
+from studyapp.participant import bonuses, flow
+from studyapp.participant.assignment import assign
+from studyapp.researcher import specschema
+from studyapp.researcher.specschema import SpecError
 from tests.conftest import complete_flow
 from tests.studyapp.helpers import answer_url, design_form, step_url
 

@@ -9,11 +9,11 @@ from django.db import connection
 from django.test import Client
 from django.urls import reverse
 
-from studyapp import assignment, closedloop, flow
 from studyapp.analysis.data import analyze_study
 from studyapp.analysis.simulate import simulate
 from studyapp.models import Answer, LoopStep, StepKind
-from studyapp.studies import SpecError, build_study, table_spec
+from studyapp.participant import assignment, closedloop, flow
+from studyapp.researcher.studies import SpecError, build_study, table_spec
 from tests.conftest import SMALL_SEQUENCES, TINY_TEST_SET
 
 pytestmark = pytest.mark.django_db

@@ -4,11 +4,11 @@ answers; the model fit takes each one's own path."""
 import numpy as np
 import pytest
 
-from studyapp import closedloop
 from studyapp.analysis.modelfit import fit_study, study_answers, study_design
 from studyapp.analysis.simulate import StudyLearner, run_participant, simulate
 from studyapp.models import Answer, LoopStep, Participant, StepKind
-from studyapp.studies import build_study, table_spec
+from studyapp.participant import closedloop
+from studyapp.researcher.studies import build_study, table_spec
 from teaching.api import SimulatedLearner
 from tests.conftest import SMALL_SEQUENCES, TINY_TEST_SET
 

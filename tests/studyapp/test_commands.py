@@ -9,13 +9,13 @@ from django.contrib.auth import get_user_model
 from django.core.management import call_command
 from django.core.management.base import CommandError
 
-import studyapp.studies
-from studyapp import assignment
+import studyapp.researcher.studies
 from studyapp import trajectories as tj
-from studyapp.assignment import assign
 from studyapp.models import Condition, Participant, Study
-from studyapp.specschema import check_job
-from studyapp.studies import SpecError, freeze_condition, freeze_test_set, new_study, table_spec
+from studyapp.participant import assignment
+from studyapp.participant.assignment import assign
+from studyapp.researcher.specschema import check_job
+from studyapp.researcher.studies import SpecError, freeze_condition, freeze_test_set, new_study, table_spec
 from teaching.api import TrajectoryTable, select_test_set
 from teaching.domains.driving.synthetic import synthetic_table
 from tests.conftest import TINY_TEST_SET
@@ -162,7 +162,7 @@ def test_create_study_from_a_saved_table(tmp_path):
 
 def test_setup_demo_uses_the_table_when_the_pipeline_works(tmp_path, monkeypatch):
     """With a table, the demo's conditions and tests come from teaching.core.selection / teaching.core.testset
-    (through teaching.api, which studyapp.studies imports them from)."""
+    (through teaching.api, which studyapp.researcher.studies imports them from)."""
     table = synthetic_table(n_envs=16, n_thetas=8, seed=3)
     table.save(tmp_path / "table")
     ids = [int(e) for e in table.env_ids]
@@ -177,8 +177,8 @@ def test_setup_demo_uses_the_table_when_the_pipeline_works(tmp_path, monkeypatch
         return [{"env_id": e, "options": [{"theta_index": k, "is_theta_star": k == 0} for k in (2, 0, 1, 3)]}
                 for e in ids[8:14]]
 
-    monkeypatch.setattr(studyapp.studies, "build_sequences", build_sequences)
-    monkeypatch.setattr(studyapp.studies, "select_test_set", select_test_set)
+    monkeypatch.setattr(studyapp.researcher.studies, "build_sequences", build_sequences)
+    monkeypatch.setattr(studyapp.researcher.studies, "select_test_set", select_test_set)
     out = io.StringIO()
     call_command("setup_demo", "--table", str(tmp_path / "table"), stdout=out)
     s = Study.objects.get(slug="demo")
@@ -197,8 +197,8 @@ def test_setup_demo_rebuilds_after_the_table_changes_but_never_under_participant
         table = synthetic_table(n_envs=16, n_thetas=8, seed=seed)
         table.save(tmp_path / "table")
         ids = [int(e) for e in table.env_ids]
-        monkeypatch.setattr(studyapp.studies, "build_sequences", lambda t, seed: {"exact": ids[:2]})
-        monkeypatch.setattr(studyapp.studies, "select_test_set", lambda t, tr, s: [
+        monkeypatch.setattr(studyapp.researcher.studies, "build_sequences", lambda t, seed: {"exact": ids[:2]})
+        monkeypatch.setattr(studyapp.researcher.studies, "select_test_set", lambda t, tr, s: [
             {"env_id": e, "options": [{"theta_index": k, "is_theta_star": k == 0} for k in range(4)]}
             for e in ids[8:14]])
         return table.meta["content_hash"]
@@ -341,7 +341,7 @@ def test_a_table_built_for_another_theta_star_is_refused(tmp_path):
 
 
 def test_a_study_with_participants_cannot_change_its_design(study, complete):
-    """One set of rules for every way of making a study (studyapp/studies.py): once anyone has
+    """One set of rules for every way of making a study (studyapp/researcher/studies.py): once anyone has
     started, no condition, test set or replacement may change what they see."""
     training, tests = study.conditions.first().training, study.test_set
     assignment.assign(study, "prolific", "first-one")

@@ -1,4 +1,4 @@
-"""The comprehension check after the instructions (studyapp/comprehension.py): a wrong answer sends the
+"""The comprehension check after the instructions (studyapp/participant/comprehension.py): a wrong answer sends the
 participant back to the instructions with the questions they missed named, the right ones let them go on,
 too many failures screen them out with the study's code; every attempt is stored once, exported, and
 erased with the participant; the designer and the spec refuse questions that cannot be asked."""
@@ -11,9 +11,11 @@ import re
 import pytest
 from django.urls import reverse
 
-from studyapp import assignment, comprehension, exports, flow, privacy, status
+from studyapp import status
+from studyapp.data import exports, privacy
 from studyapp.models import Answer, ComprehensionAttempt, Participant, StepKind
-from studyapp.specschema import SpecError, check_spec
+from studyapp.participant import assignment, comprehension, flow
+from studyapp.researcher.specschema import SpecError, check_spec
 from teaching.api import domain_names, get_domain
 
 pytestmark = pytest.mark.django_db
@@ -191,7 +193,7 @@ def test_the_designers_text_round_trips_and_bad_questions_are_one_line():
     ({"comprehension_questions": "Q?\n- a\n- b"}, "the comprehension questions: question 1 has no right answer"),
 ])
 def test_a_spec_refuses_bad_settings_in_one_line(tiny_table, change, message):
-    from studyapp.studies import table_spec  # noqa: PLC0415
+    from studyapp.researcher.studies import table_spec  # noqa: PLC0415
     from tests.conftest import SMALL_SEQUENCES, TINY_TEST_SET  # noqa: PLC0415
 
     spec = {**table_spec(tiny_table, slug="bad", sequences=SMALL_SEQUENCES, **TINY_TEST_SET),

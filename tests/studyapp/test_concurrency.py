@@ -52,7 +52,7 @@ if ON_POSTGRES:
             try:
                 barrier.wait(timeout=30)
                 # 50 people from 50 addresses, and one person's 10 tabs from one: within the
-                # per-address entry rate limit (studyapp/security.py), as real arrivals are.
+                # per-address entry rate limit (studyapp/guards/security.py), as real arrivals are.
                 addr = "10.0.0.1" if i < N_SAME_ID else f"10.0.1.{i}"
                 r = Client(REMOTE_ADDR=addr).get(f"/s/{study.slug}/", {"PROLIFIC_PID": pid})
                 results[i] = (pid, r.status_code, r["Location"])
@@ -104,8 +104,8 @@ from django.core.management import call_command
 from django.db import connections
 call_command("migrate", verbosity=0)
 import json, os
-from studyapp.studies import build_study, table_spec
-from studyapp.assignment import assign
+from studyapp.researcher.studies import build_study, table_spec
+from studyapp.participant.assignment import assign
 from studyapp.models import Participant
 study = build_study(table_spec(os.environ["TINY_TABLE"], slug="race", sequences={"a": [500], "b": [5780], "c": [12165]},
                                **json.loads(os.environ["TINY_TEST_SET"])))

@@ -18,12 +18,12 @@ from django.core.management.base import CommandError
 
 from precompute.design import StudyDesignForm
 from precompute.tables import built_tables
-from studyapp import assignment
 from studyapp.analysis import data as D
 from studyapp.analysis import stats as S
 from studyapp.models import Condition, Study
-from studyapp.specschema import check_job
-from studyapp.studies import SpecError, build_study, table_spec
+from studyapp.participant import assignment
+from studyapp.researcher.specschema import check_job
+from studyapp.researcher.studies import SpecError, build_study, table_spec
 from tests.conftest import TINY_TEST_SET
 from tests.studyapp.test_analysis_stats import COVERAGE_CELLS, by_hand_means, hand_holm, hand_welch, make_data
 

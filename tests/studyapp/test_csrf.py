@@ -8,8 +8,8 @@ from django.test import Client, override_settings
 from django.urls import URLPattern, URLResolver, get_resolver, reverse
 
 from precompute.models import Job
-from studyapp import views
 from studyapp.models import Answer, Participant, Study
+from studyapp.participant import views
 from tests.studyapp.helpers import answer_url, page_token, snapshot, step_url
 
 pytestmark = pytest.mark.django_db

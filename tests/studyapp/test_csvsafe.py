@@ -6,8 +6,8 @@ import io
 import pytest
 from django.urls import reverse
 
-from studyapp import assignment
-from studyapp.csvsafe import neutralise
+from studyapp.guards.csvsafe import neutralise
+from studyapp.participant import assignment
 
 FORMULAS = [
     "=1+1", "+1", "-2", "@SUM(A1)", "\tTAB", "\rCR", "\nLF",

@@ -8,8 +8,8 @@ from django.test import Client
 from django.urls import reverse
 from django.utils import timezone
 
-from studyapp import assignment
 from studyapp.models import Answer, ComprehensionAttempt, Participant, StepKind, Study
+from studyapp.participant import assignment
 
 pytestmark = pytest.mark.django_db
 

@@ -1,4 +1,4 @@
-"""Device rules (studyapp/devices.py): a study that needs a desktop screen turns away a phone or a small
+"""Device rules (studyapp/participant/devices.py): a study that needs a desktop screen turns away a phone or a small
 screen on its consent page, with the reason, keeping no place for them and counting the refusal; what the
 browser reports is checked again on the server, with the User-Agent's own word on phones."""
 from __future__ import annotations
@@ -8,11 +8,11 @@ from django.test import Client
 
 from precompute.design import StudyDesignForm
 from precompute.tables import built_tables
-from studyapp import devices
-from studyapp.assignment import assign
-from studyapp.dashboard import condition_stats
 from studyapp.models import Participant, Study
-from studyapp.specschema import SpecError
+from studyapp.participant import devices
+from studyapp.participant.assignment import assign
+from studyapp.researcher.dashboard import condition_stats
+from studyapp.researcher.specschema import SpecError
 from tests.studyapp.helpers import answer_url, step_url
 
 IPHONE = "Mozilla/5.0 (iPhone; CPU iPhone OS 17_0 like Mac OS X) AppleWebKit/605.1.15 Mobile/15E148 Safari/604.1"

@@ -1,12 +1,12 @@
-"""Each condition's estimated duration (studyapp/durations.py), worked by hand on a study of made-up
+"""Each condition's estimated duration (studyapp/researcher/durations.py), worked by hand on a study of made-up
 payloads, its warnings, and the dashboard's table of what each condition's participants go through."""
 from __future__ import annotations
 
 import pytest
 from django.urls import reverse
 
-from studyapp import durations
 from studyapp.models import Condition, Study
+from studyapp.researcher import durations
 
 pytestmark = pytest.mark.django_db
 

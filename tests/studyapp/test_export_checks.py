@@ -10,9 +10,10 @@ import pytest
 from django.db import connection
 from django.test.utils import CaptureQueriesContext
 
-from studyapp import assignment, closedloop, exports
 from studyapp.analysis.simulate import run_participant, simulate
+from studyapp.data import exports
 from studyapp.models import Answer, LoopStep, StepKind
+from studyapp.participant import assignment, closedloop
 
 pytestmark = pytest.mark.django_db
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "study.md"

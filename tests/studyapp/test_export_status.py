@@ -11,11 +11,12 @@ from django.core.management import CommandError, call_command
 from django.http import StreamingHttpResponse
 from django.urls import reverse
 
-from studyapp import assignment, exports, flow
 from studyapp.analysis import data as D
 from studyapp.analysis import report as R
 from studyapp.analysis import tables
+from studyapp.data import exports
 from studyapp.models import StepKind
+from studyapp.participant import assignment, flow
 from tests.conftest import answer_payload
 from tests.studyapp import exports_before
 from tests.studyapp.helpers import record

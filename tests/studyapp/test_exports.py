@@ -4,9 +4,10 @@ import io
 
 import pytest
 
-from studyapp import assignment, exports, flow
-from studyapp.analysis.simulate import make_study
+from studyapp.data import exports
 from studyapp.models import Participant, StepKind
+from studyapp.participant import assignment, flow
+from studyapp.researcher.studies import make_study
 
 pytestmark = pytest.mark.django_db
 

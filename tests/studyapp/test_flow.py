@@ -3,9 +3,10 @@ import pytest
 from django.test import Client
 from django.urls import reverse
 
-from studyapp import assignment, exports, flow
-from studyapp.dashboard import condition_stats
+from studyapp.data import exports
 from studyapp.models import Answer, Participant, StepKind
+from studyapp.participant import assignment, flow
+from studyapp.researcher.dashboard import condition_stats
 from tests.studyapp.helpers import snapshot
 
 pytestmark = pytest.mark.django_db

@@ -1,4 +1,4 @@
-"""The step forms (studyapp.forms) on their own, and StepKind as the one source of step kinds."""
+"""The step forms (studyapp.participant.forms) on their own, and StepKind as the one source of step kinds."""
 import re
 from pathlib import Path
 from types import SimpleNamespace
@@ -6,8 +6,9 @@ from types import SimpleNamespace
 import pytest
 from django.http import QueryDict
 
-from studyapp import flow
-from studyapp.forms import (
+from studyapp.models import Answer, StepKind
+from studyapp.participant import flow
+from studyapp.participant.forms import (
     AttentionForm,
     ConsentForm,
     DemographicsForm,
@@ -15,8 +16,7 @@ from studyapp.forms import (
     TestForm,
     TrainingForm,
 )
-from studyapp.models import Answer, StepKind
-from studyapp.pages import PAGES, SHOW_PAGES
+from studyapp.participant.pages import PAGES, SHOW_PAGES
 from teaching.api import domain_names, get_domain
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -79,7 +79,7 @@ def test_steps_of_a_participant_are_step_kinds(participant):
     (DemographicsForm, {"age": "121", "gender": "male"}, "Your age must be a whole number from 18 to 120."),
     (DemographicsForm, {"age": "30.0", "gender": "male"}, "Your age must be a whole number from 18 to 120."),
     (DemographicsForm, {"age": "3e1", "gender": "male"}, "Your age must be a whole number from 18 to 120."),
-    # digits int() reads but no page sends, and a number int() parses at length (studyapp.inputs)
+    # digits int() reads but no page sends, and a number int() parses at length (studyapp.guards.inputs)
     (DemographicsForm, {"age": "٣٠", "gender": "male"}, "Your age must be a whole number from 18 to 120."),
     (DemographicsForm, {"age": "３０", "gender": "male"}, "Your age must be a whole number from 18 to 120."),
     (DemographicsForm, {"age": "0" * 5000 + "30", "gender": "male"}, "Your age must be a whole number from 18 to 120."),

@@ -21,8 +21,9 @@ from django.urls import reverse
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from studyapp import assignment, flow, security
+from studyapp.guards import security
 from studyapp.models import Participant, StepKind
+from studyapp.participant import assignment, flow
 from tests.studyapp.helpers import snapshot
 
 pytestmark = pytest.mark.django_db

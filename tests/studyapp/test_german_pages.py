@@ -14,11 +14,12 @@ import pytest
 from django.conf import settings
 from django.urls import reverse
 
-from studyapp import flow, outcomes, status
-from studyapp.assignment import assign
-from studyapp.comprehension import questions_of
+from studyapp import status
 from studyapp.models import Participant, StepKind, Study
-from studyapp.studies import build_study
+from studyapp.participant import flow, outcomes
+from studyapp.participant.assignment import assign
+from studyapp.participant.comprehension import questions_of
+from studyapp.researcher.studies import build_study
 from teaching.api import get_domain
 from teaching.core.build import build_table
 from teaching.core.table import TrajectoryTable

@@ -10,13 +10,13 @@ import pytest
 from django.urls import reverse
 from statsmodels.stats.proportion import proportion_confint
 
-from studyapp import assignment, flow
 from studyapp.analysis import data as D
 from studyapp.analysis import learning as L
 from studyapp.analysis import report as R
 from studyapp.analysis import stats as S
 from studyapp.analysis.simulate import post, run_participant, simulate
 from studyapp.models import Answer, LoopStep, StepKind
+from studyapp.participant import assignment, flow
 from tests.conftest import answer_payload
 
 # p1, p2 answered two checks, p3 one; p4 was excluded from the analysis and must change nothing.

@@ -14,8 +14,9 @@ from django.urls import reverse
 
 from config import settings as cfg
 from config.settings import _cache
-from studyapp import assignment, flow, security
+from studyapp.guards import security
 from studyapp.models import Answer, Participant, StepKind, Study
+from studyapp.participant import assignment, flow
 from tests.services import blackhole
 from tests.studyapp.helpers import answer_url, snapshot
 
@@ -86,7 +87,7 @@ def test_the_window_ends(study, monkeypatch):
              "OPTIONS": {"socket_connect_timeout": 0.2, "socket_timeout": 0.2}}})
 def test_a_cache_outage_lets_participants_through(study, caplog, monkeypatch):
     monkeypatch.setattr(security, "_last_outage_log", 0.0)
-    with caplog.at_level(logging.WARNING, logger="studyapp.security"):
+    with caplog.at_level(logging.WARNING, logger="studyapp.guards.security"):
         for _ in range(3):
             assert Client().get(reverse("entry", args=[study.slug])).status_code == 302
     assert sum("cache is unavailable" in r.getMessage() for r in caplog.records) == 1  # once, not per request

@@ -5,7 +5,7 @@ import logging
 import pytest
 from django.conf import settings
 
-from studyapp import assignment
+from studyapp.participant import assignment
 
 pytestmark = pytest.mark.django_db
 

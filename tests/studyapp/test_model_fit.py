@@ -13,10 +13,11 @@ import pytest
 from django.core.management import call_command
 from django.core.management.base import CommandError
 
-from studyapp import assignment
 from studyapp.analysis.modelfit import CSV_COLUMNS, ModelFitError, fit_study, study_answers, study_design
-from studyapp.analysis.simulate import make_study, simulate
+from studyapp.analysis.simulate import simulate
 from studyapp.models import Participant
+from studyapp.participant import assignment
+from studyapp.researcher.studies import make_study
 from teaching.api import SimulatedLearner, TrajectoryTable
 from teaching.core.conditions import teach
 

@@ -1,4 +1,4 @@
-"""How a participant's study ends early (studyapp/outcomes.py): timed out by the study's time limit,
+"""How a participant's study ends early (studyapp/participant/outcomes.py): timed out by the study's time limit,
 returned (the platform says so), screened out; each outcome's code and redirect, the places they free,
 and the outcome in the dashboard, the exports and the analysis."""
 from __future__ import annotations
@@ -12,14 +12,16 @@ from django.core.management import CommandError, call_command
 from django.urls import reverse
 from django.utils import timezone
 
-from studyapp import exports, outcomes, status
+from studyapp import status
 from studyapp.analysis.data import frames
 from studyapp.analysis.formatting import participant_groups
-from studyapp.assignment import assign, condition_counts
-from studyapp.dashboard import condition_stats
-from studyapp.flow import AnswerError
+from studyapp.data import exports
 from studyapp.models import Answer, Participant, StepKind
-from studyapp.specschema import SpecError
+from studyapp.participant import outcomes
+from studyapp.participant.assignment import assign, condition_counts
+from studyapp.participant.flow import AnswerError
+from studyapp.researcher.dashboard import condition_stats
+from studyapp.researcher.specschema import SpecError
 from tests.conftest import complete_flow
 from tests.studyapp.helpers import answer_url, design_form, record, snapshot, step_url
 

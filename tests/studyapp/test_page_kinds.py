@@ -1,4 +1,4 @@
-"""One object per step kind (studyapp.pages): a new kind of step is this one module, a form and a Page
+"""One object per step kind (studyapp.participant.pages): a new kind of step is this one module, a form and a Page
 registered before the attention check, and the real flow, views, answer recording and simulated
 participants take it with no change anywhere else."""
 from __future__ import annotations
@@ -11,11 +11,11 @@ from django import forms
 from django.http import HttpResponse
 from django.template import engines
 
-from studyapp import flow
 from studyapp.analysis.simulate import run_participant
-from studyapp.forms import StepForm
 from studyapp.models import Answer, Participant, StepKind
-from studyapp.pages import PAGE_SEQUENCE, PAGES, Page, register, unregister
+from studyapp.participant import flow
+from studyapp.participant.forms import StepForm
+from studyapp.participant.pages import PAGE_SEQUENCE, PAGES, Page, register, unregister
 from tests.conftest import answer_payload
 
 TOY = "sleep"  # what Answer.kind stores for the toy step

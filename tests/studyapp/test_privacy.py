@@ -1,4 +1,4 @@
-"""Participants' data rights (studyapp/privacy.py): erasing a participant by platform id removes every row
+"""Participants' data rights (studyapp/data/privacy.py): erasing a participant by platform id removes every row
 that names them and nothing else, counted row by row before and after, from the command and from the
 dashboard; the audit line keeps no platform id; a pseudonymised export has none either, and its
 pseudonyms are stable and distinct."""
@@ -14,10 +14,10 @@ from django.core.management import CommandError, call_command
 from django.test import Client
 from django.urls import reverse
 
-from studyapp import exports, privacy
-from studyapp.assignment import assign
-from studyapp.dashboard import condition_stats
+from studyapp.data import exports, privacy
 from studyapp.models import Answer, ComprehensionAttempt, Condition, LoopStep, Participant, Study
+from studyapp.participant.assignment import assign
+from studyapp.researcher.dashboard import condition_stats
 
 PIDS = ["5f0c0ffee000000000000001", "5f0c0ffee000000000000002", "5f0c0ffee000000000000003"]
 
@@ -51,7 +51,7 @@ def test_erasing_a_participant_removes_their_rows_and_nothing_else(two_studies, 
     gone_answers = set(Answer.objects.filter(participant=gone_p).values_list("pk", flat=True))
     started = {r["condition"].pk: r["started"] for r in condition_stats(first)}
     before = everything()
-    with caplog.at_level(logging.INFO, logger="studyapp.privacy"):
+    with caplog.at_level(logging.INFO, logger="studyapp.data.privacy"):
         found = privacy.erase(PIDS[0], first)
     after = everything()
     assert found.rows == ((first.slug, gone_p.pk, len(gone_answers), 0),)
@@ -65,7 +65,7 @@ def test_erasing_a_participant_removes_their_rows_and_nothing_else(two_studies, 
     now = {r["condition"].pk: r["started"] for r in condition_stats(first)}
     assert now[gone_p.condition_id] == started[gone_p.condition_id] - 1
     # the audit line names the row and its counts, never the platform id
-    lines = [r.getMessage() for r in caplog.records if r.name == "studyapp.privacy"]
+    lines = [r.getMessage() for r in caplog.records if r.name == "studyapp.data.privacy"]
     assert lines == [f"erased participant {gone_p.pk} of study 's1' at their request: {len(gone_answers)} "
                      "answers, 0 closed-loop steps"]
     assert PIDS[0] not in caplog.text

@@ -17,7 +17,7 @@ from django.contrib.sessions.backends.db import SessionStore
 from django.db import InterfaceError, OperationalError
 from django.test import Client
 
-from studyapp import views
+from studyapp.participant import views
 
 ROOT = Path(__file__).resolve().parents[2]
 # The variables a deployment sets (docs/operations.md); everything else is left to its default.

@@ -4,8 +4,8 @@ import pytest
 from django.core.exceptions import ValidationError
 from django.urls import reverse
 
-from studyapp import studies
 from studyapp.models import Participant, Study
+from studyapp.researcher import studies
 from teaching.api import get_domain
 from tests.studyapp.helpers import snapshot
 

@@ -58,7 +58,7 @@ def test_the_web_side_names_no_car():
 
 def test_the_check_reads_every_kind_of_file_and_would_catch_the_car(tmp_path):
     scanned = {p.relative_to(ROOT).as_posix() for p in files()}
-    assert {"studyapp/forms.py", "studyapp/exports.py", "studyapp/analysis/conditions.py",
+    assert {"studyapp/participant/forms.py", "studyapp/data/exports.py", "studyapp/conditions.py",
             "templates/studyapp/step_test.html", "precompute/templates/precompute/design.html",
             "static/studyapp/player.js", "static/studyapp/study.css", "static/studyapp/scenes/gridworld.js"} <= scanned
     assert not scanned & OWN_FILES

@@ -13,7 +13,6 @@ from django.core.management import call_command
 from django.utils import timezone
 from scipy import stats
 
-from studyapp import assignment, exports
 from studyapp.analysis import data as D
 from studyapp.analysis import modelfit as MF
 from studyapp.analysis import report as R
@@ -21,7 +20,9 @@ from studyapp.analysis import report_show as RS
 from studyapp.analysis.shown import MEASURES, ShowAnalysis, analyze_show
 from studyapp.analysis.simulate import run_participant
 from studyapp.analysis.stats import DETERMINISM
+from studyapp.data import exports
 from studyapp.models import Answer, Condition, LoopStep, Participant, StepKind, Study
+from studyapp.participant import assignment
 from tests.studyapp.test_analysis_stats import check_anova, hand_anova
 
 pytestmark = pytest.mark.django_db

@@ -16,14 +16,14 @@ import pytest
 from django.http import QueryDict
 from django.urls import reverse
 
-from studyapp import closedloop, flow
 from studyapp.analysis.data import analyze_study
 from studyapp.analysis.report import render_fragment
-from studyapp.assignment import assign
-from studyapp.exports import long_csv
+from studyapp.data.exports import long_csv
 from studyapp.models import Answer, Participant, StepKind, Study
-from studyapp.specschema import SpecError
-from studyapp.studies import build_study, spec_from_teach
+from studyapp.participant import closedloop, flow
+from studyapp.participant.assignment import assign
+from studyapp.researcher.specschema import SpecError
+from studyapp.researcher.studies import build_study, spec_from_teach
 from teaching.api import TrajectoryTable
 from tests.conftest import answer_payload
 from tests.studyapp.helpers import answer_url, record, snapshot, step_url

@@ -10,11 +10,11 @@ from django.core.management import call_command
 from django.core.management.base import CommandError
 from jsonschema import Draft7Validator
 
-from studyapp import specschema
 from studyapp.management.commands.spec_schema import PUBLISHED
-from studyapp.specjson import field_schema, spec_schema
-from studyapp.specrules import Field, SpecError
-from studyapp.studies import table_spec
+from studyapp.researcher import specschema
+from studyapp.researcher.specjson import field_schema, spec_schema
+from studyapp.researcher.specrules import Field, SpecError
+from studyapp.researcher.studies import table_spec
 from tests.conftest import SMALL_SEQUENCES, TINY_TEST_SET
 
 VALIDATOR = Draft7Validator(spec_schema())

@@ -1,4 +1,4 @@
-"""One schema for a study spec (studyapp/specschema.py): a JSON spec (create_study), the study job
+"""One schema for a study spec (studyapp/researcher/specschema.py): a JSON spec (create_study), the study job
 (build_study and the designer's job) and the designer's form refuse the same bad input with the same
 one-line message, because each checks it against the same declared field; a rule changed in the
 schema changes all three; the spec's fields in docs/study.md are the schema's."""
@@ -18,9 +18,9 @@ from precompute.design import StudyDesignForm, schema_field
 from precompute.models import Job
 from precompute.study import StudyJobError, create_study_job
 from precompute.tables import built_tables
-from studyapp import specschema
 from studyapp.models import Study
-from studyapp.specschema import (
+from studyapp.researcher import specschema
+from studyapp.researcher.specschema import (
     CONDITION_FIELDS,
     JOB_FIELDS,
     SPEC_FIELDS,
@@ -29,7 +29,7 @@ from studyapp.specschema import (
     SpecError,
     check_job,
 )
-from studyapp.studies import build_study, table_spec
+from studyapp.researcher.studies import build_study, table_spec
 from teaching.api import selector_names
 from tests.conftest import SMALL_SEQUENCES, TINY_TEST_SET
 

@@ -10,9 +10,9 @@ import pytest
 from django.test import Client
 from django.urls import reverse
 
-from studyapp import flow
 from studyapp.models import Participant, StepKind
-from studyapp.studies import build_study
+from studyapp.participant import flow
+from studyapp.researcher.studies import build_study
 from teaching.core.build import build_table
 from teaching.core.domain import domain_names, get_domain
 from teaching.core.selection import showable

@@ -8,9 +8,9 @@ import shutil
 import pytest
 from django.urls import reverse
 
-from studyapp import flow
-from studyapp.assignment import assign
 from studyapp.models import Answer, Participant, StepKind, Study
+from studyapp.participant import flow
+from studyapp.participant.assignment import assign
 from tests.conftest import complete_flow
 
 pytestmark = pytest.mark.django_db

@@ -12,11 +12,12 @@ import pandas as pd
 import pytest
 from django.core.management import call_command
 
-from studyapp import assignment, exports
 from studyapp.analysis import data as D
 from studyapp.analysis import figures as F
 from studyapp.analysis import stats as S
-from studyapp.studies import build_study
+from studyapp.data import exports
+from studyapp.participant import assignment
+from studyapp.researcher.studies import build_study
 from teaching.core.build import build_table
 from teaching.core.domain import domain_names, get_domain, siblings
 from teaching.core.table import TrajectoryTable

@@ -6,10 +6,10 @@ from __future__ import annotations
 import pytest
 from django.urls import reverse
 
-from studyapp.assignment import assign
 from studyapp.i18n import participant_texts
 from studyapp.models import Participant
-from studyapp.specschema import SpecError
+from studyapp.participant.assignment import assign
+from studyapp.researcher.specschema import SpecError
 from studyapp.trajectories import study_domain
 from tests.studyapp.helpers import design_form, step_url
 

@@ -14,13 +14,13 @@ import pytest
 from django.utils import translation
 
 from precompute.models import Job
-from studyapp import flow
-from studyapp.assignment import assign
-from studyapp.comprehension import questions_of
 from studyapp.i18n import language_problem, participant_texts, untranslated_texts
 from studyapp.models import Participant, StepKind, Study
-from studyapp.specschema import SpecError
-from studyapp.studies import build_study, spec_from_teach
+from studyapp.participant import flow
+from studyapp.participant.assignment import assign
+from studyapp.participant.comprehension import questions_of
+from studyapp.researcher.specschema import SpecError
+from studyapp.researcher.studies import build_study, spec_from_teach
 from teaching.api import domain_names, get_domain
 from teaching.core.domain import register
 from teaching.domains import WORLDS

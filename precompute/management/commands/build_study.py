@@ -20,7 +20,7 @@ from django.core.management.base import BaseCommand, CommandError
 
 from precompute import jobs
 from precompute.study import StudyJobError, create_study_job, parse_closed_loop
-from studyapp.specschema import JOB_FIELDS, STUDY_FIELDS, SpecError, check_job
+from studyapp.researcher.specschema import JOB_FIELDS, STUDY_FIELDS, SpecError, check_job
 from teaching.api import CONDITIONS, TableError, parse_hyperparameters
 
 from ._waiting import wait_for_job
@@ -39,7 +39,7 @@ def split_conditions(text: str) -> list[str]:
 
 
 def _help(field) -> str:
-    """A study spec field's help and default, as the schema declares them (studyapp/specschema.py)."""
+    """A study spec field's help and default, as the schema declares them (studyapp/researcher/specschema.py)."""
     return f"{field.help} (default {field.default})"
 
 

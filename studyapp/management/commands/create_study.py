@@ -1,4 +1,4 @@
-"""Create a study from a JSON spec (studyapp/studies.py has the format), or from the output
+"""Create a study from a JSON spec (studyapp/researcher/studies.py has the format), or from the output
 directory of `python -m teaching teach` (its sequences.json and test_set.json):
 
     python manage.py create_study spec.json
@@ -12,7 +12,7 @@ from pathlib import Path
 from django.core.management.base import BaseCommand, CommandError
 
 from studyapp.models import Study
-from studyapp.studies import SpecError, build_study, spec_from_teach
+from studyapp.researcher.studies import SpecError, build_study, spec_from_teach
 
 
 def read_spec(path: Path, table=None) -> dict:

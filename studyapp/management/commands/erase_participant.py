@@ -1,10 +1,10 @@
 """``python manage.py erase_participant PID [--study SLUG] [--yes]``: erase a participant's data at their
-request (studyapp.privacy): every participant row of that platform id, with everything stored under it."""
+request (studyapp.data.privacy): every participant row of that platform id, with everything stored under it."""
 from __future__ import annotations
 
 from django.core.management.base import BaseCommand, CommandError
 
-from studyapp import privacy
+from studyapp.data import privacy
 from studyapp.models import Study
 
 

@@ -1,10 +1,10 @@
 """``python manage.py export_study STUDY {wide,long,dictionary} [--out FILE] [--pseudonymise]``: a study's CSV export
-without the web server, written piece by piece as the dashboard streams it (studyapp.exports)."""
+without the web server, written piece by piece as the dashboard streams it (studyapp.data.exports)."""
 from __future__ import annotations
 
 from django.core.management.base import BaseCommand, CommandError
 
-from studyapp import exports
+from studyapp.data import exports
 from studyapp.models import Study
 
 

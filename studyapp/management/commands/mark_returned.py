@@ -1,14 +1,14 @@
 """``python manage.py mark_returned SLUG (ID ... | --file F)``: mark the participants a recruiting platform
 lists as returned (Prolific's returned submissions; MTurk's returned assignments) as returned, freeing their
-places at once (studyapp.outcomes)."""
+places at once (studyapp.participant.outcomes)."""
 from __future__ import annotations
 
 from pathlib import Path
 
 from django.core.management.base import BaseCommand, CommandError
 
-from studyapp import outcomes
 from studyapp.models import Study
+from studyapp.participant import outcomes
 
 
 class Command(BaseCommand):

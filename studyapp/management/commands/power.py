@@ -19,7 +19,7 @@ from studyapp.analysis.power import (
     power_table,
 )
 from studyapp.models import Study
-from studyapp.pilot import DEFAULT_LAPSE, model_effects, stored_predictions
+from studyapp.researcher.pilot import DEFAULT_LAPSE, model_effects, stored_predictions
 
 
 def parse_effect(text: str) -> tuple[str, float]:

@@ -15,7 +15,7 @@ from django.core.management import call_command
 from django.core.management.base import BaseCommand, CommandError
 
 from studyapp.models import Study
-from studyapp.studies import SpecError, build_study, demo_is_stale, demo_spec
+from studyapp.researcher.studies import SpecError, build_study, demo_is_stale, demo_spec
 
 DEFAULT_USER = "researcher"
 DEFAULT_PASSWORD = "demo-password"

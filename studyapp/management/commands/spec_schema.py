@@ -1,10 +1,10 @@
-"""Write the study spec's JSON Schema (studyapp/specjson.py) for editors: manage.py spec_schema [--check]."""
+"""Write the study spec's JSON Schema (studyapp/researcher/specjson.py) for editors: manage.py spec_schema [--check]."""
 import json
 from pathlib import Path
 
 from django.core.management.base import BaseCommand, CommandError
 
-from studyapp.specjson import spec_schema
+from studyapp.researcher.specjson import spec_schema
 
 PUBLISHED = Path(__file__).resolve().parents[2] / "spec.schema.json"
 
