@@ -7,6 +7,9 @@ Sub-commands (installed as a package, ``teaching`` is the same command):
   sheet   draw every training example and test option of a teach output as one PNG
   check-domain  check a domain's contracts (its members, plan_chunk's arrays, d_reward, labels, page keys,
                 palette, test-set feasibility): exit 0 when all pass, 1 when one fails, 2 for bad arguments
+  check-table   check a table folder of a robot's own data (docs/importing.md): exit 0 when it can be
+                used, 1 with its first mistake in one line
+  export-table  write a built table as a table folder
 """
 from __future__ import annotations
 
@@ -23,6 +26,7 @@ from .core.checkdomain import CHECKS, DEFAULT_ENVS, check_domain, default_preset
 from .core.domain import domain_names, get_domain
 from .core.table import TableError, TrajectoryTable
 from .core.testset import MIN_REGRET
+from .importing import commands as folder_commands
 from .teach import DESCRIPTION as TEACH_DESCRIPTION
 from .teach import add_arguments as add_teach_arguments
 from .teach import command as teach_command
@@ -91,7 +95,7 @@ def _features_by_domain() -> str:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m teaching", description="Trajectory tables and teaching: "
-                                     "build, info, teach, sheet and check-domain.")
+                                     "build, info, teach, sheet, check-domain, check-table and export-table.")
     sub = parser.add_subparsers(dest="command", required=True)
     b = sub.add_parser("build", help="build or resume a trajectory table")
     b.add_argument("--preset", required=True, help=f"one of: {', '.join(PRESETS)}")
@@ -132,6 +136,8 @@ def main(argv=None) -> int:
     c.add_argument("--min-option-distance", type=float, default=None,
                    help="the test set's (as python -m teaching teach; default: the domain's). A tiny preset's few θ "
                         "rarely give options the default distance apart: the app's tests use 0.1 on them.")
+    folder_commands.add_check_arguments(sub.add_parser("check-table", help=folder_commands.CHECK_HELP))
+    folder_commands.add_export_arguments(sub.add_parser("export-table", help=folder_commands.EXPORT_HELP))
     args = parser.parse_args(argv)
     try:
         if args.command == "build":
@@ -169,6 +175,10 @@ def main(argv=None) -> int:
             return check_domain_command(args)
         elif args.command == "teach":
             return teach_command(args)
+        elif args.command == "check-table":
+            return folder_commands.check_command(args)
+        elif args.command == "export-table":
+            return folder_commands.export_command(args)
         else:
             print(summary(TrajectoryTable.load(args.path)))
     except (ValueError, TableError) as exc:

@@ -45,7 +45,8 @@ def test_the_core_installs_and_runs_without_django(tmp_path, tiny_table):
 
     helped = _run([venv / "bin" / "teaching", "--help"], cwd=outside)
     assert helped.returncode == 0, helped.stderr
-    assert all(sub in helped.stdout for sub in ("build", "info", "teach", "sheet", "check-domain"))
+    assert all(sub in helped.stdout for sub in ("build", "info", "teach", "sheet", "check-domain", "check-table",
+                                                "export-table"))
     info = _run([venv / "bin" / "teaching", "info", tiny_table], cwd=outside)
     assert info.returncode == 0, info.stderr
     assert "domain=driving preset=tiny envs=48 thetas=24" in info.stdout
@@ -57,3 +58,9 @@ def test_the_core_installs_and_runs_without_django(tmp_path, tiny_table):
     taxi = _run([python, "-c", "import teaching.domains; from teaching.core.domain import get_domain; "
                  "print(get_domain('taxi').n_environments)"], cwd=outside)
     assert taxi.returncode == 0 and taxi.stdout.strip() == "25600", taxi.stderr
+    # a table folder is checked against the format's schema, package data too
+    folder = outside / "folder"
+    exported = _run([venv / "bin" / "teaching", "export-table", tiny_table, "--out", folder], cwd=outside)
+    assert exported.returncode == 0, exported.stderr
+    checked = _run([venv / "bin" / "teaching", "check-table", folder], cwd=outside)
+    assert checked.returncode == 0 and "48 environments x 24 objectives" in checked.stdout, checked.stdout

@@ -16,8 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ...core.schemacheck import did_you_mean
 from .cells import shortest_moves
-from .worldschema import WorldFileError, _Reader, check_shape, did_you_mean
+from .worldschema import WorldFileError, _Reader, check_shape
 from .worldtexts import check_texts, check_translations
 
 __all__ = ["HELD", "MOVES", "World", "WorldFileError", "load_world", "parse_world"]

@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import string
 
-from .worldschema import _Reader, did_you_mean, field_name
+from ...core.schemacheck import did_you_mean, field_name
+from .worldschema import _Reader
 
 # what an instruction paragraph may leave to be filled in per participant (ParticipantTexts.instructions)
 INSTRUCTION_FIELDS = ("n_training", "n_tests", "training_plural", "tests_plural")

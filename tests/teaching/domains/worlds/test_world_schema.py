@@ -10,8 +10,9 @@ from pathlib import Path
 import pytest
 from jsonschema import Draft7Validator
 
+from teaching.core.schemacheck import field_name
 from teaching.domains._grid.worldfile import WorldFileError, load_world
-from teaching.domains._grid.worldschema import SCHEMA, SCHEMA_PATH, field_name
+from teaching.domains._grid.worldschema import SCHEMA, SCHEMA_PATH
 from tests.teaching.domains.worlds import key_room
 
 ROOT = Path(__file__).resolve().parents[4]

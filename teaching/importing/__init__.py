@@ -1,0 +1,5 @@
+"""A teaching table from a researcher's own files: the folder format (docs/importing.md), read and checked."""
+from .folder import TableFolder, TableFolderError, read_folder
+from .optimality import Optimality, optimality
+
+__all__ = ["Optimality", "TableFolder", "TableFolderError", "optimality", "read_folder"]

@@ -1,0 +1,226 @@
+"""A table folder's data file, read into arrays and checked: a NumPy ``.npz`` or a CSV in long form
+(docs/importing.md, "The data file").  Every refusal is one line naming the file, where in it (an array and
+its index, or a CSV line and column) and what is wrong.
+
+What comes back, M environments, N objectives (θ* first), D features::
+
+    env_ids    (M,) int64         as the file gives them, in its order
+    features   (M, N, D) float64  the features of objective j's trajectory in environment m
+    env_class  (M,) int8          index into table.toml's classes (absent: None)
+    strategy   (M, N) int8        index into table.toml's strategies, -1 for none (absent: None)
+    distance   (M, N) float32     how far objective j's trajectory is from θ*'s (absent: None)
+"""
+from __future__ import annotations
+
+import csv
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..core.schemacheck import did_you_mean
+
+OPTIONAL = ("env_class", "strategy", "distance")
+ARRAYS = ("env_id", "features", *OPTIONAL)
+
+
+class DataError(ValueError):
+    """A data file that cannot be used: one line, the file, where and what."""
+
+
+@dataclass(frozen=True)
+class Expected:
+    """What table.toml says the data must hold."""
+
+    feature_names: tuple[str, ...]
+    n_objectives: int
+    n_classes: int  # 0: table.toml lists no classes
+    n_strategies: int  # 0: none listed
+
+    def shape(self, name: str, m: int) -> tuple[int, ...]:
+        return {"env_id": (m,), "features": (m, self.n_objectives, len(self.feature_names)), "env_class": (m,),
+                "strategy": (m, self.n_objectives), "distance": (m, self.n_objectives)}[name]
+
+
+_MEANING = {"env_id": "(environments,)", "features": "(environments, objectives: θ* and the candidates, features)",
+            "env_class": "(environments,)", "strategy": "(environments, objectives)",
+            "distance": "(environments, objectives)"}
+
+
+def read_data(path: Path, expected: Expected) -> dict:
+    """The arrays of `path` (a .npz or a .csv), checked against `expected` and among themselves."""
+    arrays = _read_npz(path, expected) if path.suffix == ".npz" else _read_csv(path, expected)
+    _check_values(path.name, arrays, expected)
+    return arrays
+
+
+# --- .npz ---------------------------------------------------------------------------------------------------------
+def _read_npz(path: Path, expected: Expected) -> dict:
+    fail = _failer(path.name)
+    if not zipfile.is_zipfile(path):
+        fail("not a NumPy .npz file (a zip of .npy arrays, as numpy.savez writes it)")
+    try:
+        npz = np.load(path, allow_pickle=False)
+    except (OSError, ValueError, zipfile.BadZipFile) as exc:
+        fail(f"not a NumPy .npz file ({exc})")
+    with npz:
+        names = list(npz.files)
+        for name in names:
+            if name not in ARRAYS:
+                fail(f"array {name!r} is not one the format knows (one of {', '.join(ARRAYS)})"
+                     f"{did_you_mean(name, ARRAYS)}")
+        for name in ("env_id", "features"):
+            if name not in names:
+                fail(f"no array {name!r} (it holds: {', '.join(names) or 'nothing'})")
+        arrays = {name: npz[name] for name in names}
+    m = len(arrays["env_id"]) if arrays["env_id"].ndim == 1 else -1
+    for name, a in arrays.items():
+        if a.shape != expected.shape(name, max(m, 0)):
+            fail(f"{name}: shape {a.shape}, expected {expected.shape(name, max(m, 0))} = {_MEANING[name]}")
+        kind = "f" if name in ("features", "distance") else "i"
+        if a.dtype.kind not in ("iu" if kind == "i" else "fiu"):
+            fail(f"{name}: {a.dtype} values, expected {'whole numbers' if kind == 'i' else 'numbers'}")
+    return {"env_ids": arrays["env_id"].astype(np.int64), "features": arrays["features"].astype(np.float64),
+            **{name: arrays.get(name) for name in OPTIONAL}}
+
+
+# --- .csv ---------------------------------------------------------------------------------------------------------
+def _read_csv(path: Path, expected: Expected) -> dict:
+    """One row per (environment, objective): env_id, objective, one column per feature, and the optional
+    env_class, strategy and distance."""
+    fail = _failer(path.name)
+    columns = ("env_id", "objective", *expected.feature_names, *OPTIONAL)
+    try:
+        with path.open(newline="", encoding="utf-8") as f:
+            reader = csv.reader(f)
+            header = [h.strip() for h in next(reader, [])]
+            _check_header(header, columns, expected, fail)
+            rows = [_parse_row(row, header, expected, reader.line_num, fail) for row in reader if any(row)]
+    except UnicodeDecodeError as exc:
+        fail(f"not UTF-8 text ({exc.reason} at byte {exc.start})")
+    return _assemble(rows, header, expected, fail)
+
+
+def _check_header(header: list[str], columns: tuple[str, ...], expected: Expected, fail) -> None:
+    for name in header:
+        if name not in columns:
+            fail(f"line 1: column {name!r} is not one the format knows (one of {', '.join(columns)})"
+                 f"{did_you_mean(name, columns)}")
+    for name in columns[:2 + len(expected.feature_names)]:
+        if name not in header:
+            fail(f"line 1: no column {name!r}")
+    seen = set()
+    for name in header:
+        if name in seen:
+            fail(f"line 1: column {name!r} given twice")
+        seen.add(name)
+
+
+def _parse_row(row: list[str], header: list[str], expected: Expected, line: int, fail) -> tuple:
+    if len(row) != len(header):
+        fail(f"line {line}: {len(row)} values, expected {len(header)} (one per column of line 1)")
+    cells = dict(zip(header, (c.strip() for c in row), strict=True))
+
+    def number(name: str, whole: bool):
+        text = cells[name]
+        try:
+            return int(text) if whole else float(text)
+        except ValueError:
+            fail(f"line {line}, column {name}: {text!r} is not {'a whole number' if whole else 'a number'}")
+
+    k = number("objective", True)
+    if not 0 <= k < expected.n_objectives:
+        fail(f"line {line}, column objective: {k}; 0 is θ*, 1..{expected.n_objectives - 1} the candidates")
+    phi = [number(name, False) for name in expected.feature_names]
+    extra = {name: number(name, name != "distance") for name in OPTIONAL if name in cells}
+    return number("env_id", True), k, phi, extra, line
+
+
+def _assemble(rows: list[tuple], header: list[str], expected: Expected, fail) -> dict:
+    """The rows as arrays: every (environment, objective) pair exactly once, an environment's class the same
+    on each of its rows."""
+    order: dict[int, int] = {}
+    for env, *_ in rows:
+        order.setdefault(env, len(order))
+    m, n = len(order), expected.n_objectives
+    out = {"env_ids": np.fromiter(order, np.int64, m), "features": np.zeros((m, n, len(expected.feature_names)))}
+    out.update({name: (np.zeros(m, np.int64) if name == "env_class" else np.zeros((m, n)))
+                if name in header else None for name in OPTIONAL})
+    first = np.zeros((m, n), np.int64)  # the line that gave each pair (0: none yet)
+    classed = np.zeros(m, np.int64)  # the line that gave each environment's class
+    for env, k, phi, extra, line in rows:
+        i = order[env]
+        if first[i, k]:
+            fail(f"line {line}: environment {env}, objective {k} given twice (first on line {first[i, k]})")
+        first[i, k] = line
+        out["features"][i, k] = phi
+        for name, value in extra.items():
+            if name != "env_class":
+                out[name][i, k] = value
+            elif classed[i] and value != out[name][i]:
+                fail(f"line {line}, column env_class: {value}, but line {classed[i]} gave environment {env} "
+                     f"class {out[name][i]}")
+            else:
+                out[name][i], classed[i] = value, line
+    missing = np.argwhere(first == 0)
+    if len(missing):
+        i, k = missing[0]
+        more = f" (and {len(missing) - 1} more pairs missing)" if len(missing) > 1 else ""
+        fail(f"environment {out['env_ids'][i]} has no line for objective {k}{more}")
+    if out["strategy"] is not None:
+        out["strategy"] = out["strategy"].astype(np.int64)
+    return out
+
+
+# --- what both hold -----------------------------------------------------------------------------------------------
+def _check_values(file: str, a: dict, expected: Expected) -> None:
+    """Finite features, each environment once, indices within table.toml's lists, distances at least 0; the
+    arrays in the platform's dtypes."""
+    fail = _failer(file)
+    names = expected.feature_names
+    bad = np.argwhere(~np.isfinite(a["features"]))
+    if len(bad):
+        i, k, d = bad[0]
+        fail(f"features[{i}, {k}, {d}] (environment {a['env_ids'][i]}, objective {k}, feature {names[d]}): "
+             f"{a['features'][i, k, d]}; every feature must be a finite number")
+    ids, first = np.unique(a["env_ids"], return_index=True)
+    if len(ids) < len(a["env_ids"]):
+        dup = np.setdiff1d(np.arange(len(a["env_ids"])), first)[0]
+        fail(f"env_id[{dup}]: environment {a['env_ids'][dup]} given twice (first at env_id[{_first(a, dup)}])")
+    _check_index(fail, a, "env_class", expected.n_classes, "classes", low=0)
+    _check_index(fail, a, "strategy", expected.n_strategies, "strategies", low=-1)
+    if a["distance"] is not None:
+        d = np.asarray(a["distance"], np.float64)
+        wrong = np.argwhere(~(np.isfinite(d) & (d >= 0)))
+        if len(wrong):
+            i, k = wrong[0]
+            fail(f"distance[{i}, {k}] (environment {a['env_ids'][i]}, objective {k}): {d[i, k]}; a distance is a "
+                 f"finite number, at least 0")
+        a["distance"] = np.asarray(a["distance"], np.float32)
+    for name in ("env_class", "strategy"):
+        if a[name] is not None:
+            a[name] = np.asarray(a[name], np.int8)
+
+
+def _check_index(fail, a: dict, name: str, n: int, listed: str, low: int) -> None:
+    if a[name] is None:
+        return
+    if n == 0:
+        fail(f"{name}: table.toml lists no {listed} for it to index")
+    wrong = np.argwhere((a[name] < low) | (a[name] >= n))
+    if len(wrong):
+        where = tuple(int(x) for x in wrong[0])
+        fail(f"{name}[{', '.join(map(str, where))}] (environment {a['env_ids'][where[0]]}): {a[name][where]}; "
+             f"expected {low}..{n - 1}, a position in table.toml's {listed}" + (" (-1: none)" if low < 0 else ""))
+
+
+def _first(a: dict, dup: int) -> int:
+    return int(np.flatnonzero(a["env_ids"] == a["env_ids"][dup])[0])
+
+
+def _failer(file: str):
+    def fail(what: str):
+        raise DataError(f"{file}: {what}")
+
+    return fail

@@ -1,0 +1,200 @@
+"""A table folder (docs/importing.md): a built table written out and read back loses nothing; the optimality
+check against a hand-worked table and a plain loop; and broken folders, each refused in one line naming the
+file and the field, with nothing written."""
+from __future__ import annotations
+
+import textwrap
+
+import numpy as np
+import pytest
+
+from teaching.__main__ import main
+from teaching.api import TrajectoryTable
+from teaching.importing import TableFolderError, optimality, read_folder
+from teaching.importing.export import export_table
+
+# A hand-worked table: 2 features, θ* = (-1, 0) and the candidates (0, -1) and (-1, -1); three environments.
+# Scores θ·φ, by hand, of objective 0, 1 and 2's trajectories:
+#   env 10: φ (1, 3), (3, 1), (2, 2):  under θ* -1 -3 -2;  under θ1 -3 -1 -2;  under θ2 -4 -4 -4 (all alike)
+#   env 11: φ (0, 5), (5, 0), (2, 2):  under θ* 0 -5 -2;   under θ1 -5 0 -2;   under θ2 -5 -5 -4
+#   env 12: like env 11
+# so every trajectory is the best under its own objective.
+TOML = """\
+name = "hand"
+title = "A robot worked by hand"
+data = "features.npz"
+theta_star = [-1.0, 0.0]
+candidates = [[0.0, -1.0], [-1.0, -1.0]]
+classes = ["narrow", "other"]
+
+[[features]]
+name = "left"
+unit = "m"
+description = "how far the robot goes left"
+
+[[features]]
+name = "right"
+unit = "m"
+description = "how far the robot goes right"
+
+[[strategies]]
+name = "narrow: squeeze"
+class = "narrow"
+"""
+PHI = np.array([[[1, 3], [3, 1], [2, 2]], [[0, 5], [5, 0], [2, 2]], [[0, 5], [5, 0], [2, 2]]], dtype=np.float64)
+ARRAYS = {"env_id": np.array([10, 11, 12]), "features": PHI, "env_class": np.array([0, 1, 1], np.int8),
+          "strategy": np.array([[0, -1, -1], [-1, -1, -1], [-1, -1, -1]], np.int8),
+          "distance": np.array([[0, 2.8, 1.4], [0, 7.1, 3.6], [0, 7.1, 3.6]], np.float32)}
+CSV_HEAD = "env_id,objective,left,right\n"
+CSV_ROWS = ["10,0,1,3", "10,1,3,1", "10,2,2,2", "11,0,0,5", "11,1,5,0", "11,2,2,2"]
+
+
+def write(folder, toml=TOML, **arrays):
+    folder.mkdir(exist_ok=True)
+    (folder / "table.toml").write_text(toml)
+    np.savez(folder / "features.npz", **{**ARRAYS, **arrays})
+    return folder
+
+
+def write_csv(folder, rows=CSV_ROWS, head=CSV_HEAD):
+    folder.mkdir(exist_ok=True)
+    plain = TOML.split("[[strategies]]")[0].replace('classes = ["narrow", "other"]', "")  # no classes or strategies
+    (folder / "table.toml").write_text(plain.replace("features.npz", "features.csv"))
+    (folder / "features.csv").write_text(head + "\n".join(rows) + "\n")
+    return folder
+
+
+def test_the_hand_worked_folder_reads_back_as_written(tmp_path):
+    folder = read_folder(write(tmp_path / "hand"))
+    assert folder.name == "hand" and folder.feature_names == ("left", "right")
+    assert folder.thetas.tolist() == [[-1, 0], [0, -1], [-1, -1]]
+    assert np.array_equal(folder.phi, PHI) and folder.env_ids.tolist() == [10, 11, 12]
+    assert folder.classes == ("narrow", "other") and folder.strategies[0].cls == "narrow"
+    assert folder.optimality.optimal and folder.optimality.own_short == 0
+
+
+def test_a_csv_in_long_form_gives_the_same_arrays_as_the_npz(tmp_path):
+    folder = read_folder(write_csv(tmp_path / "csv"))
+    assert np.array_equal(folder.phi, PHI[:2]) and folder.env_ids.tolist() == [10, 11]
+    shuffled = read_folder(write_csv(tmp_path / "shuffled", rows=CSV_ROWS[::-1]))
+    assert shuffled.env_ids.tolist() == [11, 10] and np.array_equal(shuffled.phi, PHI[1::-1])
+
+
+def test_optimality_by_hand():
+    """env 11's θ* trajectory moved to φ (3, 0): under θ* it scores -3 where objective 2's scores -2 (1 short of a
+    range -2 - -5 = 3), and under θ2 objective 2's scores -4 where objective 0's now scores -3 (1 short of a range
+    -3 - -5 = 2, the worse share)."""
+    phi = PHI.copy()
+    phi[1, 0] = (3, 0)
+    found = optimality(phi, np.array([[-1, 0], [0, -1], [-1, -1]], float), np.array([10, 11, 12]))
+    assert (found.star_short, found.own_short) == (1, 2)
+    assert found.worst == (11, 2, 0, 1.0, 0.5)
+    assert "in 1 of 3 environments" in found.describe() and "environment 11" in found.describe()
+
+
+def test_optimality_agrees_with_a_plain_loop():
+    rng = np.random.default_rng(3)
+    phi, thetas = rng.normal(size=(40, 6, 3)), rng.normal(size=(6, 3))
+    phi[::3] = np.sort(phi[::3], axis=1)  # some environments with trajectories that tie and some that lose
+    found = optimality(phi, thetas, np.arange(40))
+    short = 0
+    for m in range(40):
+        for k in range(6):
+            scores = [float(np.dot(thetas[k], phi[m, j])) for j in range(6)]
+            short += max(scores) - scores[k] > 1e-6 * (max(scores) - min(scores))
+    assert found.own_short == short > 0
+
+
+@pytest.mark.parametrize("fixture", ["tiny_table", "gridworld_tiny_table", "demo_table"])
+def test_a_built_table_written_out_reads_back_bit_for_bit(fixture, request, tmp_path):
+    """The round trip the format must survive, and an independent check of the builds: the platform's own
+    tables pass the optimality check (the cross-θ step keeps each θ's best)."""
+    table = TrajectoryTable.load(request.getfixturevalue(fixture))
+    folder = read_folder(export_table(table, tmp_path / "out"))
+    assert folder.optimality.optimal, folder.optimality.describe()
+    assert np.array_equal(folder.thetas, table.thetas) and np.array_equal(folder.env_ids, table.env_ids)
+    assert folder.phi.tobytes() == np.asarray(table.features).tobytes()
+    assert folder.distance.tobytes() == np.asarray(table.d_euclid).tobytes()
+    none = len(table.domain.cluster_names) - 1
+    assert np.array_equal(np.where(folder.strategy < 0, none, folder.strategy), table.strategy)
+    assert np.array_equal(folder.env_class, table.env_class)
+    assert folder.classes == table.domain.class_names
+    assert tuple(s.name for s in folder.strategies) == table.domain.cluster_names[:-1]
+    assert [f.scale for f in folder.features] == [float(v) for v in table.normalisers]
+
+
+# name -> (what makes the broken folder at a path, what its one line must say)
+BROKEN = {
+    "no table.toml": (lambda d: d.mkdir() or d, "no table.toml"),
+    "not TOML": (lambda d: write(d, TOML + "name = \n"), "table.toml: not TOML"),
+    "unknown field": (lambda d: write(d, TOML.replace("theta_star", "thetastar")),
+                      "table.toml: thetastar: not a field of a table.toml"),
+    "a weight short": (lambda d: write(d, TOML.replace("theta_star = [-1.0, 0.0]", "theta_star = [-1.0]")),
+                       "table.toml: theta_star: 1 weights, expected 2 (one per feature)"),
+    "θ* again": (lambda d: write(d, TOML.replace("[[0.0, -1.0],", "[[-1.0, 0.0],")),
+                 "table.toml: candidates[0]: the same objective as theta_star"),
+    "no data file": (lambda d: (write(d), (d / "features.npz").unlink(), d)[-1],
+                     "table.toml: data: no file 'features.npz'"),
+    "NaN": (lambda d: write(d, features=np.where(PHI == 5, np.nan, PHI)),
+            "features.npz: features[1, 0, 1] (environment 11, objective 0, feature right): nan"),
+    "wrong shape": (lambda d: write(d, features=PHI[:, :2]),
+                    "features.npz: features: shape (3, 2, 2), expected (3, 3, 2)"),
+    "duplicate environment": (lambda d: write(d, env_id=np.array([10, 11, 10])),
+                              "features.npz: env_id[2]: environment 10 given twice (first at env_id[0])"),
+    "unknown array": (lambda d: write(d, featurs=PHI), "array 'featurs' is not one the format knows"),
+    "not an npz": (lambda d: (write(d), (d / "features.npz").write_text("env_id,features\n"), d)[-1],
+                   "features.npz: not a NumPy .npz file (a zip of .npy arrays"),
+    "strategy out of range": (lambda d: write(d, strategy=np.full((3, 3), 4, np.int8)),
+                              "features.npz: strategy[0, 0] (environment 10): 4; expected -1..0"),
+    "unknown class": (lambda d: write(d, TOML.replace('class = "narrow"', 'class = "narow"')),
+                      "table.toml: strategies[0].class: 'narow' is not one of the classes (narrow, other); "
+                      "did you mean 'narrow'?"),
+    "suboptimal θ*": (lambda d: write(d, features=np.concatenate([[[[3, 0], [5, 0], [2, 2]]], PHI[1:]])),
+                      "features.npz: θ*'s trajectory is not the best under θ* in 1 of 3 environments"),
+    "csv pair twice": (lambda d: write_csv(d, rows=CSV_ROWS + ["10,1,3,1"]),
+                       "features.csv: line 8: environment 10, objective 1 given twice (first on line 3)"),
+    "csv pair missing": (lambda d: write_csv(d, rows=CSV_ROWS[:-1]),
+                         "features.csv: environment 11 has no line for objective 2"),
+    "csv not a number": (lambda d: write_csv(d, rows=[*CSV_ROWS[:3], "11,0,zero,5", *CSV_ROWS[4:]]),
+                         "features.csv: line 5, column left: 'zero' is not a number"),
+    "csv unknown column": (lambda d: write_csv(d, head="env_id,objective,left,rihgt\n"),
+                           "features.csv: line 1: column 'rihgt' is not one the format knows"),
+}
+
+
+def _contents(folder):
+    return {p.relative_to(folder): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+@pytest.mark.parametrize("case", BROKEN)
+def test_a_broken_folder_is_one_line_naming_the_file_and_field_and_nothing_is_written(case, tmp_path):
+    make, said = BROKEN[case]
+    folder = make(tmp_path / "table")
+    before = _contents(tmp_path)
+    with pytest.raises(TableFolderError) as err:
+        read_folder(folder)
+    line = str(err.value)
+    assert "\n" not in line and said in line, line
+    assert _contents(tmp_path) == before
+
+
+def test_a_suboptimal_table_the_researcher_keeps_is_read_and_says_so(tmp_path, capsys):
+    phi = np.concatenate([[[[3, 0], [5, 0], [2, 2]]], PHI[1:]])
+    folder = write(tmp_path / "kept", TOML.replace('classes = [', 'keep_suboptimal = true\nclasses = ['), features=phi)
+    kept = read_folder(folder)
+    assert kept.keep_suboptimal and kept.optimality.star_short == 1
+    assert main(["check-table", str(folder)]) == 0
+    assert "(kept: keep_suboptimal = true)" in capsys.readouterr().out
+
+
+def test_the_commands_export_check_and_refuse(tiny_table, tmp_path, capsys):
+    out = tmp_path / "folder"
+    assert main(["export-table", str(tiny_table), "--out", str(out)]) == 0
+    assert main(["check-table", str(out)]) == 0
+    said = capsys.readouterr().out
+    assert "48 environments x 24 objectives" in said and "every trajectory is the best" in said
+    assert main(["export-table", str(tiny_table), "--out", str(out)]) == 2  # not into a folder that holds one
+    assert "is not empty" in capsys.readouterr().err
+    (out / "table.toml").write_text(textwrap.dedent((out / "table.toml").read_text()).replace("name =", "nmae ="))
+    assert main(["check-table", str(out)]) == 1
+    assert "nmae: not a field of a table.toml" in capsys.readouterr().out
