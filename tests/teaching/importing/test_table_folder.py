@@ -10,8 +10,11 @@ import pytest
 
 from teaching.__main__ import main
 from teaching.api import TrajectoryTable
+from teaching.core.build import PRESETS, build_table
+from teaching.core.domain import domain_names, get_domain
 from teaching.importing import TableFolderError, optimality, read_folder
 from teaching.importing.export import export_table
+from tests.conftest import built_once
 
 # A hand-worked table: 2 features, θ* = (-1, 0) and the candidates (0, -1) and (-1, -1); three environments.
 # Scores θ·φ, by hand, of objective 0, 1 and 2's trajectories:
@@ -105,11 +108,22 @@ def test_optimality_agrees_with_a_plain_loop():
     assert found.own_short == short > 0
 
 
-@pytest.mark.parametrize("fixture", ["tiny_table", "gridworld_tiny_table", "demo_table"])
-def test_a_built_table_written_out_reads_back_bit_for_bit(fixture, request, tmp_path):
-    """The round trip the format must survive, and an independent check of the builds: the platform's own
-    tables pass the optimality check (the cross-θ step keeps each θ's best)."""
-    table = TrajectoryTable.load(request.getfixturevalue(fixture))
+def _smallest_presets() -> list[str]:
+    """Every registered domain's smallest preset (its tiny table), and the driving world's demo."""
+    import teaching.domains  # noqa: F401, PLC0415  (registers the domains)
+
+    return [min(get_domain(n).presets, key=lambda p: p.env_ids().size * p.n_thetas).name
+            for n in domain_names()] + ["demo"]
+
+
+@pytest.mark.parametrize("preset", _smallest_presets())
+def test_a_built_table_written_out_reads_back_bit_for_bit(preset, tmp_path_factory, request, tmp_path):
+    """The round trip the format must survive, for every robot, and an independent check of the builds: the
+    platform's own tables pass the optimality check (the cross-θ step keeps each θ's best)."""
+    fixtures = {"demo": "demo_table", "tiny": "tiny_table"}  # the run's own builds of these
+    built = (request.getfixturevalue(fixtures[preset]) if preset in fixtures else
+             built_once(tmp_path_factory, f"{preset}-table", lambda out: build_table(PRESETS[preset], out)))
+    table = TrajectoryTable.load(built)
     folder = read_folder(export_table(table, tmp_path / "out"))
     assert folder.optimality.optimal, folder.optimality.describe()
     assert np.array_equal(folder.thetas, table.thetas) and np.array_equal(folder.env_ids, table.env_ids)
