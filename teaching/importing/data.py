@@ -81,7 +81,8 @@ def _read_npz(path: Path, expected: Expected) -> dict:
         kind = "f" if name in ("features", "distance") else "i"
         if a.dtype.kind not in ("iu" if kind == "i" else "fiu"):
             fail(f"{name}: {a.dtype} values, expected {'whole numbers' if kind == 'i' else 'numbers'}")
-    return {"env_ids": arrays["env_id"].astype(np.int64), "features": arrays["features"].astype(np.float64),
+    # asarray, not astype: a float64 array of a paper-sized table (800 MB) is not copied
+    return {"env_ids": np.asarray(arrays["env_id"], np.int64), "features": np.asarray(arrays["features"], np.float64),
             **{name: arrays.get(name) for name in OPTIONAL}}
 
 
