@@ -5,7 +5,7 @@ PIP := .venv/bin/pip
 # every file on it), the first step of every `make test` from a fresh clone (docs/decisions.md, Dependencies)
 UV_VERSION := 0.13.9
 
-.PHONY: demo test lint venv browser-deps serve-deps messages table bench clean serve load docs
+.PHONY: demo test lint venv browser-deps serve-deps media-deps messages table bench clean serve load docs
 
 venv: .venv/.installed
 .venv/.installed: requirements.txt
@@ -17,6 +17,10 @@ venv: .venv/.installed
 # Debian's Chromium for the Playwright browser tests (CI runs as root on Debian).
 browser-deps:
 	@command -v chromium >/dev/null 2>&1 || (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null)
+
+# Debian's ffmpeg: ffprobe checks that an imported table's videos are videos a browser plays (docs/importing.md).
+media-deps:
+	@command -v ffprobe >/dev/null 2>&1 || (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq ffmpeg >/dev/null)
 
 # Debian's nginx for scripts/serve.sh (in front of gunicorn; config/nginx.conf.template).
 serve-deps:
@@ -75,7 +79,7 @@ lint: venv
 # and the prebuilt tables the tests compare with were built on every core.
 # pytest exit 5 means "no tests collected": that is a failure here, never a pass.
 SERVICES_LOG = var/test-services.log
-test: venv browser-deps serve-deps messages
+test: venv browser-deps serve-deps media-deps messages
 	@mkdir -p var
 	unset PYTHONDONTWRITEBYTECODE; export TEST_BUILDS_DIR=$$(mktemp -d /tmp/test-builds.XXXXXX); \
 	$(PY) -m tests.prebuild || exit 1; \

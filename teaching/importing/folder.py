@@ -17,6 +17,7 @@ from jsonschema import Draft7Validator
 from ..core.schemacheck import did_you_mean, first_mistake
 from .data import DataError, Expected, read_data
 from .optimality import Optimality, optimality
+from .stimuli import Stimuli, StimuliError, read_stimuli
 
 SCHEMA_PATH = Path(__file__).with_name("table.schema.json")
 SCHEMA = json.loads(SCHEMA_PATH.read_text(encoding="utf-8"))
@@ -63,6 +64,7 @@ class TableFolder:
     min_option_distance: float
     keep_suboptimal: bool
     optimality: Optimality
+    stimuli: Stimuli | None  # the videos, when table.toml names a manifest
 
     @property
     def feature_names(self) -> tuple[str, ...]:
@@ -89,6 +91,14 @@ def read_folder(path) -> TableFolder:
     if not report.optimal and not keep:
         raise TableFolderError(f"{data.name}: {report.describe()}; the learner models assume an optimal robot: "
                                f"mend the data, or set keep_suboptimal = true in {DESCRIPTION} to keep it")
+    stimuli = None
+    if "stimuli" in raw:
+        if not (path / raw["stimuli"]).is_file():
+            _fail(f"stimuli: no file {raw['stimuli']!r} in {path}")
+        try:
+            stimuli = read_stimuli(path, raw["stimuli"], arrays["env_ids"], len(thetas))
+        except StimuliError as exc:
+            raise TableFolderError(str(exc)) from None
     return TableFolder(
         path=path, name=raw["name"], title=raw.get("title", raw["name"]),
         features=tuple(Feature(f["name"], f["unit"], f["description"], float(f.get("scale", 1.0)))
@@ -96,7 +106,7 @@ def read_folder(path) -> TableFolder:
         thetas=thetas, env_ids=arrays["env_ids"], phi=arrays["features"], classes=classes,
         env_class=arrays["env_class"], strategies=strategies, strategy=arrays["strategy"],
         distance=arrays["distance"], min_option_distance=float(raw.get("min_option_distance", MIN_OPTION_DISTANCE)),
-        keep_suboptimal=keep, optimality=report)
+        keep_suboptimal=keep, optimality=report, stimuli=stimuli)
 
 
 def _fail(what: str):

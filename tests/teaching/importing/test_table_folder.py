@@ -3,7 +3,12 @@ check against a hand-worked table and a plain loop; and broken folders, each ref
 file and the field, with nothing written."""
 from __future__ import annotations
 
+import functools
+import hashlib
+import subprocess
+import tempfile
 import textwrap
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -65,6 +70,47 @@ def write_csv(folder, rows=CSV_ROWS, head=CSV_HEAD):
     (folder / "table.toml").write_text(plain.replace("features.npz", "features.csv"))
     (folder / "features.csv").write_text(head + "\n".join(rows) + "\n")
     return folder
+
+
+@functools.cache
+def video(kind: str) -> bytes:
+    """A 0.2 s clip made by Debian's ffmpeg: "vp9" (.webm), "h264" (.mp4) or "mpeg4" (.mp4, no browser plays it)."""
+    codec = {"vp9": ["libvpx-vp9"], "h264": ["libx264", "-pix_fmt", "yuv420p"], "mpeg4": ["mpeg4"]}[kind]
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / ("clip.webm" if kind == "vp9" else "clip.mp4")
+        subprocess.run(["ffmpeg", "-v", "error", "-f", "lavfi", "-i", "color=c=red:s=16x16:d=0.2", "-c:v", *codec,
+                        str(out)], check=True, timeout=120)
+        return out.read_bytes()
+
+
+def with_videos(folder, rows=None, files=None):
+    """The hand-worked folder with a manifest: θ*'s trajectories as a VP9 WebM, the others as an H.264 MP4
+    (`files` replaces or adds files by name, `rows` the manifest's lines)."""
+    write(folder, TOML.replace('classes = [', 'stimuli = "stimuli.csv"\nclasses = ['))
+    (folder / "clips").mkdir()
+    made = {"clips/star.webm": video("vp9"), "clips/other.mp4": video("h264"), **(files or {})}
+    for name, data in made.items():
+        (folder / name).write_bytes(data)
+    digest = {name: hashlib.sha256(data).hexdigest() for name, data in made.items()}
+    if rows is None:
+        rows = [f"{e},{k},{name},{digest[name]}" for e in (10, 11, 12) for k in range(3)
+                for name in ["clips/star.webm" if k == 0 else "clips/other.mp4"]]
+    rows = [r.format(**{n.replace("/", "_").replace(".", "_"): d for n, d in digest.items()}) for r in rows]
+    (folder / "stimuli.csv").write_text("env_id,objective,file,sha256\n" + "\n".join(rows) + "\n")
+    return folder
+
+
+def _rows(change):
+    """The manifest's lines of with_videos, changed by `change` (a function of the list)."""
+    clip = {0: "clips/star.webm,{clips_star_webm}"}
+    return change([f"{e},{k}," + clip.get(k, "clips/other.mp4,{clips_other_mp4}") for e in (10, 11, 12)
+                   for k in range(3)])
+
+
+def test_a_folder_with_videos_names_each_pairs_clip(tmp_path):
+    folder = read_folder(with_videos(tmp_path / "videos"))
+    assert folder.stimuli.files == ("clips/star.webm", "clips/other.mp4")
+    assert folder.stimuli.which.tolist() == [[0, 1, 1]] * 3
 
 
 def test_the_hand_worked_folder_reads_back_as_written(tmp_path):
@@ -179,7 +225,23 @@ BROKEN = {
                          "features.csv: environment 11 has no line for objective 2"),
     "csv not a number": (lambda d: write_csv(d, rows=[*CSV_ROWS[:3], "11,0,zero,5", *CSV_ROWS[4:]]),
                          "features.csv: line 5, column left: 'zero' is not a number"),
-    "csv unknown column": (lambda d: write_csv(d, head="env_id,objective,left,rihgt\n"),
+    "missing video": (lambda d: with_videos(d, rows=_rows(lambda r: [*r[:-1], "12,2,clips/gone.webm," + "0" * 64])),
+                  "stimuli.csv: line 10: clips/gone.webm: no such file in the folder"),
+"not a video": (lambda d: with_videos(d, files={"clips/fake.webm": b"a text, not a video"},
+                                      rows=_rows(lambda r: [*r[:-1], "12,2,clips/fake.webm,{clips_fake_webm}"])),
+                "stimuli.csv: line 10: clips/fake.webm: not a video (ffprobe finds no video stream in it)"),
+"video no browser plays": (lambda d: with_videos(d, files={"clips/old.mp4": video("mpeg4")},
+                                                 rows=_rows(lambda r: [*r[:-1], "12,2,clips/old.mp4,{clips_old_mp4}"])),
+                           "clips/old.mp4: mpeg4 video in a .mp4; browsers play h264, av1 in a .mp4"),
+"video changed": (lambda d: (with_videos(d), (d / "clips/other.mp4").write_bytes(video("vp9")), d)[-1],
+                  "stimuli.csv: line 3: clips/other.mp4: its SHA-256 is"),
+"video pair twice": (lambda d: with_videos(d, rows=_rows(lambda r: [*r, r[4]])),
+                     "stimuli.csv: line 11: environment 11, objective 1 listed twice (first on line 6)"),
+"video pair missing": (lambda d: with_videos(d, rows=_rows(lambda r: r[:-1])),
+                       "stimuli.csv: environment 12 has no video for objective 2"),
+"video outside the folder": (lambda d: with_videos(d, rows=_rows(lambda r: [*r[:-1], "12,2,../x.webm," + "0" * 64])),
+                             "stimuli.csv: line 10, column file: '../x.webm' must be a path inside this folder"),
+"csv unknown column": (lambda d: write_csv(d, head="env_id,objective,left,rihgt\n"),
                            "features.csv: line 1: column 'rihgt' is not one the format knows"),
 }
 
