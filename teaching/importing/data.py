@@ -73,7 +73,12 @@ def _read_npz(path: Path, expected: Expected) -> dict:
         for name in ("env_id", "features"):
             if name not in names:
                 fail(f"no array {name!r} (it holds: {', '.join(names) or 'nothing'})")
-        arrays = {name: npz[name] for name in names}
+        arrays = {}
+        for name in names:
+            try:
+                arrays[name] = npz[name]
+            except (ValueError, OSError, zipfile.BadZipFile) as exc:  # an object array needs pickle: refused
+                fail(f"array {name!r} cannot be read without running code or is damaged ({exc})")
     m = len(arrays["env_id"]) if arrays["env_id"].ndim == 1 else -1
     for name, a in arrays.items():
         if a.shape != expected.shape(name, max(m, 0)):
@@ -100,6 +105,8 @@ def _read_csv(path: Path, expected: Expected) -> dict:
             rows = [_parse_row(row, header, expected, reader.line_num, fail) for row in reader if any(row)]
     except UnicodeDecodeError as exc:
         fail(f"not UTF-8 text ({exc.reason} at byte {exc.start})")
+    except csv.Error as exc:  # a NUL byte, a field over the csv module's limit
+        fail(f"line {reader.line_num}: not CSV ({exc})")
     return _assemble(rows, header, expected, fail)
 
 

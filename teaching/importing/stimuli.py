@@ -40,6 +40,16 @@ class Stimuli:
 def read_stimuli(folder: Path, manifest: str, env_ids: np.ndarray, n_objectives: int) -> Stimuli:
     """The manifest `manifest` of `folder`, every pair of (env_ids x objectives) listed once, every file there,
     matching its checksum, and playable."""
+    fail = _failer(manifest)
+    try:
+        return _read(folder, manifest, env_ids, n_objectives)
+    except UnicodeDecodeError as exc:
+        fail(f"not UTF-8 text ({exc.reason} at byte {exc.start})")
+    except csv.Error as exc:
+        fail(f"not CSV ({exc})")
+
+
+def _read(folder: Path, manifest: str, env_ids: np.ndarray, n_objectives: int) -> Stimuli:
     path = folder / manifest
     fail = _failer(manifest)
     row_of = {int(e): i for i, e in enumerate(env_ids)}
@@ -127,8 +137,11 @@ def probe(path: Path) -> list[str]:
     ffprobe = shutil.which("ffprobe")
     if ffprobe is None:
         raise StimuliError("ffprobe not found: install Debian's ffmpeg (make media-deps) to check videos")
-    done = subprocess.run([ffprobe, "-v", "error", "-select_streams", "v", "-show_entries", "stream=codec_name",
-                           "-of", "json", str(path)], capture_output=True, text=True, timeout=PROBE_SECONDS)
+    try:
+        done = subprocess.run([ffprobe, "-v", "error", "-select_streams", "v", "-show_entries", "stream=codec_name",
+                               "-of", "json", str(path)], capture_output=True, text=True, timeout=PROBE_SECONDS)
+    except subprocess.TimeoutExpired:
+        raise StimuliError(f"{path.name}: ffprobe did not finish within {PROBE_SECONDS} s (a damaged file?)") from None
     if done.returncode != 0:
         return []
     return [s.get("codec_name", "") for s in json.loads(done.stdout or "{}").get("streams", [])]

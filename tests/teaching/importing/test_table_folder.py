@@ -241,6 +241,12 @@ BROKEN = {
                        "stimuli.csv: environment 12 has no video for objective 2"),
 "video outside the folder": (lambda d: with_videos(d, rows=_rows(lambda r: [*r[:-1], "12,2,../x.webm," + "0" * 64])),
                              "stimuli.csv: line 10, column file: '../x.webm' must be a path inside this folder"),
+"csv with a NUL byte": (lambda d: write_csv(d, rows=[*CSV_ROWS[:2], "10,2,2\x00,2", *CSV_ROWS[3:]]),
+                        "features.csv: line 4, column left: '2\\x00' is not a number"),
+"csv field past the limit": (lambda d: write_csv(d, rows=[*CSV_ROWS[:2], "10,2," + "9" * 200_000 + ",2"]),
+                             "features.csv: line 4: not CSV (field larger than field limit"),
+"an array that needs pickle": (lambda d: write(d, distance=np.array([[0, "a", None]] * 3, dtype=object)),
+                               "features.npz: array 'distance' cannot be read without running code"),
 "csv unknown column": (lambda d: write_csv(d, head="env_id,objective,left,rihgt\n"),
                            "features.csv: line 1: column 'rihgt' is not one the format knows"),
 }
