@@ -36,11 +36,11 @@ def add_export_arguments(parser: argparse.ArgumentParser) -> None:
 
 def export_command(args) -> int:
     from ..core.table import TrajectoryTable  # noqa: PLC0415
-    from .export import export_table  # noqa: PLC0415
+    from .export import DATA, export_table  # noqa: PLC0415
 
     try:
         out = export_table(TrajectoryTable.load(args.table), args.out)
     except FileExistsError as exc:
         raise ValueError(str(exc)) from None
-    print(f"wrote {out}/table.toml and {out}/features.npz")
+    print(f"wrote {out}/table.toml and {out}/{DATA}")
     return 0

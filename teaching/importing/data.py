@@ -12,7 +12,6 @@ What comes back, M environments, N objectives (θ* first), D features::
 """
 from __future__ import annotations
 
-import csv
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,13 +19,10 @@ from pathlib import Path
 import numpy as np
 
 from ..core.schemacheck import did_you_mean
+from .csvlines import PairLines, read_csv, refuser
 
 OPTIONAL = ("env_class", "strategy", "distance")
 ARRAYS = ("env_id", "features", *OPTIONAL)
-
-
-class DataError(ValueError):
-    """A data file that cannot be used: one line, the file, where and what."""
 
 
 @dataclass(frozen=True)
@@ -49,7 +45,8 @@ _MEANING = {"env_id": "(environments,)", "features": "(environments, objectives:
 
 
 def read_data(path: Path, expected: Expected) -> dict:
-    """The arrays of `path` (a .npz or a .csv), checked against `expected` and among themselves."""
+    """The arrays of `path` (a .npz or a .csv), checked against `expected` and among themselves; a
+    TableFolderError names the first mistake."""
     arrays = _read_npz(path, expected) if path.suffix == ".npz" else _read_csv(path, expected)
     _check_values(path.name, arrays, expected)
     return arrays
@@ -57,7 +54,7 @@ def read_data(path: Path, expected: Expected) -> dict:
 
 # --- .npz ---------------------------------------------------------------------------------------------------------
 def _read_npz(path: Path, expected: Expected) -> dict:
-    fail = _failer(path.name)
+    fail = refuser(path.name)
     if not zipfile.is_zipfile(path):
         fail("not a NumPy .npz file (a zip of .npy arrays, as numpy.savez writes it)")
     try:
@@ -95,41 +92,14 @@ def _read_npz(path: Path, expected: Expected) -> dict:
 def _read_csv(path: Path, expected: Expected) -> dict:
     """One row per (environment, objective): env_id, objective, one column per feature, and the optional
     env_class, strategy and distance."""
-    fail = _failer(path.name)
-    columns = ("env_id", "objective", *expected.feature_names, *OPTIONAL)
-    try:
-        with path.open(newline="", encoding="utf-8") as f:
-            reader = csv.reader(f)
-            header = [h.strip() for h in next(reader, [])]
-            _check_header(header, columns, expected, fail)
-            rows = [_parse_row(row, header, expected, reader.line_num, fail) for row in reader if any(row)]
-    except UnicodeDecodeError as exc:
-        fail(f"not UTF-8 text ({exc.reason} at byte {exc.start})")
-    except csv.Error as exc:  # a NUL byte, a field over the csv module's limit
-        fail(f"line {reader.line_num}: not CSV ({exc})")
+    fail = refuser(path.name)
+    required = ("env_id", "objective", *expected.feature_names)
+    header, lines = read_csv(path, (*required, *OPTIONAL), required, fail)
+    rows = [_parse_row(cells, expected, line, fail) for line, cells in lines]
     return _assemble(rows, header, expected, fail)
 
 
-def _check_header(header: list[str], columns: tuple[str, ...], expected: Expected, fail) -> None:
-    for name in header:
-        if name not in columns:
-            fail(f"line 1: column {name!r} is not one the format knows (one of {', '.join(columns)})"
-                 f"{did_you_mean(name, columns)}")
-    for name in columns[:2 + len(expected.feature_names)]:
-        if name not in header:
-            fail(f"line 1: no column {name!r}")
-    seen = set()
-    for name in header:
-        if name in seen:
-            fail(f"line 1: column {name!r} given twice")
-        seen.add(name)
-
-
-def _parse_row(row: list[str], header: list[str], expected: Expected, line: int, fail) -> tuple:
-    if len(row) != len(header):
-        fail(f"line {line}: {len(row)} values, expected {len(header)} (one per column of line 1)")
-    cells = dict(zip(header, (c.strip() for c in row), strict=True))
-
+def _parse_row(cells: dict[str, str], expected: Expected, line: int, fail) -> tuple:
     def number(name: str, whole: bool):
         text = cells[name]
         try:
@@ -155,13 +125,11 @@ def _assemble(rows: list[tuple], header: list[str], expected: Expected, fail) ->
     out = {"env_ids": np.fromiter(order, np.int64, m), "features": np.zeros((m, n, len(expected.feature_names)))}
     out.update({name: (np.zeros(m, np.int64) if name == "env_class" else np.zeros((m, n)))
                 if name in header else None for name in OPTIONAL})
-    first = np.zeros((m, n), np.int64)  # the line that gave each pair (0: none yet)
+    pairs = PairLines(out["env_ids"], n, fail, said="given", what="line")
     classed = np.zeros(m, np.int64)  # the line that gave each environment's class
     for env, k, phi, extra, line in rows:
         i = order[env]
-        if first[i, k]:
-            fail(f"line {line}: environment {env}, objective {k} given twice (first on line {first[i, k]})")
-        first[i, k] = line
+        pairs.take(i, k, line)
         out["features"][i, k] = phi
         for name, value in extra.items():
             if name != "env_class":
@@ -171,11 +139,7 @@ def _assemble(rows: list[tuple], header: list[str], expected: Expected, fail) ->
                      f"class {out[name][i]}")
             else:
                 out[name][i], classed[i] = value, line
-    missing = np.argwhere(first == 0)
-    if len(missing):
-        i, k = missing[0]
-        more = f" (and {len(missing) - 1} more pairs missing)" if len(missing) > 1 else ""
-        fail(f"environment {out['env_ids'][i]} has no line for objective {k}{more}")
+    pairs.check_complete()
     if out["strategy"] is not None:
         out["strategy"] = out["strategy"].astype(np.int64)
     return out
@@ -185,7 +149,7 @@ def _assemble(rows: list[tuple], header: list[str], expected: Expected, fail) ->
 def _check_values(file: str, a: dict, expected: Expected) -> None:
     """Finite features, each environment once, indices within table.toml's lists, distances at least 0; the
     arrays in the platform's dtypes."""
-    fail = _failer(file)
+    fail = refuser(file)
     names = expected.feature_names
     bad = np.argwhere(~np.isfinite(a["features"]))
     if len(bad):
@@ -225,10 +189,3 @@ def _check_index(fail, a: dict, name: str, n: int, listed: str, low: int) -> Non
 
 def _first(a: dict, dup: int) -> int:
     return int(np.flatnonzero(a["env_ids"] == a["env_ids"][dup])[0])
-
-
-def _failer(file: str):
-    def fail(what: str):
-        raise DataError(f"{file}: {what}")
-
-    return fail

@@ -14,10 +14,11 @@ import numpy as np
 
 from ..core.table import TrajectoryTable
 
+DATA = "features.npz"
 SCHEMA_LINE = "#:schema https://github.com/robot-teaching/robot-teaching/teaching/importing/table.schema.json"
 
 
-def export_table(table: TrajectoryTable, out, data: str = "features.npz") -> Path:
+def export_table(table: TrajectoryTable, out) -> Path:
     """Write `table` as a folder at `out` (which must not exist yet, or be empty); returns it."""
     out = Path(out)
     if out.exists() and any(out.iterdir()):
@@ -30,18 +31,15 @@ def export_table(table: TrajectoryTable, out, data: str = "features.npz") -> Pat
     arrays = {"env_id": np.asarray(table.env_ids), "features": np.asarray(table.features),
               "env_class": np.asarray(domain.environment_class(np.asarray(table.env_ids)), np.int8),
               "strategy": strategy, "distance": np.asarray(table.d_euclid)}
-    if data.endswith(".npz"):
-        np.savez(out / data, **arrays)
-    else:
-        raise ValueError(f"{data}: a table is exported as .npz")
-    (out / "table.toml").write_text(_description(table, data), encoding="utf-8")
+    np.savez(out / DATA, **arrays)
+    (out / "table.toml").write_text(_description(table), encoding="utf-8")
     return out
 
 
-def _description(table: TrajectoryTable, data: str) -> str:
+def _description(table: TrajectoryTable) -> str:
     domain = table.domain
     lines = [SCHEMA_LINE, f"name = {_value(domain.name)}", f"title = {_value(domain.name)}",
-             f"data = {_value(data)}", f"min_option_distance = {_value(float(domain.min_option_distance))}",
+             f"data = {_value(DATA)}", f"min_option_distance = {_value(float(domain.min_option_distance))}",
              f"theta_star = {_value(table.thetas[0])}", "candidates = ["]
     lines += [f"  {_value(theta)}," for theta in table.thetas[1:]]
     lines += ["]", f"classes = {_value(list(domain.class_names))}", ""]

@@ -15,19 +15,17 @@ import numpy as np
 from jsonschema import Draft7Validator
 
 from ..core.schemacheck import did_you_mean, first_mistake
-from .data import DataError, Expected, read_data
+from .csvlines import TableFolderError, refuser
+from .data import Expected, read_data
 from .optimality import Optimality, optimality
-from .stimuli import Stimuli, StimuliError, read_stimuli
+from .stimuli import Stimuli, read_stimuli
 
 SCHEMA_PATH = Path(__file__).with_name("table.schema.json")
 SCHEMA = json.loads(SCHEMA_PATH.read_text(encoding="utf-8"))
 _VALIDATOR = Draft7Validator(SCHEMA)
 DESCRIPTION = "table.toml"
 MIN_OPTION_DISTANCE = 0.5  # the driving world's default: options at least this far apart
-
-
-class TableFolderError(ValueError):
-    """A table folder that cannot be used (one line: the file, the field, what is wrong)."""
+_fail = refuser(DESCRIPTION)
 
 
 @dataclass(frozen=True)
@@ -82,10 +80,7 @@ def read_folder(path) -> TableFolder:
     data = path / raw["data"]
     if not data.is_file():
         _fail(f"data: no file {raw['data']!r} in {path}")
-    try:
-        arrays = read_data(data, Expected(tuple(names), len(thetas), len(classes), len(strategies)))
-    except DataError as exc:
-        raise TableFolderError(str(exc)) from None
+    arrays = read_data(data, Expected(tuple(names), len(thetas), len(classes), len(strategies)))
     report = optimality(arrays["features"], thetas, arrays["env_ids"])
     keep = raw.get("keep_suboptimal", False)
     if not report.optimal and not keep:
@@ -95,10 +90,7 @@ def read_folder(path) -> TableFolder:
     if "stimuli" in raw:
         if not (path / raw["stimuli"]).is_file():
             _fail(f"stimuli: no file {raw['stimuli']!r} in {path}")
-        try:
-            stimuli = read_stimuli(path, raw["stimuli"], arrays["env_ids"], len(thetas))
-        except StimuliError as exc:
-            raise TableFolderError(str(exc)) from None
+        stimuli = read_stimuli(path, raw["stimuli"], arrays["env_ids"], len(thetas))
     return TableFolder(
         path=path, name=raw["name"], title=raw.get("title", raw["name"]),
         features=tuple(Feature(f["name"], f["unit"], f["description"], float(f.get("scale", 1.0)))
@@ -107,10 +99,6 @@ def read_folder(path) -> TableFolder:
         env_class=arrays["env_class"], strategies=strategies, strategy=arrays["strategy"],
         distance=arrays["distance"], min_option_distance=float(raw.get("min_option_distance", MIN_OPTION_DISTANCE)),
         keep_suboptimal=keep, optimality=report, stimuli=stimuli)
-
-
-def _fail(what: str):
-    raise TableFolderError(f"{DESCRIPTION}: {what}")
 
 
 def _read_toml(path: Path) -> dict:

@@ -9,7 +9,6 @@ line and column or the file.
 """
 from __future__ import annotations
 
-import csv
 import hashlib
 import json
 import re
@@ -20,15 +19,11 @@ from pathlib import Path, PurePosixPath
 
 import numpy as np
 
-from ..core.schemacheck import did_you_mean
+from .csvlines import PairLines, TableFolderError, read_csv, refuser
 
 COLUMNS = ("env_id", "objective", "file", "sha256")
 PLAYABLE = {".webm": ("vp8", "vp9", "av1"), ".mp4": ("h264", "av1")}
 PROBE_SECONDS = 60  # a hang guard: probing a short clip takes well under a second
-
-
-class StimuliError(ValueError):
-    """A manifest or video that cannot be used: one line, where and what."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,59 +34,29 @@ class Stimuli:
 
 def read_stimuli(folder: Path, manifest: str, env_ids: np.ndarray, n_objectives: int) -> Stimuli:
     """The manifest `manifest` of `folder`, every pair of (env_ids x objectives) listed once, every file there,
-    matching its checksum, and playable."""
-    fail = _failer(manifest)
-    try:
-        return _read(folder, manifest, env_ids, n_objectives)
-    except UnicodeDecodeError as exc:
-        fail(f"not UTF-8 text ({exc.reason} at byte {exc.start})")
-    except csv.Error as exc:
-        fail(f"not CSV ({exc})")
-
-
-def _read(folder: Path, manifest: str, env_ids: np.ndarray, n_objectives: int) -> Stimuli:
-    path = folder / manifest
-    fail = _failer(manifest)
+    matching its checksum, and playable; a TableFolderError names the first mistake."""
+    fail = refuser(manifest)
     row_of = {int(e): i for i, e in enumerate(env_ids)}
     which = np.full((len(env_ids), n_objectives), -1, np.int32)
     files: dict[str, tuple[int, str, int]] = {}  # path -> (position, sha256, the first line naming it)
-    lines = np.zeros((len(env_ids), n_objectives), np.int64)
-    with path.open(newline="", encoding="utf-8") as f:
-        reader = csv.reader(f)
-        header = [h.strip() for h in next(reader, [])]
-        for name in header:
-            if name not in COLUMNS:
-                fail(f"line 1: column {name!r} is not one of {', '.join(COLUMNS)}{did_you_mean(name, COLUMNS)}")
-        for name in COLUMNS:
-            if name not in header:
-                fail(f"line 1: no column {name!r}")
-        for row in reader:
-            if not any(row):
-                continue
-            line = reader.line_num
-            cells = dict(zip(header, (c.strip() for c in row), strict=False))
-            i, k = _pair(cells, line, row_of, n_objectives, fail)
-            if lines[i, k]:
-                fail(f"line {line}: environment {env_ids[i]}, objective {k} listed twice (first on line {lines[i, k]})")
-            lines[i, k] = line
-            file, digest = _file(cells, line, fail)
-            if file in files and files[file][1] != digest:
-                fail(f"line {line}, column sha256: {file} was given another checksum on an earlier line")
-            which[i, k] = files.setdefault(file, (len(files), digest, line))[0]
-    missing = np.argwhere(which < 0)
-    if len(missing):
-        i, k = missing[0]
-        more = f" (and {len(missing) - 1} more pairs)" if len(missing) > 1 else ""
-        fail(f"environment {env_ids[i]} has no video for objective {k}{more}")
+    pairs = PairLines(env_ids, n_objectives, fail, said="listed", what="video")
+    for line, cells in read_csv(folder / manifest, COLUMNS, COLUMNS, fail)[1]:
+        i, k = _pair(cells, line, row_of, n_objectives, fail)
+        pairs.take(i, k, line)
+        file, digest = _file(cells, line, fail)
+        if file in files and files[file][1] != digest:
+            fail(f"line {line}, column sha256: {file} was given another checksum on an earlier line")
+        which[i, k] = files.setdefault(file, (len(files), digest, line))[0]
+    pairs.check_complete()
     for file, (_, digest, line) in files.items():
-        _check_video(folder, file, digest, _failer(f"{manifest}: line {line}"))
+        _check_video(folder, file, digest, refuser(f"{manifest}: line {line}"))
     return Stimuli(tuple(files), which)
 
 
 def _pair(cells: dict, line: int, row_of: dict, n_objectives: int, fail) -> tuple[int, int]:
     try:
         env, k = int(cells["env_id"]), int(cells["objective"])
-    except (ValueError, KeyError):
+    except ValueError:
         fail(f"line {line}: env_id and objective must be whole numbers, got {cells.get('env_id')!r}, "
              f"{cells.get('objective')!r}")
     if env not in row_of:
@@ -136,19 +101,13 @@ def probe(path: Path) -> list[str]:
     """The codec names of the video streams of `path` ([] when it holds none or is not a media file)."""
     ffprobe = shutil.which("ffprobe")
     if ffprobe is None:
-        raise StimuliError("ffprobe not found: install Debian's ffmpeg (make media-deps) to check videos")
+        raise TableFolderError("ffprobe not found: install Debian's ffmpeg (make media-deps) to check videos")
     try:
         done = subprocess.run([ffprobe, "-v", "error", "-select_streams", "v", "-show_entries", "stream=codec_name",
                                "-of", "json", str(path)], capture_output=True, text=True, timeout=PROBE_SECONDS)
     except subprocess.TimeoutExpired:
-        raise StimuliError(f"{path.name}: ffprobe did not finish within {PROBE_SECONDS} s (a damaged file?)") from None
+        raise TableFolderError(f"{path.name}: ffprobe did not finish within {PROBE_SECONDS} s (a damaged file?)") \
+            from None
     if done.returncode != 0:
         return []
     return [s.get("codec_name", "") for s in json.loads(done.stdout or "{}").get("streams", [])]
-
-
-def _failer(file: str):
-    def fail(what: str):
-        raise StimuliError(f"{file}: {what}")
-
-    return fail
