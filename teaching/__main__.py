@@ -10,6 +10,8 @@ Sub-commands (installed as a package, ``teaching`` is the same command):
   check-table   check a table folder of a robot's own data (docs/importing.md): exit 0 when it can be
                 used, 1 with its first mistake in one line
   export-table  write a built table as a table folder
+  import-table  make a checked table folder the platform's table (with the robot it carries): exit 0, or 1
+                with the folder's first mistake in one line
 """
 from __future__ import annotations
 
@@ -95,7 +97,8 @@ def _features_by_domain() -> str:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m teaching", description="Trajectory tables and teaching: "
-                                     "build, info, teach, sheet, check-domain, check-table and export-table.")
+                                     "build, info, teach, sheet, check-domain, check-table, export-table and "
+                                     "import-table.")
     sub = parser.add_subparsers(dest="command", required=True)
     b = sub.add_parser("build", help="build or resume a trajectory table")
     b.add_argument("--preset", required=True, help=f"one of: {', '.join(PRESETS)}")
@@ -138,6 +141,7 @@ def main(argv=None) -> int:
                         "rarely give options the default distance apart: the app's tests use 0.1 on them.")
     folder_commands.add_check_arguments(sub.add_parser("check-table", help=folder_commands.CHECK_HELP))
     folder_commands.add_export_arguments(sub.add_parser("export-table", help=folder_commands.EXPORT_HELP))
+    folder_commands.add_import_arguments(sub.add_parser("import-table", help=folder_commands.IMPORT_HELP))
     args = parser.parse_args(argv)
     try:
         if args.command == "build":
@@ -179,6 +183,8 @@ def main(argv=None) -> int:
             return folder_commands.check_command(args)
         elif args.command == "export-table":
             return folder_commands.export_command(args)
+        elif args.command == "import-table":
+            return folder_commands.import_command(args, summary)
         else:
             print(summary(TrajectoryTable.load(args.path)))
     except (ValueError, TableError) as exc:

@@ -155,6 +155,9 @@ class PlannerPart(Protocol):
     # code_root and extra_code_roots); the code fingerprint covers them all
     code_roots: tuple[Path, ...]
     presets: tuple  # its teaching.core.build.Preset objects (names unique across domains)
+    # (S,) the unit of each state column in euclidean_distance (inf: a column it does not compare): what a
+    # table written out as a folder (teaching.importing.export) records with its paths
+    state_scale: tuple
 
     def fingerprint(self) -> str:
         """16 hex digits over the world's constants: a table built under others is refused."""
@@ -364,3 +367,20 @@ def get_domain(name: str | None = None) -> Domain:
             raise ValueError(f"domain registered as {name!r} calls itself {domain.name!r}")
         _LOADED[name] = domain
     return _LOADED[name]
+
+
+# A table may carry its own robot (one made by `python -m teaching import-table`): loading it registers that
+# robot first.  teaching.domains sets the reader (teaching.importing.registry), so the core names no such module.
+_CARRIED_READER: list[Callable[[Path, dict], None]] = []
+
+
+def set_carried_reader(reader: Callable[[Path, dict], None]) -> None:
+    """reader(table directory, its meta.json) registers the robot such a table carries, if it carries one."""
+    _CARRIED_READER[:] = [reader]
+
+
+def register_carried(path: Path, meta: dict) -> None:
+    """Register the robot the table at `path` carries, if any (ValueError, one line, if it cannot be)."""
+    for reader in _CARRIED_READER:
+        reader(path, meta)
+

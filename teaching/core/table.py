@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .domain import Domain, get_domain
+from .domain import Domain, get_domain, register_carried
 from .rewards import reward
 
 ARRAYS = ("thetas", "env_ids", "controls", "features", "strategy", "d_euclid")
@@ -155,6 +155,7 @@ class TrajectoryTable:
                 f"table at {path} (hash {str(meta.get('content_hash'))[:16]}) is not the one that was verified "
                 f"(hash {str(expected_hash)[:16]}): it was rebuilt or replaced since")
         try:
+            register_carried(path, meta)
             domain = get_domain(meta.get("domain"))
         except ValueError as exc:
             raise TableError(f"table at {path}: {exc}") from None

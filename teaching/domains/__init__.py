@@ -8,6 +8,10 @@ three) register as the built-in domains do, by name, loading on first use; those
 (world files and folders of them separated by ``os.pathsep``) are read and checked once on import, so a
 researcher's broken file is one line at once, and the command line, the web app and the workers all see
 the same worlds.
+
+Tables imported from a lab's own files (docs/importing.md) carry their robot: loading one registers it, and the
+tables that ``TEACHING_TABLES`` names (tables and folders of them) are registered on import, for the site and
+the workers, which look a study's robot up by name (teaching.importing.registry).
 """
 from __future__ import annotations
 
@@ -16,7 +20,7 @@ import os
 from importlib import import_module
 from pathlib import Path
 
-from ..core.domain import domain_names, register, unregister
+from ..core.domain import domain_names, register, set_carried_reader, unregister
 
 # the grid worlds shipped as files (docs/gridworlds.md)
 WORLDS = Path(__file__).resolve().parent / "worlds"
@@ -107,3 +111,17 @@ def _register_world(path: Path) -> str:
 
 
 register_world_files(os.environ.get("TEACHING_WORLDS", ""))
+
+
+def _read_carried(path: Path, meta: dict) -> None:
+    from ..importing.registry import read_carried  # noqa: PLC0415  (loaded only for an imported table)
+
+    read_carried(path, meta)
+
+
+set_carried_reader(_read_carried)
+if os.environ.get("TEACHING_TABLES"):
+    from ..importing.registry import register_tables
+
+    register_tables(os.environ["TEACHING_TABLES"])
+

@@ -18,6 +18,7 @@ from ..core.schemacheck import did_you_mean, first_mistake
 from .csvlines import TableFolderError, refuser
 from .data import Expected, read_data
 from .optimality import Optimality, optimality
+from .paths import Paths, read_paths
 from .stimuli import Stimuli, read_stimuli
 
 SCHEMA_PATH = Path(__file__).with_name("table.schema.json")
@@ -63,6 +64,8 @@ class TableFolder:
     keep_suboptimal: bool
     optimality: Optimality
     stimuli: Stimuli | None  # the videos, when table.toml names a manifest
+    paths: Paths | None  # the recorded paths, when table.toml names them
+    texts: dict  # table.toml's [texts]: what the pages tell participants ({}: the generic texts)
 
     @property
     def feature_names(self) -> tuple[str, ...]:
@@ -91,6 +94,10 @@ def read_folder(path) -> TableFolder:
         if not (path / raw["stimuli"]).is_file():
             _fail(f"stimuli: no file {raw['stimuli']!r} in {path}")
         stimuli = read_stimuli(path, raw["stimuli"], arrays["env_ids"], len(thetas))
+    paths = read_paths(path, raw, arrays["env_ids"], len(thetas)) if "paths" in raw else None
+    if paths is not None and arrays["distance"] is not None:
+        raise TableFolderError(f"{data.name}: distance: given with recorded paths, whose distances are worked out "
+                               "from the paths (docs/importing.md): leave one out")
     return TableFolder(
         path=path, name=raw["name"], title=raw.get("title", raw["name"]),
         features=tuple(Feature(f["name"], f["unit"], f["description"], float(f.get("scale", 1.0)))
@@ -98,7 +105,7 @@ def read_folder(path) -> TableFolder:
         thetas=thetas, env_ids=arrays["env_ids"], phi=arrays["features"], classes=classes,
         env_class=arrays["env_class"], strategies=strategies, strategy=arrays["strategy"],
         distance=arrays["distance"], min_option_distance=float(raw.get("min_option_distance", MIN_OPTION_DISTANCE)),
-        keep_suboptimal=keep, optimality=report, stimuli=stimuli)
+        keep_suboptimal=keep, optimality=report, stimuli=stimuli, paths=paths, texts=dict(raw.get("texts", {})))
 
 
 def _read_toml(path: Path) -> dict:
@@ -128,6 +135,9 @@ def _thetas(raw: dict, d: int) -> np.ndarray:
     for where, w in weights:
         if len(w) != d:
             _fail(f"{where}: {len(w)} weights, expected {d} (one per feature)")
+        for j, x in enumerate(w):
+            if not np.isfinite(x):
+                _fail(f"{where}[{j}]: {x}; every weight is a finite number")
         key = tuple(float(x) for x in w)
         if key in first:
             _fail(f"{where}: the same objective as {first[key]}")

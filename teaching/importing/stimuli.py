@@ -30,6 +30,7 @@ PROBE_SECONDS = 60  # a hang guard: probing a short clip takes well under a seco
 class Stimuli:
     files: tuple[str, ...]  # each distinct video, as the manifest writes its path
     which: np.ndarray  # (M, N) int32: the position in `files` of the video of objective k in environment m
+    sha256: tuple[str, ...]  # each file's checksum, as checked
 
 
 def read_stimuli(folder: Path, manifest: str, env_ids: np.ndarray, n_objectives: int) -> Stimuli:
@@ -50,7 +51,7 @@ def read_stimuli(folder: Path, manifest: str, env_ids: np.ndarray, n_objectives:
     pairs.check_complete()
     for file, (_, digest, line) in files.items():
         _check_video(folder, file, digest, refuser(f"{manifest}: line {line}"))
-    return Stimuli(tuple(files), which)
+    return Stimuli(tuple(files), which, tuple(digest for _, digest, _ in files.values()))
 
 
 def _pair(cells: dict, line: int, row_of: dict, n_objectives: int, fail) -> tuple[int, int]:

@@ -1,4 +1,5 @@
-"""Paths on a grid as a table stores them, their states and distances, and shortest paths.
+"""Paths on a grid as a table stores them, their states, and shortest paths (the distance between two
+paths is teaching.core.pathdistance's).
 
 Units: cells and moves.  A cell (row, col) is stored as ``row * width + col`` (int8: a grid of at
 most 127 cells); a path is the cells it visits, start first, padded to a fixed length by
@@ -26,22 +27,6 @@ def cell_states(cells: np.ndarray, width: int) -> np.ndarray:
     """Stored paths (..., L) cell indices -> positions (..., L, 2) float64 [col, row]."""
     cells = np.asarray(cells, np.int64)
     return np.stack([cells % width, cells // width], axis=-1).astype(np.float64)
-
-
-def moves_made(s: np.ndarray) -> np.ndarray:
-    """(..., L, 2) positions -> (...) moves made: the last step whose position differs from the end
-    (at least 1, so a distance never divides by zero)."""
-    moving = np.any(s != s[..., -1:, :], axis=-1)  # (..., L): not yet at the end
-    return np.where(moving.any(-1), moving.shape[-1] - np.argmax(moving[..., ::-1], -1), 1)
-
-
-def padded_distance(states_a, states_b, scale) -> np.ndarray:
-    """d_euclid = (1/T) sum_{t=1..T} |(s_a,t - s_b,t) / scale|_2 with T the longer path's moves (the
-    shorter one waits where it arrived), broadcast over the leading axes: the average is over
-    moves made, not over the padding, so a short path is not made to look close by it."""
-    a, b = np.broadcast_arrays(np.asarray(states_a, np.float64), np.asarray(states_b, np.float64))
-    diff = np.linalg.norm((a[..., 1:, :] - b[..., 1:, :]) / np.asarray(scale), axis=-1)
-    return diff.sum(axis=-1) / np.maximum(moves_made(a), moves_made(b))
 
 
 def shortest_moves(passable: np.ndarray, start, goal, moves) -> float:

@@ -12,9 +12,10 @@ from __future__ import annotations
 import numpy as np
 
 from ...core.base import BaseDomain
+from ...core.pathdistance import padded_distance
 from ...core.rewards import reward
 from . import ROOT
-from .cells import cell_states, encode, padded_distance
+from .cells import cell_states, encode
 
 
 def best_of_front(phi: np.ndarray, thetas: np.ndarray, normalisers) -> tuple[np.ndarray, np.ndarray]:

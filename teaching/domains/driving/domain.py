@@ -35,6 +35,7 @@ class DrivingDomain(BaseDomain):
     min_option_distance = 0.5  # ~6 ft average lateral separation, or its equivalent (docs/teaching.md)
     trajectory_shape = (WORLD.n_knots, 2)  # knot controls [steer rate, accel] as fractions of the bounds
     trajectory_dtype = np.dtype(np.float32)
+    state_scale = WORLD.state_scale  # [x ft, y ft, heading rad, v ft/s, steer rad]
     code_root = Path(__file__).resolve().parent
     texts = page.TEXTS
     palette = page.PALETTE

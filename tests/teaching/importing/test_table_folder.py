@@ -100,6 +100,26 @@ def with_videos(folder, rows=None, files=None):
     return folder
 
 
+# Recorded paths of the hand-worked folder: 3 steps of 1 s; objective k moves k + 1 m to the right a step, up 1 m
+# a step; one other agent stands still at (5, 5).
+T = np.array([0.0, 1.0, 2.0])
+ROBOT = np.array([[[[(k + 1) * s, s] for s in range(3)] for k in range(3)]] * 3, np.float64)  # (3, 3, 3, 2)
+AGENTS = np.full((3, 1, 3, 2), 5.0)
+PATHS_TOML = '[paths]\nfile = "paths.npz"\nunit = "m"\nscale = [2.0, 2.0]\n'
+
+
+def with_paths(folder, toml=TOML + PATHS_TOML, distance=None, **arrays):
+    """The hand-worked folder with recorded paths (`arrays` replaces or adds paths.npz's arrays by name, None
+    leaves one out); its data has no distances (the paths' are worked out), unless `distance` gives them."""
+    write(folder, toml)
+    data = dict(np.load(folder / "features.npz"))
+    np.savez(folder / "features.npz", **{k: v for k, v in data.items() if k != "distance"},
+             **({} if distance is None else {"distance": distance}))
+    given = {"env_id": np.array([10, 11, 12]), "t": T, "robot": ROBOT, "agents": AGENTS, **arrays}
+    np.savez(folder / "paths.npz", **{k: v for k, v in given.items() if v is not None})
+    return folder
+
+
 def _rows(change):
     """The manifest's lines of with_videos, changed by `change` (a function of the list)."""
     clip = {0: "clips/star.webm,{clips_star_webm}"}
@@ -182,13 +202,16 @@ def test_a_built_table_written_out_reads_back_bit_for_bit(preset, tmp_path_facto
     assert folder.optimality.optimal, folder.optimality.describe()
     assert np.array_equal(folder.thetas, table.thetas) and np.array_equal(folder.env_ids, table.env_ids)
     assert folder.phi.tobytes() == np.asarray(table.features).tobytes()
-    assert folder.distance.tobytes() == np.asarray(table.d_euclid).tobytes()
+    assert folder.distance is None  # the paths carry it
     none = len(table.domain.cluster_names) - 1
     assert np.array_equal(np.where(folder.strategy < 0, none, folder.strategy), table.strategy)
     assert np.array_equal(folder.env_class, table.env_class)
     assert folder.classes == table.domain.class_names
     assert tuple(s.name for s in folder.strategies) == table.domain.cluster_names[:-1]
     assert [f.scale for f in folder.features] == [float(v) for v in table.normalisers]
+    states = np.asarray(table.states(slice(None), slice(None)), np.float64)
+    assert folder.paths.robot.tobytes() == states.tobytes()
+    assert tuple(folder.paths.scale) == tuple(float(v) for v in table.domain.state_scale)
 
 
 # name -> (what makes the broken folder at a path, what its one line must say)
@@ -247,6 +270,27 @@ BROKEN = {
                              "features.csv: line 4: not CSV (field larger than field limit"),
 "an array that needs pickle": (lambda d: write(d, distance=np.array([[0, "a", None]] * 3, dtype=object)),
                                "features.npz: array 'distance' cannot be read without running code"),
+"paths: NaN": (lambda d: with_paths(d, robot=np.where(ROBOT == 4, np.nan, ROBOT)),
+                "paths.npz: robot[0, 1, 2, 0] (environment 10): nan; every number must be finite"),
+"paths: a clock that goes back": (lambda d: with_paths(d, t=np.array([0.0, 2.0, 1.0])),
+                                  "paths.npz: t[2]: 1.0; the clock starts at 0 and every time stamp is later"),
+"paths: wrong shape": (lambda d: with_paths(d, robot=ROBOT[:, :2]),
+                       "paths.npz: robot: shape (3, 2, 3, 2), expected (3, 3, 3, 2) = (environments, objectives, "
+                       "time stamps, columns: x, y)"),
+"paths: an environment missing": (lambda d: with_paths(d, env_id=np.array([10, 11, 13])),
+                                  "paths.npz: env_id: environment 12 of the data has no paths"),
+"paths: unknown array": (lambda d: with_paths(d, agnets=AGENTS),
+                         "paths.npz: array 'agnets' is not one the format knows (one of env_id, t, robot, agents); "
+                         "did you mean 'agents'?"),
+"paths: a scale too many": (lambda d: with_paths(d, TOML + PATHS_TOML.replace("[2.0, 2.0]", "[2.0, 2.0, 1.0]")),
+                         "table.toml: paths.scale: 3 numbers, expected 2 (one per column: x, y)"),
+"paths: no file": (lambda d: (with_paths(d), (d / "paths.npz").unlink(), d)[-1],
+                   "table.toml: paths.file: no file 'paths.npz'"),
+"paths and distances both": (lambda d: with_paths(d, distance=ARRAYS["distance"]),
+                             "features.npz: distance: given with recorded paths, whose distances are worked out from "
+                             "the paths (docs/importing.md): leave one out"),
+"θ* NaN": (lambda d: write(d, TOML.replace("theta_star = [-1.0, 0.0]", "theta_star = [-1.0, nan]")),
+           "table.toml: theta_star[1]: nan; every weight is a finite number"),
 "csv unknown column": (lambda d: write_csv(d, head="env_id,objective,left,rihgt\n"),
                            "features.csv: line 1: column 'rihgt' is not one the format knows"),
 }
