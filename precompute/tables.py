@@ -7,7 +7,7 @@ from pathlib import Path
 
 from django import forms
 
-from teaching.api import PRESETS, SAMPLERS, default_domain_name, domain_names, get_domain
+from teaching.api import PRESETS, SAMPLERS, default_domain_name, domain_names, get_domain, register_table_robot
 
 from .jobs import table_preset, tables_dir
 
@@ -22,6 +22,8 @@ def built_tables(root: Path | None = None) -> list[dict]:
             meta = json.loads(meta_path.read_text())
             shape = meta["shape"]
             domain = meta.get("domain") or default_domain_name()  # a table built before domains: the default's
+            if domain not in domain_names():
+                register_table_robot(meta_path.parent)  # an imported table carries its robot (TableError if broken)
             if domain not in domain_names():
                 continue  # a table of a domain this installation does not have
             out.append({"path": str(meta_path.parent), "preset": meta.get("preset", "?"), "domain": domain,

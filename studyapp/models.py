@@ -160,10 +160,14 @@ class Study(models.Model):
         every participant page asks it first."""
         from teaching.api import domain_names  # noqa: PLC0415 (numpy and the domains load when needed)
 
+        from .trajectories import find_robot  # noqa: PLC0415
+
+        find_robot(self)
         if self.domain not in domain_names():
             return [f"Its robot '{self.domain}' is not registered on this server (registered: "
                     f"{', '.join(domain_names())}): start the site, workers and commands with the setting that "
-                    "registers it (a world file: TEACHING_WORLDS, docs/gridworlds.md)."]
+                    "registers it (a world file: TEACHING_WORLDS, docs/gridworlds.md; an imported table: "
+                    "TEACHING_TABLES, docs/importing.md)."]
         if not self.test_set:
             return ["It has no test questions: its build did not finish (its job page says why), and a "
                     "participant would answer nothing. Build it again."]
@@ -202,11 +206,10 @@ class Study(models.Model):
     def language_problem(self) -> str:
         """Why its participants would read some of the robot's texts in English ("" if none): creating the
         study checks it, but its language may be changed later (the admin) or its world file edited."""
-        from teaching.api import get_domain  # noqa: PLC0415 (numpy and the domains load when needed)
-
         from .i18n import language_problem  # noqa: PLC0415 (teaching loads only when needed)
+        from .trajectories import study_domain  # noqa: PLC0415
 
-        return language_problem(get_domain(self.domain), self.language)
+        return language_problem(study_domain(self), self.language)
 
     def aliased_conditions(self) -> str:
         """Which of this study's condition names are one condition ("" if none): creating a study

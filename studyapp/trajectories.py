@@ -21,14 +21,39 @@ No trajectory is drawn from anywhere else.
 """
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 
-from teaching.api import SHOW, Domain, get_domain, is_show, shows_the_way
+from teaching.api import (
+    SHOW,
+    Domain,
+    TableError,
+    domain_names,
+    get_domain,
+    is_show,
+    register_table_robot,
+    shows_the_way,
+)
 
 
 def study_domain(study) -> Domain:
     """The domain a study's stimuli were drawn in (Study.domain)."""
+    find_robot(study)
     return get_domain(study.domain)
+
+
+def find_robot(study) -> None:
+    """A study of an imported robot registers the robot its table carries (docs/importing.md) the first time this
+    process needs it, so the site and the workers need no setting for it; a study of a registered robot costs a
+    lookup.  A table gone or broken is logged, and the study then reads as one whose robot is not here."""
+    table = (study.source or {}).get("table")
+    if study.domain in domain_names() or not table:
+        return
+    try:
+        register_table_robot(table)
+    except TableError as exc:
+        logging.getLogger(__name__).warning("study %s: %s", study.slug, exc)
 
 
 def env_payload(domain: Domain, env_id: int, env_class: int, states, cluster: int) -> dict:

@@ -87,6 +87,8 @@ Tables (teaching.core.table: a directory of .npy arrays plus meta.json with its 
                              (..., T+1, S); .domain its Domain; .env_class (M,) int8;
                              .meta["content_hash"] identifies the table
     TableError               ValueError: a missing, altered or foreign table (one-line message)
+    register_table_robot(path)  the robot a table made by import-table carries, registered by name for a
+                             process that looks it up before loading the table; its name (TableError if broken)
 
 Building a table in chunks (teaching.core.build; precompute/work.py runs one chunk per task)
     Preset, PRESETS, get_preset(name), customised(preset, n_envs=, n_thetas=, seed=, sampler=,
@@ -212,7 +214,7 @@ from .core.simulate import (
     pilot_predictions,
     predicted_scores,
 )
-from .core.table import TableError, TrajectoryTable
+from .core.table import TableError, TrajectoryTable, register_table_robot
 from .core.teachout import TEST_KINDS, TeachOutput, TeachOutputError, read_teach
 from .core.testset import MIN_REGRET, TestSetError, select_test_set
 from .core.testsupply import TestSupply, clusters_without_a_test, supply_of_tests, ungraded_problem
@@ -254,5 +256,5 @@ __all__ = [
     "check_params", "get_selector", "parse_selector", "selector_names", "DIFFICULTIES",
     "MIN_SHARE", "SHOW", "TEST_KINDS", "is_show", "select_show_tests",
     "TestSetError", "TestSupply", "clusters_without_a_test", "supply_of_tests",
-    "ungraded_problem",
+    "ungraded_problem", "register_table_robot",
 ]

@@ -173,6 +173,20 @@ class TrajectoryTable:
         return table
 
 
+def register_table_robot(path) -> str | None:
+    """Register the robot the table at `path` carries, if it carries one (a table made by import-table), so that
+    a process that looks a robot up by name before it loads the table (the site, a worker) finds it; returns
+    the name of the table's robot.  TableError (one line) for a table that cannot be read or whose robot cannot
+    be registered."""
+    path = Path(path)
+    try:
+        meta = json.loads((path / "meta.json").read_text())
+        register_carried(path, meta)
+    except (OSError, ValueError) as exc:
+        raise TableError(f"table at {path}: {exc}") from None
+    return meta.get("domain")
+
+
 IDENTITY = ("preset", "sampler", "seed", "world", "normalisers", "format_version")
 
 

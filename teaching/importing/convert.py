@@ -50,7 +50,7 @@ def import_table(source, out) -> TrajectoryTable:
         register(folder.name, lambda: domain)
         try:
             table = _table(folder, domain)
-            table.save(tmp)
+            digest = table.save(tmp)
         finally:
             unregister(folder.name)
         if out.exists():
@@ -61,7 +61,7 @@ def import_table(source, out) -> TrajectoryTable:
         raise
     forget(folder.name)
     register_table(out)
-    return TrajectoryTable.load(out)
+    return TrajectoryTable.load(out, verify=False, expected_hash=digest)  # hashed as it was written
 
 
 def _table(folder: TableFolder, domain: ImportedDomain) -> TrajectoryTable:
