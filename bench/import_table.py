@@ -103,7 +103,7 @@ def main() -> None:
     args = ap.parse_args()
     if args.update_doc:
         return rewrite_section(Path(args.update_doc[0]), Path(args.update_doc[1]), BEGIN, END, markdown,
-                               "table-folder check")
+                               "table-folder check and import")
     load = os.getloadavg()[0]
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
