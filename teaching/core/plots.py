@@ -73,12 +73,12 @@ def plot_examples_shown(grids: np.ndarray, names, path, domain, vmax: float | No
                     ax.add_patch(Rectangle((c - 0.5, r - 0.5), 1, 1, facecolor="#f2f2f2", edgecolor="#bbbbbb",
                                            hatch="////", linewidth=0))
         ax.set_title(names[k], fontsize=9)
-        ax.set_xticks(range(n_classes), domain.class_names, fontsize=7)
+        ax.set_xticks(range(n_classes), domain.class_names[:n_classes], fontsize=7)  # classes with strategies
         ax.set_yticks(range(n_rows), ["1st", "2nd", "3rd", *(f"{i}th" for i in range(4, n_rows + 1))][:n_rows],
                       fontsize=7)
     rows_doc = "; ".join(
         f"{name}: " + " / ".join(domain.cluster_names[i].split(": ")[-1] for i in np.flatnonzero(of == c))
-        for c, name in enumerate(domain.class_names))
+        for c, name in enumerate(domain.class_names[:n_classes]))
     fig.suptitle(f"examples per strategy cluster, white = 0, black = {vmax:g}\nrows 1st / 2nd: {rows_doc}",
                  fontsize=8)
     fig.tight_layout()

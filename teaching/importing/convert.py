@@ -24,12 +24,13 @@ from ..core.table import TrajectoryTable
 from .csvlines import TableFolderError
 from .folder import TableFolder, read_folder
 from .registry import forget, register_table
-from .robot import AGENTS, DESCRIPTION, FORMAT, ROBOT, ImportedDomain
+from .robot import AGENTS, DESCRIPTION, FORMAT, OBSTACLES, ROBOT, ImportedDomain
 
 MEDIA = "media"
 VIDEOS = "videos.npy"
 SAMPLER = "imported"  # a table's "sampler": its θs were the researcher's, not drawn
 BLOCK = 512  # environments whose distances are worked out at once
+MARGIN = 0.08  # of an environment's larger span, around its paths and obstacles where the table gives no view
 
 
 def import_table(source, out) -> TrajectoryTable:
@@ -89,7 +90,7 @@ def _distances(domain: ImportedDomain, controls: np.ndarray) -> np.ndarray:
 
 
 def _write_robot(folder: TableFolder, robot: Path) -> None:
-    """robot/: robot.json, the agents' paths and the videos, each video under its SHA-256."""
+    """robot/: robot.json, the agents' paths, the obstacles and the videos, each video under its SHA-256."""
     robot.mkdir()
     spec = {"format": FORMAT, "name": folder.name, "title": folder.title,
             "features": [{"name": f.name, "unit": f.unit, "description": f.description, "scale": f.scale}
@@ -110,9 +111,16 @@ def _write_robot(folder: TableFolder, robot: Path) -> None:
         if p.agents is not None:
             lo, hi = np.minimum(lo, p.agents.min(axis=(1, 2))), np.maximum(hi, p.agents.max(axis=(1, 2)))
             np.save(robot / AGENTS, p.agents)
+        if p.obstacles is not None:
+            lo = np.minimum(lo, p.obstacles[..., :2].min(axis=1))
+            hi = np.maximum(hi, p.obstacles[..., 2:].max(axis=1))
+            np.save(robot / OBSTACLES, p.obstacles)
+        pad = MARGIN * np.maximum((hi - lo).max(axis=1), 1e-9)  # (M,): room around what moves
+        bounds = np.stack([lo[:, 0] - pad, hi[:, 0] + pad, lo[:, 1] - pad, hi[:, 1] + pad], axis=1)
+        if p.view is not None:
+            bounds[:] = p.view  # the researcher's, as given
         spec["paths"] = {"t": p.t.tolist(), "columns": list(p.columns), "unit": p.unit,
-                         "scale": [float(v) for v in p.scale],
-                         "bounds": np.stack([lo[:, 0], hi[:, 0], lo[:, 1], hi[:, 1]], axis=1).tolist()}
+                         "scale": [float(v) for v in p.scale], "bounds": bounds.tolist()}
     if folder.stimuli is not None:
         (robot / MEDIA).mkdir()
         names = []

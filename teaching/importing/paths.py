@@ -9,6 +9,7 @@ The file is a NumPy ``.npz``; M environments, N objectives (θ* first), L time s
     robot    (M, N, L, P) numbers   objective k's trajectory in environment m: x and y first, then any other
                                     numbers of a pose (heading, speed), in table.toml's [paths] columns
     agents   (M, A, L, 2) numbers   optional: the other agents' x and y, the same under every objective
+    obstacles (M, K, 4) numbers     optional: still rectangles [x from, y from, x to, y to] (walls, a box)
 
 A path that arrives before the clock ends repeats its last pose (the robot waits where it arrived).  Every
 refusal is one line naming the file, the array and the place in it.
@@ -24,7 +25,7 @@ import numpy as np
 from ..core.schemacheck import did_you_mean
 from .csvlines import refuser
 
-ARRAYS = ("env_id", "t", "robot", "agents")
+ARRAYS = ("env_id", "t", "robot", "agents", "obstacles")
 DEFAULT_COLUMNS = ("x", "y")
 
 
@@ -35,6 +36,8 @@ class Paths:
     t: np.ndarray  # (L,) float64 seconds from 0
     robot: np.ndarray  # (M, N, L, P) float64
     agents: np.ndarray | None  # (M, A, L, 2) float64
+    obstacles: np.ndarray | None  # (M, K, 4) float64 [x0, y0, x1, y1], x0 < x1 and y0 < y1
+    view: tuple[float, ...] | None  # (x0, x1, y0, y1) every scene shows, or None: each environment's own
     columns: tuple[str, ...]  # (P,) x, y, then the rest
     scale: np.ndarray  # (P,) float64: a column's unit in the distance (inf: not compared)
     unit: str
@@ -80,7 +83,23 @@ def read_paths(folder: Path, raw: dict, env_ids: np.ndarray, n_objectives: int) 
                  f"stamps, x and y)")
         _finite(fail, "agents", agents, arrays["env_id"])
         agents = np.asarray(agents, np.float64)[order]
-    return Paths(np.asarray(t, np.float64), robot, agents, columns, scale, spec.get("unit", "m"))
+    obstacles = arrays.get("obstacles")
+    if obstacles is not None:
+        if obstacles.ndim != 3 or obstacles.shape[0] != m or obstacles.shape[2] != 4:
+            fail(f"obstacles: shape {obstacles.shape}, expected ({m}, K, 4) = (environments, obstacles, "
+                 "[x from, y from, x to, y to])")
+        _finite(fail, "obstacles", obstacles, arrays["env_id"])
+        bad = np.argwhere((obstacles[..., 2] <= obstacles[..., 0]) | (obstacles[..., 3] <= obstacles[..., 1]))
+        if len(bad):
+            i, k = (int(x) for x in bad[0])
+            fail(f"obstacles[{i}, {k}] (environment {arrays['env_id'][i]}): {obstacles[i, k].tolist()}; a rectangle "
+                 "is [x from, y from, x to, y to], each 'to' above its 'from'")
+        obstacles = np.asarray(obstacles, np.float64)[order]
+    view = spec.get("view")
+    if view is not None and not (np.all(np.isfinite(view)) and view[0] < view[1] and view[2] < view[3]):
+        refuser("table.toml")(f"paths.view: {view}; four finite numbers, x from < x to, y from < y to")
+    return Paths(np.asarray(t, np.float64), robot, agents, obstacles, None if view is None else tuple(view), columns,
+                 scale, spec.get("unit", "m"))
 
 
 def _load(path: Path, fail) -> dict:

@@ -32,6 +32,7 @@ from ..core.pathdistance import padded_distance
 ROBOT = "robot"  # the folder of a table that holds its robot
 DESCRIPTION = "robot.json"
 AGENTS = "agents.npy"
+OBSTACLES = "obstacles.npy"
 FORMAT = 1
 
 SUMMARY = _("you watch a robot ({title}) act in a few situations and answer questions about what it prefers")
@@ -40,8 +41,8 @@ CONSENT = _("This is a research study about how people understand what a robot (
 # xgettext:no-python-brace-format
 INSTRUCTIONS = _("You will watch {n_training} example{training_plural} of what a robot does, then answer "
                  "{n_tests} question{tests_plural} about what it would do in new situations.")
-PALETTE = {"ground": "#f5f3ee", "grid": "#dedad0", "robot": "#1f5fa8", "path": "#6f9fd6", "agent": "#c0392b",
-           "agent-path": "#e6a39b", "text": "#222222"}
+PALETTE = {"ground": "#f5f3ee", "grid": "#dedad0", "obstacle": "#5b5750", "robot": "#1f5fa8", "path": "#6f9fd6",
+           "agent": "#b03a2e", "agent-path": "#e6a39b", "text": "#222222"}
 
 
 class ImportedRobotError(ValueError):
@@ -97,7 +98,7 @@ class ImportedDomain(BaseDomain):
             self.trajectory_shape = (len(self.feature_names),)
             self.state_scale = (1.0,) * len(self.feature_names)
         self.vocabulary = frozenset(w for w in re.split("[^a-z]+", self.name) if w)
-        self.texts = _texts(s)
+        self.texts = _texts(s, (self.robot_dir / OBSTACLES).exists())
 
     # --- world -------------------------------------------------------------------------------------------------
     def parse_theta_star(self, values) -> tuple[float, ...]:
@@ -168,22 +169,29 @@ class ImportedDomain(BaseDomain):
 
     @property
     def page_keys(self) -> tuple[str, ...]:
-        return ("bounds", "agents", "dt", "unit")
+        return ("bounds", "agents", "obstacles", "dt", "unit")
 
     @cached_property
     def _agents(self) -> np.ndarray | None:
         path = self.robot_dir / AGENTS
         return np.load(path, mmap_mode="r") if path.exists() else None
 
+    @cached_property
+    def _obstacles(self) -> np.ndarray | None:
+        path = self.robot_dir / OBSTACLES
+        return np.load(path, mmap_mode="r") if path.exists() else None
+
     def scene_payload(self, env_id: int) -> dict:
-        """The environment's view: the bounds of everything drawn in it (every objective's path and the
-        agents', so all of its options share one view), the agents' paths and the clock's step."""
+        """The environment's view: the table's one view, else the bounds of everything in the environment (every
+        objective's path, the agents' and the obstacles, so all of its options share one view); the agents'
+        paths, the obstacles [x0, y0, x1, y1] and the clock's step."""
         if not self.paths:
-            return {"bounds": [0.0, 1.0, 0.0, 1.0], "agents": [], "dt": 1.0, "unit": ""}
+            return {"bounds": [0.0, 1.0, 0.0, 1.0], "agents": [], "obstacles": [], "dt": 1.0, "unit": ""}
         row = self._row_of[int(env_id)]
         agents = [] if self._agents is None else np.round(np.asarray(self._agents[row]), 3).tolist()
+        obstacles = [] if self._obstacles is None else np.round(np.asarray(self._obstacles[row]), 3).tolist()
         t = self.paths["t"]
-        return {"bounds": [float(v) for v in self.paths["bounds"][row]], "agents": agents,
+        return {"bounds": [float(v) for v in self.paths["bounds"][row]], "agents": agents, "obstacles": obstacles,
                 "dt": float(t[-1]) / (len(t) - 1), "unit": self.paths["unit"]}
 
     @cached_property
@@ -194,8 +202,16 @@ class ImportedDomain(BaseDomain):
         """One trajectory's poses (L, P) -> [[x, y], ...] every step of the clock."""
         return np.round(np.asarray(states, np.float64)[:, :2], 3).tolist()
 
+    def render_sheet(self, **kwargs) -> int:
+        if not self.paths:
+            raise ValueError(f"{self.name!r} has no recorded paths to draw: its table was imported from features "
+                             "alone (docs/importing.md, \"Recorded paths\")")
+        from .sheet import render_sheet  # noqa: PLC0415  (matplotlib loads only for a sheet)
 
-def _texts(spec: dict) -> ParticipantTexts:
+        return render_sheet(domain=self, **kwargs)
+
+
+def _texts(spec: dict, obstacles: bool) -> ParticipantTexts:
     t, title = spec.get("texts", {}), spec["title"]
     return ParticipantTexts(
         summary=t.get("summary", SUMMARY.format(title=title)),
@@ -206,7 +222,9 @@ def _texts(spec: dict) -> ParticipantTexts:
         attention_correct=frozenset({"robot"}),
         watch=t.get("watch", _("Watch what the robot does.")),
         question=t.get("question", _("Which of these matches the robot's preferences?")),
-        legend=(LegendEntry(_("the robot"), "robot", "robot"), LegendEntry(_("another agent"), "agent", "agent")),
+        legend=(LegendEntry(_("the robot"), "ground", "robot"), LegendEntry(_("the robot's path"), "path", "path"),
+                LegendEntry(_("another person or robot"), "agent", "agent"),
+                *((LegendEntry(_("a wall or obstacle"), "obstacle", "obstacle"),) if obstacles else ())),
         option=t.get("option", _("option")),
         title=title)
 

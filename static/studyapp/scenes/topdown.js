@@ -2,9 +2,10 @@
 // table imported with recorded paths (teaching/importing/robot.py), which the generic player (../player.js)
 // animates; it follows the contract every scenes/<scene>.js does (docs/domains.md "The web side").
 //
-// env: {bounds: [xmin, xmax, ymin, ymax], agents: [[[x, y]...]...], dt, unit}; robot: [[x, y]...], one row
-// every dt seconds.  Bounds hold every objective's path in the environment and the other agents', so the
-// four options of a test share one view and one scale.  World y points up (the canvas's down is flipped).
+// env: {bounds: [xmin, xmax, ymin, ymax], agents: [[[x, y]...]...], obstacles: [[x0, y0, x1, y1]...], dt, unit};
+// robot: [[x, y]...], one row every dt seconds.  Bounds are the table's one view, or hold every objective's
+// path in the environment, the other agents' and the obstacles with a margin, so the four options of a test
+// share one view and one scale.  World y points up (the canvas's down is flipped); obstacles are dark rectangles.
 // A light grid every "round" number of units (1, 2 or 5 times a power of ten) and a scale bar give the
 // distances; the robot is a light disc with a dark outline, the other agents dark discs, so each stays
 // apart in greyscale; the path so far is a line behind the robot.
@@ -13,9 +14,8 @@ import { gettext, interpolate } from "../i18n.js";
 import { Layout, tag } from "../labels.js";
 import { colors } from "../palette.js";
 
-const NAMES = ["ground", "grid", "robot", "path", "agent", "agentPath", "text"];
+const NAMES = ["ground", "grid", "obstacle", "robot", "path", "agent", "agentPath", "text"];
 const STRIP = 18;          // px under the view for the time label and the scale bar
-const MARGIN = 0.08;       // of the larger span, kept around the bounds
 const MIN_ASPECT = 0.45, MAX_ASPECT = 1.0;   // the view's height against its width
 
 function lerp(a, b, f) { return a + (b - a) * f; }
@@ -48,9 +48,7 @@ export class Scene {
     this.t = 0;
     this.boxes = [];         // every label drawn last (labels.js), for the tests
     this.lastFrame = null;   // drawn last: {robot: [x, y]} in CSS px
-    const [x0, x1, y0, y1] = env.bounds;
-    const pad = MARGIN * Math.max(x1 - x0, y1 - y0, 1e-9);
-    this.view = [x0 - pad, x1 + pad, y0 - pad, y1 + pad];
+    this.view = env.bounds;
     this.resize();
   }
 
@@ -101,6 +99,14 @@ export class Scene {
       ctx.moveTo(0, Math.round(sy) + 0.5); ctx.lineTo(this.w, Math.round(sy) + 0.5);
     }
     ctx.stroke();
+    ctx.fillStyle = c.obstacle;
+    for (const [ax, ay, bx, by] of this.env.obstacles || []) {
+      const [sx, sy] = this.toScreen(ax, by), [ex, ey] = this.toScreen(bx, ay);
+      // whole px outwards, so two rectangles that meet leave no seam
+      ctx.fillRect(Math.floor(sx), Math.floor(sy), Math.ceil(ex) - Math.floor(sx), Math.ceil(ey) - Math.floor(sy));
+    }
+    ctx.save();  // what moves stays inside the view, off the label strip (restored by finish)
+    ctx.beginPath(); ctx.rect(0, 0, this.w, this.h - STRIP); ctx.clip();
   }
 
   line(rows, upTo, colour, width) {
@@ -147,13 +153,26 @@ export class Scene {
     this.lastFrame = { robot: [x, y] };
   }
 
-  // The whole path at once, the robot at its end.
+  // The whole path at once with a dot each second, the robot at its end, the other agents where they started
+  // (their paths faint).
   drawTrail() {
     this.begin();
     const r = this.radius();
     for (const rows of this.agents) this.line(rows, rows.length - 1, this.c.agentPath, 2);
     this.line(this.robot, this.robot.length - 1, this.c.path, 3);
+    // a dot where the robot is at each whole second, so a slow way and a fast one along one line differ
+    this.ctx.fillStyle = this.c.robot;
+    const every = Math.max(1, Math.round(1 / this.dt));
+    for (let k = every; k < this.robot.length; k += every) {
+      const [x, y] = this.toScreen(...this.robot[k]);
+      this.ctx.beginPath(); this.ctx.arc(x, y, 2.2, 0, 2 * Math.PI); this.ctx.fill();
+    }
     const layout = new Layout(this.w, this.h);
+    for (const rows of this.agents) {
+      const [x, y] = this.toScreen(...rows[0]);
+      this.disc(x, y, this.c.agent, this.c.ground, r * 0.8);
+      layout.avoid({ kind: "agent", x: x - r, y: y - r, w: 2 * r, h: 2 * r });
+    }
     const [x, y] = this.toScreen(...this.robot[this.robot.length - 1]);
     this.disc(x, y, this.c.ground, this.c.robot, r);
     layout.avoid({ kind: "robot", x: x - r, y: y - r, w: 2 * r, h: 2 * r });
@@ -163,6 +182,9 @@ export class Scene {
   // The label at the left of the strip, the scale bar at its right.
   finish(layout, text) {
     const { ctx, c } = this;
+    ctx.restore();
+    ctx.fillStyle = c.ground;
+    ctx.fillRect(0, this.h - STRIP, this.w, STRIP);
     const bar = this.step * this.s, y = this.h - STRIP / 2;
     ctx.strokeStyle = c.text; ctx.lineWidth = 2;
     ctx.beginPath(); ctx.moveTo(this.w - 6 - bar, y); ctx.lineTo(this.w - 6, y); ctx.stroke();

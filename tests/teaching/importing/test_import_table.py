@@ -82,7 +82,8 @@ def test_distances_by_hand_with_recorded_paths(tmp_path):
     domain = table.domain
     assert domain.trajectory_shape == (3, 2) and domain.state_scale == (2.0, 2.0)
     payload = domain.scene_payload(11)
-    assert payload["bounds"] == [0.0, 6.0, 0.0, 5.0]  # x: 0 .. objective 2's 6 m, y: 0 .. the agent's 5 m
+    # x: 0 .. objective 2's 6 m, y: 0 .. the agent's 5 m, each with 8 % of the larger span (6 m) around it
+    assert np.allclose(payload["bounds"], [-0.48, 6.48, -0.48, 5.48], rtol=0, atol=1e-12)
     assert payload["agents"] == [[[5.0, 5.0]] * 3] and payload["dt"] == 1.0 and payload["unit"] == "m"
     assert domain.path_rows(table.states(1, 2)) == [[0.0, 0.0], [3.0, 1.0], [6.0, 2.0]]
 
