@@ -98,7 +98,8 @@ class ImportedDomain(BaseDomain):
             self.trajectory_shape = (len(self.feature_names),)
             self.state_scale = (1.0,) * len(self.feature_names)
         self.vocabulary = frozenset(w for w in re.split("[^a-z]+", self.name) if w)
-        self.texts = _texts(s, (self.robot_dir / OBSTACLES).exists())
+        self.texts = _texts(s, agents=(self.robot_dir / AGENTS).exists(),
+                            obstacles=(self.robot_dir / OBSTACLES).exists())
 
     # --- world -------------------------------------------------------------------------------------------------
     def parse_theta_star(self, values) -> tuple[float, ...]:
@@ -186,7 +187,8 @@ class ImportedDomain(BaseDomain):
         objective's path, the agents' and the obstacles, so all of its options share one view); the agents'
         paths, the obstacles [x0, y0, x1, y1] and the clock's step."""
         if not self.paths:
-            return {"bounds": [0.0, 1.0, 0.0, 1.0], "agents": [], "obstacles": [], "dt": 1.0, "unit": ""}
+            raise ValueError(f"the imported robot {self.name!r} has no recorded paths to show participants: import "
+                             "its folder with paths.npz (docs/importing.md, \"Recorded paths\")")
         row = self._row_of[int(env_id)]
         agents = [] if self._agents is None else np.round(np.asarray(self._agents[row]), 3).tolist()
         obstacles = [] if self._obstacles is None else np.round(np.asarray(self._obstacles[row]), 3).tolist()
@@ -211,7 +213,8 @@ class ImportedDomain(BaseDomain):
         return render_sheet(domain=self, **kwargs)
 
 
-def _texts(spec: dict, obstacles: bool) -> ParticipantTexts:
+def _texts(spec: dict, *, agents: bool, obstacles: bool) -> ParticipantTexts:
+    """The folder's [texts], plain defaults for the rest, and a legend of what its scenes draw."""
     t, title = spec.get("texts", {}), spec["title"]
     return ParticipantTexts(
         summary=t.get("summary", SUMMARY.format(title=title)),
@@ -223,7 +226,7 @@ def _texts(spec: dict, obstacles: bool) -> ParticipantTexts:
         watch=t.get("watch", _("Watch what the robot does.")),
         question=t.get("question", _("Which of these matches the robot's preferences?")),
         legend=(LegendEntry(_("the robot"), "ground", "robot"), LegendEntry(_("the robot's path"), "path", "path"),
-                LegendEntry(_("another person or robot"), "agent", "agent"),
+                *((LegendEntry(_("another person or robot"), "agent", "agent"),) if agents else ()),
                 *((LegendEntry(_("a wall or obstacle"), "obstacle", "obstacle"),) if obstacles else ())),
         option=t.get("option", _("option")),
         title=title)

@@ -81,3 +81,20 @@ def test_a_study_whose_imported_table_is_gone_says_so_in_one_line(db, imported, 
     imported.rename(tmp_path / "moved")
     problems = study.running_problems()
     assert len(problems) == 1 and f"Its robot '{NAME}' is not registered on this server" in problems[0]
+
+
+def test_a_study_of_a_robot_with_nothing_to_show_is_refused_in_one_line(db, gridworld_tiny_table, tmp_path):
+    """A table imported from features alone (no recorded paths, no videos) teaches and fits, but participants
+    would see nothing: building a study on it is refused, naming what is missing."""
+    folder = export_table(TrajectoryTable.load(gridworld_tiny_table), tmp_path / "folder", name="blind")
+    toml = (folder / "table.toml").read_text()
+    (folder / "table.toml").write_text(toml[:toml.index("[paths]")] + toml[toml.index("[[features]]"):])
+    (folder / "paths.npz").unlink()
+    table = import_table(folder, tmp_path / "blind")
+    try:
+        with pytest.raises(ValueError, match="'blind' has no recorded paths to show participants") as err:
+            build_study(real_spec(table, tmp_path / "blind", slug="blind"))
+        assert "\n" not in str(err.value)
+    finally:
+        unregister("blind")
+        registry.forget("blind")
