@@ -57,6 +57,9 @@ def check_domain_command(args) -> int:
     """Run check-domain; 0 when every check passes, 1 when one fails (bad arguments raise ValueError)."""
     domain = get_domain(args.name)
     presets = {p.name: p for p in domain.presets} if hasattr(domain, "presets") else {}  # else: the members check says
+    if hasattr(domain, "presets") and not presets:
+        raise ValueError(f"{domain.name} has no presets to plan: check-domain checks a robot's planner, and a table "
+                         "imported from a robot's own files was checked when it was imported (check-table)")
     if args.preset is not None and args.preset not in presets:
         raise ValueError(f"unknown preset {args.preset!r} for domain {domain.name}; choose one of {', '.join(presets)}")
     if args.envs < 1:

@@ -132,6 +132,9 @@ def test_the_command_imports_and_the_table_works_with_teach_and_info(gridworld_t
     assert "table: domain=tiny-yards preset=tiny-yards envs=48 thetas=24" in said
     assert "imported 48 environments x 24 objectives" in said
     assert main(["info", str(tmp_path / "t")]) == 0
+    capsys.readouterr()
+    assert main(["check-domain", "tiny-yards"]) == 2  # no planner here to check
+    assert "tiny-yards has no presets to plan" in capsys.readouterr().err
 
 
 def test_a_fresh_process_finds_the_robot_from_the_table_alone(tmp_path):
