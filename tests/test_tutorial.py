@@ -48,10 +48,12 @@ def free_port() -> int:
 
 
 class Demo:
-    """`make demo` running in its own process group, its output read line by line."""
+    """`make demo` (or another target that serves) running in its own process group, its output read line by
+    line."""
 
-    def __init__(self, env: dict):
-        self.proc = subprocess.Popen(["make", "demo"], cwd=ROOT, env=env, stdout=subprocess.PIPE,
+    def __init__(self, env: dict, target: str = "demo"):
+        self.target = target
+        self.proc = subprocess.Popen(["make", target], cwd=ROOT, env=env, stdout=subprocess.PIPE,
                                      stderr=subprocess.STDOUT, text=True, start_new_session=True)
         self.lines: list[str] = []
         self.reader = threading.Thread(target=self._read, daemon=True)
@@ -66,10 +68,10 @@ class Demo:
 
     def wait_for(self, text: str, timeout: float) -> None:
         def printed():
-            assert self.proc.poll() is None, "make demo stopped:\n" + self.tail()
+            assert self.proc.poll() is None, f"make {self.target} stopped:\n" + self.tail()
             return any(text in line for line in self.lines)
 
-        wait_until(printed, timeout, f"make demo printing {text!r}", poll=0.2, detail=self.tail)
+        wait_until(printed, timeout, f"make {self.target} printing {text!r}", poll=0.2, detail=self.tail)
 
     def interrupt(self) -> int:
         """Ctrl-C as a terminal sends it: SIGINT to every process of the group; the exit status."""
@@ -91,15 +93,16 @@ class Demo:
             os.killpg(self.proc.pid, signal.SIGKILL)
 
 
-def take_part(opener, link: str) -> str:
-    """Step 2 as a browser posts it (tests/load/client.py reads each page's form); the completion code."""
+def take_part(opener, link: str, answers=answer_for) -> str:
+    """Step 2 as a browser posts it (tests/load/client.py reads each page's form, `answers` fills it in); the
+    completion code."""
     page = opener.open(link, timeout=60).read().decode()
     rng = random.Random(7)
     for _ in range(100):
         step = parse_step(page)
         if step["kind"] == "done":
             return step["code"]
-        fields, _ = answer_for(step, rng)
+        fields, _ = answers(step, rng)
         body = urlencode([*fields, ("csrfmiddlewaretoken", step["csrf"])]).encode()
         page = opener.open(Request(urljoin(link, step["action"]), data=body), timeout=60).read().decode()
     raise AssertionError("the study did not end within 100 steps")
