@@ -47,7 +47,7 @@ def find_robot(study) -> None:
     """A study of an imported robot registers the robot its table carries (docs/importing.md) the first time this
     process needs it, so the site and the workers need no setting for it; a study of a registered robot costs a
     lookup.  A table gone or broken is logged, and the study then reads as one whose robot is not here."""
-    table = (study.source or {}).get("table")
+    table = (getattr(study, "source", None) or {}).get("table")  # a study's stand-in may carry no source
     if study.domain in domain_names() or not table:
         return
     try:

@@ -176,7 +176,7 @@ export class Scene {
     const [x, y] = this.toScreen(...this.robot[this.robot.length - 1]);
     this.disc(x, y, this.c.ground, this.c.robot, r);
     layout.avoid({ kind: "robot", x: x - r, y: y - r, w: 2 * r, h: 2 * r });
-    this.finish(layout, gettext("trail: the whole way"));
+    this.finish(layout, gettext("trail: whole path"));
   }
 
   // The label at the left of the strip, the scale bar at its right.

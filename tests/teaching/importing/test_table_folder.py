@@ -280,8 +280,8 @@ BROKEN = {
 "paths: an environment missing": (lambda d: with_paths(d, env_id=np.array([10, 11, 13])),
                                   "paths.npz: env_id: environment 12 of the data has no paths"),
 "paths: unknown array": (lambda d: with_paths(d, agnets=AGENTS),
-                         "paths.npz: array 'agnets' is not one the format knows (one of env_id, t, robot, agents); "
-                         "did you mean 'agents'?"),
+                         "paths.npz: array 'agnets' is not one the format knows (one of env_id, t, robot, agents, "
+                         "obstacles); did you mean 'agents'?"),
 "paths: a scale too many": (lambda d: with_paths(d, TOML + PATHS_TOML.replace("[2.0, 2.0]", "[2.0, 2.0, 1.0]")),
                          "table.toml: paths.scale: 3 numbers, expected 2 (one per column: x, y)"),
 "paths: no file": (lambda d: (with_paths(d), (d / "paths.npz").unlink(), d)[-1],
