@@ -18,7 +18,7 @@ from django.db import transaction
 
 from studyapp.models import Study
 from studyapp.researcher.specschema import CheckedStudy
-from studyapp.researcher.studies import SpecError, new_study
+from studyapp.researcher.studies import SpecError, kept_suboptimal, new_study
 from studyapp.trajectories import cannot_show
 from teaching.api import ClosedLoopSpec, TrajectoryTable, condition_params
 
@@ -64,7 +64,7 @@ def create_study_job(table_path, checked: CheckedStudy, queue: str | None = None
               "theta_star": [float(v) for v in table.theta_star], "domain": table.domain.name,
               **{k: checked[k] for k in ("seed", "approx_star", "hyperparameters", "hand_picked",
                                          "test_set_thresholds")},
-              "selectors": selectors, "test_difficulty": difficulty}
+              "selectors": selectors, "test_difficulty": difficulty, **kept_suboptimal(table.meta)}
     with transaction.atomic():
         try:  # what only the robot and the database can say (studyapp/researcher/studies.py)
             study = new_study(checked, source, replace=checked["replace"])

@@ -152,7 +152,8 @@ def _payloads(spec: dict):
     except (ValueError, IndexError) as exc:  # ClosedLoopError and TestSetError are ValueErrors
         raise SpecError(str(exc)) from None
     source = {"kind": "table", "table": str(spec["table"]), "content_hash": table.meta.get("content_hash"),
-              "theta_star": [float(v) for v in table.theta_star], "domain": table.domain.name}
+              "theta_star": [float(v) for v in table.theta_star], "domain": table.domain.name,
+              **kept_suboptimal(table.meta)}
     selectors = {c["name"]: {"selector": c["selector"], "params": condition_params(c["selector"], c.get("params"))}
                  for c in conditions if "selector" in c}
     if selectors:  # what chose each condition's examples, as the study job records it
@@ -312,6 +313,13 @@ def build_study(spec: dict, replace: bool = False) -> Study:
 
 
 # --- a whole study from a table, and the demo ------------------------------------------------------
+def kept_suboptimal(meta: dict) -> dict:
+    """{"kept_suboptimal": what the optimality check found} for a table imported although some trajectory is not
+    the best under its own objective (its researcher set keep_suboptimal), else {}: the dashboard shows it."""
+    imported = meta.get("imported") or {}
+    return {"kept_suboptimal": imported.get("optimality", "")} if imported.get("keep_suboptimal") else {}
+
+
 def table_spec(table_path, *, slug: str, sequences: dict | None = None, seed: int = 0, **test_set_kw) -> dict:
     """A spec whose conditions and test set come from the real pipeline on the table at `table_path`.
 

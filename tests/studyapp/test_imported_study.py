@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 from django.test import Client
 
@@ -98,3 +99,34 @@ def test_a_study_of_a_robot_with_nothing_to_show_is_refused_in_one_line(db, grid
     finally:
         unregister("blind")
         registry.forget("blind")
+
+
+def test_a_table_kept_although_suboptimal_says_so_on_the_dashboard(db, gridworld_tiny_table, tmp_path, staff_client):
+    """keep_suboptimal = true is recorded in the table and shown on the study's dashboard page, with the
+    check's counts; a study on an optimal table shows nothing of it."""
+    folder = export_table(TrajectoryTable.load(gridworld_tiny_table), tmp_path / "folder", name="kept")
+    data = dict(np.load(folder / "features.npz"))
+    phi = data["features"].copy()
+    m = int(np.flatnonzero((phi != phi[:, :1]).any(axis=(1, 2)))[0])  # an environment with another trajectory
+    k = int(np.flatnonzero((phi[m] != phi[m, 0]).any(axis=1))[0])
+    phi[m, 0] = data["features"][m, k]  # θ*'s row given another objective's trajectory: not its best
+    np.savez(folder / "features.npz", **{**data, "features": phi})
+    toml = (folder / "table.toml").read_text()
+    kept = toml.replace("min_option_distance", "keep_suboptimal = true\nmin_option_distance")
+    (folder / "table.toml").write_text(kept)
+    table = import_table(folder, tmp_path / "kept")
+    try:
+        assert table.meta["imported"]["keep_suboptimal"] and "θ*'s trajectory is not the best" in \
+            table.meta["imported"]["optimality"]
+        study = build_study(real_spec(table, tmp_path / "kept", slug="kept"))
+        page = staff_client.get(f"/dashboard/{study.slug}/").content.decode()
+        assert 'id="kept-suboptimal"' in page and "θ*&#x27;s trajectory is not the best under θ* in 1 of 48" in page
+    finally:
+        unregister("kept")
+        registry.forget("kept")
+
+
+def test_an_optimal_imported_table_says_nothing_of_it(db, imported, staff_client):
+    study = build_study(real_spec(TrajectoryTable.load(imported), imported, slug="optimal"))
+    assert "kept_suboptimal" not in study.source
+    assert 'id="kept-suboptimal"' not in staff_client.get(f"/dashboard/{study.slug}/").content.decode()
