@@ -1,8 +1,10 @@
 """What every file of a table folder shares: the one-line refusal, a CSV read into its lines with its header
-checked, and the record of which line gave each (environment, objective) pair."""
+checked, a NumPy .npz read with its arrays' names checked, and the record of which line gave each
+(environment, objective) pair."""
 from __future__ import annotations
 
 import csv
+import zipfile
 from pathlib import Path
 from typing import NoReturn
 
@@ -21,6 +23,33 @@ def refuser(file: str):
         raise TableFolderError(f"{file}: {what}")
 
     return fail
+
+
+def read_npz(path: Path, known: tuple[str, ...], required: tuple[str, ...], fail) -> dict[str, np.ndarray]:
+    """{name: array} of the .npz at `path`: a zip of .npy arrays, every name one of `known`, each of `required`
+    there, none needing pickle (a data file never runs code)."""
+    if not zipfile.is_zipfile(path):
+        fail("not a NumPy .npz file (a zip of .npy arrays, as numpy.savez writes it)")
+    try:
+        npz = np.load(path, allow_pickle=False)
+    except (OSError, ValueError, zipfile.BadZipFile) as exc:
+        fail(f"not a NumPy .npz file ({exc})")
+    with npz:
+        names = list(npz.files)
+        for name in names:
+            if name not in known:
+                fail(f"array {name!r} is not one the format knows (one of {', '.join(known)})"
+                     f"{did_you_mean(name, known)}")
+        for name in required:
+            if name not in names:
+                fail(f"no array {name!r} (it holds: {', '.join(names) or 'nothing'})")
+        arrays = {}
+        for name in names:
+            try:
+                arrays[name] = npz[name]
+            except (ValueError, OSError, zipfile.BadZipFile) as exc:  # an object array needs pickle: refused
+                fail(f"array {name!r} cannot be read without running code or is damaged ({exc})")
+    return arrays
 
 
 def read_csv(path: Path, columns: tuple[str, ...], required: tuple[str, ...], fail) -> tuple[list[str], list]:

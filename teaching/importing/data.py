@@ -12,14 +12,12 @@ What comes back, M environments, N objectives (θ* first), D features::
 """
 from __future__ import annotations
 
-import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ..core.schemacheck import did_you_mean
-from .csvlines import PairLines, read_csv, refuser
+from .csvlines import PairLines, read_csv, read_npz, refuser
 
 OPTIONAL = ("env_class", "strategy", "distance")
 ARRAYS = ("env_id", "features", *OPTIONAL)
@@ -55,27 +53,7 @@ def read_data(path: Path, expected: Expected) -> dict:
 # --- .npz ---------------------------------------------------------------------------------------------------------
 def _read_npz(path: Path, expected: Expected) -> dict:
     fail = refuser(path.name)
-    if not zipfile.is_zipfile(path):
-        fail("not a NumPy .npz file (a zip of .npy arrays, as numpy.savez writes it)")
-    try:
-        npz = np.load(path, allow_pickle=False)
-    except (OSError, ValueError, zipfile.BadZipFile) as exc:
-        fail(f"not a NumPy .npz file ({exc})")
-    with npz:
-        names = list(npz.files)
-        for name in names:
-            if name not in ARRAYS:
-                fail(f"array {name!r} is not one the format knows (one of {', '.join(ARRAYS)})"
-                     f"{did_you_mean(name, ARRAYS)}")
-        for name in ("env_id", "features"):
-            if name not in names:
-                fail(f"no array {name!r} (it holds: {', '.join(names) or 'nothing'})")
-        arrays = {}
-        for name in names:
-            try:
-                arrays[name] = npz[name]
-            except (ValueError, OSError, zipfile.BadZipFile) as exc:  # an object array needs pickle: refused
-                fail(f"array {name!r} cannot be read without running code or is damaged ({exc})")
+    arrays = read_npz(path, ARRAYS, ("env_id", "features"), fail)
     m = len(arrays["env_id"]) if arrays["env_id"].ndim == 1 else -1
     for name, a in arrays.items():
         if a.shape != expected.shape(name, max(m, 0)):

@@ -16,14 +16,12 @@ refusal is one line naming the file, the array and the place in it.
 """
 from __future__ import annotations
 
-import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ..core.schemacheck import did_you_mean
-from .csvlines import refuser
+from .csvlines import read_npz, refuser
 
 ARRAYS = ("env_id", "t", "robot", "agents", "obstacles")
 DEFAULT_COLUMNS = ("x", "y")
@@ -103,24 +101,7 @@ def read_paths(folder: Path, raw: dict, env_ids: np.ndarray, n_objectives: int) 
 
 
 def _load(path: Path, fail) -> dict:
-    if not zipfile.is_zipfile(path):
-        fail("not a NumPy .npz file (a zip of .npy arrays, as numpy.savez writes it)")
-    try:
-        npz = np.load(path, allow_pickle=False)
-    except (OSError, ValueError, zipfile.BadZipFile) as exc:
-        fail(f"not a NumPy .npz file ({exc})")
-    with npz:
-        for name in npz.files:
-            if name not in ARRAYS:
-                fail(f"array {name!r} is not one the format knows (one of {', '.join(ARRAYS)})"
-                     f"{did_you_mean(name, ARRAYS)}")
-        for name in ARRAYS[:3]:
-            if name not in npz.files:
-                fail(f"no array {name!r} (it holds: {', '.join(npz.files) or 'nothing'})")
-        try:
-            arrays = {name: npz[name] for name in npz.files}
-        except (ValueError, OSError, zipfile.BadZipFile) as exc:
-            fail(f"an array cannot be read without running code or is damaged ({exc})")
+    arrays = read_npz(path, ARRAYS, ARRAYS[:3], fail)
     for name, a in arrays.items():
         if a.dtype.kind not in ("iu" if name == "env_id" else "fiu"):
             fail(f"{name}: {a.dtype} values, expected {'whole numbers' if name == 'env_id' else 'numbers'}")

@@ -28,14 +28,16 @@ def carries_robot(meta: dict) -> bool:
     return bool(meta.get("imported"))
 
 
-def register_table(path) -> str:
+def register_table(path, meta: dict | None = None) -> str:
     """Register the robot the imported table at `path` carries (once; again from the same table is a no-op) and
-    return its name; ImportedRobotError (one line) if it is not an imported table or its name is taken."""
+    return its name; ImportedRobotError (one line) if it is not an imported table or its name is taken.
+    meta: its meta.json, where the caller has read it already."""
     path = Path(path).resolve()
-    try:
-        meta = json.loads((path / "meta.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
-        raise ImportedRobotError(f"{path}: not a table (meta.json: {exc})") from None
+    if meta is None:
+        try:
+            meta = json.loads((path / "meta.json").read_text(encoding="utf-8"))
+        except (OSError, ValueError) as exc:
+            raise ImportedRobotError(f"{path}: not a table (meta.json: {exc})") from None
     if not carries_robot(meta) or not (path / ROBOT / DESCRIPTION).is_file():
         raise ImportedRobotError(f"{path}: not a table made by import-table (it carries no {ROBOT}/{DESCRIPTION})")
     name = meta.get("domain")
@@ -57,7 +59,7 @@ def register_table(path) -> str:
 def read_carried(path: Path, meta: dict) -> None:
     """The core's hook (teaching.core.domain.set_carried_reader): register the robot of an imported table."""
     if carries_robot(meta):
-        register_table(path)
+        register_table(path, meta)
 
 
 def forget(name: str) -> None:

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.base import BaseDomain
+from ..core.base import BaseDomain, stratified_sample
 from ..core.domain import LegendEntry, ParticipantTexts
 from ..core.i18n import gettext_noop as _
 from ..core.pathdistance import padded_distance
@@ -128,8 +128,6 @@ class ImportedDomain(BaseDomain):
         return self.environment_class(self.env_ids)
 
     def stratified_sample(self, n: int, seed: int = 0) -> np.ndarray:
-        from ..core.base import stratified_sample  # noqa: PLC0415
-
         return np.sort(self.env_ids[stratified_sample(self.all_classes, len(self.class_names), n, seed=seed)])
 
     # --- planner: the table's, imported -----------------------------------------------------------------------
