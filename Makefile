@@ -5,7 +5,7 @@ PIP := .venv/bin/pip
 # every file on it), the first step of every `make test` from a fresh clone (docs/decisions.md, Dependencies)
 UV_VERSION := 0.13.9
 
-.PHONY: demo test lint venv browser-deps serve-deps media-deps messages table bench clean serve load docs example
+.PHONY: demo test lint venv browser-deps serve-deps media-deps messages table bench clean serve load docs example example-videos
 
 venv: .venv/.installed
 .venv/.installed: requirements.txt
@@ -46,6 +46,10 @@ demo: venv table messages
 # planner, imported, taught, made a study and served locally.
 example: venv messages
 	bash examples/hallway/serve.sh
+
+# The same robot shown by the clips its own script renders (matplotlib and ffmpeg): docs/importing.md, "Videos".
+example-videos: venv messages media-deps
+	bash examples/hallway/serve.sh --videos
 
 # The production configuration on this machine: gunicorn + PostgreSQL + Redis + a Celery worker
 # (docs/operations.md; DATABASE_URL, CELERY_BROKER_URL, CACHE_URL, BIND override).

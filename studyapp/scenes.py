@@ -9,11 +9,13 @@ canvas, the legend's swatches and (in Python) the contact sheet all use.
 """
 from __future__ import annotations
 
+import mimetypes
 import re
 
+from django.http import FileResponse, Http404
 from django.templatetags.static import static
 
-from teaching.api import Domain
+from teaching.api import Domain, recording_file
 
 from .i18n import participant_texts
 from .trajectories import study_domain
@@ -44,12 +46,24 @@ def legend(domain: Domain) -> list[dict]:
     return out
 
 
-def scene_context(study) -> dict:
-    """Template context of a page that draws `study`'s scenes."""
+def scene_context(study, media_base: str = "") -> dict:
+    """Template context of a page that draws `study`'s scenes; `media_base`: the URL its recordings are served
+    under (a participant's own, or the researchers'), for a robot whose stimuli are recordings."""
     domain = study_domain(study)
     return {"domain": domain.name, "scene_name": domain.scene, "palette_css": palette_css(domain),
             "legend": legend(domain), "scene_module": static(f"studyapp/scenes/{domain.scene}.js"),
-            "texts": participant_texts(domain), "scene_view": study.scene_view()}
+            "texts": participant_texts(domain), "scene_view": study.scene_view(), "media_base": media_base}
+
+
+def recording(study, name: str) -> FileResponse:
+    """The recording `name` (an opaque SHA-256 file name, ``teaching.api.stimulus_of``) of `study`'s robot; 404 for
+    a name that is not one of its recordings.  Its name is its content's hash, so a browser may keep it for good."""
+    path = recording_file(study_domain(study), name)
+    if path is None or not path.is_file():
+        raise Http404("no such recording")
+    response = FileResponse(path.open("rb"), content_type=mimetypes.guess_type(path.name)[0] or "video/webm")
+    response["Cache-Control"] = "private, max-age=31536000, immutable"
+    return response
 
 
 def instructions(study, n_training: int, n_tests: int) -> list[str]:

@@ -7,7 +7,7 @@ trajectory table while a study runs.  What a scene holds is the domain's
 every domain's payload has::
 
     {"env_id": 123, "env_class": 0, "class_name": "...", "cluster": 1, "cluster_name": "...",
-     **domain.scene_payload(123), "robot": domain.path_rows(states)}
+     **domain.scene_payload(123), "robot": stimulus_of(domain, 123, theta_index, states)}
 
 A test adds ``options``: ``[{"theta_index", "is_theta_star", "cluster", "cluster_name", "robot"}] * 4``
 in canonical order (the display order is drawn per participant).  A "show the way" test has no options:
@@ -34,6 +34,7 @@ from teaching.api import (
     is_show,
     register_table_robot,
     shows_the_way,
+    stimulus_of,
 )
 
 
@@ -56,13 +57,13 @@ def find_robot(study) -> None:
         logging.getLogger(__name__).warning("study %s: %s", study.slug, exc)
 
 
-def env_payload(domain: Domain, env_id: int, env_class: int, states, cluster: int) -> dict:
-    """JSON for one environment of class `env_class`: its scene, and the path `states` (T+1, S)
-    labelled `cluster`."""
+def env_payload(domain: Domain, env_id: int, env_class: int, states, cluster: int, theta_index: int) -> dict:
+    """JSON for one environment of class `env_class`: its scene, and what it shows of objective `theta_index`'s
+    path `states` (T+1, S) labelled `cluster` (``stimulus_of``: its rows, or its recording's opaque name)."""
     cls = int(env_class)
     return {"env_id": int(env_id), "env_class": cls, "class_name": domain.class_names[cls],
             "cluster": int(cluster), "cluster_name": domain.cluster_names[int(cluster)],
-            **domain.scene_payload(int(env_id)), "robot": domain.path_rows(states)}
+            **domain.scene_payload(int(env_id)), "robot": stimulus_of(domain, env_id, theta_index, states)}
 
 
 def drawn_scene(payload: dict, *, robot: bool, domain: Domain) -> dict:
@@ -88,13 +89,13 @@ def study_view(domain: Domain, conditions, test_set, extra=()) -> dict:
     return domain.study_view(scenes + list(extra))
 
 
-def option_payload(domain: Domain, theta_index, is_theta_star, cluster, states) -> dict:
+def option_payload(domain: Domain, env_id: int, theta_index, is_theta_star, cluster, states) -> dict:
     return {
         "theta_index": None if theta_index is None else int(theta_index),
         "is_theta_star": bool(is_theta_star),
         "cluster": int(cluster),
         "cluster_name": domain.cluster_names[int(cluster)],
-        "robot": domain.path_rows(states),
+        "robot": stimulus_of(domain, env_id, theta_index, states),
     }
 
 
@@ -134,7 +135,7 @@ def _star_payload(table, env_id: int) -> tuple[int, dict]:
     i = _env_index(table, int(env_id))
     star = table.theta_star_index
     return i, env_payload(table.domain, int(env_id), table.env_class[i], table.states(i, star),
-                          table.strategy[i, star])
+                          table.strategy[i, star], star)
 
 
 def training_from_table(table, env_ids) -> list[dict]:
@@ -190,8 +191,8 @@ def test_set_from_table(table, test_set) -> list[dict]:
                 raise ValueError(f"test in environment {test['env_id']}: option theta {o['theta_index']} says "
                                  f"is_theta_star={o['is_theta_star']}, but theta* is theta {star} in this table")
         payload["options"] = [
-            option_payload(table.domain, o["theta_index"], o["is_theta_star"], table.strategy[i, o["theta_index"]],
-                           table.states(i, o["theta_index"]))
+            option_payload(table.domain, test["env_id"], o["theta_index"], o["is_theta_star"],
+                           table.strategy[i, o["theta_index"]], table.states(i, o["theta_index"]))
             for o in test["options"]]
         payload.update({k: test[k] for k in GRADED_KEYS if k in test})
         out.append(payload)

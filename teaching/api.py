@@ -34,6 +34,9 @@ Domains (teaching.core.domain)
                              (names, classes, clusters, features, θ*), PlannerPart (planning, the
                              stored encoding, states) and PagesPart (scene payloads, palette, texts);
                              shows_the_way(domain): whether it has the optional ShowWayPart;
+                             stimulus_of(domain, env_id, theta_index, states) what a page shows of
+                             a trajectory (its recording's opaque name under the optional
+                             RecordingsPart, else its path rows); recording_file(domain, name)
                              get_domain(name=None) the registered one (None: default),
                              domain_names() every registered name, default_domain_name()
     ParticipantTexts, LegendEntry  what a domain's pages tell participants
@@ -197,7 +200,9 @@ from .core.domain import (
     default_domain_name,
     domain_names,
     get_domain,
+    recording_file,
     shows_the_way,
+    stimulus_of,
 )
 from .core.evaluation import USER_NAMES, study_matrix
 from .core.fitting import TIE_TOLERANCE, Comparison, compare_models
@@ -237,7 +242,7 @@ __all__ = [
     "ALL_CONDITIONS", "APPROX_STAR", "CLASS_NAMES", "CLUSTER_NAMES", "CONDITIONS", "GOAL_NAMES", "MIN_OPTION_DISTANCE",
     "MIN_REGRET",
     "Domain", "LegendEntry", "ParticipantTexts", "TranslatableError", "default_domain_name", "domain_names",
-    "get_domain", "shows_the_way",
+    "get_domain", "recording_file", "shows_the_way", "stimulus_of",
     "MODEL_NAMES", "N_CLUSTERS", "USER_NAMES",
     "N_ENVIRONMENTS", "PRESETS", "SAMPLERS", "WORLD", "Preset", "SelectionSettings", "TableError",
     "TrajectoryTable", "assemble", "build_chunk", "build_sequences", "check_writable", "chunk_key", "chunk_path",

@@ -1,10 +1,11 @@
 """Write the hallway robot's table folder (docs/importing.md): what a lab hands over from its own stack.
 
-    .venv/bin/python examples/hallway/make_folder.py --out var/examples/hallway
+    .venv/bin/python examples/hallway/make_folder.py --out var/examples/hallway [--videos]
 
 table.toml (the robot's features, θ*, the candidates, classes, strategies and the participants' texts),
 features.npz (the features, classes and strategies of every trajectory) and paths.npz (the robot's poses
-and the people's, every 0.25 s).  Seeded: the same folder every time.
+and the people's, every 0.25 s).  Seeded: the same folder every time.  With --videos also a clip of every
+trajectory (videos.py: clips/ and the stimuli manifest stimuli.csv, named in table.toml).
 """
 from __future__ import annotations
 
@@ -38,17 +39,21 @@ def toml_value(v) -> str:
     return json.dumps(v, ensure_ascii=False)  # strings, numbers and lists of them read the same in TOML
 
 
-def write_folder(out: Path, n_envs: int, n_candidates: int, seed: int) -> None:
+def write_folder(out: Path, n_envs: int, n_candidates: int, seed: int, *, videos: bool = False,
+                 jobs: int = 2) -> None:
+    """Write the folder; with `videos` also every trajectory's clip and the manifest naming them, as the robot
+    "hallway-video" (a name is one robot, and both tables may be served by one site)."""
     out.mkdir(parents=True, exist_ok=True)
     table = planner.plan(n_envs, n_candidates, seed)
     np.savez(out / "features.npz", env_id=table["env_id"], features=table["features"],
              env_class=table["env_class"], strategy=table["strategy"])
     np.savez(out / "paths.npz", env_id=table["env_id"], t=planner.T, robot=table["robot"], agents=table["agents"],
              obstacles=table["walls"])
-    lines = ['name = "hallway"', 'title = "A robot crossing a hallway"', 'data = "features.npz"',
+    lines = [f'name = "{"hallway-video" if videos else "hallway"}"', 'title = "A robot crossing a hallway"', 'data = "features.npz"',
              f"theta_star = {toml_value(list(planner.THETA_STAR))}",
              "candidates = [", *(f"  {toml_value(t.tolist())}," for t in table["thetas"][1:]), "]",
-             f"classes = {toml_value(list(planner.CLASSES))}", "min_option_distance = 0.3", "",
+             f"classes = {toml_value(list(planner.CLASSES))}", "min_option_distance = 0.3",
+             *(['stimuli = "stimuli.csv"'] if videos else []), "",
              "[paths]", 'file = "paths.npz"', 'unit = "m"', "scale = [1.0, 1.0]",
              f"view = {toml_value(list(planner.VIEW))}", "", "[texts]"]
     lines += [f"{key} = {toml_value(value)}" for key, value in TEXTS.items()] + [""]
@@ -57,6 +62,10 @@ def write_folder(out: Path, n_envs: int, n_candidates: int, seed: int) -> None:
                   f"description = {toml_value(description)}", ""]
     for name, cls in planner.STRATEGIES:
         lines += ["[[strategies]]", f"name = {toml_value(name)}", f"class = {toml_value(cls)}", ""]
+    if videos:  # rendered before table.toml names their manifest
+        from videos import write_videos  # noqa: PLC0415  this folder's own; matplotlib and ffmpeg only when asked
+
+        write_videos(out, table, jobs=jobs)
     (out / "table.toml").write_text("\n".join(lines), encoding="utf-8")
 
 
@@ -66,8 +75,10 @@ def main() -> None:
     ap.add_argument("--envs", type=int, default=300)
     ap.add_argument("--candidates", type=int, default=79, help="objectives besides θ*")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--videos", action="store_true", help="also render every trajectory's clip (ffmpeg)")
+    ap.add_argument("--jobs", type=int, default=2, help="processes rendering clips")
     args = ap.parse_args()
-    write_folder(args.out, args.envs, args.candidates, args.seed)
+    write_folder(args.out, args.envs, args.candidates, args.seed, videos=args.videos, jobs=args.jobs)
     print(f"wrote {args.out}: {args.envs} environments x {args.candidates + 1} objectives")
 
 

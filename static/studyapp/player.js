@@ -2,7 +2,10 @@
 // domain's scene, mounts it on a page's .scene element, and keeps a step's progress across a reload.
 // The scene itself is the study's domain's (static/studyapp/scenes/<domain>.js, named by the page's
 // <meta name="scene-module">): a class Scene(canvas, env, robot) with duration, mode, t, boxes,
-// lastFrame, resize(), drawFrame(t), drawTrail() and redraw() (docs/domains.md "The web side").
+// lastFrame, resize(), drawFrame(t), drawTrail() and redraw() (docs/domains.md "The web side").  A scene
+// that plays recordings of its own (scenes/video.js) also brings its Player (static Player), its surface
+// (the element shown in the canvas's place), says it has no trail (static trail = false) and loads its
+// recordings before the page is used (static prepare(robots), see prepareScenes).
 
 import { gettext, interpolate } from "./i18n.js";
 
@@ -99,6 +102,11 @@ function replayText(label, option) {
   return label;
 }
 
+// Before any scene of the page is mounted: what `robots` (every robot the page shows) need loaded first.
+export async function prepareScenes(Scene, robots) {
+  if (Scene.prepare) await Scene.prepare(robots);
+}
+
 // Wire a .scene element's Play / Show trail buttons to a Player (Scene: sceneClass()'s).  trailAfter: once an
 // animation has played to its end, its whole path stays drawn (the Trail button on), as the study asks.
 export function mountScene(Scene, root, env, robot, onPlayed, { trailAfter = false } = {}) {
@@ -110,7 +118,7 @@ export function mountScene(Scene, root, env, robot, onPlayed, { trailAfter = fal
   const scene = new Scene(canvas, withView(env), robot);
   canvas.scene = scene;  // for the browser tests, which read what each frame drew (lastFrame)
   const replayLabel = replayText(baseLabel, root.closest("[data-option]")?.dataset.option);
-  const player = new Player(scene, {
+  const player = new (Scene.Player || Player)(scene, {
     onPlayed,
     onState: (state) => {
       root.dataset.state = state;
@@ -132,11 +140,13 @@ export function mountScene(Scene, root, env, robot, onPlayed, { trailAfter = fal
     player.showTrail(on);
   }
   trailBtn.addEventListener("click", () => showTrail(trailBtn.getAttribute("aria-pressed") !== "true"));
+  if (Scene.trail === false) trailBtn.hidden = true;  // a recording has no trail to show
   // pause and resume: a click on the animation, or Space / Enter on it (it is in the tab order)
-  canvas.tabIndex = 0;
-  canvas.title = gettext("Click (or press Space) to pause or resume the animation");
-  canvas.addEventListener("click", () => player.togglePause());
-  canvas.addEventListener("keydown", (event) => {
+  const surface = scene.surface || canvas;
+  surface.tabIndex = 0;
+  surface.title = gettext("Click (or press Space) to pause or resume the animation");
+  surface.addEventListener("click", () => player.togglePause());
+  surface.addEventListener("keydown", (event) => {
     if (event.key === " " || event.key === "Enter") {
       event.preventDefault();
       player.togglePause();

@@ -2,7 +2,7 @@
 // canvas, drawn as its whole trajectory (a contact sheet); each Play animates it as a participant
 // sees it, Trail returns to the whole trajectory, and "Play all" starts a section's or a test's together.
 // The scene data are the page's application/json blocks (one per condition, one for the tests).
-import { mountScene, readJSON, sceneClass } from "./player.js";
+import { mountScene, prepareScenes, readJSON, sceneClass } from "./player.js";
 
 const Scene = await sceneClass();
 
@@ -12,9 +12,16 @@ function block(id) {
   return blocks.get(id);
 }
 
-for (const cell of document.querySelectorAll(".cell[data-scene]")) {
+function robotOf(cell) {
   const item = block(cell.dataset.scene)[Number(cell.dataset.item)];
-  const robot = cell.dataset.option === undefined ? item.scene.robot : item.options[Number(cell.dataset.option)].robot;
+  return cell.dataset.option === undefined ? item.scene.robot : item.options[Number(cell.dataset.option)].robot;
+}
+
+const cells = [...document.querySelectorAll(".cell[data-scene]")];
+await prepareScenes(Scene, cells.map(robotOf));
+for (const cell of cells) {
+  const item = block(cell.dataset.scene)[Number(cell.dataset.item)];
+  const robot = robotOf(cell);
   const player = mountScene(Scene, cell, item.scene, robot);
   // a contact sheet: the whole trajectory until the researcher plays it
   cell.querySelector('[data-action="trail"]').setAttribute("aria-pressed", "true");

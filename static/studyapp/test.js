@@ -1,12 +1,13 @@
 // Test step: four animated options in a grid (each playable, or all together), one choice and a
 // 1-7 rating for each; continue only once each option was played and all are rated.
 import { gettext, interpolate } from "./i18n.js";
-import { lockOnSubmit, mountScene, readJSON, sceneClass, stepMemory } from "./player.js";
+import { lockOnSubmit, mountScene, prepareScenes, readJSON, sceneClass, stepMemory } from "./player.js";
 
 const Scene = await sceneClass();
 
 const scene = readJSON("scene-data");
 const robots = readJSON("option-robots");
+await prepareScenes(Scene, Object.values(robots));
 const form = document.querySelector("form[data-test-form]");
 const submit = form.querySelector('button[type="submit"]');
 const hint = form.querySelector("[data-hint]");

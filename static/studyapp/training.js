@@ -1,11 +1,12 @@
 // Training step: one animated example; "continue" unlocks once it was played to the end.
 import { gettext } from "./i18n.js";
-import { lockOnSubmit, mountScene, readJSON, sceneClass, stepMemory } from "./player.js";
+import { lockOnSubmit, mountScene, prepareScenes, readJSON, sceneClass, stepMemory } from "./player.js";
 
 const Scene = await sceneClass();
 
 const root = document.querySelector(".scene[data-scene]");
 const env = readJSON(root.dataset.scene);
+await prepareScenes(Scene, [env.robot]);
 const form = document.querySelector("form[data-require-played]");
 const submit = form.querySelector('button[type="submit"]');
 const hint = form.querySelector(".hint");

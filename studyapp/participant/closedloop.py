@@ -36,6 +36,7 @@ from teaching.api import (
     ClosedLoopSpec,
     Decision,
     Event,
+    TrajectoryTable,
     check_questions,
     load_pack,
     select_checks,
@@ -152,7 +153,8 @@ def warm_packs() -> int:
 def example_payload(domain, pack, row: int) -> dict:
     """What the page draws of θ*'s trajectory in table row `row` (a training example's payload)."""
     return trajectories.env_payload(domain, int(pack.env_ids[row]), int(pack.env_class[row]),
-                                    np.asarray(pack.star_states[row]), int(pack.star_cluster[row]))
+                                    np.asarray(pack.star_states[row]), int(pack.star_cluster[row]),
+                                    TrajectoryTable.theta_star_index)
 
 
 # --- per participant ------------------------------------------------------------------------------

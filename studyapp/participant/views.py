@@ -19,7 +19,7 @@ from ..guards import security
 from ..i18n import participant_texts
 from ..language import in_study_language
 from ..models import Participant, Study
-from ..scenes import scene_context
+from ..scenes import recording, scene_context
 from ..trajectories import study_domain
 from . import devices, flow, outcomes
 from .assignment import StudyClosed, assign
@@ -40,6 +40,7 @@ FRAME_ANCESTORS = f"frame-ancestors 'self' {MTURK_ORIGINS}"
 # width); the scene data are <script type="application/json"> blocks, which are never executed.
 PARTICIPANT_CSP = "; ".join([
     "default-src 'self'", "script-src 'self'", "style-src 'self' 'unsafe-inline'", "img-src 'self' data:",
+    "media-src 'self' blob:",  # a robot's videos, preloaded whole and played from blob: URLs
     "object-src 'none'", "base-uri 'none'",
     f"form-action 'self' {MTURK_ORIGINS}",
     FRAME_ANCESTORS,
@@ -162,6 +163,13 @@ def step(request, slug, token):
     return page.render(request, ctx)
 
 
+@require_GET
+def media(request, slug, token, name):
+    """A recording the participant's pages show (their own link's, so it works where a recruiting platform's
+    frame keeps no cookie)."""
+    return recording(_participant(slug, token).study, name)
+
+
 def step_context(participant: Participant, current: flow.Step) -> dict:
     """What the step's page is given: what every page shows (the study, the progress bar, the numbers of
     examples and tests) and what its kind's page adds (studyapp.participant.pages)."""
@@ -176,7 +184,8 @@ def step_context(participant: Participant, current: flow.Step) -> dict:
     if loop:  # closed loop: examples are chosen as the participant goes, up to a most
         ctx["total_training"] = gettext("up to {n}").format(n=loop["settings"]["max_examples"])
     if page.draws_robot:
-        ctx.update(scene_context(participant.study))  # the domain's scene module, palette, legend, texts
+        # the domain's scene module, palette, legend, texts, and where its recordings are served to this participant
+        ctx.update(scene_context(participant.study, media_base=participant.get_absolute_url() + "media/"))
     ctx.update(page.context(participant, current, ctx))
     return ctx
 

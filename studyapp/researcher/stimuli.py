@@ -10,10 +10,12 @@ strategy cluster and theta index, and which option is theta*'s.  What the canvas
 from __future__ import annotations
 
 from django.shortcuts import get_object_or_404, render
+from django.urls import reverse
+from django.views.decorators.http import require_GET
 
 from ..guards.access import researcher_required
 from ..models import Study
-from ..scenes import scene_context
+from ..scenes import recording, scene_context
 from ..trajectories import drawn_scene, is_show, study_domain
 
 LETTERS = "ABCDEFGH"  # canonical option order (a participant sees them in an order drawn for them)
@@ -48,7 +50,8 @@ def sheet(study: Study) -> dict:
                    "examples": [row_of_example(p, i + 1, domain) for i, p in enumerate(c.training)]}
                   for c in study.conditions.order_by("position", "pk")]
     tests = [row_of_test(t, j + 1, domain) for j, t in enumerate(study.test_set)]
-    return {"conditions": conditions, "tests": tests, **scene_context(study),
+    media_base = reverse("dashboard_study", args=[study.slug]) + "media/"
+    return {"conditions": conditions, "tests": tests, **scene_context(study, media_base=media_base),
             "n_examples": sum(len(c["examples"]) for c in conditions),
             "n_options": sum(len(t["options"]) for t in tests)}
 
@@ -57,3 +60,10 @@ def sheet(study: Study) -> dict:
 def stimuli(request, slug):
     study = get_object_or_404(Study, slug=slug)
     return render(request, "studyapp/dashboard/stimuli.html", {"study": study, **sheet(study)})
+
+
+@researcher_required
+@require_GET
+def media(request, slug, name):
+    """A recording the stimulus sheet shows."""
+    return recording(get_object_or_404(Study, slug=slug), name)

@@ -261,8 +261,23 @@ class ShowWayPart(Protocol):
         ...
 
 
+@runtime_checkable
+class RecordingsPart(Protocol):
+    """Optional: a robot whose pages may show recordings its lab made (teaching.importing: a table imported
+    with videos) instead of drawing each trajectory from its path_rows.  A domain has all of it or none of it."""
+
+    def stimulus(self, env_id: int, theta_index: int, states: np.ndarray):
+        """What the page shows of objective `theta_index`'s trajectory `states` in environment `env_id`:
+        ``{"video": name}``, an opaque name media_file serves, or the path_rows the scene animates."""
+        ...
+
+    def media_file(self, name: str) -> Path | None:
+        """The file of the recording `name` a stimulus named; None for any name that is not one of them."""
+        ...
+
+
 REQUIRED_PARTS = (WorldPart, PlannerPart, PagesPart)
-OPTIONAL_PARTS = (ShowWayPart,)
+OPTIONAL_PARTS = (ShowWayPart, RecordingsPart)
 
 
 def part_members(part: type) -> tuple[str, ...]:
@@ -282,6 +297,19 @@ def missing_members(domain) -> dict[type, tuple[str, ...]]:
         if lacks and (part in REQUIRED_PARTS or len(lacks) < len(names)):
             out[part] = lacks
     return out
+
+
+def stimulus_of(domain, env_id: int, theta_index: int, states: np.ndarray):
+    """What a page shows of objective `theta_index`'s trajectory `states` in environment `env_id`: the domain's
+    recording of it (RecordingsPart), else its path_rows, which the domain's scene draws."""
+    if isinstance(domain, RecordingsPart):
+        return domain.stimulus(int(env_id), int(theta_index), states)
+    return domain.path_rows(states)
+
+
+def recording_file(domain, name: str) -> Path | None:
+    """The file of `domain`'s recording `name`; None for a name that is not one, or a domain with none."""
+    return domain.media_file(name) if isinstance(domain, RecordingsPart) else None
 
 
 def shows_the_way(domain) -> bool:

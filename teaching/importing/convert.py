@@ -24,10 +24,8 @@ from ..core.table import TrajectoryTable
 from .csvlines import TableFolderError
 from .folder import TableFolder, read_folder
 from .registry import forget, register_table
-from .robot import AGENTS, DESCRIPTION, FORMAT, OBSTACLES, ROBOT, ImportedDomain
+from .robot import AGENTS, DESCRIPTION, FORMAT, MEDIA, OBSTACLES, ROBOT, VIDEOS, ImportedDomain
 
-MEDIA = "media"
-VIDEOS = "videos.npy"
 SAMPLER = "imported"  # a table's "sampler": its θs were the researcher's, not drawn
 BLOCK = 512  # environments whose distances are worked out at once
 MARGIN = 0.08  # of an environment's larger span, around its paths and obstacles where the table gives no view

@@ -33,6 +33,8 @@ ROBOT = "robot"  # the folder of a table that holds its robot
 DESCRIPTION = "robot.json"
 AGENTS = "agents.npy"
 OBSTACLES = "obstacles.npy"
+MEDIA = "media"  # the videos, each under its SHA-256 (a name that says nothing of an environment or objective)
+VIDEOS = "videos.npy"  # (M, N) int32: the position in robot.json's "videos" of each trajectory's video
 FORMAT = 1
 
 SUMMARY = _("you watch a robot ({title}) act in a few situations and answer questions about what it prefers")
@@ -72,7 +74,7 @@ class ImportedDomain(BaseDomain):
                                      "import the folder again")
         try:
             self._read(self.spec)
-        except (KeyError, TypeError, ValueError, IndexError) as exc:
+        except (KeyError, TypeError, ValueError, IndexError, OSError) as exc:
             raise ImportedRobotError(f"{path}: damaged ({type(exc).__name__}: {exc}): import the folder again") \
                 from None
 
@@ -98,7 +100,13 @@ class ImportedDomain(BaseDomain):
             self.trajectory_shape = (len(self.feature_names),)
             self.state_scale = (1.0,) * len(self.feature_names)
         self.vocabulary = frozenset(w for w in re.split("[^a-z]+", self.name) if w)
-        self.texts = _texts(s, agents=(self.robot_dir / AGENTS).exists(),
+        self.videos = tuple(s["videos"] or ())  # every video's file name in media/
+        self.video_of = np.load(self.robot_dir / VIDEOS) if self.videos else None  # (M, N) into self.videos
+        if self.video_of is not None and (self.video_of.ndim != 2 or len(self.video_of) != len(self.env_ids)
+                                          or self.video_of.min() < 0 or self.video_of.max() >= len(self.videos)):
+            raise ValueError(f"{VIDEOS} does not index the {len(self.videos)} videos of {len(self.env_ids)} "
+                             "environments")
+        self.texts = _texts(s, drawn=not self.videos, agents=(self.robot_dir / AGENTS).exists(),
                             obstacles=(self.robot_dir / OBSTACLES).exists())
 
     # --- world -------------------------------------------------------------------------------------------------
@@ -162,13 +170,15 @@ class ImportedDomain(BaseDomain):
         return padded_distance(states_a, states_b, self.state_scale)
 
     # --- pages ----------------------------------------------------------------------------------------------------
+    # A table with videos shows them (the lab's own recording of what its robot did); one with recorded paths
+    # alone is drawn from above by the generic top-down scene.
     @property
     def scene(self) -> str:
-        return "topdown"
+        return "video" if self.videos else "topdown"
 
     @property
     def page_keys(self) -> tuple[str, ...]:
-        return ("bounds", "agents", "obstacles", "dt", "unit")
+        return () if self.videos else ("bounds", "agents", "obstacles", "dt", "unit")
 
     @cached_property
     def _agents(self) -> np.ndarray | None:
@@ -183,10 +193,14 @@ class ImportedDomain(BaseDomain):
     def scene_payload(self, env_id: int) -> dict:
         """The environment's view: the table's one view, else the bounds of everything in the environment (every
         objective's path, the agents' and the obstacles, so all of its options share one view); the agents'
-        paths, the obstacles [x0, y0, x1, y1] and the clock's step."""
+        paths, the obstacles [x0, y0, x1, y1] and the clock's step.  Nothing for a robot shown by its videos: a
+        video holds its whole scene."""
+        if self.videos:
+            return {}
         if not self.paths:
-            raise ValueError(f"the imported robot {self.name!r} has no recorded paths to show participants: import "
-                             "its folder with paths.npz (docs/importing.md, \"Recorded paths\")")
+            raise ValueError(f"the imported robot {self.name!r} has neither videos nor recorded paths to show "
+                             "participants: import its folder with a stimuli manifest or paths.npz "
+                             "(docs/importing.md, \"Videos\" and \"Recorded paths\")")
         row = self._row_of[int(env_id)]
         agents = [] if self._agents is None else np.round(np.asarray(self._agents[row]), 3).tolist()
         obstacles = [] if self._obstacles is None else np.round(np.asarray(self._obstacles[row]), 3).tolist()
@@ -202,6 +216,26 @@ class ImportedDomain(BaseDomain):
         """One trajectory's poses (L, P) -> [[x, y], ...] every step of the clock."""
         return np.round(np.asarray(states, np.float64)[:, :2], 3).tolist()
 
+    def stimulus(self, env_id: int, theta_index: int, states):
+        """The video of objective `theta_index` in environment `env_id` as {"video": its SHA-256 file name}, or
+        the path's rows for a robot drawn from its recorded paths."""
+        if not self.videos:
+            return self.path_rows(states)
+        row = self._row_of.get(int(env_id))
+        if row is None or not 0 <= int(theta_index) < self.video_of.shape[1]:
+            raise ValueError(f"the imported robot {self.name!r} has no video of objective {theta_index} in "
+                             f"environment {env_id}")
+        return {"video": self.videos[self.video_of[row, int(theta_index)]]}
+
+    def media_file(self, name: str) -> Path | None:
+        """media/<name> for one of this robot's videos; None for any other name (so a request names no file
+        outside media/)."""
+        return self.robot_dir / MEDIA / name if name in self._video_names else None
+
+    @cached_property
+    def _video_names(self) -> frozenset[str]:
+        return frozenset(self.videos)
+
     def render_sheet(self, **kwargs) -> int:
         if not self.paths:
             raise ValueError(f"{self.name!r} has no recorded paths to draw: its table was imported from features "
@@ -211,8 +245,9 @@ class ImportedDomain(BaseDomain):
         return render_sheet(domain=self, **kwargs)
 
 
-def _texts(spec: dict, *, agents: bool, obstacles: bool) -> ParticipantTexts:
-    """The folder's [texts], plain defaults for the rest, and a legend of what its scenes draw."""
+def _texts(spec: dict, *, drawn: bool, agents: bool, obstacles: bool) -> ParticipantTexts:
+    """The folder's [texts], plain defaults for the rest, and a legend of what its scenes draw (none for
+    videos: what a video shows is the lab's, its texts say it)."""
     t, title = spec.get("texts", {}), spec["title"]
     return ParticipantTexts(
         summary=t.get("summary", SUMMARY.format(title=title)),
@@ -223,9 +258,10 @@ def _texts(spec: dict, *, agents: bool, obstacles: bool) -> ParticipantTexts:
         attention_correct=frozenset({"robot"}),
         watch=t.get("watch", _("Watch what the robot does.")),
         question=t.get("question", _("Which of these matches the robot's preferences?")),
-        legend=(LegendEntry(_("the robot"), "ground", "robot"), LegendEntry(_("the robot's path"), "path", "path"),
-                *((LegendEntry(_("another person or robot"), "agent", "agent"),) if agents else ()),
-                *((LegendEntry(_("a wall or obstacle"), "obstacle", "obstacle"),) if obstacles else ())),
+        legend=() if not drawn else (
+            LegendEntry(_("the robot"), "ground", "robot"), LegendEntry(_("the robot's path"), "path", "path"),
+            *((LegendEntry(_("another person or robot"), "agent", "agent"),) if agents else ()),
+            *((LegendEntry(_("a wall or obstacle"), "obstacle", "obstacle"),) if obstacles else ())),
         option=t.get("option", _("option")),
         title=title)
 
