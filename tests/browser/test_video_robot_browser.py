@@ -202,3 +202,24 @@ def test_a_failed_download_says_so_and_tries_again_and_reduced_motion_plays_noth
     watched(page, 1)
     expect(page.locator('form[data-require-played] button[type="submit"]')).to_be_enabled()
     assert not errors, errors
+
+
+def test_the_researchers_sheet_shows_every_video_and_plays_one(hallway, staff_cookie, live_server, browser):
+    study, _ = hallway
+    n_cells = sum(len(c.training) for c in study.conditions.all()) + 4 * len(study.test_set)
+    host = live_server.url.split("//")[1].split(":")[0]
+    context = browser.new_context(viewport={"width": 1280, "height": 900})
+    context.add_cookies([{"name": "sessionid", "value": staff_cookie, "domain": host, "path": "/"}])
+    page = context.new_page()
+    errors = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    page.on("response", lambda r: errors.append(f"{r.status} {r.url}") if r.status >= 400 else None)
+    page.goto(f"{live_server.url}/dashboard/{study.slug}/stimuli/")
+    ready(page)
+    videos = page.locator(".cell video")
+    assert videos.count() == n_cells
+    assert page.evaluate("() => [...document.querySelectorAll('.cell video')].every((v) => v.src.startsWith('blob:'))")
+    fast(page)
+    page.locator(".cell").first.locator('[data-action="play"]').click()
+    watched(page, 1)
+    assert not errors, errors

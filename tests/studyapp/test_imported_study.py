@@ -93,7 +93,7 @@ def test_a_study_of_a_robot_with_nothing_to_show_is_refused_in_one_line(db, grid
     (folder / "paths.npz").unlink()
     table = import_table(folder, tmp_path / "blind")
     try:
-        with pytest.raises(ValueError, match="'blind' has neither videos nor recorded paths to show participants") as err:
+        with pytest.raises(ValueError, match="'blind' has neither videos nor recorded paths to show") as err:
             build_study(real_spec(table, tmp_path / "blind", slug="blind"))
         assert "\n" not in str(err.value)
     finally:
