@@ -49,8 +49,8 @@ def write_folder(out: Path, n_envs: int, n_candidates: int, seed: int, *, videos
              env_class=table["env_class"], strategy=table["strategy"])
     np.savez(out / "paths.npz", env_id=table["env_id"], t=planner.T, robot=table["robot"], agents=table["agents"],
              obstacles=table["walls"])
-    name = "hallway-video" if videos else "hallway"
-    lines = [f'name = "{name}"', 'title = "A robot crossing a hallway"', 'data = "features.npz"',
+    robot_name = "hallway-video" if videos else "hallway"
+    lines = [f'name = "{robot_name}"', 'title = "A robot crossing a hallway"', 'data = "features.npz"',
              f"theta_star = {toml_value(list(planner.THETA_STAR))}",
              "candidates = [", *(f"  {toml_value(t.tolist())}," for t in table["thetas"][1:]), "]",
              f"classes = {toml_value(list(planner.CLASSES))}", "min_option_distance = 0.3",
