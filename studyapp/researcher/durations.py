@@ -6,8 +6,8 @@ A condition's estimate is the time its animations play plus fixed allowances for
                + n_tests · (TEST_S[kind] + the tests' options' animation seconds)
                + n_checks · (TEST_S[kind] + FEEDBACK_S)) / 60
 
-An animation lasts (rows - 1) · dt seconds, as the page's scene plays it (static/studyapp/scenes/*.js); a
-choice test's four options are each watched once.  The allowances are round guesses for an attentive
+An animation lasts (rows - 1) · dt seconds, as the page's scene plays it (static/studyapp/scenes/*.js), a video
+its own length; a choice test's four options are each watched once.  The allowances are round guesses for an attentive
 participant (docs/decisions.md, "Estimated durations"): the estimate is for comparing conditions with one
 another and with the minutes the consent page announces, not a measurement.  A closed-loop condition is
 estimated at its most examples and check questions, each example as long as the study's other examples on
@@ -29,8 +29,11 @@ FEEDBACK_S = 10  # a closed loop's answer after a check
 
 
 def animation_seconds(payload: dict) -> float:
-    """Seconds a stored payload's robot path plays: (rows - 1) · dt."""
-    return max(len(payload.get("robot") or ()) - 1, 0) * float(payload.get("dt") or 0)
+    """Seconds a stored payload's robot plays: a path's (rows - 1) · dt, or a video's length."""
+    robot = payload.get("robot") or ()
+    if isinstance(robot, dict):  # a recording (teaching.api.stimulus_of)
+        return float(robot.get("seconds") or 0.0)
+    return max(len(robot) - 1, 0) * float(payload.get("dt") or 0)
 
 
 @dataclass(frozen=True)

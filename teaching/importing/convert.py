@@ -127,6 +127,7 @@ def _write_robot(folder: TableFolder, robot: Path) -> None:
             shutil.copyfile(folder.path / file, robot / MEDIA / name)
             names.append(name)
         spec["videos"] = names
+        spec["video_seconds"] = [round(s, 3) for s in folder.stimuli.seconds]
         np.save(robot / VIDEOS, folder.stimuli.which)
     (robot / DESCRIPTION).write_text(json.dumps(spec, indent=1, allow_nan=True), encoding="utf-8")
 

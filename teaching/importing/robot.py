@@ -101,6 +101,7 @@ class ImportedDomain(BaseDomain):
             self.state_scale = (1.0,) * len(self.feature_names)
         self.vocabulary = frozenset(w for w in re.split("[^a-z]+", self.name) if w)
         self.videos = tuple(s["videos"] or ())  # every video's file name in media/
+        self.video_seconds = tuple(float(v) for v in s.get("video_seconds") or (0.0,) * len(self.videos))
         self.video_of = np.load(self.robot_dir / VIDEOS) if self.videos else None  # (M, N) into self.videos
         if self.video_of is not None and (self.video_of.ndim != 2 or len(self.video_of) != len(self.env_ids)
                                           or self.video_of.min() < 0 or self.video_of.max() >= len(self.videos)):
@@ -217,15 +218,16 @@ class ImportedDomain(BaseDomain):
         return np.round(np.asarray(states, np.float64)[:, :2], 3).tolist()
 
     def stimulus(self, env_id: int, theta_index: int, states):
-        """The video of objective `theta_index` in environment `env_id` as {"video": its SHA-256 file name}, or
-        the path's rows for a robot drawn from its recorded paths."""
+        """The video of objective `theta_index` in environment `env_id` as {"video": its SHA-256 file name,
+        "seconds": its length}, or the path's rows for a robot drawn from its recorded paths."""
         if not self.videos:
             return self.path_rows(states)
         row = self._row_of.get(int(env_id))
         if row is None or not 0 <= int(theta_index) < self.video_of.shape[1]:
             raise ValueError(f"the imported robot {self.name!r} has no video of objective {theta_index} in "
                              f"environment {env_id}")
-        return {"video": self.videos[self.video_of[row, int(theta_index)]]}
+        k = int(self.video_of[row, int(theta_index)])
+        return {"video": self.videos[k], "seconds": self.video_seconds[k]}
 
     def media_file(self, name: str) -> Path | None:
         """media/<name> for one of this robot's videos; None for any other name (so a request names no file

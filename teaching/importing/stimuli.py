@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import re
 import shutil
 import subprocess
@@ -31,6 +32,7 @@ class Stimuli:
     files: tuple[str, ...]  # each distinct video, as the manifest writes its path
     which: np.ndarray  # (M, N) int32: the position in `files` of the video of objective k in environment m
     sha256: tuple[str, ...]  # each file's checksum, as checked
+    seconds: tuple[float, ...]  # each file's length, as ffprobe reads it (0.0 where it cannot tell)
 
 
 def read_stimuli(folder: Path, manifest: str, env_ids: np.ndarray, n_objectives: int) -> Stimuli:
@@ -49,9 +51,9 @@ def read_stimuli(folder: Path, manifest: str, env_ids: np.ndarray, n_objectives:
             fail(f"line {line}, column sha256: {file} was given another checksum on an earlier line")
         which[i, k] = files.setdefault(file, (len(files), digest, line))[0]
     pairs.check_complete()
-    for file, (_, digest, line) in files.items():
-        _check_video(folder, file, digest, refuser(f"{manifest}: line {line}"))
-    return Stimuli(tuple(files), which, tuple(digest for _, digest, _ in files.values()))
+    seconds = tuple(_check_video(folder, file, digest, refuser(f"{manifest}: line {line}"))
+                    for file, (_, digest, line) in files.items())
+    return Stimuli(tuple(files), which, tuple(digest for _, digest, _ in files.values()), seconds)
 
 
 def _pair(cells: dict, line: int, row_of: dict, n_objectives: int, fail) -> tuple[int, int]:
@@ -79,7 +81,8 @@ def _file(cells: dict, line: int, fail) -> tuple[str, str]:
     return file, digest
 
 
-def _check_video(folder: Path, file: str, digest: str, fail) -> None:
+def _check_video(folder: Path, file: str, digest: str, fail) -> float:
+    """The video `file`, present, matching `digest` and playable; returns its length in seconds."""
     path = folder / file
     if not path.is_file():
         fail(f"{file}: no such file in the folder")
@@ -90,25 +93,33 @@ def _check_video(folder: Path, file: str, digest: str, fail) -> None:
     if h.hexdigest() != digest:
         fail(f"{file}: its SHA-256 is {h.hexdigest()[:12]}…, the manifest says {digest[:12]}…: "
              f"the file changed since the manifest was written")
-    codecs = probe(path)
+    codecs, seconds = probe(path)
     if not codecs:
         fail(f"{file}: not a video (ffprobe finds no video stream in it)")
     allowed = PLAYABLE[path.suffix.lower()]
     if codecs[0] not in allowed:
         fail(f"{file}: {codecs[0]} video in a {path.suffix}; browsers play {', '.join(allowed)} in a {path.suffix}")
+    return seconds
 
 
-def probe(path: Path) -> list[str]:
-    """The codec names of the video streams of `path` ([] when it holds none or is not a media file)."""
+def probe(path: Path) -> tuple[list[str], float]:
+    """The codec names of the video streams of `path` ([] when it holds none or is not a media file) and its
+    length in seconds (0.0 where the file does not say)."""
     ffprobe = shutil.which("ffprobe")
     if ffprobe is None:
         raise TableFolderError("ffprobe not found: install Debian's ffmpeg (make media-deps) to check videos")
     try:
-        done = subprocess.run([ffprobe, "-v", "error", "-select_streams", "v", "-show_entries", "stream=codec_name",
-                               "-of", "json", str(path)], capture_output=True, text=True, timeout=PROBE_SECONDS)
+        done = subprocess.run([ffprobe, "-v", "error", "-select_streams", "v", "-show_entries",
+                               "stream=codec_name:format=duration", "-of", "json", str(path)],
+                              capture_output=True, text=True, timeout=PROBE_SECONDS)
     except subprocess.TimeoutExpired:
         raise TableFolderError(f"{path.name}: ffprobe did not finish within {PROBE_SECONDS} s (a damaged file?)") \
             from None
     if done.returncode != 0:
-        return []
-    return [s.get("codec_name", "") for s in json.loads(done.stdout or "{}").get("streams", [])]
+        return [], 0.0
+    found = json.loads(done.stdout or "{}")
+    try:
+        seconds = float(found.get("format", {}).get("duration", 0.0))
+    except ValueError:
+        seconds = 0.0
+    return [s.get("codec_name", "") for s in found.get("streams", [])], seconds if math.isfinite(seconds) else 0.0

@@ -7,6 +7,7 @@ from __future__ import annotations
 import hashlib
 import re
 import subprocess
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,6 +16,7 @@ from django.urls import reverse
 
 from studyapp.models import StepKind
 from studyapp.participant.pages.questions import option_letters
+from studyapp.researcher.durations import animation_seconds, estimates
 from studyapp.researcher.studies import build_study
 from teaching.api import TrajectoryTable, domain_names
 from teaching.core.domain import unregister
@@ -105,7 +107,8 @@ def test_each_page_names_its_videos_by_their_hash_and_serves_the_objectives_own_
             canonical = dict(option_letters(participant, step.item, StepKind.TEST))  # letter -> canonical index
             videos = {test["options"][canonical[k]]["theta_index"]: robot for k, robot in data["option-robots"].items()}
         for objective, robot in videos.items():
-            assert set(robot) == {"video"} and VIDEO.match(robot["video"])
+            assert set(robot) == {"video", "seconds"} and VIDEO.match(robot["video"])
+            assert robot["seconds"] == pytest.approx(0.3, abs=0.05)  # the clip's own length, as ffprobe read it
             response = client.get(base + robot["video"])
             assert response.status_code == 200 and response["Content-Type"] == "video/webm"
             assert b"".join(response.streaming_content) == clips[objective]
@@ -136,6 +139,10 @@ def test_a_name_that_is_not_one_of_the_robots_videos_is_not_found(filmed):
         assert client.get(base + name).status_code == 404, name
     stranger = reverse("step", args=[study.slug, "not-a-participant"]) + "media/" + real
     assert client.get(stranger).status_code == 404
+    unregister(NAME)  # the robot gone from this process, its table too: the file is not found, nothing breaks
+    registry.forget(NAME)
+    Path(study.source["table"]).rename(Path(study.source["table"]).with_name("moved"))
+    assert client.get(base + real).status_code == 404
 
 
 def test_the_researchers_sheet_has_its_own_media_url_for_staff_only(filmed, staff_client):
@@ -148,3 +155,13 @@ def test_the_researchers_sheet_has_its_own_media_url_for_staff_only(filmed, staf
     sheet = staff_client.get(reverse("dashboard_stimuli", args=[study.slug])).content.decode()
     assert media_base(sheet) == reverse("dashboard_study", args=[study.slug]) + "media/"
     assert np.all([VIDEO.match(v) for v in re.findall(r'"video": "([^"]+)"', sheet)])
+
+
+def test_a_video_study_is_estimated_to_take_its_videos_lengths(filmed):
+    """The dashboard's time estimate counts each video watched once, at its length (0.3 s a clip here)."""
+    study, _ = filmed
+    found = {e.condition: e for e in estimates(study)}
+    for condition in study.conditions.all():
+        assert found[condition.name].animation_seconds == pytest.approx(0.3 * len(condition.training), rel=0.15)
+    options = [o for test in study.test_set for o in test["options"]]
+    assert [animation_seconds(o) for o in options] == pytest.approx([0.3] * len(options), rel=0.15)
