@@ -115,6 +115,8 @@ def test_a_participant_watches_the_hallway_videos_and_nothing_tells_an_environme
         submit = page.locator('form[data-require-played] button[type="submit"]')
         expect(submit).to_be_disabled()  # not before the video was watched to its end
         if i == 0:
+            expect(page.locator("form .hint")).to_have_text("Watch the whole video to continue.")
+        if i == 0:
             page.wait_for_function("() => document.querySelector('.scene video').currentTime > 1.5")
             page.screenshot(path=str(OUT / "video_training.png"), full_page=True)
         fast(page)
