@@ -239,9 +239,9 @@ class ImportedDomain(BaseDomain):
         return frozenset(self.videos)
 
     def render_sheet(self, **kwargs) -> int:
-        if not self.paths:
-            raise ValueError(f"{self.name!r} has no recorded paths to draw: its table was imported from features "
-                             "alone (docs/importing.md, \"Recorded paths\")")
+        if not (self.paths or self.videos):
+            raise ValueError(f"{self.name!r} has neither videos nor recorded paths to draw: its table was imported "
+                             "from features alone (docs/importing.md, \"Videos\" and \"Recorded paths\")")
         from .sheet import render_sheet  # noqa: PLC0415  (matplotlib loads only for a sheet)
 
         return render_sheet(domain=self, **kwargs)

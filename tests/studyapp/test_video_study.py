@@ -23,6 +23,7 @@ from teaching.core.domain import unregister
 from teaching.importing import registry
 from teaching.importing.convert import import_table
 from teaching.importing.export import export_table
+from teaching.importing.sheet import last_frame
 from tests.studyapp.test_stimuli import embedded, real_spec, walk
 
 NAME = "yards-filmed"
@@ -165,3 +166,21 @@ def test_a_video_study_is_estimated_to_take_its_videos_lengths(filmed):
         assert found[condition.name].animation_seconds == pytest.approx(0.3 * len(condition.training), rel=0.15)
     options = [o for test in study.test_set for o in test["options"]]
     assert [animation_seconds(o) for o in options] == pytest.approx([0.3] * len(options), rel=0.15)
+
+
+def test_the_contact_sheet_shows_each_trajectorys_video_by_its_last_frame(filmed, tmp_path):
+    """The sheet of a filmed robot: each panel the last frame of its video, read by ffmpeg; clip k is one colour,
+    so objective k's frame is that colour (within the rounding of VP9's colour sampling)."""
+    study, clips = filmed
+    table = TrajectoryTable.load(study.source["table"])
+    domain = table.domain
+    for k in (0, 5):
+        name = domain.stimulus(int(table.env_ids[0]), k, None)["video"]
+        frame = last_frame(domain.media_file(name))
+        colour = np.array([(37 * k) % 256, (91 * k) % 256, (53 * k + 40) % 256]) / 255
+        assert frame.shape[:2] == (32, 32) and np.abs(frame[..., :3].mean(axis=(0, 1)) - colour).max() < 8 / 255
+    conditions = {c.name: [p["env_id"] for p in c.training] for c in study.conditions.all()}
+    n = domain.render_sheet(table=table, conditions=conditions, tests=study.test_set, out=tmp_path / "sheet.png",
+                            no_tests=None, caption="filmed", columns=4, dpi=60)
+    assert n == sum(map(len, conditions.values())) + 4 * len(study.test_set)
+    assert (tmp_path / "sheet.png").stat().st_size > 10_000
