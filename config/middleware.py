@@ -93,7 +93,7 @@ def server_error(request, *args, **kwargs):
 
 # The participant pages (studyapp.participant.views) set their own caching headers; every other view is a
 # researcher's (dashboard, exports, analysis, designer and jobs, login, logout, the admin).
-PARTICIPANT_URL_NAMES = frozenset({"home", "entry", "step", "answer"})
+PARTICIPANT_URL_NAMES = frozenset({"home", "entry", "step", "answer", "participant_media"})
 
 
 class ResearcherNoStoreMiddleware:

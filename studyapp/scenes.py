@@ -57,7 +57,7 @@ def scene_context(study, media_base: str = "") -> dict:
 
 def recording(study, name: str) -> FileResponse:
     """The recording `name` (an opaque SHA-256 file name, ``teaching.api.stimulus_of``) of `study`'s robot; 404 for
-    a name that is not one of its recordings.  Its name is its content's hash, so a browser may keep it for good."""
+    a name that is not one of its recordings."""
     try:
         domain = study_domain(study)
     except ValueError:  # its robot is not here (Study.running_problems): its pages say so, a file is not found
@@ -65,9 +65,7 @@ def recording(study, name: str) -> FileResponse:
     path = recording_file(domain, name)
     if path is None or not path.is_file():
         raise Http404("no such recording")
-    response = FileResponse(path.open("rb"), content_type=mimetypes.guess_type(path.name)[0] or "video/webm")
-    response["Cache-Control"] = "private, max-age=31536000, immutable"
-    return response
+    return FileResponse(path.open("rb"), content_type=mimetypes.guess_type(path.name)[0] or "video/webm")
 
 
 def instructions(study, n_training: int, n_tests: int) -> list[str]:

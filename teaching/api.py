@@ -200,14 +200,13 @@ from .core.domain import (
     default_domain_name,
     domain_names,
     get_domain,
-    recording_file,
     shows_the_way,
-    stimulus_of,
 )
 from .core.evaluation import USER_NAMES, study_matrix
 from .core.fitting import TIE_TOLERANCE, Comparison, compare_models
 from .core.i18n import TranslatableError
 from .core.learners import MODEL_NAMES, has_hyperparameter, make_model, model_names, parse_hyperparameters
+from .core.recordings import recording_file, stimulus_of
 from .core.selection import ALL_CONDITIONS, APPROX_STAR, CONDITIONS, SelectionSettings
 from .core.selectors import check_params, get_selector, parse_selector, selector_names
 from .core.showtests import MIN_SHARE, SHOW, is_show, select_show_tests

@@ -166,8 +166,10 @@ def step(request, slug, token):
 @require_GET
 def media(request, slug, token, name):
     """A recording the participant's pages show (their own link's, so it works where a recruiting platform's
-    frame keeps no cookie)."""
-    return recording(_participant(slug, token).study, name)
+    frame keeps no cookie).  Its name is its content's hash, so their browser may keep it for good."""
+    response = recording(_participant(slug, token).study, name)
+    response["Cache-Control"] = "private, max-age=31536000, immutable"
+    return response
 
 
 def step_context(participant: Participant, current: flow.Step) -> dict:

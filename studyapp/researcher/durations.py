@@ -30,10 +30,10 @@ FEEDBACK_S = 10  # a closed loop's answer after a check
 
 def animation_seconds(payload: dict) -> float:
     """Seconds a stored payload's robot plays: a path's (rows - 1) · dt, or a video's length."""
-    robot = payload.get("robot") or ()
-    if isinstance(robot, dict):  # a recording (teaching.api.stimulus_of)
-        return float(robot.get("seconds") or 0.0)
-    return max(len(robot) - 1, 0) * float(payload.get("dt") or 0)
+    shown = payload.get("robot") or ()
+    if isinstance(shown, dict):  # a recording (teaching.api.stimulus_of)
+        return float(shown.get("seconds") or 0.0)
+    return max(len(shown) - 1, 0) * float(payload.get("dt") or 0)
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,22 @@ from types import MappingProxyType
 
 import numpy as np
 
-from .domain import parse_cost_weights
+
+def parse_cost_weights(values, n: int) -> tuple[float, ...]:
+    """θ* from n numbers (a sequence, or "v1,v2,..."), each finite and negative: for a domain whose
+    features are all costs.  Raises ValueError with a one-line message."""
+    if isinstance(values, str):
+        parts = [v for v in values.replace(" ", "").split(",") if v]
+        try:
+            values = [float(v) for v in parts]
+        except ValueError:
+            raise ValueError(f"theta* must be {n} numbers separated by commas, got {values!r}") from None
+    star = tuple(float(v) for v in values)
+    if len(star) != n:
+        raise ValueError(f"theta* needs one weight per feature ({n}), got {len(star)}")
+    if not all(np.isfinite(v) and v < 0 for v in star):
+        raise ValueError(f"every weight of theta* must be a negative number (the features are costs), got {list(star)}")
+    return star
 
 
 def stratified_sample(classes: np.ndarray, n_classes: int, n: int, seed: int = 0) -> np.ndarray:

@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from .base import BaseDomain
-from .domain import OPTIONAL_PARTS, REQUIRED_PARTS, missing_members, part_members, shows_the_way
+from .domain import OPTIONAL_PARTS, REQUIRED_PARTS, has_part, missing_members, part_members, shows_the_way
 from .rewards import reward
 from .scenecolours import STATIC, scene_colours, static_roots
 from .showtests import MIN_SHARE, eligible_rows
@@ -102,7 +102,7 @@ def check_members(domain) -> Result:
     if fails:
         return Result("members", tuple(fails))
     parts = ", ".join(f"{p.__name__} ({len(part_members(p))})" for p in REQUIRED_PARTS)
-    optional = ", ".join(f"{p.__name__} {'too' if shows_the_way(domain) else 'not'}" for p in OPTIONAL_PARTS)
+    optional = ", ".join(f"{p.__name__} {'too' if has_part(domain, p) else 'not'}" for p in OPTIONAL_PARTS)
     return Result("members", (), f"every member of {parts} is there; the optional {optional}")
 
 

@@ -299,39 +299,14 @@ def missing_members(domain) -> dict[type, tuple[str, ...]]:
     return out
 
 
-def stimulus_of(domain, env_id: int, theta_index: int, states: np.ndarray):
-    """What a page shows of objective `theta_index`'s trajectory `states` in environment `env_id`: the domain's
-    recording of it (RecordingsPart), else its path_rows, which the domain's scene draws."""
-    if isinstance(domain, RecordingsPart):
-        return domain.stimulus(int(env_id), int(theta_index), states)
-    return domain.path_rows(states)
-
-
-def recording_file(domain, name: str) -> Path | None:
-    """The file of `domain`'s recording `name`; None for a name that is not one, or a domain with none."""
-    return domain.media_file(name) if isinstance(domain, RecordingsPart) else None
+def has_part(domain, part: type) -> bool:
+    """Whether `domain` has every member of the optional `part` (all of it or none; its members are methods)."""
+    return all(callable(getattr(domain, n, None)) for n in part_members(part))
 
 
 def shows_the_way(domain) -> bool:
     """Whether `domain` has the optional ShowWayPart: participants can show its way."""
-    return all(callable(getattr(domain, n, None)) for n in part_members(ShowWayPart))
-
-
-def parse_cost_weights(values, n: int) -> tuple[float, ...]:
-    """θ* from n numbers (a sequence, or "v1,v2,..."), each finite and negative: for a domain whose
-    features are all costs.  Raises ValueError with a one-line message."""
-    if isinstance(values, str):
-        parts = [v for v in values.replace(" ", "").split(",") if v]
-        try:
-            values = [float(v) for v in parts]
-        except ValueError:
-            raise ValueError(f"theta* must be {n} numbers separated by commas, got {values!r}") from None
-    star = tuple(float(v) for v in values)
-    if len(star) != n:
-        raise ValueError(f"theta* needs one weight per feature ({n}), got {len(star)}")
-    if not all(np.isfinite(v) and v < 0 for v in star):
-        raise ValueError(f"every weight of theta* must be a negative number (the features are costs), got {list(star)}")
-    return star
+    return has_part(domain, ShowWayPart)
 
 
 def n_clusters(domain: Domain) -> int:

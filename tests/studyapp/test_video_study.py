@@ -153,6 +153,7 @@ def test_the_researchers_sheet_has_its_own_media_url_for_staff_only(filmed, staf
     assert Client().get(url).status_code == 302  # to the login page
     response = staff_client.get(url)
     assert response.status_code == 200 and b"".join(response.streaming_content) == clips[1]
+    assert "no-store" in response["Cache-Control"]  # a researcher's response, as every other
     sheet = staff_client.get(reverse("dashboard_stimuli", args=[study.slug])).content.decode()
     assert media_base(sheet) == reverse("dashboard_study", args=[study.slug]) + "media/"
     assert np.all([VIDEO.match(v) for v in re.findall(r'"video": "([^"]+)"', sheet)])
