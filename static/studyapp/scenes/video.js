@@ -87,31 +87,29 @@ async function prepare(robots) {
   const names = [...new Set(robots.filter((r) => r && r.video).map((r) => r.video))].filter((n) => !loaded.has(n));
   if (!names.length) return;
   const bar = loadingBar();
-  const expected = new Map(), got = new Map();
-  const report = () => {
-    const total = [...expected.values()].reduce((a, b) => a + b, 0);
-    const have = [...got.values()].reduce((a, b) => a + b, 0);
-    // until every size is known, each video counts as an equal share
-    bar.show(expected.size === names.length && total ? Math.min(1, have / total) : got.size / (names.length + 1));
-  };
-  bar.show(0);
+  // each video's share loaded (its bytes against its length; 0 until that is known, 1 once it is here)
+  const share = new Map(names.map((n) => [n, 0]));
+  const report = () => bar.show([...share.values()].reduce((a, b) => a + b, 0) / names.length);
+  report();
   for (;;) {
     try {
       await Promise.all(names.filter((n) => !loaded.has(n)).map(async (name) => {
-        got.set(name, 0);
+        let got = 0;
+        share.set(name, 0);
         const blob = await fetchBytes(base + encodeURIComponent(name), (n, total) => {
-          if (total) expected.set(name, total);
-          got.set(name, got.get(name) + n);
+          got += n;
+          share.set(name, total ? Math.min(1, got / total) : 0);
           report();
         });
         const url = URL.createObjectURL(blob);
         loaded.set(name, { url, ...(await metadata(url)) });
+        share.set(name, 1);
+        report();
       }));
       bar.done();
       return;
     } catch (err) {
       await new Promise((resolve) => bar.fail(resolve));
-      got.clear();
     }
   }
 }
