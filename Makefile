@@ -5,7 +5,7 @@ PIP := .venv/bin/pip
 # every file on it), the first step of every `make test` from a fresh clone (docs/decisions.md, Dependencies)
 UV_VERSION := 0.13.9
 
-.PHONY: demo test lint venv browser-deps serve-deps media-deps messages table bench clean serve load docs example example-videos
+.PHONY: demo test lint venv browser-deps serve-deps media-deps messages table bench clean serve load docs example example-videos bench-teaching
 
 venv: .venv/.installed
 .venv/.installed: requirements.txt
@@ -41,6 +41,11 @@ table: venv
 # Serve the demo study locally on the embedded default (SQLite + filesystem broker, worker included).
 demo: venv table messages
 	bash scripts/demo.sh
+
+# The teaching benchmark on the demo table (docs/benchmark.md): every selector x every learner x 10 seeds,
+# resumed where a run stopped.
+bench-teaching: venv table
+	.venv/bin/python -m teaching benchmark --table $(TABLES_DIR)/demo --out $(or $(VAR_DIR),var)/benchmark --seeds 10
 
 # The worked example of a robot from outside the project (examples/hallway): its table folder from its own
 # planner, imported, taught, made a study and served locally.

@@ -12,6 +12,7 @@ Sub-commands (installed as a package, ``teaching`` is the same command):
   export-table  write a built table as a table folder
   import-table  make a checked table folder the platform's table (with the robot it carries): exit 0, or 1
                 with the folder's first mistake in one line
+  benchmark     every selector x every learner x seeds on tables: learning curves, resumable
 """
 from __future__ import annotations
 
@@ -22,6 +23,7 @@ import time
 import numpy as np
 from tqdm import tqdm
 
+from .benchmark import commands as benchmark_commands
 from .core.build import PRESETS, build_table, customised, get_preset
 from .core.candidates import SAMPLERS
 from .core.checkdomain import CHECKS, DEFAULT_ENVS, check_domain, default_preset
@@ -100,8 +102,8 @@ def _features_by_domain() -> str:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m teaching", description="Trajectory tables and teaching: "
-                                     "build, info, teach, sheet, check-domain, check-table, export-table and "
-                                     "import-table.")
+                                     "build, info, teach, sheet, check-domain, check-table, export-table, "
+                                     "import-table and benchmark.")
     sub = parser.add_subparsers(dest="command", required=True)
     b = sub.add_parser("build", help="build or resume a trajectory table")
     b.add_argument("--preset", required=True, help=f"one of: {', '.join(PRESETS)}")
@@ -145,6 +147,7 @@ def main(argv=None) -> int:
     folder_commands.add_check_arguments(sub.add_parser("check-table", help=folder_commands.CHECK_HELP))
     folder_commands.add_export_arguments(sub.add_parser("export-table", help=folder_commands.EXPORT_HELP))
     folder_commands.add_import_arguments(sub.add_parser("import-table", help=folder_commands.IMPORT_HELP))
+    benchmark_commands.add_arguments(sub.add_parser("benchmark", help=benchmark_commands.HELP))
     args = parser.parse_args(argv)
     try:
         if args.command == "build":
@@ -188,6 +191,8 @@ def main(argv=None) -> int:
             return folder_commands.export_command(args)
         elif args.command == "import-table":
             return folder_commands.import_command(args, summary)
+        elif args.command == "benchmark":
+            return benchmark_commands.command(args)
         else:
             print(summary(TrajectoryTable.load(args.path)))
     except (ValueError, TableError) as exc:

@@ -50,13 +50,16 @@ class SelectionContext:
     likelihood matrix, so a selector uses its matrix before asking for another."""
 
     def __init__(self, table, *, seed: int = 0, hyperparameters: dict | None = None,
-                 settings: SelectionSettings = DEFAULT_SETTINGS, dist: Distances | None = None):
+                 settings: SelectionSettings = DEFAULT_SETTINGS, dist: Distances | None = None,
+                 like: SelectionContext | None = None):
+        """like: a context of the same table, hyperparameters and settings under another seed, whose fitted
+        models (which no seed changes) and buffer this one reuses."""
         self.table, self.seed, self.settings = table, seed, settings
         self.hyperparameters = dict(hyperparameters or {})
         self.dist = dist or Distances(table)
         self.eligible = showable(table)
-        self._buffer = None
-        self._fitted: dict[str, tuple] = {}
+        self._buffer = None if like is None else like._buffer
+        self._fitted: dict[str, tuple] = {} if like is None else like._fitted
         self._random = None
         self._shared: dict[str, object] = {}
 

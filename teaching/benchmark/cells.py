@@ -1,0 +1,56 @@
+"""A benchmark cell: one selector's sequence on one table, learnt by one simulated learner, under one seed.
+
+A cell is the unit of work.  Its result is content-addressed: the key hashes the table's content hash, the
+selector's name and every parameter (checked, defaults filled), the learner, the seed, the criterion and the
+format, so a rerun finds what is already computed, and changing any of them makes a new cell.  Which selectors
+and learners there are is the registries' (teaching.core.selectors, teaching.core.learners): one registered
+later joins the benchmark with no other change.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import asdict, dataclass
+
+from ..core.learners import LEARNER_NAMES, make_model
+from ..core.selectors import check_params, selector_names
+
+FORMAT = 1  # of a cell's result; a change of what a result holds bumps it, so older results are not reused
+CRITERION = 0.5  # P(θ*) a learner must reach for "examples to criterion": θ* likelier than all others together
+
+
+@dataclass(frozen=True)
+class Cell:
+    """table: the table's content hash; params: the selector's every parameter, sorted (name, value) pairs;
+    learner: a learner model's name (its τ / λ chosen by the paper's rule on the table); seed: the selection's."""
+
+    table: str
+    selector: str
+    params: tuple[tuple[str, object], ...]
+    learner: str
+    seed: int
+
+    @property
+    def key(self) -> str:
+        """32 hex digits naming this cell's result."""
+        text = json.dumps({**asdict(self), "params": dict(self.params), "format": FORMAT, "criterion": CRITERION},
+                          sort_keys=True, default=str)
+        return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+    def describe(self) -> dict:
+        return {**asdict(self), "params": dict(self.params)}
+
+
+def plan_cells(table_hash: str, *, selectors=None, learners=None, seeds: int = 10) -> list[Cell]:
+    """Every (selector, learner, seed) cell of one table: `selectors` (names; default every registered one) with
+    their default parameters, `learners` (default every learner model), seeds 0 .. seeds - 1.  ValueError (one
+    line) for an unknown name or fewer than one seed."""
+    selectors = tuple(selectors or selector_names())
+    learners = tuple(learners or LEARNER_NAMES)
+    if seeds < 1:
+        raise ValueError(f"--seeds must be at least 1, got {seeds}")
+    for name in learners:
+        make_model(name)  # one line naming an unknown learner
+    checked = {name: tuple(sorted(check_params(name).items())) for name in selectors}
+    return [Cell(table_hash, name, checked[name], learner, seed)
+            for seed in range(seeds) for name in selectors for learner in learners]

@@ -1,0 +1,49 @@
+"""``python -m teaching benchmark --table TABLE [--table ...] --out DIR``: every selector x every learner x seeds
+on each table, resumable, and a summary per table (stdout and DIR/summary.md)."""
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from tqdm import tqdm
+
+HELP = "every selector x every learner x several seeds on tables: learning curves, resumable (docs/benchmark.md)"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--table", action="append", required=True, metavar="TABLE",
+                        help="a trajectory table directory (give several to benchmark several)")
+    parser.add_argument("--out", required=True, metavar="DIR", help="the results folder (a rerun resumes it)")
+    parser.add_argument("--seeds", type=int, default=10, help="seeds per (selector, learner) (default 10)")
+    parser.add_argument("--selector", action="append", metavar="NAME",
+                        help="only this selector (repeatable; default: every registered one)")
+    parser.add_argument("--learner", action="append", metavar="NAME",
+                        help="only this learner model (repeatable; default: every one)")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def command(args) -> int:
+    from ..core.table import TrajectoryTable  # noqa: PLC0415  (the command's own imports, as build's)
+    from .cells import plan_cells  # noqa: PLC0415
+    from .run import run_cells  # noqa: PLC0415
+    from .summary import markdown, read_costs, summarise  # noqa: PLC0415
+
+    out = Path(args.out)
+    tables = [(path, TrajectoryTable.load(path)) for path in args.table]
+    planned = [(path, table, plan_cells(table.meta["content_hash"], selectors=args.selector,
+                                        learners=args.learner, seeds=args.seeds)) for path, table in tables]
+    text, summary = [], {}
+    for path, table, cells in planned:
+        with tqdm(total=len(cells), unit="cell", desc=f"benchmark {table.meta.get('preset')}",
+                  disable=args.no_progress) as bar:
+            results = run_cells(table, cells, out, progress=lambda done, total: bar.update(done - bar.n))
+        rows = summarise(results, read_costs(out))
+        title = f"{table.domain.name}: {path} ({table.n_envs:,} environments x {table.n_thetas:,} objectives)"
+        text.append(markdown(rows, title))
+        summary[str(path)] = [r.__dict__ for r in rows]
+    (out / "summary.md").write_text("\n".join(text), encoding="utf-8")
+    (out / "summary.json").write_text(json.dumps(summary, indent=1, default=str), encoding="utf-8")
+    print("\n".join(text))
+    print(f"wrote {out}/summary.md and {out}/summary.json ({sum(len(c) for *_, c in planned):,} cells)")
+    return 0

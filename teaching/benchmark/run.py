@@ -1,0 +1,120 @@
+"""Computing a table's benchmark cells into a results folder, resumably.
+
+    <out>/cells/<key>.json   each cell's result (its cell, the environments shown, P(θ*) after each, the
+                             examples to criterion, or the selector's one-line refusal): byte-identical on rerun
+    <out>/costs/<key>.json   the seconds its selection took (a measurement, so kept apart from the results)
+
+A result is written to a hidden file and renamed into place, so a run killed at any moment leaves whole results
+only, and the next run computes exactly the cells that are missing.  One selection serves every learner of the
+same (selector, parameters, seed).  Every learner model is fitted (its τ / λ by the paper's rule) once per table,
+before any selection is timed, so a selection's seconds are its own search alone, whichever runs first.
+"""
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from ..core.conditions import SelectionContext
+from ..core.learners import LEARNER_NAMES, Distances, p_curve
+from ..core.selectors import get_selector
+from .cells import CRITERION, Cell
+
+
+def result_path(out: Path, cell: Cell) -> Path:
+    return Path(out) / "cells" / f"{cell.key}.json"
+
+
+def write_atomically(path: Path, data: dict) -> None:
+    """`data` as JSON at `path`, whole or not at all."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            json.dump(data, f, sort_keys=True, indent=1)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def examples_to_criterion(curve: list[float], criterion: float = CRITERION) -> int | None:
+    """The number of examples after which P(θ*) first reaches `criterion`; None if it never does."""
+    reached = np.flatnonzero(np.asarray(curve) >= criterion)
+    return int(reached[0]) + 1 if reached.size else None
+
+
+class Runner:
+    """The cells of one table: its distances once, each learner model fitted once, each selection once."""
+
+    def __init__(self, table):
+        self.table = table
+        self.dist = Distances(table)
+        self._models: dict[str, object] = {}
+        self._context: SelectionContext | None = None  # the current seed's (cells come seed by seed)
+        self._selections: dict[tuple, tuple[list[int] | None, str | None, float]] = {}
+
+    def context(self, seed: int) -> SelectionContext:
+        """The selection context of `seed`; every seed's shares the fitted learner models and one buffer."""
+        if self._context is None or self._context.seed != seed:
+            self._context = SelectionContext(self.table, seed=seed, dist=self.dist, like=self._context)
+        return self._context
+
+    def model(self, name: str):
+        """The learner model `name` with its τ / λ chosen by the paper's rule on this table, fitted once."""
+        ctx = self._context or self.context(0)
+        return ctx.fitted(name)[0]
+
+    def fit_all(self) -> None:
+        """Every learner model fitted now, so that no selection's time holds a fit."""
+        for name in LEARNER_NAMES:
+            self.model(name)
+
+    def selection(self, cell: Cell) -> tuple[list[int] | None, str | None, float]:
+        """(table rows shown, or None; the selector's refusal, or None; seconds it took)."""
+        key = (cell.selector, cell.params, cell.seed)
+        if key not in self._selections:
+            ctx = self.context(cell.seed)
+            start = time.perf_counter()
+            try:
+                envs, error = list(get_selector(cell.selector).select(ctx, **dict(cell.params)).envs), None
+            except ValueError as exc:  # e.g. SCOT on a table with nothing to teach: a row that says so
+                envs, error = None, str(exc)
+            self._selections[key] = (envs, error, time.perf_counter() - start)
+        return self._selections[key]
+
+    def result(self, cell: Cell) -> tuple[dict, float]:
+        """(the cell's result, its selection's seconds)."""
+        envs, error, seconds = self.selection(cell)
+        out = {"cell": cell.describe(), "key": cell.key}
+        if error is not None:
+            return {**out, "error": error}, seconds
+        curve = p_curve(self.model(cell.learner), self.dist, envs).tolist()
+        return {**out, "env_ids": [int(e) for e in np.asarray(self.table.env_ids)[envs]], "p_theta_star": curve,
+                "examples_to_criterion": examples_to_criterion(curve)}, seconds
+
+
+def run_cells(table, cells: list[Cell], out, *, progress: Callable[[int, int], None] | None = None) -> list[dict]:
+    """Every cell's result, computing and writing those not yet in `out` (in the order given)."""
+    out = Path(out)
+    runner, results, fitted = Runner(table), [], False
+    for done, cell in enumerate(cells, 1):
+        path = result_path(out, cell)
+        if path.exists():
+            results.append(json.loads(path.read_text(encoding="utf-8")))
+        else:
+            if not fitted:
+                runner.fit_all()
+                fitted = True
+            result, seconds = runner.result(cell)
+            write_atomically(out / "costs" / path.name, {"key": cell.key, "selection_seconds": seconds})
+            write_atomically(path, result)
+            results.append(result)
+        if progress:
+            progress(done, len(cells))
+    return results

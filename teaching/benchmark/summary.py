@@ -1,0 +1,98 @@
+"""A table's benchmark results summarised per (selector, learner) over seeds.
+
+For each pair: how many seeds; the mean P(θ*) after the whole sequence and after each example (a sequence shorter
+than the longest holds its last value: the learner has seen all it will), each with its 95 % interval over seeds
+(Student's t; none from a single seed, nor where every seed agrees); the mean examples to criterion over the seeds
+that reach it, and how many do; and the mean seconds the selection took.  A selector that refused the table is one
+row saying why.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy import stats
+
+from .cells import CRITERION
+
+
+@dataclass(frozen=True)
+class Row:
+    selector: str
+    learner: str
+    seeds: int
+    final: float  # mean P(θ*) after the whole sequence
+    final_ci: float  # half-width of its 95 % interval (0.0: one seed, or all alike)
+    curve: tuple[float, ...]  # mean P(θ*) after each example
+    curve_ci: tuple[float, ...]
+    to_criterion: float | None  # mean examples to criterion over the seeds that reach it
+    reached: int  # seeds that reach it
+    seconds: float | None  # mean selection seconds (None: none recorded)
+    error: str | None = None
+
+
+def half_width(values: np.ndarray) -> np.ndarray:
+    """95 % interval half-widths of the mean over axis 0 (n values each): t(0.975, n - 1) · s / √n; 0 for n = 1
+    and where the n values are equal (a selector no seed changes: its float mean would give a spurious 1e-17)."""
+    n = values.shape[0]
+    if n < 2:
+        return np.zeros(values.shape[1:])
+    width = stats.t.ppf(0.975, n - 1) * values.std(axis=0, ddof=1) / np.sqrt(n)
+    return np.where(np.ptp(values, axis=0) == 0, 0.0, width)
+
+
+def padded(curves: list[list[float]]) -> np.ndarray:
+    """(seeds, longest) each curve held at its last value (0.0 for an empty one) to the longest's length."""
+    longest = max(len(c) for c in curves)
+    return np.array([list(c) + [c[-1] if c else 0.0] * (longest - len(c)) for c in curves], np.float64)
+
+
+def summarise(results: list[dict], costs: dict[str, float] | None = None) -> list[Row]:
+    """Rows in the order the (selector, learner) pairs first appear in `results`; costs: key -> seconds."""
+    groups: dict[tuple[str, str], list[dict]] = {}
+    for r in results:
+        groups.setdefault((r["cell"]["selector"], r["cell"]["learner"]), []).append(r)
+    rows = []
+    for (selector, learner), found in groups.items():
+        seconds = [costs[r["key"]] for r in found if costs and r["key"] in costs]
+        mean_seconds = float(np.mean(seconds)) if seconds else None
+        failed = [r for r in found if "error" in r]
+        if failed:
+            rows.append(Row(selector, learner, len(found), float("nan"), 0.0, (), (), None, 0, mean_seconds,
+                            failed[0]["error"]))
+            continue
+        curves = padded([r["p_theta_star"] for r in found])
+        reached = [r["examples_to_criterion"] for r in found if r["examples_to_criterion"] is not None]
+        ci = half_width(curves)
+        rows.append(Row(selector, learner, len(found), float(curves[:, -1].mean()), float(ci[-1]),
+                        tuple(curves.mean(axis=0).tolist()), tuple(ci.tolist()),
+                        float(np.mean(reached)) if reached else None, len(reached), mean_seconds))
+    return rows
+
+
+def read_costs(out) -> dict[str, float]:
+    """key -> selection seconds, from a results folder's costs/."""
+    found = {}
+    for path in sorted((Path(out) / "costs").glob("*.json")):
+        data = json.loads(path.read_text(encoding="utf-8"))
+        found[data["key"]] = float(data["selection_seconds"])
+    return found
+
+
+def markdown(rows: list[Row], title: str) -> str:
+    """A Markdown table of the rows, a line per (selector, learner)."""
+    lines = [f"### {title}", "",
+             f"| selector | learner | seeds | P(θ*) at the end (95 % CI) | examples to P(θ*) ≥ {CRITERION:g} "
+             "(seeds reaching it) | selection s |",
+             "|---|---|---:|---|---|---:|"]
+    for r in rows:
+        cost = "" if r.seconds is None else f"{r.seconds:.3g}"
+        if r.error:
+            lines.append(f"| {r.selector} | {r.learner} | {r.seeds} | refused: {r.error} | | {cost} |")
+            continue
+        ci = f" ± {r.final_ci:.3f}" if r.final_ci > 0 else ""
+        crit = "never" if r.to_criterion is None else f"{r.to_criterion:.1f} ({r.reached}/{r.seeds})"
+        lines.append(f"| {r.selector} | {r.learner} | {r.seeds} | {r.final:.3f}{ci} | {crit} | {cost} |")
+    return "\n".join(lines) + "\n"

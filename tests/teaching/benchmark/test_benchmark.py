@@ -1,0 +1,116 @@
+"""The teaching benchmark (teaching/benchmark): a cell's learning curve checked by hand, its summary's interval by
+hand, a run killed with SIGKILL and resumed byte for byte against an uninterrupted one, and a selector registered
+later joining it with no other change."""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from teaching.benchmark.cells import CRITERION, Cell, plan_cells
+from teaching.benchmark.run import examples_to_criterion, run_cells
+from teaching.benchmark.summary import half_width, summarise
+from teaching.core import selectors
+from teaching.core.learners import LEARNER_NAMES
+from teaching.core.selection import evaluated
+from teaching.core.selectors import Selector, selector_names
+from teaching.core.summaries import scot_cover
+from teaching.core.table import TrajectoryTable
+from tests.teaching.core.hand_bec_table import hand_bec_table
+
+ROOT = Path(__file__).resolve().parents[3]
+KILL_AFTER = 400  # results on disk before the run is killed: well inside it, whatever the machine's speed
+HANG = 600  # seconds: a hang guard, ten times what the whole run takes here
+
+
+def test_scot_teaches_the_exact_learner_of_the_hand_table_at_its_covers_size(tmp_path):
+    """hand_bec_table: SCOT's cover is E2, E3.  After E2 ((3,3) against (1,6)) the exact learner keeps θ*, u2 and
+    u3 (u1 = (1,.1) prefers (1,6)): P(θ*) = 1/3; E3 rules out u2 ((9,0) costs it .9) and u3 ((5,1.5) costs it 4.5,
+    θ*'s 4.8): P(θ*) = 1, at the cover's size."""
+    table = hand_bec_table()
+    cover, _ = scot_cover(table)
+    [cell] = plan_cells("hand", selectors=["scot"], learners=["exact"], seeds=1)
+    [result] = run_cells(table, [cell], tmp_path)
+    assert result["env_ids"] == [12, 13] and len(cover) == 2
+    assert result["p_theta_star"] == pytest.approx([1 / 3, 1.0], abs=1e-12)
+    assert result["examples_to_criterion"] == len(cover) == 2
+
+
+def test_examples_to_criterion_and_the_interval_by_hand():
+    assert CRITERION == 0.5
+    assert examples_to_criterion([0.2, 0.5, 0.9]) == 2 and examples_to_criterion([0.1, 0.49]) is None
+    # two seeds, 0 and 1: mean 0.5, s = √0.5, t(0.975, 1) = 12.7062: half-width 12.7062 · √0.5 / √2 = 6.3531
+    assert half_width(np.array([[0.0], [1.0]]))[0] == pytest.approx(6.3531, abs=1e-4)
+    assert half_width(np.array([[0.3]]))[0] == 0.0
+
+
+def test_a_summary_holds_a_shorter_curve_at_its_last_value_and_reports_a_refusal():
+    cell = {"selector": "s", "learner": "exact"}
+    results = [{"cell": cell, "key": "a", "p_theta_star": [0.5, 1.0], "examples_to_criterion": 1},
+               {"cell": cell, "key": "b", "p_theta_star": [0.25, 0.5, 0.75], "examples_to_criterion": 2},
+               {"cell": {"selector": "t", "learner": "exact"}, "key": "c", "error": "nothing to teach"}]
+    row, refused = summarise(results, {"a": 1.0, "b": 3.0})
+    assert row.curve == pytest.approx((0.375, 0.75, 0.875)) and row.final == pytest.approx(0.875)
+    assert row.to_criterion == 1.5 and row.reached == 2 and row.seconds == 2.0
+    assert refused.error == "nothing to teach" and refused.seeds == 1
+
+
+def test_a_killed_run_resumes_to_the_bytes_of_an_uninterrupted_one(gridworld_tiny_table, tmp_path):
+    """The command killed with SIGKILL once KILL_AFTER results are on disk, then run again: every result file is
+    the uninterrupted run's, byte for byte, and none is missing or extra."""
+    command = [sys.executable, "-m", "teaching", "benchmark", "--table", str(gridworld_tiny_table), "--seeds", "12",
+               "--no-progress"]
+    killed = tmp_path / "killed"
+    run = subprocess.Popen([*command, "--out", str(killed)], cwd=ROOT, stdout=subprocess.DEVNULL,
+                           stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + HANG
+    while run.poll() is None and len(list((killed / "cells").glob("*.json"))) < KILL_AFTER:
+        assert time.monotonic() < deadline, "the benchmark wrote too few results"
+        time.sleep(0.02)
+    os.kill(run.pid, signal.SIGKILL)
+    run.wait()
+    cut = len(list((killed / "cells").glob("*.json")))
+    n_cells = len(selector_names()) * len(LEARNER_NAMES) * 12
+    assert KILL_AFTER <= cut < n_cells  # killed mid-way
+    subprocess.run([*command, "--out", str(killed)], cwd=ROOT, check=True, capture_output=True, timeout=HANG)
+    whole = tmp_path / "whole"
+    subprocess.run([*command, "--out", str(whole)], cwd=ROOT, check=True, capture_output=True, timeout=HANG)
+    files = sorted(p.name for p in (whole / "cells").glob("*.json"))
+    assert len(files) == n_cells and sorted(p.name for p in (killed / "cells").glob("*.json")) == files
+    assert all((killed / "cells" / f).read_bytes() == (whole / "cells" / f).read_bytes() for f in files)
+    assert (killed / "summary.md").read_text().split("| selector |")[1:] != []
+
+
+def test_a_selector_registered_later_joins_the_benchmark(monkeypatch, gridworld_tiny_table, tmp_path):
+    """A toy selector (the first two showable environments) registered in the core: its rows appear, one per
+    learner, with no other change."""
+    monkeypatch.setattr(selectors, "_REGISTRY", dict(selectors._REGISTRY))
+    def first_two(ctx):
+        return evaluated([int(e) for e in np.flatnonzero(ctx.eligible)[:2]], ctx.fitted("exact")[0], ctx.dist)
+
+    selectors.register_selector(Selector("toy-first-two", first_two))
+    table = TrajectoryTable.load(gridworld_tiny_table)
+    cells = plan_cells(table.meta["content_hash"], seeds=2)
+    assert {c.selector for c in cells} == set(selector_names()) and "toy-first-two" in selector_names()
+    rows = summarise(run_cells(table, [c for c in cells if c.selector in ("toy-first-two", "scot")], tmp_path))
+    toy = [r for r in rows if r.selector == "toy-first-two"]
+    assert [r.learner for r in toy] == list(LEARNER_NAMES) and all(len(r.curve) == 2 and r.seeds == 2 for r in toy)
+
+
+def test_a_cells_key_changes_with_each_of_its_parts():
+    base = Cell("h", "coverage-approx*", (("model", "det-euclidean"),), "exact", 0)
+    others = [Cell("h2", *list(base.__dict__.values())[1:]), Cell("h", "scot", (), "exact", 0),
+              Cell("h", "coverage-approx*", (("model", "exact"),), "exact", 0),
+              Cell("h", "coverage-approx*", (("model", "det-euclidean"),), "det-reward", 0),
+              Cell("h", "coverage-approx*", (("model", "det-euclidean"),), "exact", 1)]
+    assert len({base.key, *(c.key for c in others)}) == 6 and base.key == Cell(*base.__dict__.values()).key
+    with pytest.raises(ValueError, match="unknown selector 'nope'"):
+        plan_cells("h", selectors=["nope"])
+    with pytest.raises(ValueError, match="--seeds must be at least 1"):
+        plan_cells("h", seeds=0)
