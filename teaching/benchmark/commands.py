@@ -27,7 +27,7 @@ def command(args) -> int:
     from ..core.table import TrajectoryTable  # noqa: PLC0415  (the command's own imports, as build's)
     from .cells import plan_cells  # noqa: PLC0415
     from .run import run_cells  # noqa: PLC0415
-    from .summary import markdown, read_costs, summarise  # noqa: PLC0415
+    from .summary import markdown, mismatch_markdown, read_costs, summarise  # noqa: PLC0415
 
     out = Path(args.out)
     tables = [(path, TrajectoryTable.load(path)) for path in args.table]
@@ -41,6 +41,10 @@ def command(args) -> int:
         rows = summarise(results, read_costs(out))
         title = f"{table.domain.name}: {path} ({table.n_envs:,} environments x {table.n_thetas:,} objectives)"
         text.append(markdown(rows, title))
+        matrix = mismatch_markdown(rows)
+        if matrix:
+            text.append("Mismatch matrix (Lage et al.): mean P(θ*) at the end of the sequence built for one learner "
+                        "model (rows) as another learns it (columns); the diagonal in bold.\n\n" + matrix)
         summary[str(path)] = [r.__dict__ for r in rows]
     (out / "summary.md").write_text("\n".join(text), encoding="utf-8")
     (out / "summary.json").write_text(json.dumps(summary, indent=1, default=str), encoding="utf-8")

@@ -96,3 +96,25 @@ def markdown(rows: list[Row], title: str) -> str:
         crit = "never" if r.to_criterion is None else f"{r.to_criterion:.1f} ({r.reached}/{r.seeds})"
         lines.append(f"| {r.selector} | {r.learner} | {r.seeds} | {r.final:.3f}{ci} | {crit} | {cost} |")
     return "\n".join(lines) + "\n"
+
+
+def mismatch(rows: list[Row]) -> tuple[list[str], list[str], np.ndarray]:
+    """Lage et al.'s mismatch matrix: (selectors, learners, (S, L) mean final P(θ*)), one row per selector built
+    for a learner model (a greedy selector, named after its model), one column per learner; the diagonal is each
+    selector learnt by the learner it was built for."""
+    learners = list(dict.fromkeys(r.learner for r in rows))
+    built = [s for s in dict.fromkeys(r.selector for r in rows) if s in learners]
+    final = {(r.selector, r.learner): r.final for r in rows}
+    return built, learners, np.array([[final.get((s, u), np.nan) for u in learners] for s in built], np.float64)
+
+
+def mismatch_markdown(rows: list[Row]) -> str:
+    """The mismatch matrix as a Markdown table (rows: built for; columns: learnt by), or "" with no such rows."""
+    built, learners, matrix = mismatch(rows)
+    if not built:
+        return ""
+    lines = ["| built for \\ learnt by | " + " | ".join(learners) + " |", "|---|" + "---:|" * len(learners)]
+    for s, values in zip(built, matrix, strict=True):
+        cells = [f"**{v:.3f}**" if u == s else f"{v:.3f}" for u, v in zip(learners, values, strict=True)]
+        lines.append(f"| {s} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"

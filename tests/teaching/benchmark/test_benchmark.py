@@ -15,7 +15,7 @@ import pytest
 
 from teaching.benchmark.cells import CRITERION, Cell, plan_cells
 from teaching.benchmark.run import examples_to_criterion, run_cells
-from teaching.benchmark.summary import half_width, summarise
+from teaching.benchmark.summary import half_width, mismatch, mismatch_markdown, summarise
 from teaching.core import selectors
 from teaching.core.learners import LEARNER_NAMES
 from teaching.core.selection import evaluated
@@ -114,3 +114,36 @@ def test_a_cells_key_changes_with_each_of_its_parts():
         plan_cells("h", selectors=["nope"])
     with pytest.raises(ValueError, match="--seeds must be at least 1"):
         plan_cells("h", seeds=0)
+
+
+def test_the_mismatch_matrix_puts_each_learners_own_selector_on_its_diagonal():
+    """Rows: the selectors named after a learner (built for it); columns: the learners; by hand from three rows."""
+    def result(selector, learner, p):
+        return {"cell": {"selector": selector, "learner": learner}, "key": f"{selector}-{learner}",
+                "p_theta_star": [p], "examples_to_criterion": None}
+
+    rows = summarise([result("exact", "exact", 1.0), result("exact", "det-reward", 0.25),
+                      result("det-reward", "exact", 0.5), result("det-reward", "det-reward", 0.75),
+                      result("scot", "exact", 1.0)])
+    built, learners, matrix = mismatch(rows)
+    assert built == ["exact", "det-reward"] and learners == ["exact", "det-reward"]
+    np.testing.assert_array_equal(matrix, [[1.0, 0.25], [0.5, 0.75]])
+    assert "| det-reward | 0.500 | **0.750** |" in mismatch_markdown(rows)
+
+
+def test_the_mismatch_matrix_is_teachs_ideal_user_matrix(gridworld_tiny_table, tmp_path):
+    """The benchmark's matrix (one seed) against the one teach writes (teaching.core.evaluation), which sums each
+    sequence's log-likelihoods at once where the benchmark's curve adds them example by example: equal to 1e-9 of
+    a probability."""
+    from teaching.core.conditions import teach  # noqa: PLC0415
+    from teaching.core.evaluation import ideal_user_matrix  # noqa: PLC0415
+    from teaching.core.learners import Distances  # noqa: PLC0415
+
+    table = TrajectoryTable.load(gridworld_tiny_table)
+    taught = teach(table)
+    expected = ideal_user_matrix(taught.models, {n: s.envs for n, s in taught.sequences.items()}, Distances(table),
+                                 sequence_names=LEARNER_NAMES, user_names=LEARNER_NAMES)
+    cells = plan_cells(table.meta["content_hash"], selectors=LEARNER_NAMES, seeds=1)
+    built, learners, matrix = mismatch(summarise(run_cells(table, cells, tmp_path)))
+    assert built == learners == list(LEARNER_NAMES)
+    np.testing.assert_allclose(matrix, expected, rtol=0, atol=1e-9)
