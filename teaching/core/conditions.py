@@ -19,6 +19,7 @@ from .selection import (
     APPROX_STAR,
     CONDITIONS,
     DEFAULT_SETTINGS,
+    RANDOM_LENGTH,
     SelectionSettings,
     Sequence,
     SweepRow,
@@ -29,7 +30,17 @@ from .selection import (
     random_draws,
     showable,
 )
-from .selectors import Param, Selector, check_params, get_selector, register_selector, selector_names
+from .selectors import (
+    Param,
+    Selector,
+    check_params,
+    get_selector,
+    integer_at_least,
+    register_selector,
+    selector_names,
+)
+
+UNIFORM_STREAM = 0x756E69  # random-uniform's own stream of the run's seed, apart from the random baseline's
 
 
 @dataclass
@@ -117,6 +128,23 @@ for _name in LEARNER_NAMES:
 register_selector(Selector(
     "random", lambda ctx: ctx.evaluated(ctx.random()[0], "exact"),
     doc="the median by exact-IRL P(θ*) of RANDOM_DRAWS random sequences of RANDOM_LENGTH environments"))
+
+
+def uniform_random(ctx: SelectionContext, length: int) -> Sequence:
+    """`length` environments drawn uniformly and independently (repeats allowed) from the showable ones, scored
+    under the exact learner: the plain random baseline, whose expected learning curve has a closed form where
+    the random median above has none."""
+    pool = np.flatnonzero(ctx.eligible)
+    if not pool.size:
+        raise ValueError("no showable environment to draw from (each shows none of its class's strategies)")
+    rng = np.random.default_rng([ctx.seed, UNIFORM_STREAM])
+    return ctx.evaluated(rng.choice(pool, size=length).tolist(), "exact")
+
+
+register_selector(Selector(
+    "random-uniform", uniform_random,
+    params={"length": Param(RANDOM_LENGTH, integer_at_least(1), "examples drawn")},
+    doc="environments drawn uniformly at random (repeats allowed) from the showable ones, one stream per seed"))
 register_selector(Selector(
     "coverage-approx*", lambda ctx, model: coverage_sequence(ctx.likelihood(model), ctx.table, ctx.settings),
     params=_MODEL_PARAM, scored_by=lambda params: params["model"],

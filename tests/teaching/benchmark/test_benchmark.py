@@ -147,3 +147,27 @@ def test_the_mismatch_matrix_is_teachs_ideal_user_matrix(gridworld_tiny_table, t
     built, learners, matrix = mismatch(summarise(run_cells(table, cells, tmp_path)))
     assert built == learners == list(LEARNER_NAMES)
     np.testing.assert_allclose(matrix, expected, rtol=0, atol=1e-9)
+
+
+SEEDS = 2000  # random-uniform's sequences averaged for its expected curve
+
+
+def test_random_uniforms_mean_curve_is_its_closed_form(tmp_path):
+    """The hand table with θ* and u3 = (.6, 1) alone: u3 keeps θ*'s way optimal in E0 ((3,3) costs it 4.8, (5,2)
+    5.0) and E2 (4.8 against 6.6), not in E1 ((6,1) costs 4.6) nor E3 ((5,1.5) costs 4.5).  So after t uniform draws
+    (repeats allowed) the exact learner still holds u3 with probability q^t, q = 1/2, and then P(θ*) = 1/2, else 1:
+    E[P_t] = 1 - q^t / 2, and P_t's standard deviation is sqrt(q^t (1 - q^t)) / 2.  The mean over seeds 0 .. SEEDS - 1
+    (fixed, so the check is too) is within 4 of that standard deviation's standard errors at every t."""
+    full = hand_bec_table()
+    keep = [0, 3]
+    table = TrajectoryTable(thetas=full.thetas[keep], env_ids=full.env_ids, controls=full.controls[:, keep],
+                            features=full.features[:, keep], strategy=full.strategy[:, keep],
+                            d_euclid=full.d_euclid[:, keep], normalisers=full.normalisers, meta=full.meta)
+    cells = plan_cells("hand-2", selectors=["random-uniform"], learners=["exact"], seeds=SEEDS)
+    results = run_cells(table, cells, tmp_path)
+    curves = np.array([r["p_theta_star"] for r in results])
+    t = np.arange(1, curves.shape[1] + 1)
+    closed = 1 - 0.5 ** t / 2
+    se = np.sqrt(0.5 ** t * (1 - 0.5 ** t)) / 2 / np.sqrt(SEEDS)
+    assert curves.shape == (SEEDS, 8) and set(np.unique(curves)) <= {0.5, 1.0}
+    assert np.all(np.abs(curves.mean(axis=0) - closed) <= 4 * se + 1e-12), (curves.mean(axis=0), closed, se)
