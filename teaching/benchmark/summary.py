@@ -29,7 +29,7 @@ class Row:
     curve_ci: tuple[float, ...]
     to_criterion: float | None  # mean examples to criterion over the seeds that reach it
     reached: int  # seeds that reach it
-    seconds: float | None  # mean selection seconds (None: none recorded)
+    selection_cost: float | None  # mean seconds the selection took (None: none recorded)
     error: str | None = None
 
 
@@ -88,7 +88,7 @@ def markdown(rows: list[Row], title: str) -> str:
              "(seeds reaching it) | selection s |",
              "|---|---|---:|---|---|---:|"]
     for r in rows:
-        cost = "" if r.seconds is None else f"{r.seconds:.3g}"
+        cost = "" if r.selection_cost is None else f"{r.selection_cost:.3g}"
         if r.error:
             lines.append(f"| {r.selector} | {r.learner} | {r.seeds} | refused: {r.error} | | {cost} |")
             continue
