@@ -83,7 +83,8 @@ def test_the_designer_offers_every_selector_with_its_parameters_in_the_condition
                             "bec_scaffold_k": "1", "highlights_k": "3", "test_difficulty": "high"}, tables=tables)
     names = list(form.fields)
     assert {"scot", "bec-scaffold", "highlights"} <= {v for v, _ in form.fields["conditions"].choices}
-    params = {"bec_scaffold_k": ("bec-scaffold", "k"), "bec_scaffold_levels": ("bec-scaffold", "levels"),
+    params = {"random_uniform_length": ("random-uniform", "length"),
+              "bec_scaffold_k": ("bec-scaffold", "k"), "bec_scaffold_levels": ("bec-scaffold", "levels"),
               "bec_scaffold_samples": ("bec-scaffold", "samples"), "highlights_k": ("highlights", "k")}
     assert names[names.index("conditions") + 1:names.index("target_per_condition")] == list(params)
     for field, (selector, key) in params.items():  # default and bound: the selector's declaration
