@@ -60,14 +60,19 @@ export class Player {
       if (t < this.scene.duration) {
         this.raf = requestAnimationFrame(tick);
       } else {
-        this.playing = false;
-        const first = !this.played;
-        this.played = true;
-        this.onState("ended");
-        if (first) this.onPlayed();
+        this.ended();
       }
     };
     this.raf = requestAnimationFrame(tick);
+  }
+
+  // The animation has reached its end: onPlayed the first time.
+  ended() {
+    this.playing = false;
+    const first = !this.played;
+    this.played = true;
+    this.onState("ended");
+    if (first) this.onPlayed();
   }
 
   togglePause() {

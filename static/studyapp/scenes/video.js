@@ -10,6 +10,7 @@
 // motion).
 
 import { gettext, interpolate } from "../i18n.js";
+import { Player } from "../player.js";
 
 const loaded = new Map();  // name -> {url, duration, width, height}
 
@@ -114,24 +115,13 @@ async function prepare(robots) {
   }
 }
 
-// Plays a recording as Player (../player.js) plays an animation: Play from the start, a click to pause and
-// resume, onPlayed once it first reaches its end.
-class VideoPlayer {
-  constructor(scene, { onPlayed = () => {}, onState = () => {} } = {}) {
-    this.scene = scene;
-    this.onPlayed = onPlayed;
-    this.onState = onState;
-    this.playing = false;
-    this.paused = false;
-    this.played = false;
+// Plays a recording as Player (../player.js) plays an animation, the video's own clock in place of the
+// animation frames': Play from the start, a click to pause and resume, onPlayed once it first reaches its end.
+class VideoPlayer extends Player {
+  constructor(scene, callbacks) {
+    super(scene, callbacks);
     const video = scene.video;
-    video.addEventListener("ended", () => {
-      this.playing = false;
-      const first = !this.played;
-      this.played = true;
-      this.onState("ended");
-      if (first) this.onPlayed();
-    });
+    video.addEventListener("ended", () => this.ended());
     video.addEventListener("timeupdate", () => { scene.t = video.currentTime; });
   }
 
@@ -145,23 +135,15 @@ class VideoPlayer {
   }
 
   togglePause() {
-    if (this.playing) {
-      this.scene.video.pause();
-      this.playing = false;
-      this.paused = true;
-      this.onState("paused");
-    } else if (this.paused) {
-      this.play(this.scene.video.currentTime);
-    }
+    if (this.playing) this.scene.video.pause();
+    this.scene.t = this.scene.video.currentTime;  // resumed from where the video is, not its last timeupdate
+    super.togglePause();
   }
 
   // No trail: "on" shows the last frame (where the robot ended), "off" the first or, once played, the last.
   showTrail(on) {
     this.scene.video.pause();
-    this.paused = false;
-    if (this.playing) { this.playing = false; this.onState("stopped"); }
-    this.scene.mode = on ? "trail" : "frame";
-    if (on) this.scene.drawTrail(); else this.scene.drawFrame(this.played ? this.scene.duration : 0);
+    super.showTrail(on);
   }
 }
 
