@@ -51,6 +51,45 @@ def hallway(tmp_path, transactional_db):
     registry.forget("hallway")
 
 
+def two_by_two_then_stacked(page, name: str) -> None:
+    """The test page's layout: on a laptop the first two options share a row; at 390 px they stack and nothing is
+    wider than the screen.  Screenshots test-output/<name>_test.png and <name>_test_phone.png; the page is left
+    reloaded at the laptop's size."""
+    page.screenshot(path=str(OUT / f"{name}_test.png"), full_page=True)
+    a, b = (page.locator(".option").nth(k).bounding_box() for k in (0, 1))
+    assert abs(a["y"] - b["y"]) < 1 and b["x"] > a["x"] + a["width"] - 1
+    page.set_viewport_size({"width": 390, "height": 844})
+    page.reload()
+    ready(page)
+    assert page.evaluate("document.documentElement.scrollWidth") <= 390
+    a, b = (page.locator(".option").nth(k).bounding_box() for k in (0, 1))
+    assert b["y"] >= a["y"] + a["height"] - 1  # stacked on a phone
+    page.screenshot(path=str(OUT / f"{name}_test_phone.png"), full_page=True)
+    page.set_viewport_size({"width": 1280, "height": 900})
+    page.reload()
+    ready(page)
+
+
+def choose_a_and_rate_all(page) -> None:
+    """Choose option A, rate every option 4, go on."""
+    page.locator('input[name="choice"][value="A"]').check(force=True)
+    for letter in "ABCD":
+        page.locator(f'.rating[data-option="{letter}"] input[value="4"]').check(force=True)
+    page.locator('#test-form button[type="submit"]').click()
+
+
+def finish(page) -> None:
+    """The attention check (an imported robot's: "A robot"), the demographics, and the thank-you page."""
+    expect(page.locator("h1")).to_have_text("One more question")
+    page.get_by_label("A robot", exact=True).check()
+    page.get_by_role("button", name="Continue").click()
+    expect(page.locator("h1")).to_have_text("About you")
+    page.locator("#age").fill("29")
+    page.get_by_label("Female").check()
+    page.get_by_role("button", name="Finish").click()
+    expect(page.locator("h1")).to_have_text("Thank you!")
+
+
 def leaks(body: str, table) -> list[str]:
     """What in a page or a JSON answer would tell an environment or an objective apart."""
     found = [key for key in ('"env_id"', '"theta_index"', '"is_theta_star"', '"cluster"', '"env_class"')
@@ -107,35 +146,12 @@ def test_a_participant_takes_the_hallway_study_and_nothing_tells_an_environment_
         page.locator('[data-action="play-all"]').click()
         play_all(page, 18000)
         if j == 0:
-            page.screenshot(path=str(OUT / "imported_test.png"), full_page=True)
-            # four side by side in two columns on a laptop: the first two options share a row
-            a, b = (page.locator(".option").nth(k).bounding_box() for k in (0, 1))
-            assert abs(a["y"] - b["y"]) < 1 and b["x"] > a["x"] + a["width"] - 1
-            page.set_viewport_size({"width": 390, "height": 844})
-            page.reload()
-            ready(page)
-            assert page.evaluate("document.documentElement.scrollWidth") <= 390
-            a, b = (page.locator(".option").nth(k).bounding_box() for k in (0, 1))
-            assert b["y"] >= a["y"] + a["height"] - 1  # stacked on a phone
-            page.screenshot(path=str(OUT / "imported_test_phone.png"), full_page=True)
-            page.set_viewport_size({"width": 1280, "height": 900})
-            page.reload()
-            ready(page)
+            two_by_two_then_stacked(page, "imported")
             page.locator('[data-action="play-all"]').click()
             play_all(page, 18000)
-        page.locator('input[name="choice"][value="A"]').check(force=True)
-        for letter in "ABCD":
-            page.locator(f'.rating[data-option="{letter}"] input[value="4"]').check(force=True)
-        page.locator('#test-form button[type="submit"]').click()
+        choose_a_and_rate_all(page)
 
-    expect(page.locator("h1")).to_have_text("One more question")
-    page.get_by_label("A robot", exact=True).check()
-    page.get_by_role("button", name="Continue").click()
-    expect(page.locator("h1")).to_have_text("About you")
-    page.locator("#age").fill("29")
-    page.get_by_label("Female").check()
-    page.get_by_role("button", name="Finish").click()
-    expect(page.locator("h1")).to_have_text("Thank you!")
+    finish(page)
     assert not errors, errors
     p.refresh_from_db()
     assert p.completed_at and not p.excluded

@@ -22,7 +22,7 @@ from teaching.api import domain_names
 from teaching.core.domain import unregister
 from teaching.importing import registry
 from teaching.importing.convert import import_table
-from tests.browser.test_imported_robot_browser import leaks
+from tests.browser.test_imported_robot_browser import choose_a_and_rate_all, finish, leaks, two_by_two_then_stacked
 from tests.browser.test_participant_flow import ready
 from tests.studyapp.test_stimuli import real_spec
 
@@ -142,35 +142,13 @@ def test_a_participant_watches_the_hallway_videos_and_nothing_tells_an_environme
         if j == 0:
             page.wait_for_function("() => [...document.querySelectorAll('video')].every((v) => v.currentTime > 4)")
             page.evaluate("() => document.querySelectorAll('video').forEach((v) => v.pause())")
-            page.screenshot(path=str(OUT / "video_test.png"), full_page=True)
-            a, b = (page.locator(".option").nth(k).bounding_box() for k in (0, 1))
-            assert abs(a["y"] - b["y"]) < 1 and b["x"] > a["x"] + a["width"] - 1  # two by two on a laptop
-            page.set_viewport_size({"width": 390, "height": 844})
-            page.reload()
-            ready(page)
-            assert page.evaluate("document.documentElement.scrollWidth") <= 390
-            a, b = (page.locator(".option").nth(k).bounding_box() for k in (0, 1))
-            assert b["y"] >= a["y"] + a["height"] - 1  # stacked on a phone
-            page.screenshot(path=str(OUT / "video_test_phone.png"), full_page=True)
-            page.set_viewport_size({"width": 1280, "height": 900})
-            page.reload()
-            ready(page)
+            two_by_two_then_stacked(page, "video")
             fast(page)
             page.locator('[data-action="play-all"]').click()
         watched(page, 4)
-        page.locator('input[name="choice"][value="A"]').check(force=True)
-        for letter in "ABCD":
-            page.locator(f'.rating[data-option="{letter}"] input[value="4"]').check(force=True)
-        page.locator('#test-form button[type="submit"]').click()
+        choose_a_and_rate_all(page)
 
-    expect(page.locator("h1")).to_have_text("One more question")
-    page.get_by_label("A robot", exact=True).check()
-    page.get_by_role("button", name="Continue").click()
-    expect(page.locator("h1")).to_have_text("About you")
-    page.locator("#age").fill("29")
-    page.get_by_label("Female").check()
-    page.get_by_role("button", name="Finish").click()
-    expect(page.locator("h1")).to_have_text("Thank you!")
+    finish(page)
     assert not errors, errors
     p.refresh_from_db()
     assert p.completed_at and not p.excluded
