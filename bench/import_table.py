@@ -25,7 +25,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bench.doc_section import rewrite_section
+from bench.doc_section import add_doc_arguments, rewrite_section
 
 ROOT = Path(__file__).resolve().parents[1]
 BAR_SECONDS, BAR_MB = 120.0, 2048.0
@@ -97,9 +97,7 @@ def main() -> None:
     ap.add_argument("--envs", type=int, default=20_000)
     ap.add_argument("--objectives", type=int, default=1_000)
     ap.add_argument("--features", type=int, default=5)
-    ap.add_argument("--json", metavar="PATH", help="also write the figures to PATH as JSON")
-    ap.add_argument("--update-doc", nargs=2, metavar=("JSON", "DOC"), help="rewrite DOC's section from a --json "
-                    "output; no run")
+    add_doc_arguments(ap)
     args = ap.parse_args()
     if args.update_doc:
         return rewrite_section(Path(args.update_doc[0]), Path(args.update_doc[1]), BEGIN, END, markdown,

@@ -22,7 +22,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bench.doc_section import rewrite_section
+from bench.doc_section import add_doc_arguments, rewrite_section
 
 ROOT = Path(__file__).resolve().parents[1]
 PRESETS = ("demo", "gridworld", "skateboard", "taxi", "two-goal")
@@ -64,9 +64,7 @@ def main() -> None:
     ap.add_argument("--tables-dir", type=Path, default=ROOT / "var" / "tables", help="where the tables are built")
     ap.add_argument("--preset", action="append", help=f"only this table (repeatable; default {', '.join(PRESETS)})")
     ap.add_argument("--seeds", type=int, default=10)
-    ap.add_argument("--json", metavar="PATH", help="also write the figures to PATH as JSON")
-    ap.add_argument("--update-doc", nargs=2, metavar=("JSON", "DOC"), help="rewrite DOC's section from a --json "
-                    "output; no run")
+    add_doc_arguments(ap)
     args = ap.parse_args()
     if args.update_doc:
         return rewrite_section(Path(args.update_doc[0]), Path(args.update_doc[1]), BEGIN, END, markdown,
