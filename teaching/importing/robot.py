@@ -102,7 +102,8 @@ class ImportedDomain(BaseDomain):
         self.vocabulary = frozenset(w for w in re.split("[^a-z]+", self.name) if w)
         self.videos = tuple(s["videos"] or ())  # every video's file name in media/
         self.video_seconds = tuple(float(v) for v in s.get("video_seconds") or (0.0,) * len(self.videos))
-        self.video_of = np.load(self.robot_dir / VIDEOS) if self.videos else None  # (M, N) into self.videos
+        # (M, N) into self.videos, mapped: a page reads one entry, a site need not hold them all
+        self.video_of = np.load(self.robot_dir / VIDEOS, mmap_mode="r") if self.videos else None
         if self.video_of is not None and (self.video_of.ndim != 2 or len(self.video_of) != len(self.env_ids)
                                           or self.video_of.min() < 0 or self.video_of.max() >= len(self.videos)):
             raise ValueError(f"{VIDEOS} does not index the {len(self.videos)} videos of {len(self.env_ids)} "
