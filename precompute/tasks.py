@@ -217,3 +217,13 @@ def study_finish(self, job_id, spec):
                                for name, data in loops.items()}}
     finish_job(job_id, summary)
     return {"study": study.slug, "tests": summary["test_env_ids"]}
+
+
+# --- the teaching benchmark ------------------------------------------------------------
+@shared_task(bind=True, name="precompute.benchmark_cells", acks_late=True, reject_on_worker_lost=True)
+def benchmark_cells(self, table, cells, out):
+    """One shared selection of the teaching benchmark (a selector, its parameters, a seed) with every learner's
+    cell: teaching/benchmark/run.py's run_batch, writing each result to the results folder `out` (on a filesystem
+    every worker shares, as a table's).  A re-delivery reads the cells already written instead of computing them."""
+    run = importlib.import_module("teaching.benchmark.run")  # imported at the first task, as steps() is
+    return {**run.run_batch(table, cells, out), "host": host_id()}

@@ -150,6 +150,17 @@ Learners and selection (DESIGN §5-6)
     TEST_KINDS               ("choose", "show"): what a test asks; TeachOutput.test_kind, one per output;
                              is_show(test) whether a test's dict asks to show the way (its "kind" is SHOW)
 
+The teaching benchmark (teaching.benchmark; docs/benchmark.md)
+    plan_benchmark(table_hash, selectors=None, learners=None, seeds=10)  [Cell]: every (selector, learner,
+                             seed) of one table, content-addressed (Cell.key, 32 hex digits)
+    run_benchmark_cells(table, cells, out)  [result dict]: each cell's P(θ*) after each example, computing
+                             those not yet in out/cells/ (resumable); benchmark_batches(cells) the cells
+                             grouped by the selection they share (a worker's unit);
+                             read_benchmark_results(out, cells) their stored results, in order
+    write_benchmark_summary(out, [(table path, table, results)])  out/summary.md and summary.json
+    benchmark_arguments(parser), benchmark_plan(args)  the command's arguments, and [(table path, table,
+                             cells)] as they ask (manage.py benchmark runs the same on Celery workers)
+
 Ideal users (the paper's simulated learners; teaching.core.evaluation)
     USER_NAMES               the matrix's columns: the 7 learner models (MODEL_NAMES) and the
                              hierarchical learner
@@ -159,6 +170,13 @@ Ideal users (the paper's simulated learners; teaching.core.evaluation)
 """
 from __future__ import annotations
 
+from .benchmark.cells import plan_cells as plan_benchmark
+from .benchmark.commands import add_arguments as benchmark_arguments
+from .benchmark.commands import plan as benchmark_plan
+from .benchmark.commands import write_summary as write_benchmark_summary
+from .benchmark.run import batches as benchmark_batches
+from .benchmark.run import read_results as read_benchmark_results
+from .benchmark.run import run_cells as run_benchmark_cells
 from .core.answers import Answers, FitError, Question, questions_of
 from .core.build import (
     PRESETS,
@@ -261,4 +279,6 @@ __all__ = [
     "MIN_SHARE", "SHOW", "TEST_KINDS", "is_show", "select_show_tests",
     "TestSetError", "TestSupply", "clusters_without_a_test", "supply_of_tests",
     "ungraded_problem", "register_table_robot",
+    "plan_benchmark", "run_benchmark_cells", "benchmark_batches", "read_benchmark_results",
+    "write_benchmark_summary", "benchmark_arguments", "benchmark_plan",
 ]

@@ -40,6 +40,18 @@ class Cell:
     def describe(self) -> dict:
         return {**asdict(self), "params": dict(self.params)}
 
+    @classmethod
+    def from_description(cls, described: dict, key: str) -> Cell:
+        """The cell `describe()` gave, as a message or a result file carries it; ValueError if it is not the cell
+        `key` names (a worker running other code than the client that planned it)."""
+        params = tuple(sorted((name, tuple(v) if isinstance(v, list) else v)
+                              for name, v in described["params"].items()))
+        cell = cls(described["table"], described["selector"], params, described["learner"], int(described["seed"]))
+        if cell.key != key:
+            raise ValueError(f"cell {key} reads back as {cell.key}: the worker's benchmark code differs from the "
+                             "sender's (restart the workers on the same checkout)")
+        return cell
+
 
 def plan_cells(table_hash: str, *, selectors=None, learners=None, seeds: int = 10) -> list[Cell]:
     """Every (selector, learner, seed) cell of one table: `selectors` (names; default every registered one) with

@@ -23,22 +23,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
-def command(args) -> int:
+def plan(args) -> list[tuple[str, object, list]]:
+    """(table path, table, its cells) for each --table, as the arguments ask; ValueError (one line) for a bad one."""
     from ..core.table import TrajectoryTable  # noqa: PLC0415  (the command's own imports, as build's)
     from .cells import plan_cells  # noqa: PLC0415
-    from .run import run_cells  # noqa: PLC0415
+
+    tables = [(path, TrajectoryTable.load(path)) for path in args.table]
+    return [(path, table, plan_cells(table.meta["content_hash"], selectors=args.selector, learners=args.learner,
+                                     seeds=args.seeds)) for path, table in tables]
+
+
+def write_summary(out: Path, done: list[tuple[str, object, list[dict]]]) -> str:
+    """summary.md and summary.json in `out`, from (table path, table, its results) of each table; the Markdown."""
     from .summary import markdown, mismatch_markdown, read_costs, summarise  # noqa: PLC0415
 
-    out = Path(args.out)
-    tables = [(path, TrajectoryTable.load(path)) for path in args.table]
-    planned = [(path, table, plan_cells(table.meta["content_hash"], selectors=args.selector,
-                                        learners=args.learner, seeds=args.seeds)) for path, table in tables]
-    text, summary = [], {}
-    for path, table, cells in planned:
-        with tqdm(total=len(cells), unit="cell", desc=f"benchmark {table.meta.get('preset')}",
-                  disable=args.no_progress) as bar:
-            results = run_cells(table, cells, out, progress=lambda done, total: bar.update(done - bar.n))
-        rows = summarise(results, read_costs(out))
+    text, summary, costs = [], {}, read_costs(out)
+    for path, table, results in done:
+        rows = summarise(results, costs)
         title = f"{table.domain.name}: {path} ({table.n_envs:,} environments x {table.n_thetas:,} objectives)"
         text.append(markdown(rows, title))
         matrix = mismatch_markdown(rows)
@@ -48,6 +49,20 @@ def command(args) -> int:
         summary[str(path)] = [r.__dict__ for r in rows]
     (out / "summary.md").write_text("\n".join(text), encoding="utf-8")
     (out / "summary.json").write_text(json.dumps(summary, indent=1, default=str), encoding="utf-8")
-    print("\n".join(text))
+    return "\n".join(text)
+
+
+def command(args) -> int:
+    from .run import run_cells  # noqa: PLC0415
+
+    out = Path(args.out)
+    planned = plan(args)
+    done = []
+    for path, table, cells in planned:
+        with tqdm(total=len(cells), unit="cell", desc=f"benchmark {table.meta.get('preset')}",
+                  disable=args.no_progress) as bar:
+            done.append((path, table, run_cells(table, cells, out,
+                                                progress=lambda n, total: bar.update(n - bar.n))))
+    print(write_summary(out, done))
     print(f"wrote {out}/summary.md and {out}/summary.json ({sum(len(c) for *_, c in planned):,} cells)")
     return 0

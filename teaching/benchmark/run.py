@@ -23,6 +23,7 @@ import numpy as np
 from ..core.conditions import SelectionContext
 from ..core.learners import LEARNER_NAMES, Distances, p_curve
 from ..core.selectors import get_selector
+from ..core.table import TrajectoryTable
 from .cells import CRITERION, Cell
 
 
@@ -55,7 +56,7 @@ class Runner:
     def __init__(self, table):
         self.table = table
         self.dist = Distances(table)
-        self._models: dict[str, object] = {}
+        self._fitted = False
         self._context: SelectionContext | None = None  # the current seed's (cells come seed by seed)
         self._selections: dict[tuple, tuple[list[int] | None, str | None, float]] = {}
 
@@ -71,9 +72,11 @@ class Runner:
         return ctx.fitted(name)[0]
 
     def fit_all(self) -> None:
-        """Every learner model fitted now, so that no selection's time holds a fit."""
-        for name in LEARNER_NAMES:
-            self.model(name)
+        """Every learner model fitted now (once), so that no selection's time holds a fit."""
+        if not self._fitted:
+            for name in LEARNER_NAMES:
+                self.model(name)
+            self._fitted = True
 
     def selection(self, cell: Cell) -> tuple[list[int] | None, str | None, float]:
         """(table rows shown, or None; the selector's refusal, or None; seconds it took)."""
@@ -99,18 +102,18 @@ class Runner:
                 "examples_to_criterion": examples_to_criterion(curve)}, seconds
 
 
-def run_cells(table, cells: list[Cell], out, *, progress: Callable[[int, int], None] | None = None) -> list[dict]:
-    """Every cell's result, computing and writing those not yet in `out` (in the order given)."""
+def run_cells(table, cells: list[Cell], out, *, progress: Callable[[int, int], None] | None = None,
+              runner: Runner | None = None) -> list[dict]:
+    """Every cell's result, computing and writing those not yet in `out` (in the order given); `runner`: one of
+    `table` kept from an earlier call (a worker's), so its distances and fits are not made again."""
     out = Path(out)
-    runner, results, fitted = Runner(table), [], False
+    runner, results = runner or Runner(table), []
     for done, cell in enumerate(cells, 1):
         path = result_path(out, cell)
         if path.exists():
             results.append(json.loads(path.read_text(encoding="utf-8")))
         else:
-            if not fitted:
-                runner.fit_all()
-                fitted = True
+            runner.fit_all()
             result, seconds = runner.result(cell)
             write_atomically(out / "costs" / path.name, {"key": cell.key, "selection_seconds": seconds})
             write_atomically(path, result)
@@ -118,3 +121,46 @@ def run_cells(table, cells: list[Cell], out, *, progress: Callable[[int, int], N
         if progress:
             progress(done, len(cells))
     return results
+
+
+def read_results(out, cells: list[Cell]) -> list[dict]:
+    """The stored results of `cells`, in their order; FileNotFoundError naming the first missing one."""
+    results = []
+    for cell in cells:
+        path = result_path(Path(out), cell)
+        if not path.exists():
+            raise FileNotFoundError(f"no result for cell {cell.key} ({cell.selector}, {cell.learner}, seed "
+                                    f"{cell.seed}) in {path.parent}")
+        results.append(json.loads(path.read_text(encoding="utf-8")))
+    return results
+
+
+def batches(cells: list[Cell]) -> list[list[Cell]]:
+    """The cells grouped by the selection they share (selector, parameters, seed), in first-seen order: the unit a
+    worker takes, since one selection serves every learner."""
+    groups: dict[tuple, list[Cell]] = {}
+    for cell in cells:
+        groups.setdefault((cell.selector, cell.params, cell.seed), []).append(cell)
+    return list(groups.values())
+
+
+_runner: tuple[tuple[str, str], Runner] | None = None  # this process's last table: a worker takes many of its batches
+
+
+def run_batch(table_path, messages: list[dict], out) -> dict:
+    """A worker's unit: the cells `messages` describe ({"cell": Cell.describe(), "key": ...}), of the table at
+    `table_path`, computed into `out` as run_cells does.  The table is loaded, and its learners fitted, once per
+    process.  ValueError if the table there is not the one the cells were planned on.  Returns counts."""
+    global _runner
+    cells = [Cell.from_description(m["cell"], m["key"]) for m in messages]
+    path = str(Path(table_path).resolve())
+    content_hash = json.loads((Path(path) / "meta.json").read_text(encoding="utf-8"))["content_hash"]
+    if _runner is None or _runner[0] != (path, content_hash):
+        _runner = ((path, content_hash), Runner(TrajectoryTable.load(path)))
+    wrong = {c.table for c in cells} - {content_hash}
+    if wrong:
+        raise ValueError(f"the table at {table_path} has content hash {content_hash[:16]}, not the planned "
+                         f"{sorted(wrong)[0][:16]}: it changed since the benchmark was planned")
+    stored = sum(result_path(Path(out), c).exists() for c in cells)
+    run_cells(_runner[1].table, cells, out, runner=_runner[1])
+    return {"cells": len(cells), "computed": len(cells) - stored}
