@@ -5,7 +5,7 @@ PIP := .venv/bin/pip
 # every file on it), the first step of every `make test` from a fresh clone (docs/decisions.md, Dependencies)
 UV_VERSION := 0.13.9
 
-.PHONY: demo test lint venv browser-deps serve-deps media-deps messages table bench clean serve load docs example example-videos bench-teaching
+.PHONY: demo test lint venv browser-deps serve-deps media-deps messages table bench clean serve load docs example example-videos bench-teaching leaderboard
 
 venv: .venv/.installed
 .venv/.installed: requirements.txt
@@ -46,6 +46,15 @@ demo: venv table messages
 # resumed where a run stopped.
 bench-teaching: venv table
 	.venv/bin/python -m teaching benchmark --table $(TABLES_DIR)/demo --out $(or $(VAR_DIR),var)/benchmark --seeds 10
+
+# docs/leaderboard.md and its figures, generated from the benchmark of the five small tables (built where missing),
+# 10 seeds each: a rerun computes only the cells its results folder lacks.
+LEADERBOARD_TABLES := demo gridworld skateboard taxi two-goal
+leaderboard: venv
+	for t in $(LEADERBOARD_TABLES); do test -f $(TABLES_DIR)/$$t/meta.json || \
+		.venv/bin/python -m teaching build --preset $$t --out $(TABLES_DIR)/$$t || exit 1; done
+	.venv/bin/python -m teaching benchmark $(foreach t,$(LEADERBOARD_TABLES),--table $(TABLES_DIR)/$(t)) \
+		--out $(or $(VAR_DIR),var)/leaderboard --seeds 10 --leaderboard docs/leaderboard.md
 
 # The worked example of a robot from outside the project (examples/hallway): its table folder from its own
 # planner, imported, taught, made a study and served locally.

@@ -20,6 +20,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="only this selector (repeatable; default: every registered one)")
     parser.add_argument("--learner", action="append", metavar="NAME",
                         help="only this learner model (repeatable; default: every one)")
+    parser.add_argument("--leaderboard", metavar="PAGE.md",
+                        help="also write the leaderboard page there, its figures under figures/leaderboard/ beside it")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
@@ -33,8 +35,9 @@ def plan(args) -> list[tuple[str, object, list]]:
                                      seeds=args.seeds)) for path, table in tables]
 
 
-def write_summary(out: Path, done: list[tuple[str, object, list[dict]]]) -> str:
-    """summary.md and summary.json in `out`, from (table path, table, its results) of each table; the Markdown."""
+def write_summary(out: Path, done: list[tuple[str, object, list[dict]]], leaderboard=None) -> str:
+    """summary.md and summary.json in `out`, from (table path, table, its results) of each table, and the
+    leaderboard page if one is named; the summary's Markdown."""
     from .summary import markdown, mismatch_markdown, read_costs, summarise  # noqa: PLC0415
 
     text, summary, costs = [], {}, read_costs(out)
@@ -49,6 +52,10 @@ def write_summary(out: Path, done: list[tuple[str, object, list[dict]]]) -> str:
         summary[str(path)] = [r.__dict__ for r in rows]
     (out / "summary.md").write_text("\n".join(text), encoding="utf-8")
     (out / "summary.json").write_text(json.dumps(summary, indent=1, default=str), encoding="utf-8")
+    if leaderboard:
+        from .leaderboard import write_leaderboard  # noqa: PLC0415  (matplotlib, only when a page is asked for)
+
+        write_leaderboard(leaderboard, done, costs)
     return "\n".join(text)
 
 
@@ -63,6 +70,7 @@ def command(args) -> int:
                   disable=args.no_progress) as bar:
             done.append((path, table, run_cells(table, cells, out,
                                                 progress=lambda n, total: bar.update(n - bar.n))))
-    print(write_summary(out, done))
-    print(f"wrote {out}/summary.md and {out}/summary.json ({sum(len(c) for *_, c in planned):,} cells)")
+    print(write_summary(out, done, args.leaderboard))
+    print(f"wrote {out}/summary.md and {out}/summary.json ({sum(len(c) for *_, c in planned):,} cells)"
+          + (f" and {args.leaderboard}" if args.leaderboard else ""))
     return 0

@@ -56,6 +56,6 @@ class Command(BaseCommand):
                 except (BrokerUnavailable, TimeoutError) as exc:
                     raise CommandError(str(exc)) from None
             done.append((path, table, results))
-        self.stdout.write(write_benchmark_summary(out, done))
+        self.stdout.write(write_benchmark_summary(out, done, opts["leaderboard"]))
         self.stdout.write(f"wrote {out}/summary.md and {out}/summary.json "
                           f"({sum(len(c) for *_, c in planned):,} cells)")
