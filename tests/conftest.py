@@ -255,7 +255,8 @@ def gridworld_table(tmp_path_factory):
 
 # Both domains' tiny presets and the directories each is built in, once per run (tiny-table is also the
 # one tiny_table and tests/prebuild.py build, by the command line: the same table).
-TINY_PRESETS = {"tiny": builds.TINY_TABLE, "gridworld-tiny": "gridworld-tiny-table"}
+TINY_PRESETS = {"tiny": builds.TINY_TABLE, "gridworld-tiny": "gridworld-tiny-table",
+                "skateboard-tiny": "skateboard-tiny-table"}
 
 
 def tiny_preset_table(tmp_path_factory, preset: str) -> Path:
@@ -267,6 +268,12 @@ def tiny_preset_table(tmp_path_factory, preset: str) -> Path:
 def gridworld_tiny_table(tmp_path_factory):
     """The `gridworld-tiny` preset, once per run."""
     return tiny_preset_table(tmp_path_factory, "gridworld-tiny")
+
+
+@pytest.fixture(scope="session")
+def skateboard_tiny_table(tmp_path_factory):
+    """The `skateboard-tiny` preset (Lee et al.'s skateboard world from its file, 48 x 24), once per run."""
+    return tiny_preset_table(tmp_path_factory, "skateboard-tiny")
 
 
 @pytest.fixture(scope="session")

@@ -15,7 +15,7 @@ from dataclasses import asdict, dataclass
 from ..core.learners import LEARNER_NAMES, make_model
 from ..core.selectors import check_params, selector_names
 
-FORMAT = 1  # of a cell's result; a change of what a result holds bumps it, so older results are not reused
+FORMAT = 2  # of a cell's result; a change of what a result holds bumps it, so older results are not reused
 CRITERION = 0.5  # P(θ*) a learner must reach for "examples to criterion": θ* likelier than all others together
 
 

@@ -12,10 +12,11 @@ import numpy as np
 from .summary import Row
 
 
-def learning_curves(rows: list[Row], title: str, path: Path) -> Path:
-    """(selectors) lines of mean P(θ*) after each example, one panel per learner, to `path` (PNG).  A sequence
-    shorter than the longest is held at its last value (summary.padded), so every line ends at the right edge of
-    its own length and then stays flat."""
+def learning_curves(rows: list[Row], title: str, path: Path, field: str = "curve",
+                    ylabel: str = "mean P(θ*)") -> Path:
+    """(selectors) lines of each row's `field` (a Row curve: "curve", "accuracy" or "regret") after each example,
+    one panel per learner, to `path` (PNG).  Each line is as long as its longest sequence (summary.padded holds a
+    shorter one at its last value)."""
     learners = list(dict.fromkeys(r.learner for r in rows))
     selectors = list(dict.fromkeys(r.selector for r in rows if not r.error))
     colours = dict(zip(selectors, plt.get_cmap("tab20")(np.linspace(0, 1, max(len(selectors), 2))), strict=False))
@@ -23,7 +24,8 @@ def learning_curves(rows: list[Row], title: str, path: Path) -> Path:
     cols = 4
     fig, axes = plt.subplots(-(-len(learners) // cols), cols, figsize=(14, 3.2 * -(-len(learners) // cols)),
                              sharey=True, squeeze=False)
-    curves = {(r.selector, r.learner): r.curve for r in rows if not r.error}
+    curves = {(r.selector, r.learner): getattr(r, field) for r in rows if not r.error}
+    probability = field != "regret"
     for ax, learner in zip(axes.flat, learners, strict=False):
         for selector in selectors:
             curve = curves.get((selector, learner))
@@ -31,11 +33,12 @@ def learning_curves(rows: list[Row], title: str, path: Path) -> Path:
                 ax.plot(np.arange(1, len(curve) + 1), curve, color=colours[selector], ls=dashes[selector], lw=1.5,
                         label=selector)
         ax.set_title(learner, fontsize=10)
-        ax.set_ylim(-0.02, 1.02)
+        if probability:
+            ax.set_ylim(-0.02, 1.02)
         ax.grid(alpha=0.3)
         ax.set_xlabel("examples shown")
     for ax in axes[:, 0]:
-        ax.set_ylabel("mean P(θ*)")
+        ax.set_ylabel(ylabel)
     for ax in list(axes.flat)[len(learners):]:
         ax.axis("off")
     handles, labels = axes.flat[0].get_legend_handles_labels()

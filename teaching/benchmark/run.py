@@ -1,7 +1,9 @@
 """Computing a table's benchmark cells into a results folder, resumably.
 
     <out>/cells/<key>.json   each cell's result (its cell, the environments shown, P(θ*) after each, the
-                             examples to criterion, or the selector's one-line refusal): byte-identical on rerun
+                             examples to criterion, the held-out tests' accuracy and show regret after each
+                             (heldout.py; null where the table has none of a kind), or the selector's one-line
+                             refusal): byte-identical on rerun
     <out>/costs/<key>.json   the seconds its selection took (a measurement, so kept apart from the results)
 
 A result is written to a hidden file and renamed into place, so a run killed at any moment leaves whole results
@@ -25,6 +27,7 @@ from ..core.learners import LEARNER_NAMES, Distances, p_curve
 from ..core.selectors import get_selector
 from ..core.table import TrajectoryTable
 from .cells import CRITERION, Cell
+from .heldout import Tests, held_out, log_posteriors, pool_table
 
 
 def result_path(out: Path, cell: Cell) -> Path:
@@ -51,11 +54,14 @@ def examples_to_criterion(curve: list[float], criterion: float = CRITERION) -> i
 
 
 class Runner:
-    """The cells of one table: its distances once, each learner model fitted once, each selection once."""
+    """The cells of one table: its held-out tests drawn once (heldout.py), the selectors' table (the rest) and its
+    distances once, each learner model fitted once on it, each selection once."""
 
     def __init__(self, table):
-        self.table = table
-        self.dist = Distances(table)
+        self.held = held_out(table)
+        self.tests = Tests(table, self.held)
+        self.table = pool_table(table, self.held.pool)
+        self.dist = Distances(self.table)
         self._fitted = False
         self._context: SelectionContext | None = None  # the current seed's (cells come seed by seed)
         self._selections: dict[tuple, tuple[list[int] | None, str | None, float]] = {}
@@ -97,9 +103,13 @@ class Runner:
         out = {"cell": cell.describe(), "key": cell.key}
         if error is not None:
             return {**out, "error": error}, seconds
-        curve = p_curve(self.model(cell.learner), self.dist, envs).tolist()
+        model = self.model(cell.learner)
+        curve = p_curve(model, self.dist, envs).tolist()
+        log_post = log_posteriors(model, self.dist, envs)
         return {**out, "env_ids": [int(e) for e in np.asarray(self.table.env_ids)[envs]], "p_theta_star": curve,
-                "examples_to_criterion": examples_to_criterion(curve)}, seconds
+                "examples_to_criterion": examples_to_criterion(curve),
+                "test_accuracy": self.tests.accuracy(model, log_post),
+                "show_regret": self.tests.show_regret(log_post)}, seconds
 
 
 def run_cells(table, cells: list[Cell], out, *, progress: Callable[[int, int], None] | None = None,

@@ -2,7 +2,8 @@
 
 For each pair: how many seeds; the mean P(θ*) after the whole sequence and after each example (a sequence shorter
 than the longest holds its last value: the learner has seen all it will), each with its 95 % interval over seeds
-(Student's t; none from a single seed, nor where every seed agrees); the mean examples to criterion over the seeds
+(Student's t; none from a single seed, nor where every seed agrees); the mean held-out test accuracy and show
+regret after each example, where the table has such tests (heldout.py); the mean examples to criterion over the seeds
 that reach it, and how many do; and the mean seconds the selection took.  A selector that refused the table is one
 row saying why.
 """
@@ -31,6 +32,8 @@ class Row:
     reached: int  # seeds that reach it
     selection_cost: float | None  # mean seconds the selection took (None: none recorded)
     error: str | None = None
+    accuracy: tuple[float, ...] | None = None  # mean held-out test accuracy after each example (None: no tests)
+    regret: tuple[float, ...] | None = None  # mean show-test θ*-regret after each example (None: no show tests)
 
 
 def half_width(values: np.ndarray) -> np.ndarray:
@@ -47,6 +50,15 @@ def padded(curves: list[list[float]]) -> np.ndarray:
     """(seeds, longest) each curve held at its last value (0.0 for an empty one) to the longest's length."""
     longest = max(len(c) for c in curves)
     return np.array([list(c) + [c[-1] if c else 0.0] * (longest - len(c)) for c in curves], np.float64)
+
+
+def mean_curve(found: list[dict], field: str) -> tuple[float, ...] | None:
+    """The mean over seeds of each result's `field` curve (held at its last value), or None where a result has
+    none (a table without tests of that kind, or a result of an older format)."""
+    curves = [r.get(field) for r in found]
+    if any(c is None for c in curves) or not any(curves):
+        return None
+    return tuple(padded(curves).mean(axis=0).tolist())
 
 
 def summarise(results: list[dict], costs: dict[str, float] | None = None) -> list[Row]:
@@ -68,7 +80,8 @@ def summarise(results: list[dict], costs: dict[str, float] | None = None) -> lis
         ci = half_width(curves)
         rows.append(Row(selector, learner, len(found), float(curves[:, -1].mean()), float(ci[-1]),
                         tuple(curves.mean(axis=0).tolist()), tuple(ci.tolist()),
-                        float(np.mean(reached)) if reached else None, len(reached), mean_seconds))
+                        float(np.mean(reached)) if reached else None, len(reached), mean_seconds,
+                        accuracy=mean_curve(found, "test_accuracy"), regret=mean_curve(found, "show_regret")))
     return rows
 
 

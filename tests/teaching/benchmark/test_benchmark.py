@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from teaching.benchmark.cells import CRITERION, Cell, plan_cells
-from teaching.benchmark.run import examples_to_criterion, run_cells
+from teaching.benchmark.run import Runner, examples_to_criterion, run_cells
 from teaching.benchmark.summary import half_width, mismatch, mismatch_markdown, summarise
 from teaching.core import selectors
 from teaching.core.learners import LEARNER_NAMES
@@ -130,16 +130,18 @@ def test_the_mismatch_matrix_puts_each_learners_own_selector_on_its_diagonal():
 
 
 def test_the_mismatch_matrix_is_teachs_ideal_user_matrix(gridworld_tiny_table, tmp_path):
-    """The benchmark's matrix (one seed) against the one teach writes (teaching.core.evaluation), which sums each
-    sequence's log-likelihoods at once where the benchmark's curve adds them example by example: equal to 1e-9 of
-    a probability."""
+    """The benchmark's matrix (one seed) against the one teach writes (teaching.core.evaluation) on the table the
+    selectors teach from (the held-out tests' environments taken out), which sums each sequence's log-likelihoods at
+    once where the benchmark's curve adds them example by example: equal to 1e-9 of a probability."""
     from teaching.core.conditions import teach  # noqa: PLC0415
     from teaching.core.evaluation import ideal_user_matrix  # noqa: PLC0415
     from teaching.core.learners import Distances  # noqa: PLC0415
 
     table = TrajectoryTable.load(gridworld_tiny_table)
-    taught = teach(table)
-    expected = ideal_user_matrix(taught.models, {n: s.envs for n, s in taught.sequences.items()}, Distances(table),
+    pool = Runner(table).table
+    assert pool.n_envs < table.n_envs
+    taught = teach(pool)
+    expected = ideal_user_matrix(taught.models, {n: s.envs for n, s in taught.sequences.items()}, Distances(pool),
                                  sequence_names=LEARNER_NAMES, user_names=LEARNER_NAMES)
     cells = plan_cells(table.meta["content_hash"], selectors=LEARNER_NAMES, seeds=1)
     built, learners, matrix = mismatch(summarise(run_cells(table, cells, tmp_path)))

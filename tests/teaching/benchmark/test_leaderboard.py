@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from teaching.benchmark.cells import plan_cells
-from teaching.benchmark.leaderboard import findings, write_leaderboard
+from teaching.benchmark.leaderboard import findings, findings_on_tests, write_leaderboard
 from teaching.benchmark.run import run_cells
 from teaching.benchmark.standings import EQUAL, Standing, holm, paired_p, rank, rank_label
 from teaching.benchmark.summary import read_costs
@@ -87,3 +87,14 @@ def test_the_page_ranks_every_selector_for_every_learner_and_regenerates_the_sam
     write_leaderboard(page, [(str(gridworld_tiny_table), table, run_cells(table, plan_cells(
         table.meta["content_hash"], seeds=3), out))], read_costs(out))
     assert {p.name: p.read_bytes() for p in [page, *figures.iterdir()]} == first
+
+
+def test_the_test_findings_name_the_best_and_the_rank_agreement_by_hand():
+    """Accuracy in the reverse order of P(θ*): ρ = -1; regret rising with P(θ*) (lower is better) is the reverse
+    order too; a table without tests of a kind says nothing of them."""
+    measures = {"t": {"a": (0.9, 0.2, 0.5), "b": (0.5, 0.6, 0.3), "c": (0.1, 0.7, 0.1)},
+                "u": {"a": (0.9, None, None), "b": (0.5, None, None), "c": (0.1, None, None)}}
+    text = "\n".join(findings_on_tests(measures))
+    assert "t: the best test accuracy, 0.700, by c; ρ = -1.00." in text
+    assert "t: the best show regret, 0.100, by c; ρ = -1.00." in text
+    assert "u:" not in text and findings_on_tests({"u": measures["u"]}) == []
