@@ -36,11 +36,12 @@ def plan(args) -> list[tuple[str, object, list]]:
 
 
 def write_summary(out: Path, done: list[tuple[str, object, list[dict]]], leaderboard=None) -> str:
-    """summary.md and summary.json in `out`, from (table path, table, its results) of each table, and the
-    leaderboard page if one is named; the summary's Markdown."""
+    """summary.md and summary.json in `out`, and each table's board in out/tables/ (board.py), from (table path,
+    table, its results) of each table; the leaderboard page too if one is named.  Returns the summary's Markdown."""
+    from .board import board, write_board  # noqa: PLC0415  (the command's own imports, as build's)
     from .summary import markdown, mismatch_markdown, read_costs, summarise  # noqa: PLC0415
 
-    text, summary, costs = [], {}, read_costs(out)
+    text, summary, costs, boards = [], {}, read_costs(out), []
     for path, table, results in done:
         rows = summarise(results, costs)
         title = f"{table.domain.name}: {path} ({table.n_envs:,} environments x {table.n_thetas:,} objectives)"
@@ -50,12 +51,14 @@ def write_summary(out: Path, done: list[tuple[str, object, list[dict]]], leaderb
             text.append("Mismatch matrix (Lage et al.): mean P(θ*) at the end of the sequence built for one learner "
                         "model (rows) as another learns it (columns); the diagonal in bold.\n\n" + matrix)
         summary[str(path)] = [r.__dict__ for r in rows]
+        boards.append(board(path, table, results, costs))
+        write_board(out, boards[-1][0])
     (out / "summary.md").write_text("\n".join(text), encoding="utf-8")
     (out / "summary.json").write_text(json.dumps(summary, indent=1, default=str), encoding="utf-8")
     if leaderboard:
         from .leaderboard import write_leaderboard  # noqa: PLC0415  (matplotlib, only when a page is asked for)
 
-        write_leaderboard(leaderboard, done, costs)
+        write_leaderboard(leaderboard, boards)
     return "\n".join(text)
 
 

@@ -3,15 +3,17 @@ hand, ties ranked as ties, and the page generated from a real run (every selecto
 figures written, the same bytes when generated again, a selector registered later on it)."""
 from __future__ import annotations
 
+import json
 import re
 
 import numpy as np
 import pytest
 
+from teaching.benchmark.board import board, read_board, write_board
 from teaching.benchmark.cells import plan_cells
 from teaching.benchmark.leaderboard import findings, findings_on_tests, write_leaderboard
 from teaching.benchmark.run import run_cells
-from teaching.benchmark.standings import EQUAL, Standing, holm, paired_p, rank, rank_label
+from teaching.benchmark.standings import EQUAL, holm, paired_p, rank, rank_label
 from teaching.benchmark.summary import read_costs
 from teaching.core import selectors
 from teaching.core.learners import LEARNER_NAMES
@@ -48,12 +50,27 @@ def test_ties_are_ranked_as_ties_and_a_certain_gap_opens_a_new_rank():
     assert standings[3].mean == pytest.approx(0.7) and standings[0].seeds == 4
 
 
+def hand_board(name: str, rows: dict[str, list[tuple[int, bool]]], built: list[str], matrix, ceiling: float,
+               measures: dict[str, tuple] | None = None) -> dict:
+    """A board with the fields the findings read: rows {selector: [(rank, tied) per learner]}; measures {selector:
+    (mean final P(θ*), test accuracy, show regret)}."""
+    learners = ["exact", "det-reward"]
+    measures = measures or {}
+    return {"name": name, "learners": learners, "ceiling": ceiling,
+            "mismatch": {"built": built, "learners": learners, "matrix": matrix},
+            "rows": [{"selector": s, "cells": [{"learner": u, "rank": r, "tied": t} for u, (r, t) in
+                                               zip(learners, ranks, strict=True)],
+                      "mean_final": measures.get(s, (None,) * 3)[0], "accuracy": measures.get(s, (None,) * 3)[1],
+                      "regret": measures.get(s, (None,) * 3)[2]} for s, ranks in rows.items()]}
+
+
 def test_the_findings_count_wins_and_the_mismatch_diagonal():
-    standings = {"t": {"exact": [Standing("exact", 1, False, 1.0, 2), Standing("scot", 2, False, 0.5, 2)],
-                       "det-reward": [Standing("exact", 1, True, 0.9, 2), Standing("det-reward", 1, True, 0.9, 2)]}}
-    matrix = np.array([[1.0, 0.9], [0.5, 0.9]])
-    text = "\n".join(findings(standings, {"t": (["exact", "det-reward"], ["exact", "det-reward"], matrix)},
-                              {"t": 0.125}))
+    """exact: first alone for the exact learner, tied first with det-reward for the det-reward learner; scot second;
+    the mismatch matrix's rows built for exact and det-reward."""
+    board = hand_board("t", {"exact": [(1, False), (1, True)], "det-reward": [(2, False), (1, True)],
+                             "scot": [(3, False), (3, False)]},
+                       ["exact", "det-reward"], [[1.0, 0.9], [0.5, 0.9]], 0.125)
+    text = "\n".join(findings([board]))
     assert "exact in 2 (1 alone)" in text
     assert "For the **det-reward** learner, first (alone or tied) on 1 of 1 tables: det-reward, exact." in text
     # columns: exact's own 1.0 is its best (+0.5 over det-reward's); det-reward's own .9 ties exact's (+0.0)
@@ -71,8 +88,8 @@ def test_the_page_ranks_every_selector_for_every_learner_and_regenerates_the_sam
     table = TrajectoryTable.load(gridworld_tiny_table)
     out = tmp_path / "results"
     results = run_cells(table, plan_cells(table.meta["content_hash"], seeds=3), out)
-    page = write_leaderboard(tmp_path / "docs" / "leaderboard.md", [(str(gridworld_tiny_table), table, results)],
-                             read_costs(out))
+    made = board(str(gridworld_tiny_table), table, results, read_costs(out))
+    page = write_leaderboard(tmp_path / "docs" / "leaderboard.md", [made])
     text = page.read_text()
     rows = [line for line in text.splitlines() if line.startswith("| ") and not line.startswith("| selector")]
     assert sorted(r.split(" | ")[0][2:] for r in rows) == sorted(selector_names())  # the toy's row too
@@ -84,17 +101,30 @@ def test_the_page_ranks_every_selector_for_every_learner_and_regenerates_the_sam
         assert f"](figures/leaderboard/{name})" in text
         assert (figures / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     first = {p.name: p.read_bytes() for p in [page, *figures.iterdir()]}
-    write_leaderboard(page, [(str(gridworld_tiny_table), table, run_cells(table, plan_cells(
-        table.meta["content_hash"], seeds=3), out))], read_costs(out))
+    again = run_cells(table, plan_cells(table.meta["content_hash"], seeds=3), out)
+    write_leaderboard(page, [board(str(gridworld_tiny_table), table, again, read_costs(out))])
     assert {p.name: p.read_bytes() for p in [page, *figures.iterdir()]} == first
+    write_board(out, made[0])
+    assert read_board(out, table.meta["content_hash"]) == json.loads(json.dumps(made[0]))
 
 
 def test_the_test_findings_name_the_best_and_the_rank_agreement_by_hand():
     """Accuracy in the reverse order of P(θ*): ρ = -1; regret rising with P(θ*) (lower is better) is the reverse
     order too; a table without tests of a kind says nothing of them."""
-    measures = {"t": {"a": (0.9, 0.2, 0.5), "b": (0.5, 0.6, 0.3), "c": (0.1, 0.7, 0.1)},
-                "u": {"a": (0.9, None, None), "b": (0.5, None, None), "c": (0.1, None, None)}}
-    text = "\n".join(findings_on_tests(measures))
+    ranks = {s: [(1, False), (1, False)] for s in "abc"}
+    t = hand_board("t", ranks, [], [], 1.0, {"a": (0.9, 0.2, 0.5), "b": (0.5, 0.6, 0.3), "c": (0.1, 0.7, 0.1)})
+    u = hand_board("u", ranks, [], [], 1.0, {"a": (0.9, None, None), "b": (0.5, None, None), "c": (0.1, None, None)})
+    text = "\n".join(findings_on_tests([t, u]))
     assert "t: the best test accuracy, 0.700, by c; ρ = -1.00." in text
     assert "t: the best show regret, 0.100, by c; ρ = -1.00." in text
-    assert "u:" not in text and findings_on_tests({"u": measures["u"]}) == []
+    assert "u:" not in text and findings_on_tests([u]) == []
+
+
+def test_a_board_file_that_is_not_one_says_so_in_a_line(tmp_path):
+    assert read_board(tmp_path, "ab" * 16) is None
+    path = tmp_path / "tables" / f"{'ab' * 16}.json"
+    path.parent.mkdir()
+    for text in ("{not json", json.dumps({"format": 99, "content_hash": "ab" * 16}), "[]"):
+        path.write_text(text)
+        with pytest.raises(ValueError, match=r"tables/abab.*\.json: not a benchmark board"):
+            read_board(tmp_path, "ab" * 16)
