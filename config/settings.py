@@ -168,6 +168,9 @@ PRECOMPUTE_WATCHDOG_QUIET = float(os.environ.get("PRECOMPUTE_WATCHDOG_QUIET", "6
 PRECOMPUTE_WATCHDOG_EVERY = float(os.environ.get("PRECOMPUTE_WATCHDOG_EVERY", "15"))
 # Where the study designer looks for built tables (each a directory with meta.json).
 TABLES_DIR = Path(os.environ.get("TABLES_DIR", VAR_DIR / "tables"))
+# The teaching benchmark's results folder: `manage.py benchmark` writes there by default, and a study's dashboard
+# shows the leaderboard of its table from there (docs/benchmark.md).
+BENCHMARK_DIR = Path(os.environ.get("BENCHMARK_DIR", VAR_DIR / "benchmark"))
 
 # --- auth, i18n, static -------------------------------------------------------
 # Researcher passwords (manage.py create_researcher): accounts that can export every answer.

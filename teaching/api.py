@@ -158,8 +158,12 @@ The teaching benchmark (teaching.benchmark; docs/benchmark.md)
                              grouped by the selection they share (a worker's unit);
                              read_benchmark_results(out, cells) their stored results, in order
     write_benchmark_summary(out, [(table path, table, results)])  out/summary.md and summary.json
-    benchmark_arguments(parser), benchmark_plan(args)  the command's arguments, and [(table path, table,
-                             cells)] as they ask (manage.py benchmark runs the same on Celery workers)
+    read_benchmark_board(out, content_hash)  the leaderboard of one table as data (rows per selector: each
+                             learner's rank and mean P(θ*), the held-out tests' measures), None if not run
+                             there; ValueError (one line) for a file that is not one
+    benchmark_arguments(parser, out_default=None), benchmark_plan(args)  the command's arguments, and
+                             [(table path, table, cells)] as they ask (manage.py benchmark runs the same
+                             on Celery workers)
 
 Ideal users (the paper's simulated learners; teaching.core.evaluation)
     USER_NAMES               the matrix's columns: the 7 learner models (MODEL_NAMES) and the
@@ -170,6 +174,7 @@ Ideal users (the paper's simulated learners; teaching.core.evaluation)
 """
 from __future__ import annotations
 
+from .benchmark.board import read_board as read_benchmark_board
 from .benchmark.cells import plan_cells as plan_benchmark
 from .benchmark.commands import add_arguments as benchmark_arguments
 from .benchmark.commands import plan as benchmark_plan
@@ -280,5 +285,5 @@ __all__ = [
     "TestSetError", "TestSupply", "clusters_without_a_test", "supply_of_tests",
     "ungraded_problem", "register_table_robot",
     "plan_benchmark", "run_benchmark_cells", "benchmark_batches", "read_benchmark_results",
-    "write_benchmark_summary", "benchmark_arguments", "benchmark_plan",
+    "write_benchmark_summary", "benchmark_arguments", "benchmark_plan", "read_benchmark_board",
 ]

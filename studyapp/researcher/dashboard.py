@@ -17,6 +17,7 @@ from ..models import Answer, ComprehensionAttempt, Condition, Participant, Study
 from ..participant import bonuses, outcomes
 from ..participant.assignment import counted_filter, preview_participant
 from . import durations
+from .leaderboard import leaderboard_context
 from .pilot import pilot_context
 
 REFRESH_SECONDS = 5
@@ -106,6 +107,7 @@ def detail(request, slug):
     ctx.update(link=link, prolific_link=link + "?PROLIFIC_PID={{%PROLIFIC_PID%}}&STUDY_ID={{%STUDY_ID%}}"
                "&SESSION_ID={{%SESSION_ID%}}")
     ctx.update(pilot_context(study, request.GET))  # the simulated pilot: ideal users and the power table
+    ctx.update(leaderboard_context(study))  # its table on the teaching leaderboard, beside the pilot
     found = durations.estimates(study)  # what each condition's participants go through, before anyone does
     ctx.update(experience=found, experience_warnings=durations.warnings(study, found),
                bonus_rule_researcher=bonuses.researcher_rule(study))

@@ -11,10 +11,13 @@ from tqdm import tqdm
 HELP = "every selector x every learner x several seeds on tables: learning curves, resumable (docs/benchmark.md)"
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
+def add_arguments(parser: argparse.ArgumentParser, out_default=None) -> None:
+    """The command's arguments; out_default: a default results folder (else --out is required)."""
     parser.add_argument("--table", action="append", required=True, metavar="TABLE",
                         help="a trajectory table directory (give several to benchmark several)")
-    parser.add_argument("--out", required=True, metavar="DIR", help="the results folder (a rerun resumes it)")
+    parser.add_argument("--out", required=out_default is None, default=out_default, metavar="DIR",
+                        help="the results folder (a rerun resumes it)"
+                             + ("" if out_default is None else f"; default {out_default}"))
     parser.add_argument("--seeds", type=int, default=10, help="seeds per (selector, learner) (default 10)")
     parser.add_argument("--selector", action="append", metavar="NAME",
                         help="only this selector (repeatable; default: every registered one)")

@@ -1,12 +1,13 @@
 """The teaching benchmark on Celery workers: every selector x every learner x seeds on each table.
 
-    python manage.py benchmark --table var/tables/demo --out var/benchmark
+    python manage.py benchmark --table var/tables/demo          # into settings.BENCHMARK_DIR
     python manage.py benchmark --table /shared/tables/paper --out /shared/benchmark --queue bench
     python manage.py benchmark --table var/tables/demo --out var/benchmark --in-process
 
 The same cells, the same result files and the same summary as ``python -m teaching benchmark``; here one task per
 shared selection goes to the workers (settings' broker: the filesystem on one machine, Redis across machines),
-or with --in-process the cells are computed here.  A rerun computes only the cells not yet in --out.
+or with --in-process the cells are computed here.  A rerun computes only the cells not yet in --out.  Each table's
+leaderboard goes to <out>/tables/<content hash>.json, where a study's dashboard finds the one of its table.
 """
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from django.conf import settings
 from django.core.management.base import BaseCommand, CommandError
 from tqdm import tqdm
 
@@ -26,7 +28,7 @@ class Command(BaseCommand):
     help = "The teaching benchmark (docs/benchmark.md), its cells computed by Celery workers."
 
     def add_arguments(self, parser):
-        benchmark_arguments(parser)
+        benchmark_arguments(parser, out_default=settings.BENCHMARK_DIR)  # where the dashboards look
         parser.add_argument("--queue", help="Celery queue (default: settings.PRECOMPUTE_QUEUE)")
         parser.add_argument("--in-process", action="store_true", help="compute the cells here, not on workers")
         parser.add_argument("--timeout", type=float, help="give up waiting for the workers after this many seconds")
