@@ -117,12 +117,13 @@ def run_cells(table, cells: list[Cell], out, *, progress: Callable[[int, int], N
     """Every cell's result, computing and writing those not yet in `out` (in the order given); `runner`: one of
     `table` kept from an earlier call (a worker's), so its distances and fits are not made again."""
     out = Path(out)
-    runner, results = runner or Runner(table), []
+    results = []
     for done, cell in enumerate(cells, 1):
         path = result_path(out, cell)
         if path.exists():
             results.append(json.loads(path.read_text(encoding="utf-8")))
         else:
+            runner = runner or Runner(table)  # made at the first missing cell: a finished run reads only
             runner.fit_all()
             result, seconds = runner.result(cell)
             write_atomically(out / "costs" / path.name, {"key": cell.key, "selection_seconds": seconds})
