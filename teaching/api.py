@@ -157,6 +157,8 @@ The teaching benchmark (teaching.benchmark; docs/benchmark.md)
                              those not yet in out/cells/ (resumable); benchmark_batches(cells) the cells
                              grouped by the selection they share (a worker's unit);
                              read_benchmark_results(out, cells) their stored results, in order
+    timed_benchmark(out, content_hash, cells, runner, compute)  compute()'s results, its wall time recorded in
+                             out/runs/<content hash>.json where it computed cells (the leaderboard quotes it)
     write_benchmark_summary(out, [(table path, table, results)])  out/summary.md and summary.json
     read_benchmark_board(out, content_hash)  the leaderboard of one table as data (rows per selector: each
                              learner's rank and mean P(θ*), the held-out tests' measures), None if not run
@@ -182,6 +184,7 @@ from .benchmark.commands import write_summary as write_benchmark_summary
 from .benchmark.run import batches as benchmark_batches
 from .benchmark.run import read_results as read_benchmark_results
 from .benchmark.run import run_cells as run_benchmark_cells
+from .benchmark.run import timed as timed_benchmark
 from .core.answers import Answers, FitError, Question, questions_of
 from .core.build import (
     PRESETS,
@@ -286,4 +289,5 @@ __all__ = [
     "ungraded_problem", "register_table_robot",
     "plan_benchmark", "run_benchmark_cells", "benchmark_batches", "read_benchmark_results",
     "write_benchmark_summary", "benchmark_arguments", "benchmark_plan", "read_benchmark_board",
+    "timed_benchmark",
 ]

@@ -54,8 +54,17 @@ def tests_of(held: HeldOut) -> dict:
     return {"choose": [int(t["env_id"]) for t in held.choose], "show": [int(t["env_id"]) for t in held.show]}
 
 
-def board(path, table, results: list[dict], costs: dict[str, float]) -> tuple[dict, list[Row]]:
-    """(the board of one table's results, the summary rows it was made from: the figures' curves)."""
+def last_run(out, content_hash: str) -> dict | None:
+    """The record run.timed left of the last run that computed cells of the table (None: none, or unreadable)."""
+    try:
+        return json.loads((Path(out) / "runs" / f"{content_hash}.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+
+
+def board(path, table, results: list[dict], costs: dict[str, float], out=None) -> tuple[dict, list[Row]]:
+    """(the board of one table's results, the summary rows it was made from: the figures' curves); `out`: the
+    results folder, whose record of the last run is quoted."""
     rows = summarise(results, costs)
     learners = list(dict.fromkeys(r.learner for r in rows))
     standings = {u: rank(finals_by_seed(results, u)) for u in learners}
@@ -72,7 +81,8 @@ def board(path, table, results: list[dict], costs: dict[str, float]) -> tuple[di
     out = {
         "format": BOARD_FORMAT, "name": table_name(path, table), "path": str(path), "domain": table.domain.name,
         "content_hash": table.meta["content_hash"], "n_envs": table.n_envs, "n_thetas": table.n_thetas,
-        "seeds": len({r["cell"]["seed"] for r in results}), "learners": learners,
+        "seeds": len({r["cell"]["seed"] for r in results}), "learners": learners, "cells": len(results),
+        "run": None if out is None else last_run(out, table.meta["content_hash"]),
         "ceiling": ceiling(pool_table(table, held.pool)), "tests": tests_of(held),
         "rows": [{"selector": s, "mean_rank": mean_rank[s],
                   "cells": [{"learner": u, "rank": place[(s, u)].rank, "tied": place[(s, u)].tied,

@@ -54,7 +54,7 @@ def write_summary(out: Path, done: list[tuple[str, object, list[dict]]], leaderb
             text.append("Mismatch matrix (Lage et al.): mean P(θ*) at the end of the sequence built for one learner "
                         "model (rows) as another learns it (columns); the diagonal in bold.\n\n" + matrix)
         summary[str(path)] = [r.__dict__ for r in rows]
-        boards.append(board(path, table, results, costs))
+        boards.append(board(path, table, results, costs, out))
         write_board(out, boards[-1][0])
     (out / "summary.md").write_text("\n".join(text), encoding="utf-8")
     (out / "summary.json").write_text(json.dumps(summary, indent=1, default=str), encoding="utf-8")
@@ -66,7 +66,7 @@ def write_summary(out: Path, done: list[tuple[str, object, list[dict]]], leaderb
 
 
 def command(args) -> int:
-    from .run import run_cells  # noqa: PLC0415
+    from .run import run_cells, timed  # noqa: PLC0415
 
     out = Path(args.out)
     planned = plan(args)
@@ -74,8 +74,9 @@ def command(args) -> int:
     for path, table, cells in planned:
         with tqdm(total=len(cells), unit="cell", desc=f"benchmark {table.meta.get('preset')}",
                   disable=args.no_progress) as bar:
-            done.append((path, table, run_cells(table, cells, out,
-                                                progress=lambda n, total: bar.update(n - bar.n))))
+            def compute(table=table, cells=cells, bar=bar):
+                return run_cells(table, cells, out, progress=lambda n, total: bar.update(n - bar.n))
+            done.append((path, table, timed(out, table.meta["content_hash"], cells, "in one process", compute)))
     print(write_summary(out, done, args.leaderboard))
     print(f"wrote {out}/summary.md and {out}/summary.json ({sum(len(c) for *_, c in planned):,} cells)"
           + (f" and {args.leaderboard}" if args.leaderboard else ""))

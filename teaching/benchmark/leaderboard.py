@@ -142,6 +142,17 @@ def findings_on_tests(boards: list[dict]) -> list[str]:
     return out
 
 
+def run_text(board: dict) -> str:
+    """Who computed the table's cells, and how long it took, from the run's record ("" if none)."""
+    run = board.get("run")
+    if not run:
+        return ""
+    minutes = run["seconds"] / 60
+    took = f"{minutes:.1f} min" if minutes >= 1 else f"{run['seconds']:.0f} s"
+    return (f"  Its last run, {run['runner']}, computed {run['computed']:,} of its {run['cells']:,} cells in {took} "
+            f"on {run['cores']} cores ({run['date']}).")
+
+
 def section(board: dict, rows: list[Row], figures_dir: Path, page: Path) -> list[str]:
     """One table's part of the page, and its figures written."""
     name = board["name"]
@@ -157,7 +168,7 @@ def section(board: dict, rows: list[Row], figures_dir: Path, page: Path) -> list
              f"The {board['domain']} table `{name}`: {board['n_envs']:,} environments × {board['n_thetas']:,} "
              f"objectives, content hash `{board['content_hash'][:16]}`; {board['seeds']} seeds.  Shown every "
              f"environment a selector may show, the exact learner's P(θ\\*) is {board['ceiling']:.3f}: no sequence "
-             f"can teach it more.  {tests_text(board)}", ""]
+             f"can teach it more.  {tests_text(board)}{run_text(board)}", ""]
     lines += ranking_table(board)
     alt = {"curves": "P(θ*) after each example", "accuracy": "test accuracy after each example",
            "regret": "show regret after each example"}

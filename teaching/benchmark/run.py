@@ -175,3 +175,23 @@ def run_batch(table_path, messages: list[dict], out) -> dict:
     stored = sum(result_path(Path(out), c).exists() for c in cells)
     run_cells(_runner[1].table, cells, out, runner=_runner[1])
     return {"cells": len(cells), "computed": len(cells) - stored}
+
+
+def missing(out, cells: list[Cell]) -> int:
+    """How many of `cells` have no result in `out` yet."""
+    return sum(not result_path(Path(out), c).exists() for c in cells)
+
+
+def timed(out, content_hash: str, cells: list[Cell], runner: str, compute: Callable[[], list[dict]]) -> list[dict]:
+    """compute() (which computes `cells` of table `content_hash` into `out` and returns their results), its wall
+    time recorded in <out>/runs/<content hash>.json where it computed any cell: how it ran ("in one process", "on
+    Celery workers"), the seconds, the cells it computed, this machine's cores and the date (a board quotes it).
+    A rerun that computed nothing keeps the record of the run that did."""
+    before, start = missing(out, cells), time.perf_counter()
+    results = compute()
+    if before:
+        write_atomically(Path(out) / "runs" / f"{content_hash}.json",
+                         {"runner": runner, "seconds": time.perf_counter() - start, "computed": before,
+                          "cells": len(cells), "cores": os.cpu_count(),
+                          "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())})
+    return results

@@ -21,7 +21,13 @@ from tqdm import tqdm
 
 from precompute.benchmarking import run_on_workers
 from precompute.jobs import BrokerUnavailable
-from teaching.api import benchmark_arguments, benchmark_plan, run_benchmark_cells, write_benchmark_summary
+from teaching.api import (
+    benchmark_arguments,
+    benchmark_plan,
+    run_benchmark_cells,
+    timed_benchmark,
+    write_benchmark_summary,
+)
 
 
 class Command(BaseCommand):
@@ -49,12 +55,14 @@ class Command(BaseCommand):
                 def progress(n, total, bar=bar):
                     bar.total = total
                     bar.update(n - bar.n)
-                try:
+                def compute(path=path, table=table, cells=cells, progress=progress):
                     if opts["in_process"]:
-                        results = run_benchmark_cells(table, cells, out, progress=progress)
-                    else:
-                        results = run_on_workers(path, cells, out, queue=opts["queue"], timeout=opts["timeout"],
-                                                 progress=progress)
+                        return run_benchmark_cells(table, cells, out, progress=progress)
+                    return run_on_workers(path, cells, out, queue=opts["queue"], timeout=opts["timeout"],
+                                          progress=progress)
+                try:
+                    results = timed_benchmark(out, table.meta["content_hash"], cells,
+                                              "in one process" if opts["in_process"] else "on Celery workers", compute)
                 except (BrokerUnavailable, TimeoutError) as exc:
                     raise CommandError(str(exc)) from None
             done.append((path, table, results))

@@ -3,6 +3,7 @@ hand, a run killed with SIGKILL and resumed byte for byte against an uninterrupt
 later joining it with no other change."""
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -13,7 +14,7 @@ import numpy as np
 import pytest
 
 from teaching.benchmark.cells import CRITERION, Cell, plan_cells
-from teaching.benchmark.run import Runner, examples_to_criterion, run_cells
+from teaching.benchmark.run import Runner, examples_to_criterion, run_cells, timed
 from teaching.benchmark.summary import half_width, mismatch, mismatch_markdown, summarise
 from teaching.core import selectors
 from teaching.core.learners import LEARNER_NAMES
@@ -171,3 +172,18 @@ def test_random_uniforms_mean_curve_is_its_closed_form(tmp_path):
     se = np.sqrt(0.5 ** t * (1 - 0.5 ** t)) / 2 / np.sqrt(SEEDS)
     assert curves.shape == (SEEDS, 8) and set(np.unique(curves)) <= {0.5, 1.0}
     assert np.all(np.abs(curves.mean(axis=0) - closed) <= 4 * se + 1e-12), (curves.mean(axis=0), closed, se)
+
+
+def test_a_runs_time_is_recorded_where_it_computed_cells_and_kept_where_it_computed_none(gridworld_tiny_table,
+                                                                                      tmp_path):
+    table = TrajectoryTable.load(gridworld_tiny_table)
+    cells = plan_cells(table.meta["content_hash"], selectors=["scot"], seeds=1)
+    record = tmp_path / "runs" / f"{table.meta['content_hash']}.json"
+    first = timed(tmp_path, table.meta["content_hash"], cells, "in one process",
+                  lambda: run_cells(table, cells, tmp_path))
+    written = json.loads(record.read_text())
+    assert written["computed"] == written["cells"] == len(cells) == len(LEARNER_NAMES)
+    assert written["runner"] == "in one process" and written["seconds"] > 0 and written["cores"] >= 1
+    again = timed(tmp_path, table.meta["content_hash"], cells, "on Celery workers",
+                  lambda: run_cells(table, cells, tmp_path))
+    assert again == first and json.loads(record.read_text()) == written  # nothing computed: the record stays
