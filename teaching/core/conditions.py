@@ -64,7 +64,8 @@ class SelectionContext:
                  settings: SelectionSettings = DEFAULT_SETTINGS, dist: Distances | None = None,
                  like: SelectionContext | None = None):
         """like: a context of the same table, hyperparameters and settings under another seed, whose fitted
-        models (which no seed changes) and buffer this one reuses."""
+        models, shared derivations (:meth:`shared`: the table's alone) and buffer this one reuses: no seed changes
+        them."""
         self.table, self.seed, self.settings = table, seed, settings
         self.hyperparameters = dict(hyperparameters or {})
         self.dist = dist or Distances(table)
@@ -72,7 +73,7 @@ class SelectionContext:
         self._buffer = None if like is None else like._buffer
         self._fitted: dict[str, tuple] = {} if like is None else like._fitted
         self._random = None
-        self._shared: dict[str, object] = {}
+        self._shared: dict[str, object] = {} if like is None else like._shared
 
     @property
     def buffer(self) -> np.ndarray:
@@ -99,7 +100,8 @@ class SelectionContext:
 
     def shared(self, key: str, compute):
         """compute() once per run under ``key``: what several selectors derive from the table alike
-        (e.g. the BECs of the showable environments and SCOT's cover, which bec-scaffold builds on)."""
+        (e.g. the BECs of the showable environments and SCOT's cover, which bec-scaffold builds on).  From the
+        table alone, never the seed: contexts made ``like`` this one share them."""
         if key not in self._shared:
             self._shared[key] = compute()
         return self._shared[key]
