@@ -78,10 +78,16 @@ def board(path, table, results: list[dict], costs: dict[str, float], out=None) -
             cost.setdefault(r.selector, r.selection_cost)
     held = held_out(table)
     built, columns, matrix = mismatch(rows)
+    values = {}
+    for r in results:
+        if "error" not in r:
+            values.setdefault(r["cell"]["learner"], r.get("learner_value"))
+    fixed = next((r["cell"].get("hyper") or {} for r in results), {})
     out = {
         "format": BOARD_FORMAT, "name": table_name(path, table), "path": str(path), "domain": table.domain.name,
         "content_hash": table.meta["content_hash"], "n_envs": table.n_envs, "n_thetas": table.n_thetas,
         "seeds": len({r["cell"]["seed"] for r in results}), "learners": learners, "cells": len(results),
+        "values": {u: values.get(u) for u in learners}, "hyper": fixed,
         "run": None if out is None else last_run(out, table.meta["content_hash"]),
         "ceiling": ceiling(pool_table(table, held.pool)), "tests": tests_of(held),
         "rows": [{"selector": s, "mean_rank": mean_rank[s],

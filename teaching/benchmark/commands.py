@@ -23,6 +23,9 @@ def add_arguments(parser: argparse.ArgumentParser, out_default=None) -> None:
                         help="only this selector (repeatable; default: every registered one)")
     parser.add_argument("--learner", action="append", metavar="NAME",
                         help="only this learner model (repeatable; default: every one)")
+    parser.add_argument("--hyper", action="append", metavar="MODEL=VALUE",
+                        help="fix a learner model's τ / λ (repeatable), e.g. the value `fit_models` found; the others "
+                             "are chosen by the paper's rule on each table")
     parser.add_argument("--leaderboard", metavar="PAGE.md",
                         help="also write the leaderboard page there, its figures under figures/leaderboard/ beside it")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -30,12 +33,14 @@ def add_arguments(parser: argparse.ArgumentParser, out_default=None) -> None:
 
 def plan(args) -> list[tuple[str, object, list]]:
     """(table path, table, its cells) for each --table, as the arguments ask; ValueError (one line) for a bad one."""
-    from ..core.table import TrajectoryTable  # noqa: PLC0415  (the command's own imports, as build's)
+    from ..core.learners import parse_hyperparameters  # noqa: PLC0415  (the command's own imports, as build's)
+    from ..core.table import TrajectoryTable  # noqa: PLC0415
     from .cells import plan_cells  # noqa: PLC0415
 
+    hyper = parse_hyperparameters(args.hyper or [])
     tables = [(path, TrajectoryTable.load(path)) for path in args.table]
     return [(path, table, plan_cells(table.meta["content_hash"], selectors=args.selector, learners=args.learner,
-                                     seeds=args.seeds)) for path, table in tables]
+                                     seeds=args.seeds, hyper=hyper)) for path, table in tables]
 
 
 def write_summary(out: Path, done: list[tuple[str, object, list[dict]]], leaderboard=None) -> str:

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
+from ..core.learners import make_model
 from .cells import CRITERION
 from .figures import learning_curves, mismatch_heat_map
 from .standings import ALPHA, EQUAL
@@ -142,6 +143,19 @@ def findings_on_tests(boards: list[dict]) -> list[str]:
     return out
 
 
+def values_text(board: dict) -> str:
+    """The learners' τ / λ, and where they come from, in a sentence ("" where no learner has one)."""
+    symbol = {"tau": "τ", "lambda": "λ"}
+    named = [f"{u} {symbol.get(make_model(u).param, '')} = {v:g}" for u, v in board.get("values", {}).items()
+             if v is not None]
+    if not named:
+        return ""
+    fixed = board.get("hyper") or {}
+    source = (f"fixed for {', '.join(sorted(fixed))} (--hyper), the others chosen on this table by the paper's rule"
+              if fixed else "chosen on this table by the paper's rule")
+    return f"  The learners' τ / λ: {', '.join(named)}, {source}."
+
+
 def run_text(board: dict) -> str:
     """Who computed the table's cells, and how long it took, from the run's record ("" if none)."""
     run = board.get("run")
@@ -168,7 +182,7 @@ def section(board: dict, rows: list[Row], figures_dir: Path, page: Path) -> list
              f"The {board['domain']} table `{name}`: {board['n_envs']:,} environments × {board['n_thetas']:,} "
              f"objectives, content hash `{board['content_hash'][:16]}`; {board['seeds']} seeds.  Shown every "
              f"environment a selector may show, the exact learner's P(θ\\*) is {board['ceiling']:.3f}: no sequence "
-             f"can teach it more.  {tests_text(board)}{run_text(board)}", ""]
+             f"can teach it more.  {tests_text(board)}{values_text(board)}{run_text(board)}", ""]
     lines += ranking_table(board)
     alt = {"curves": "P(θ*) after each example", "accuracy": "test accuracy after each example",
            "regret": "show regret after each example"}

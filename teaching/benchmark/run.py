@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.conditions import SelectionContext
-from ..core.learners import LEARNER_NAMES, Distances, p_curve
+from ..core.learners import LEARNER_NAMES, Distances, has_hyperparameter, p_curve
 from ..core.selectors import get_selector
 from ..core.table import TrajectoryTable
 from .cells import CRITERION, Cell
@@ -57,7 +57,9 @@ class Runner:
     """The cells of one table: its held-out tests drawn once (heldout.py), the selectors' table (the rest) and its
     distances once, each learner model fitted once on it, each selection once."""
 
-    def __init__(self, table):
+    def __init__(self, table, hyper: tuple[tuple[str, float], ...] = ()):
+        """hyper: a cell's fixed (model, τ or λ) pairs; every cell this runner computes must have them."""
+        self.hyper = tuple(hyper)
         self.held = held_out(table)
         self.tests = Tests(table, self.held)
         self.table = pool_table(table, self.held.pool)
@@ -69,7 +71,8 @@ class Runner:
     def context(self, seed: int) -> SelectionContext:
         """The selection context of `seed`; every seed's shares the fitted learner models and one buffer."""
         if self._context is None or self._context.seed != seed:
-            self._context = SelectionContext(self.table, seed=seed, dist=self.dist, like=self._context)
+            self._context = SelectionContext(self.table, seed=seed, dist=self.dist, like=self._context,
+                                             hyperparameters=dict(self.hyper))
         return self._context
 
     def model(self, name: str):
@@ -99,6 +102,8 @@ class Runner:
 
     def result(self, cell: Cell) -> tuple[dict, float]:
         """(the cell's result, its selection's seconds)."""
+        if cell.hyper != self.hyper:
+            raise ValueError(f"cell {cell.key} fixes τ / λ {dict(cell.hyper)}, this runner {dict(self.hyper)}")
         envs, error, seconds = self.selection(cell)
         out = {"cell": cell.describe(), "key": cell.key}
         if error is not None:
@@ -106,7 +111,9 @@ class Runner:
         model = self.model(cell.learner)
         curve = p_curve(model, self.dist, envs).tolist()
         log_post = log_posteriors(model, self.dist, envs)
+        value = getattr(model, "value", None) if has_hyperparameter(model) else None
         return {**out, "env_ids": [int(e) for e in np.asarray(self.table.env_ids)[envs]], "p_theta_star": curve,
+                "learner_value": None if value is None else float(value),
                 "examples_to_criterion": examples_to_criterion(curve),
                 "test_accuracy": self.tests.accuracy(model, log_post),
                 "show_regret": self.tests.show_regret(log_post)}, seconds
@@ -123,7 +130,7 @@ def run_cells(table, cells: list[Cell], out, *, progress: Callable[[int, int], N
         if path.exists():
             results.append(json.loads(path.read_text(encoding="utf-8")))
         else:
-            runner = runner or Runner(table)  # made at the first missing cell: a finished run reads only
+            runner = runner or Runner(table, cell.hyper)  # at the first missing cell: a finished run reads only
             runner.fit_all()
             result, seconds = runner.result(cell)
             write_atomically(out / "costs" / path.name, {"key": cell.key, "selection_seconds": seconds})
@@ -155,7 +162,7 @@ def batches(cells: list[Cell]) -> list[list[Cell]]:
     return list(groups.values())
 
 
-_runner: tuple[tuple[str, str], Runner] | None = None  # this process's last table: a worker takes many of its batches
+_runner: tuple[tuple, Runner] | None = None  # this process's last table: a worker takes many of its batches
 
 
 def run_batch(table_path, messages: list[dict], out) -> dict:
@@ -166,8 +173,9 @@ def run_batch(table_path, messages: list[dict], out) -> dict:
     cells = [Cell.from_description(m["cell"], m["key"]) for m in messages]
     path = str(Path(table_path).resolve())
     content_hash = json.loads((Path(path) / "meta.json").read_text(encoding="utf-8"))["content_hash"]
-    if _runner is None or _runner[0] != (path, content_hash):
-        _runner = ((path, content_hash), Runner(TrajectoryTable.load(path)))
+    hyper = cells[0].hyper if cells else ()
+    if _runner is None or _runner[0] != (path, content_hash, hyper):
+        _runner = ((path, content_hash, hyper), Runner(TrajectoryTable.load(path), hyper))
     wrong = {c.table for c in cells} - {content_hash}
     if wrong:
         raise ValueError(f"the table at {table_path} has content hash {content_hash[:16]}, not the planned "

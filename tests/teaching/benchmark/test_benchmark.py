@@ -187,3 +187,21 @@ def test_a_runs_time_is_recorded_where_it_computed_cells_and_kept_where_it_compu
     again = timed(tmp_path, table.meta["content_hash"], cells, "on Celery workers",
                   lambda: run_cells(table, cells, tmp_path))
     assert again == first and json.loads(record.read_text()) == written  # nothing computed: the record stays
+
+
+def test_a_fixed_tau_or_lambda_makes_other_cells_and_is_the_learners_own(gridworld_tiny_table, tmp_path):
+    """--hyper det-reward=3 (say, what a fit found): new keys for every cell, det-reward's learner and its greedy
+    selector use τ = 3, and a learner not named keeps the value the paper's rule chose."""
+    table = TrajectoryTable.load(gridworld_tiny_table)
+    rule = plan_cells(table.meta["content_hash"], selectors=["det-reward"], learners=["det-reward", "prob-reward"],
+                      seeds=1)
+    fixed = plan_cells(table.meta["content_hash"], selectors=["det-reward"], learners=["det-reward", "prob-reward"],
+                       seeds=1, hyper={"det-reward": 3.0})
+    assert not {c.key for c in rule} & {c.key for c in fixed}
+    assert Cell.from_description(fixed[0].describe(), fixed[0].key) == fixed[0]
+    by_rule, by_fit = run_cells(table, rule, tmp_path / "rule"), run_cells(table, fixed, tmp_path / "fit")
+    assert by_fit[0]["learner_value"] == 3.0 and by_rule[0]["learner_value"] != 3.0
+    assert by_fit[1]["learner_value"] == by_rule[1]["learner_value"]  # prob-reward: the rule's, as before
+    assert by_fit[0]["cell"]["hyper"] == {"det-reward": 3.0} and "hyper" not in by_rule[0]["cell"]
+    with pytest.raises(ValueError, match="hyperparameter must be a finite number > 0"):
+        plan_cells("h", hyper={"det-reward": -1.0})
