@@ -2,7 +2,7 @@
 with no extra server: kombu's filesystem broker, Celery's file result backend, one `celery worker` with -c CORES.
 
     .venv/bin/python bench/teaching_benchmark_workers.py [--preset paper] [--seeds 10] [--out var/leaderboard]
-        [--tables-dir var/tables] [--concurrency 2]
+        [--tables-dir var/tables] [--concurrency 2] [--selector NAME ...]
 
 The table is built first where missing, not timed.  The worker starts (not timed), then the command runs every
 selector x every learner x the seeds of the table on it, into --out (cells already there are read, not computed):
@@ -39,6 +39,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--preset", default="paper")
     ap.add_argument("--seeds", type=int, default=10)
+    ap.add_argument("--selector", action="append", metavar="NAME", help="only this selector (repeatable)")
     ap.add_argument("--out", type=Path, default=ROOT / "var" / "leaderboard")
     ap.add_argument("--tables-dir", type=Path, default=ROOT / "var" / "tables")
     ap.add_argument("--concurrency", type=int, default=os.cpu_count() or 1, help="the worker's processes")
@@ -59,7 +60,8 @@ def main() -> None:
             start = time.perf_counter()
             said = subprocess.run([sys.executable, "manage.py", "benchmark", "--table", str(table), "--out",
                                    str(args.out), "--seeds", str(args.seeds), "--queue", queue, "--no-progress",
-                                   "--timeout", str(args.timeout)],
+                                   "--timeout", str(args.timeout),
+                                   *[a for name in args.selector or [] for a in ("--selector", name)]],
                                   cwd=ROOT, env=env, capture_output=True, text=True)
             seconds = time.perf_counter() - start
         finally:

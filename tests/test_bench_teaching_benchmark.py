@@ -43,10 +43,12 @@ def test_the_workers_bench_runs_the_command_on_a_real_worker_with_no_server(grid
     (tables / "gridworld-tiny").symlink_to(gridworld_tiny_table)
     out = tmp_path / "workers"
     subprocess.run([sys.executable, "bench/teaching_benchmark_workers.py", "--preset", "gridworld-tiny",
-                    "--tables-dir", str(tables), "--seeds", "1", "--out", str(out)],
+                    "--tables-dir", str(tables), "--seeds", "1", "--out", str(out), "--selector", "scot",
+                    "--selector", "random-uniform"],
                    cwd=ROOT, check=True, capture_output=True, timeout=600)
     table = TrajectoryTable.load(gridworld_tiny_table)
-    run_cells(table, plan_cells(table.meta["content_hash"], seeds=1), tmp_path / "here")
+    run_cells(table, plan_cells(table.meta["content_hash"], selectors=["scot", "random-uniform"], seeds=1),
+              tmp_path / "here")
     here = {p.name: p.read_bytes() for p in (tmp_path / "here" / "cells").glob("*.json")}
     assert here and {p.name: p.read_bytes() for p in (out / "cells").glob("*.json")} == here
     run = json.loads((out / "runs" / f"{table.meta['content_hash']}.json").read_text())

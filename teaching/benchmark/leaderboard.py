@@ -88,7 +88,7 @@ def findings(boards: list[dict]) -> list[str]:
             column = matrix[:, j]
             i = built.index(u)
             columns += 1
-            own += bool(column[i] >= np.nanmax(column) - 1e-12)
+            own += bool(column[i] >= np.nanmax(column) - EQUAL)  # a lead the page cannot show is none
             gaps.append(column[i] - np.nanmean(np.delete(column, i)))
     if columns:
         out.append(f"* **Lage et al.'s mismatch.**  The sequence built for a learner model is that learner's best "
