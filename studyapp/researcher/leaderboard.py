@@ -15,6 +15,9 @@ from teaching.api import read_benchmark_board
 
 from ..models import Study
 
+# The held-out tests' columns: (a row's field, the board's test kind that gives it, the column's heading).
+MEASURES = (("accuracy", "choose", "test accuracy"), ("regret", "show", "show regret"))
+
 
 def study_selectors(study: Study) -> dict[str, list[str]]:
     """selector -> the names of the study's conditions that run it (a designer-built study records each
@@ -44,9 +47,11 @@ def leaderboard_context(study: Study) -> dict:
     if board is None:
         return out
     mine = study_selectors(study)
-    measures = [(field, label) for field, kind, label in (("accuracy", "choose", "test accuracy"),
-                                                          ("regret", "show", "show regret")) if board["tests"][kind]]
-    rows = [{**row, "conditions": mine.get(row["selector"], []),
-             "measures": [row[field] for field, _ in measures]} for row in board["rows"]]
+    try:
+        measures = [(field, label) for field, kind, label in MEASURES if board["tests"][kind]]
+        rows = [{**row, "conditions": mine.get(row["selector"], []),
+                 "measures": [row[field] for field, _ in measures]} for row in board["rows"]]
+    except (KeyError, TypeError) as exc:  # a row or test list not as the benchmark writes it
+        return {**out, "leaderboard_problem": f"the benchmark's board of this table lacks {exc}: run it again"}
     return {**out, "leaderboard": {**board, "rows": rows, "measures": [label for _, label in measures],
                                    "low_ceiling": board["ceiling"] < 0.5}}

@@ -21,6 +21,9 @@ from .standings import finals_by_seed, rank
 from .summary import Row, mismatch, summarise
 
 BOARD_FORMAT = 1
+# What a reader needs of a board, by type: a file lacking one is refused in a line, never half-shown.
+FIELDS = {"name": str, "learners": list, "seeds": int, "ceiling": float, "tests": dict, "rows": list,
+          "refused": list, "mismatch": dict}
 
 
 def table_name(path, table) -> str:
@@ -128,4 +131,8 @@ def read_board(out, content_hash: str) -> dict | None:
     if not isinstance(data, dict) or data.get("format") != BOARD_FORMAT or data.get("content_hash") != content_hash:
         raise ValueError(f"{path}: not a benchmark board of format {BOARD_FORMAT} for table {content_hash[:16]}; "
                          "run the benchmark on the table again")
+    missing = [k for k, kind in FIELDS.items() if not isinstance(data.get(k), kind)]
+    if missing:
+        raise ValueError(f"{path}: not a benchmark board: {', '.join(missing)} missing or malformed; run the "
+                         "benchmark on the table again")
     return data

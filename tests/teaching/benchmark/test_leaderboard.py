@@ -124,7 +124,8 @@ def test_a_board_file_that_is_not_one_says_so_in_a_line(tmp_path):
     assert read_board(tmp_path, "ab" * 16) is None
     path = tmp_path / "tables" / f"{'ab' * 16}.json"
     path.parent.mkdir()
-    for text in ("{not json", json.dumps({"format": 99, "content_hash": "ab" * 16}), "[]"):
+    for text in ("{not json", json.dumps({"format": 99, "content_hash": "ab" * 16}), "[]",
+                 json.dumps({"format": 1, "content_hash": "ab" * 16, "rows": "not a list"})):
         path.write_text(text)
         with pytest.raises(ValueError, match=r"tables/abab.*\.json: not a benchmark board"):
             read_board(tmp_path, "ab" * 16)
