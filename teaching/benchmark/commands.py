@@ -47,11 +47,13 @@ def write_summary(out: Path, done: list[tuple[str, object, list[dict]]], leaderb
     """summary.md and summary.json in `out`, and each table's board in out/tables/ (board.py), from (table path,
     table, its results) of each table; the leaderboard page too if one is named.  Returns the summary's Markdown."""
     from .board import board, write_board  # noqa: PLC0415  (the command's own imports, as build's)
-    from .summary import markdown, mismatch_markdown, read_costs, summarise  # noqa: PLC0415
+    from .summary import markdown, mismatch_markdown, read_costs  # noqa: PLC0415
 
     text, summary, costs, boards = [], {}, read_costs(out), []
     for path, table, results in done:
-        rows = summarise(results, costs)
+        boards.append(board(path, table, results, costs, out))
+        write_board(out, boards[-1][0])
+        rows = boards[-1][1]
         title = f"{table.domain.name}: {path} ({table.n_envs:,} environments x {table.n_thetas:,} objectives)"
         text.append(markdown(rows, title))
         matrix = mismatch_markdown(rows)
@@ -59,8 +61,6 @@ def write_summary(out: Path, done: list[tuple[str, object, list[dict]]], leaderb
             text.append("Mismatch matrix (Lage et al.): mean P(θ*) at the end of the sequence built for one learner "
                         "model (rows) as another learns it (columns); the diagonal in bold.\n\n" + matrix)
         summary[str(path)] = [r.__dict__ for r in rows]
-        boards.append(board(path, table, results, costs, out))
-        write_board(out, boards[-1][0])
     (out / "summary.md").write_text("\n".join(text), encoding="utf-8")
     (out / "summary.json").write_text(json.dumps(summary, indent=1, default=str), encoding="utf-8")
     if leaderboard:
